@@ -1,0 +1,157 @@
+//! Command-line interface of the `radiosity` binary: argument definitions (clap derive) and
+//! their conversion into validated library settings before any work is done (ripgrep's
+//! two-stage LowArgs → HiArgs). Does no I/O and owns no physics.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use radiosity::form_factor::{self, Estimator};
+use radiosity::pipeline::{self, WriteOptions};
+use radiosity::solve::{self, Method};
+use radiosity::{Error, Result};
+
+/// Radiosity: diffuse global illumination baked into mesh vertex colours.
+///
+/// Units: radiance L and emission Le (MTL `Ke`) in W·sr⁻¹·m⁻²; reflectance ρ (MTL `Kd`) in
+/// [0, 1] per RGB channel; lengths in the scene's own units.
+#[derive(Debug, Parser)]
+#[command(name = "radiosity", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, global = true, value_name = "N")]
+    pub threads: Option<usize>,
+    /// No summary on stderr (warnings and errors are still printed).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Solve a scene and write it with baked vertex colours (PLY or OBJ, by extension).
+    Bake(BakeArgs),
+    /// Run the built-in analytic suite (integrating sphere, furnace, Howell form factors).
+    Verify(VerifyArgs),
+}
+
+/// Options of `radiosity bake`.
+#[derive(Debug, Args)]
+pub struct BakeArgs {
+    /// Input scene: OBJ with its MTL (Kd = reflectance, Ke = emitted radiance).
+    pub input: PathBuf,
+    /// Output mesh: .ply (binary; --ascii for text) or .obj (vertex colours `v x y z r g b`).
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+    /// Write the JSON report (counts, rays, row sums, iterations, seconds per stage) here.
+    #[arg(long, value_name = "FILE.json", help_heading = "Output")]
+    pub report: Option<PathBuf>,
+    /// Write ASCII PLY instead of binary.
+    #[arg(long, help_heading = "Output")]
+    pub ascii: bool,
+    /// Radiance multiplier before the sRGB curve [default: automatic — the 95th percentile
+    /// of vertex luminance maps to white].
+    #[arg(long, value_name = "X", help_heading = "Output")]
+    pub exposure: Option<f64>,
+    #[command(flatten)]
+    pub solve: SolveArgs,
+}
+
+/// Discretisation, form-factor and solver options shared by `bake` and `verify`.
+#[derive(Debug, Args)]
+pub struct SolveArgs {
+    /// Longest patch edge, scene units [default: bounding-box diagonal / 16].
+    #[arg(long, value_name = "LEN", help_heading = "Discretisation")]
+    pub max_edge: Option<f64>,
+    /// Crease angle in degrees: vertices are split where normals differ by more.
+    #[arg(long, default_value_t = radiosity::bake::DEFAULT_CREASE_DEGREES, value_name = "DEG", help_heading = "Discretisation")]
+    pub crease: f64,
+    /// Form-factor estimator.
+    #[arg(long, value_enum, default_value_t = Estimator::Contour, help_heading = "Form factors")]
+    pub form_factors: Estimator,
+    /// Sample points per patch = visibility rays per patch pair.
+    #[arg(long, default_value_t = 4, value_name = "N", help_heading = "Form factors")]
+    pub samples: u32,
+    /// Seed of all sampling (same seed ⇒ same result for any thread count).
+    #[arg(long, default_value_t = 1, help_heading = "Form factors")]
+    pub seed: u64,
+    /// Solver of (I − K)L = E.
+    #[arg(long, value_enum, default_value_t = Method::GaussSeidel, help_heading = "Solver")]
+    pub solver: Method,
+    /// Bounces N of the Neumann series E + KE + … + K^N E (solver neumann only).
+    #[arg(long, default_value_t = 1, value_name = "N", help_heading = "Solver")]
+    pub bounces: u32,
+    /// Stop when ‖E − (I − K)L‖ / ‖E‖ ≤ this (jacobi, gauss-seidel).
+    #[arg(long, default_value_t = 1e-6, help_heading = "Solver")]
+    pub tolerance: f64,
+    /// Give up (warning, exit status 3) after this many sweeps.
+    #[arg(long, default_value_t = 10_000, value_name = "N", help_heading = "Solver")]
+    pub max_iterations: u32,
+}
+
+/// Options of `radiosity verify`.
+#[derive(Debug, Args)]
+pub struct VerifyArgs {
+    /// Form-factor estimator to verify.
+    #[arg(long, value_enum, default_value_t = Estimator::Contour)]
+    pub form_factors: Estimator,
+    /// Sample points per patch = visibility rays per patch pair.
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    pub samples: u32,
+    /// Solver for the all-bounce cases.
+    #[arg(long, value_enum, default_value_t = Method::GaussSeidel)]
+    pub solver: Method,
+    /// Write the table as JSON here.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+}
+
+impl SolveArgs {
+    /// Validated pipeline settings.
+    pub fn settings(&self) -> Result<pipeline::Settings> {
+        if let Some(e) = self.max_edge {
+            if !(e > 0.0 && e.is_finite()) {
+                return Err(Error::usage("--max-edge", format!("{e} is not a positive length")));
+            }
+        }
+        if self.samples == 0 {
+            return Err(Error::usage("--samples", "must be at least 1"));
+        }
+        if !(0.0..=180.0).contains(&self.crease) {
+            return Err(Error::usage("--crease", format!("{} is not in [0, 180] degrees", self.crease)));
+        }
+        let solver = solve::Settings {
+            method: self.solver,
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            bounces: self.bounces,
+        };
+        solver.validate()?;
+        Ok(pipeline::Settings {
+            max_edge: self.max_edge,
+            form_factors: form_factor::Settings {
+                estimator: self.form_factors,
+                samples: self.samples,
+                seed: self.seed,
+            },
+            solver,
+            crease_degrees: self.crease,
+        })
+    }
+}
+
+impl BakeArgs {
+    /// Validated output options.
+    pub fn write_options(&self) -> Result<WriteOptions> {
+        if let Some(x) = self.exposure {
+            if !(x > 0.0 && x.is_finite()) {
+                return Err(Error::usage("--exposure", format!("{x} is not a positive number")));
+            }
+        }
+        Ok(WriteOptions {
+            ascii: self.ascii,
+            exposure: self.exposure,
+        })
+    }
+}

@@ -1,0 +1,326 @@
+//! Form factors: estimating F_ij, the fraction of the energy leaving patch i that arrives at
+//! patch j, for every pair of patches, with ray-cast visibility. This module owns the
+//! estimators and the parallel loop over pairs; it hands a [`FormFactors`] (the sparse matrix
+//! F plus counters) to the solver. It does not know about ρ or Le.
+//!
+//! The quantity (Cohen & Wallace, *Radiosity and Realistic Image Synthesis*, eq. 4.12):
+//!
+//! F_ij = (1/A_i) ∫_Ai ∫_Aj cosθ_i cosθ_j / (π r²) · V(x, y) dA_j dA_i,
+//!
+//! with V the binary visibility. Every unordered pair {i, j} is visited once: the same
+//! `samples` visibility rays serve both F_ij and F_ji, so reciprocity A_i F_ij = A_j F_ji holds
+//! up to the estimators' error and no pair is ray-cast twice.
+//!
+//! Estimators ([`Estimator`]):
+//! - `Area`: point pairs (x_k on i, y_k on j, stratified), F_ij ≈ A_j/n Σ G(x_k, y_k) V_k.
+//!   The kernel G grows as 1/r² near a shared edge, where point pairs have huge variance, so
+//!   pairs that are close relative to their size (r² < 16·max(A_i, A_j), centroid distance)
+//!   switch to the exact point-to-polygon integrand of `Contour` for that pair.
+//! - `Contour`: F_ij ≈ 1/n Σ F_{dA(x_k)→A_j} V_k, with the exact unoccluded point-to-polygon
+//!   form factor (Lambert's contour integral, [`kernel::point_to_polygon`]) at stratified
+//!   points of i and the visibility of a ray x_k → y_k. Exact for unoccluded pairs up to the
+//!   integration over i, including patches that share an edge; in a closed unoccluded scene
+//!   each point's form factors sum to exactly 1.
+
+pub mod kernel;
+pub mod sampling;
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+use sprs::CsMatI;
+
+use crate::patch::Patches;
+use crate::visibility::Visibility;
+use crate::{Error, Result};
+use sampling::{stratified_triangle_points, Rng};
+
+/// Pairs with squared centroid distance below this multiple of the larger patch area use the
+/// exact point-to-polygon integrand even in the `Area` estimator (Baum et al. 1989 use the
+/// analytic form wherever the point-source assumption A_j ≪ r² fails).
+pub const NEAR_FIELD_FACTOR: f64 = 16.0;
+
+/// Which estimator of F_ij to use; see the module documentation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Estimator {
+    /// Point pairs with the kernel G·V (near pairs analytic).
+    Area,
+    /// Exact point-to-polygon integrand × ray visibility.
+    Contour,
+}
+
+/// Settings of the form-factor estimation.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Settings {
+    /// The estimator.
+    pub estimator: Estimator,
+    /// Sample points per patch and visibility rays per patch pair; ≥ 1.
+    pub samples: u32,
+    /// Seed of every random choice; the same seed gives the same F for any thread count.
+    pub seed: u64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            estimator: Estimator::Contour,
+            samples: 4,
+            seed: 1,
+        }
+    }
+}
+
+/// Counters of the estimation (reported in `--report`).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Stats {
+    /// Visibility rays (segments) cast.
+    pub rays_cast: u64,
+    /// Unordered pairs considered (n(n−1)/2).
+    pub pairs: u64,
+    /// Unordered pairs culled without any ray because one lies behind the other's plane.
+    pub pairs_culled: u64,
+    /// Non-zeros of F.
+    pub nnz: u64,
+    /// Smallest, mean and largest row sum Σ_j F_ij.
+    pub row_sum_min: f64,
+    pub row_sum_mean: f64,
+    pub row_sum_max: f64,
+}
+
+/// The form-factor matrix and its statistics.
+#[derive(Debug, Clone)]
+pub struct FormFactors {
+    /// F in CSR: row i, column j holds F_ij (dimensionless, ≥ 0, stored as f32 and
+    /// accumulated in f64). Invariants: F_ii = 0 for planar patches; every row sum ≤ 1 up to
+    /// the estimator's error (= 1 in a closed scene); A_i F_ij ≈ A_j F_ji.
+    pub matrix: CsMatI<f32, u32>,
+    /// Counters.
+    pub stats: Stats,
+}
+
+impl FormFactors {
+    /// Number of patches (rows).
+    pub fn len(&self) -> usize {
+        self.matrix.rows()
+    }
+
+    /// True when there are no patches.
+    pub fn is_empty(&self) -> bool {
+        self.matrix.rows() == 0
+    }
+
+    /// Σ_j F_ij for every row i, accumulated in f64.
+    pub fn row_sums(&self) -> Vec<f64> {
+        let (indptr, data) = (self.matrix.indptr(), self.matrix.data());
+        let indptr = indptr.raw_storage();
+        (0..self.len())
+            .map(|i| {
+                data[indptr[i] as usize..indptr[i + 1] as usize]
+                    .iter()
+                    .map(|&f| f as f64)
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// Check the structural invariants: square, finite, non-negative, no diagonal, and row
+    /// sums ≤ 1 + `row_sum_tolerance`.
+    pub fn validate(&self, row_sum_tolerance: f64) -> Result<()> {
+        let n = self.len();
+        if self.matrix.cols() != n {
+            return Err(Error::Internal("form-factor matrix is not square".into()));
+        }
+        for (i, row) in self.matrix.outer_iterator().enumerate() {
+            for (j, &f) in row.iter() {
+                if !f.is_finite() || f < 0.0 {
+                    return Err(Error::Internal(format!("F[{i}][{j}] = {f}")));
+                }
+                if i == j {
+                    return Err(Error::Internal(format!("F[{i}][{i}] is stored")));
+                }
+            }
+        }
+        for (i, s) in self.row_sums().into_iter().enumerate() {
+            if s > 1.0 + row_sum_tolerance {
+                return Err(Error::Internal(format!(
+                    "row {i} of F sums to {s} > 1 + {row_sum_tolerance}"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Estimate every F_ij of the patches, casting visibility rays through `vis` (built over the
+/// patch triangles, triangle index = patch index). Rows are computed in parallel; the result
+/// is deterministic for a given seed whatever the thread count.
+pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Result<FormFactors> {
+    if settings.samples == 0 {
+        return Err(Error::usage("--samples", "must be at least 1"));
+    }
+    let n = patches.len();
+    let ns = settings.samples as usize;
+    // Sample points of every patch, fixed per patch (keyed by seed and patch index): the same
+    // points serve every pair, so in a closed unoccluded scene the contour estimator's rows
+    // sum to exactly 1.
+    let points: Vec<DVec3> = (0..n)
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            let mut out = Vec::with_capacity(ns);
+            let mut rng = Rng::new(&[settings.seed, i as u64, 0x5A4D]);
+            stratified_triangle_points(patches.corners(i), ns, &mut rng, &mut out);
+            out
+        })
+        .collect();
+    let rays = AtomicU64::new(0);
+    let culled = AtomicU64::new(0);
+
+    // Each task i produces (j, F_ij) for j > i and (j, F_ji) for j > i.
+    let rows: Vec<(Vec<(u32, f32)>, Vec<(u32, f32)>)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let mut upper = Vec::new();
+            let mut lower = Vec::new();
+            let mut local_rays = 0u64;
+            let mut local_culled = 0u64;
+            let pi = &points[i * ns..(i + 1) * ns];
+            let ti = patches.corners(i);
+            let (ni, ci, ai) = (patches.normal[i], patches.centroid[i], patches.area[i]);
+            let scale_i = ai.sqrt();
+            let mut vis_k = vec![false; ns];
+            let mut valid_k = vec![false; ns];
+            for j in i + 1..n {
+                let tj = patches.corners(j);
+                let (nj, cj, aj) = (patches.normal[j], patches.centroid[j], patches.area[j]);
+                // Cull: j entirely on or behind i's plane, or i behind j's: no exchange.
+                let tol = 1e-9 * (scale_i + aj.sqrt());
+                if tj.iter().all(|v| ni.dot(*v - ci) <= tol) || ti.iter().all(|v| nj.dot(*v - cj) <= tol)
+                {
+                    local_culled += 1;
+                    continue;
+                }
+                let pj = &points[j * ns..(j + 1) * ns];
+                // Pair x_k with y_{(k + shift) mod n}: decorrelates the pairings of different
+                // pairs while keeping the key deterministic.
+                let shift = (sampling::mix64(settings.seed ^ ((i as u64) << 32 | j as u64)) % ns as u64) as usize;
+                let (mut n_valid, mut n_visible) = (0u32, 0u32);
+                for k in 0..ns {
+                    let (x, y) = (pi[k], pj[(k + shift) % ns]);
+                    let d = y - x;
+                    // A segment is a meaningful visibility sample only if each end lies in
+                    // front of the other's surface.
+                    valid_k[k] = ni.dot(d) > 0.0 && nj.dot(d) < 0.0;
+                    if valid_k[k] {
+                        local_rays += 1;
+                        n_valid += 1;
+                        vis_k[k] = !vis.occluded(x, y, [i as u32, j as u32]);
+                        n_visible += vis_k[k] as u32;
+                    }
+                }
+                if n_valid == 0 {
+                    // Only possible for pairs that straddle each other's planes with a sliver
+                    // in view: no sample segment can tell; such pairs exchange ~nothing.
+                    continue;
+                }
+                let v_mean = n_visible as f64 / n_valid as f64;
+                let near = ci.distance_squared(cj) < NEAR_FIELD_FACTOR * ai.max(aj);
+                let (mut fij, mut fji) = (0.0, 0.0);
+                for k in 0..ns {
+                    let (x, y) = (pi[k], pj[(k + shift) % ns]);
+                    let v = if valid_k[k] { vis_k[k] as u8 as f64 } else { v_mean };
+                    if v == 0.0 {
+                        continue;
+                    }
+                    match (settings.estimator, near) {
+                        (Estimator::Area, false) => {
+                            let g = kernel::point_to_point(x, ni, y, nj) * v;
+                            fij += aj * g;
+                            fji += ai * g;
+                        }
+                        _ => {
+                            fij += kernel::point_to_polygon(x, ni, &tj) * v;
+                            fji += kernel::point_to_polygon(y, nj, &ti) * v;
+                        }
+                    }
+                }
+                let (fij, fji) = (fij / ns as f64, fji / ns as f64);
+                if fij > 0.0 {
+                    upper.push((j as u32, fij as f32));
+                }
+                if fji > 0.0 {
+                    lower.push((j as u32, fji as f32));
+                }
+            }
+            rays.fetch_add(local_rays, Ordering::Relaxed);
+            culled.fetch_add(local_culled, Ordering::Relaxed);
+            (upper, lower)
+        })
+        .collect();
+
+    let matrix = assemble(n, rows)?;
+    let mut ff = FormFactors {
+        matrix,
+        stats: Stats {
+            rays_cast: rays.into_inner(),
+            pairs: (n as u64) * (n as u64).saturating_sub(1) / 2,
+            pairs_culled: culled.into_inner(),
+            ..Stats::default()
+        },
+    };
+    ff.stats.nnz = ff.matrix.nnz() as u64;
+    let sums = ff.row_sums();
+    if !sums.is_empty() {
+        ff.stats.row_sum_min = sums.iter().copied().fold(f64::INFINITY, f64::min);
+        ff.stats.row_sum_max = sums.iter().copied().fold(0.0, f64::max);
+        ff.stats.row_sum_mean = sums.iter().sum::<f64>() / sums.len() as f64;
+    }
+    Ok(ff)
+}
+
+/// Assemble CSR from per-task results: task i holds row i's entries right of the diagonal
+/// (sorted by column) and, for each j > i, the entry (j, i) of row j. Rows are put together as
+/// [lower entries in increasing column i] ++ [upper entries], so columns come out sorted.
+fn assemble(n: usize, rows: Vec<(Vec<(u32, f32)>, Vec<(u32, f32)>)>) -> Result<CsMatI<f32, u32>> {
+    let mut counts = vec![0usize; n + 1];
+    for (i, (upper, lower)) in rows.iter().enumerate() {
+        counts[i + 1] += upper.len();
+        for &(j, _) in lower {
+            counts[j as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        counts[i + 1] += counts[i];
+    }
+    let nnz = counts[n];
+    if nnz > u32::MAX as usize {
+        return Err(Error::Internal(format!(
+            "{nnz} form factors do not fit 32-bit indices; use a larger --max-edge"
+        )));
+    }
+    let mut indices = vec![0u32; nnz];
+    let mut data = vec![0f32; nnz];
+    let mut fill = counts.clone();
+    // Lower-triangle entries: iterate tasks in increasing i so row j's columns are increasing.
+    for (i, (_, lower)) in rows.iter().enumerate() {
+        for &(j, f) in lower {
+            let at = &mut fill[j as usize];
+            indices[*at] = i as u32;
+            data[*at] = f;
+            *at += 1;
+        }
+    }
+    for (i, (upper, _)) in rows.into_iter().enumerate() {
+        for (j, f) in upper {
+            let at = &mut fill[i];
+            indices[*at] = j;
+            data[*at] = f;
+            *at += 1;
+        }
+    }
+    let indptr: Vec<u32> = counts.iter().map(|&c| c as u32).collect();
+    CsMatI::try_new((n, n), indptr, indices, data)
+        .map_err(|e| Error::Internal(format!("CSR assembly: {}", e.3)))
+}

@@ -1,0 +1,143 @@
+//! The whole data flow in one place — start reading here:
+//!
+//! load → patches → BVH → form factors → matrix → solve → bake → write
+//!
+//! [`run`] does all of it for a file; [`solve_scene`] does the middle for a scene already in
+//! memory (the verification suite and the tests use it). Each step is a call into the module
+//! that owns it; this file only sequences them, times them and fills the [`Report`].
+
+use std::path::Path;
+use std::time::Instant;
+
+use crate::export::{self, BakedMesh, Format};
+use crate::form_factor::{self, FormFactors};
+use crate::matrix::System;
+use crate::patch::{self, Patches};
+use crate::report::{Report, Seconds};
+use crate::scene::Scene;
+use crate::solve::{self, Solution};
+use crate::visibility::Visibility;
+use crate::{bake, Result};
+
+/// Everything that controls a bake.
+#[derive(Debug, Clone, Copy)]
+pub struct Settings {
+    /// Longest patch edge, scene units; `None` = [`patch::default_max_edge`].
+    pub max_edge: Option<f64>,
+    /// Form-factor estimation.
+    pub form_factors: form_factor::Settings,
+    /// Linear solve.
+    pub solver: solve::Settings,
+    /// Crease angle of the bake, degrees.
+    pub crease_degrees: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            max_edge: None,
+            form_factors: form_factor::Settings::default(),
+            solver: solve::Settings::default(),
+            crease_degrees: bake::DEFAULT_CREASE_DEGREES,
+        }
+    }
+}
+
+/// What [`solve_scene`] produces: every intermediate a caller may want to inspect.
+pub struct Outcome {
+    pub patches: Patches,
+    pub form_factors: FormFactors,
+    pub solution: Solution,
+    pub baked: BakedMesh,
+    pub report: Report,
+}
+
+/// patches → BVH → form factors → matrix → solve → bake, for a scene in memory.
+pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
+    scene.validate()?;
+    settings.solver.validate()?;
+    let mut report = Report::new(settings);
+    report.warnings.extend(scene.warnings.iter().cloned());
+    report.input_triangles = scene.triangles.len();
+    let mut seconds = Seconds::default();
+
+    let t = Instant::now();
+    let max_edge = settings.max_edge.unwrap_or_else(|| patch::default_max_edge(scene));
+    let patches = patch::subdivide(scene, max_edge)?;
+    report.max_edge = max_edge;
+    report.patches = patches.len();
+    seconds.patches = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let corners: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
+    let visibility = Visibility::build(&corners);
+    seconds.bvh = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let form_factors = form_factor::compute(&patches, &visibility, &settings.form_factors)?;
+    report.form_factors = form_factors.stats.clone();
+    seconds.form_factors = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let system = System {
+        form_factors: &form_factors,
+        reflectance: &patches.reflectance,
+        emission: &patches.emission,
+    };
+    if !scene.has_emitters() {
+        report
+            .warnings
+            .push("no emitters in the scene (no material has Ke > 0): the result is black".into());
+    }
+    let solution = solve::solve(&system, &settings.solver)?;
+    report.iterations = solution.iterations;
+    report.residual = solution.residual;
+    report.converged = solution.converged;
+    seconds.solve = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let baked = bake::bake(&patches, &solution.radiance, settings.crease_degrees);
+    report.vertices = baked.positions.len();
+    seconds.bake = t.elapsed().as_secs_f64();
+
+    report.seconds = seconds;
+    Ok(Outcome {
+        patches,
+        form_factors,
+        solution,
+        baked,
+        report,
+    })
+}
+
+/// Output options of [`run`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct WriteOptions {
+    /// ASCII instead of binary PLY.
+    pub ascii: bool,
+    /// Exposure (radiance multiplier before sRGB); `None` = [`export::auto_exposure`].
+    pub exposure: Option<f64>,
+}
+
+/// The whole bake of a file: load → … → write. Returns the report (and the outcome).
+pub fn run(input: &Path, output: &Path, settings: &Settings, options: &WriteOptions) -> Result<Outcome> {
+    // Check the output format before any work, so a typo costs nothing.
+    let format = Format::from_path(output, options.ascii)?;
+
+    let t = Instant::now();
+    let scene = Scene::load(input)?;
+    let load_seconds = t.elapsed().as_secs_f64();
+
+    let mut outcome = solve_scene(&scene, settings)?;
+
+    let t = Instant::now();
+    let exposure = options.exposure.unwrap_or_else(|| export::auto_exposure(&outcome.baked));
+    export::write(output, &outcome.baked, format, exposure)?;
+    let report = &mut outcome.report;
+    report.exposure = exposure;
+    report.input = Some(input.display().to_string());
+    report.output = Some(output.display().to_string());
+    report.seconds.load = load_seconds;
+    report.seconds.write = t.elapsed().as_secs_f64();
+    Ok(outcome)
+}

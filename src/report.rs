@@ -1,0 +1,104 @@
+//! The run report: counts, counters and seconds per stage, written as JSON by `--report` and
+//! summarised in one line on stderr. This module owns the report's shape, not its numbers.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::form_factor;
+use crate::pipeline::Settings;
+use crate::{export, Result};
+
+/// Wall-clock seconds spent in each stage.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Seconds {
+    pub load: f64,
+    pub patches: f64,
+    pub bvh: f64,
+    pub form_factors: f64,
+    pub solve: f64,
+    pub bake: f64,
+    pub write: f64,
+}
+
+impl Seconds {
+    /// Sum of all stages.
+    pub fn total(&self) -> f64 {
+        self.load + self.patches + self.bvh + self.form_factors + self.solve + self.bake + self.write
+    }
+}
+
+/// Everything a run reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub version: &'static str,
+    pub input: Option<String>,
+    pub output: Option<String>,
+    /// Triangles in the input after triangulation and cleaning.
+    pub input_triangles: usize,
+    /// Longest patch edge used, scene units.
+    pub max_edge: f64,
+    pub patches: usize,
+    /// Vertices of the output mesh (after splitting at creases and material borders).
+    pub vertices: usize,
+    pub form_factor_settings: form_factor::Settings,
+    pub solver_settings: crate::solve::Settings,
+    /// Rays cast, non-zeros and row-sum statistics of F.
+    pub form_factors: form_factor::Stats,
+    pub iterations: u32,
+    /// Final relative residual ‖E − (I − K)L‖₂ / ‖E‖₂.
+    pub residual: f64,
+    pub converged: bool,
+    /// Exposure used for the 8-bit colours (radiance multiplier before sRGB).
+    pub exposure: f64,
+    pub seconds: Seconds,
+    pub warnings: Vec<String>,
+}
+
+impl Report {
+    /// An empty report for a run with these settings.
+    pub fn new(settings: &Settings) -> Self {
+        Report {
+            version: env!("CARGO_PKG_VERSION"),
+            input: None,
+            output: None,
+            input_triangles: 0,
+            max_edge: 0.0,
+            patches: 0,
+            vertices: 0,
+            form_factor_settings: settings.form_factors,
+            solver_settings: settings.solver,
+            form_factors: form_factor::Stats::default(),
+            iterations: 0,
+            residual: 0.0,
+            converged: false,
+            exposure: 1.0,
+            seconds: Seconds::default(),
+            warnings: Vec::new(),
+        }
+    }
+
+    /// The one-line summary printed to stderr.
+    pub fn summary(&self) -> String {
+        format!(
+            "{} patches, {} vertices, {:.3e} rays, {} non-zeros (row sums {:.4}..{:.4}), \
+             {} iterations, residual {:.2e}, {:.2} s",
+            self.patches,
+            self.vertices,
+            self.form_factors.rays_cast as f64,
+            self.form_factors.nnz,
+            self.form_factors.row_sum_min,
+            self.form_factors.row_sum_max,
+            self.iterations,
+            self.residual,
+            self.seconds.total()
+        )
+    }
+
+    /// Write the report as pretty JSON, atomically.
+    pub fn write_json(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string_pretty(self)
+            .map_err(|e| crate::Error::Internal(format!("report serialisation: {e}")))?;
+        export::write_atomic(path, text.as_bytes())
+    }
+}
