@@ -71,7 +71,12 @@ pub struct SolveArgs {
     #[arg(long, value_enum, default_value_t = Estimator::Contour, help_heading = "Form factors")]
     pub form_factors: Estimator,
     /// Sample points per patch = visibility rays per patch pair.
-    #[arg(long, default_value_t = 4, value_name = "N", help_heading = "Form factors")]
+    #[arg(
+        long,
+        default_value_t = 4,
+        value_name = "N",
+        help_heading = "Form factors"
+    )]
     pub samples: u32,
     /// Seed of all sampling (same seed ⇒ same result for any thread count).
     #[arg(long, default_value_t = 1, help_heading = "Form factors")]
@@ -86,7 +91,12 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 1e-6, help_heading = "Solver")]
     pub tolerance: f64,
     /// Give up (warning, exit status 3) after this many sweeps.
-    #[arg(long, default_value_t = 10_000, value_name = "N", help_heading = "Solver")]
+    #[arg(
+        long,
+        default_value_t = 10_000,
+        value_name = "N",
+        help_heading = "Solver"
+    )]
     pub max_iterations: u32,
 }
 
@@ -112,14 +122,20 @@ impl SolveArgs {
     pub fn settings(&self) -> Result<pipeline::Settings> {
         if let Some(e) = self.max_edge {
             if !(e > 0.0 && e.is_finite()) {
-                return Err(Error::usage("--max-edge", format!("{e} is not a positive length")));
+                return Err(Error::usage(
+                    "--max-edge",
+                    format!("{e} is not a positive length"),
+                ));
             }
         }
         if self.samples == 0 {
             return Err(Error::usage("--samples", "must be at least 1"));
         }
         if !(0.0..=180.0).contains(&self.crease) {
-            return Err(Error::usage("--crease", format!("{} is not in [0, 180] degrees", self.crease)));
+            return Err(Error::usage(
+                "--crease",
+                format!("{} is not in [0, 180] degrees", self.crease),
+            ));
         }
         let solver = solve::Settings {
             method: self.solver,
@@ -146,7 +162,10 @@ impl BakeArgs {
     pub fn write_options(&self) -> Result<WriteOptions> {
         if let Some(x) = self.exposure {
             if !(x > 0.0 && x.is_finite()) {
-                return Err(Error::usage("--exposure", format!("{x} is not a positive number")));
+                return Err(Error::usage(
+                    "--exposure",
+                    format!("{x} is not a positive number"),
+                ));
             }
         }
         Ok(WriteOptions {

@@ -28,7 +28,10 @@ fn main() -> ExitCode {
             eprintln!("error: invalid value for --threads: must be at least 1");
             return ExitCode::from(2);
         }
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
             eprintln!("error: cannot start {n} threads: {e}");
             return ExitCode::from(1);
         }
@@ -101,7 +104,12 @@ fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Error> {
     }
     let failed = cases.iter().filter(|c| !c.pass).count();
     if !quiet {
-        eprintln!("{} cases, {} passed, {} failed", cases.len(), cases.len() - failed, failed);
+        eprintln!(
+            "{} cases, {} passed, {} failed",
+            cases.len(),
+            cases.len() - failed,
+            failed
+        );
     }
     Ok(if failed > 0 { 1 } else { 0 })
 }

@@ -93,10 +93,15 @@ impl Patches {
                 .iter()
                 .any(|&v| v as usize >= self.positions.len())
             {
-                return Err(Error::Internal(format!("patch {i}: vertex index out of range")));
+                return Err(Error::Internal(format!(
+                    "patch {i}: vertex index out of range"
+                )));
             }
             if !(self.area[i] > 0.0 && self.area[i].is_finite()) {
-                return Err(Error::Internal(format!("patch {i}: area {} ≤ 0", self.area[i])));
+                return Err(Error::Internal(format!(
+                    "patch {i}: area {} ≤ 0",
+                    self.area[i]
+                )));
             }
             if (self.normal[i].length() - 1.0).abs() > 1e-9 {
                 return Err(Error::Internal(format!("patch {i}: normal not unit")));
@@ -228,7 +233,12 @@ pub fn subdivide(scene: &Scene, max_edge: f64) -> Result<Patches> {
 
 /// Re-triangulate triangle `t` (counter-clockwise) given the midpoints `m[k]` of the split
 /// edges (t[k], t[k+1]); children keep the parent's orientation.
-fn split_triangle(t: [u32; 3], m: [Option<u32>; 3], positions: &[DVec3], mut emit: impl FnMut([u32; 3])) {
+fn split_triangle(
+    t: [u32; 3],
+    m: [Option<u32>; 3],
+    positions: &[DVec3],
+    mut emit: impl FnMut([u32; 3]),
+) {
     let count = m.iter().filter(|x| x.is_some()).count();
     match count {
         0 => emit(t),
@@ -311,7 +321,9 @@ mod tests {
                 }
                 // Children keep the parent's normal.
                 let parent = p.source_triangle[i] as usize;
-                let t = scene.triangles[parent].vertices.map(|v| scene.positions[v as usize]);
+                let t = scene.triangles[parent]
+                    .vertices
+                    .map(|v| scene.positions[v as usize]);
                 let n0 = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
                 assert!(p.normal[i].dot(n0) > 1.0 - 1e-12);
             }
@@ -342,7 +354,10 @@ mod tests {
                 }
                 let t = (q - pa).dot(pb - pa) / (pb - pa).length_squared();
                 let off = (pa + t * (pb - pa)).distance(q);
-                assert!(!(t > 1e-9 && t < 1.0 - 1e-9 && off < 1e-12), "T-junction at {q}");
+                assert!(
+                    !(t > 1e-9 && t < 1.0 - 1e-9 && off < 1e-12),
+                    "T-junction at {q}"
+                );
             }
         }
     }

@@ -62,7 +62,9 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     let mut seconds = Seconds::default();
 
     let t = Instant::now();
-    let max_edge = settings.max_edge.unwrap_or_else(|| patch::default_max_edge(scene));
+    let max_edge = settings
+        .max_edge
+        .unwrap_or_else(|| patch::default_max_edge(scene));
     let patches = patch::subdivide(scene, max_edge)?;
     report.max_edge = max_edge;
     report.patches = patches.len();
@@ -120,9 +122,15 @@ pub struct WriteOptions {
 }
 
 /// The whole bake of a file: load → … → write. Returns the report (and the outcome).
-pub fn run(input: &Path, output: &Path, settings: &Settings, options: &WriteOptions) -> Result<Outcome> {
+pub fn run(
+    input: &Path,
+    output: &Path,
+    settings: &Settings,
+    options: &WriteOptions,
+) -> Result<Outcome> {
     // Check the output format before any work, so a typo costs nothing.
     let format = Format::from_path(output, options.ascii)?;
+    export::check_output_dir(output)?;
 
     let t = Instant::now();
     let scene = Scene::load(input)?;
@@ -131,7 +139,9 @@ pub fn run(input: &Path, output: &Path, settings: &Settings, options: &WriteOpti
     let mut outcome = solve_scene(&scene, settings)?;
 
     let t = Instant::now();
-    let exposure = options.exposure.unwrap_or_else(|| export::auto_exposure(&outcome.baked));
+    let exposure = options
+        .exposure
+        .unwrap_or_else(|| export::auto_exposure(&outcome.baked));
     export::write(output, &outcome.baked, format, exposure)?;
     let report = &mut outcome.report;
     report.exposure = exposure;

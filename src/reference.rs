@@ -13,7 +13,8 @@ pub fn parallel_rectangles(a: f64, b: f64, c: f64) -> f64 {
     let (x2, y2) = (x * x, y * y);
     let log = (((1.0 + x2) * (1.0 + y2)) / (1.0 + x2 + y2)).sqrt().ln();
     2.0 / (PI * x * y)
-        * (log + x * (1.0 + y2).sqrt() * (x / (1.0 + y2).sqrt()).atan()
+        * (log
+            + x * (1.0 + y2).sqrt() * (x / (1.0 + y2).sqrt()).atan()
             + y * (1.0 + x2).sqrt() * (y / (1.0 + x2).sqrt()).atan()
             - x * x.atan()
             - y * y.atan())

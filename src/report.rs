@@ -24,7 +24,13 @@ pub struct Seconds {
 impl Seconds {
     /// Sum of all stages.
     pub fn total(&self) -> f64 {
-        self.load + self.patches + self.bvh + self.form_factors + self.solve + self.bake + self.write
+        self.load
+            + self.patches
+            + self.bvh
+            + self.form_factors
+            + self.solve
+            + self.bake
+            + self.write
     }
 }
 

@@ -247,7 +247,10 @@ mod tests {
         }
         // The standing box's base edges lie on the floor (a T-junction-free but open seam is
         // still watertight for rays: the box's sides meet the floor plane).
-        let unmatched = uses.keys().filter(|&&(a, b)| !uses.contains_key(&(b, a))).count();
+        let unmatched = uses
+            .keys()
+            .filter(|&&(a, b)| !uses.contains_key(&(b, a)))
+            .count();
         // Only the 4 base edges of the standing box meet the floor without a partner edge.
         assert_eq!(unmatched, 4);
     }

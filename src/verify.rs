@@ -44,7 +44,13 @@ impl Default for Settings {
     }
 }
 
-fn run_case(scene: &Scene, max_edge: f64, settings: &Settings, method: solve::Method, bounces: u32) -> Result<Outcome> {
+fn run_case(
+    scene: &Scene,
+    max_edge: f64,
+    settings: &Settings,
+    method: solve::Method,
+    bounces: u32,
+) -> Result<Outcome> {
     let pipeline_settings = pipeline::Settings {
         max_edge: Some(max_edge),
         form_factors: settings.form_factors,
@@ -93,11 +99,18 @@ pub fn integrating_sphere(settings: &Settings, bounces: Option<u32>) -> Result<C
     let out = run_case(&scene, 0.5, settings, method, n)?;
     let p = &out.patches;
     let total: f64 = p.total_area();
-    let mean_le: f64 = (0..p.len()).map(|i| p.area[i] * p.emission[i][0]).sum::<f64>() / total;
+    let mean_le: f64 = (0..p.len())
+        .map(|i| p.area[i] * p.emission[i][0])
+        .sum::<f64>()
+        / total;
     let expected = reference::sphere_wall_radiance(rho, mean_le, bounces);
     let walls: Vec<usize> = (0..p.len()).filter(|&i| p.emission[i][0] == 0.0).collect();
     let wall_area: f64 = walls.iter().map(|&i| p.area[i]).sum();
-    let got = walls.iter().map(|&i| p.area[i] * out.solution.radiance[i][0]).sum::<f64>() / wall_area;
+    let got = walls
+        .iter()
+        .map(|&i| p.area[i] * out.solution.radiance[i][0])
+        .sum::<f64>()
+        / wall_area;
     let err = walls
         .iter()
         .map(|&i| (out.solution.radiance[i][0] - expected).abs() / expected)
@@ -125,7 +138,10 @@ pub fn furnace(settings: &Settings) -> Result<Case> {
     let l = &out.solution.radiance;
     let p = &out.patches;
     let got = (0..p.len()).map(|i| p.area[i] * l[i][0]).sum::<f64>() / p.total_area();
-    let err = l.iter().map(|x| (x[0] - expected).abs() / expected).fold(0.0, f64::max);
+    let err = l
+        .iter()
+        .map(|x| (x[0] - expected).abs() / expected)
+        .fold(0.0, f64::max);
     Ok(case(
         &format!("furnace room, ρ = 0.5 ({:?})", settings.solver),
         expected,

@@ -108,7 +108,11 @@ mod tests {
             + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan())
             / (2.0 * PI);
         let got = point_to_polygon(DVec3::ZERO, DVec3::Z, &square(h, a));
-        assert!((got - 4.0 * corner).abs() < 1e-12, "{got} vs {}", 4.0 * corner);
+        assert!(
+            (got - 4.0 * corner).abs() < 1e-12,
+            "{got} vs {}",
+            4.0 * corner
+        );
         // Orientation of the polygon does not matter.
         let mut rev = square(h, a);
         rev.reverse();
@@ -131,7 +135,10 @@ mod tests {
         let got = point_to_polygon(DVec3::ZERO, DVec3::Z, &square(1.0, 1e7));
         assert!((got - 1.0).abs() < 1e-6, "{got}");
         // Entirely below: 0.
-        assert_eq!(point_to_polygon(DVec3::ZERO, DVec3::Z, &square(-1.0, 1.0)), 0.0);
+        assert_eq!(
+            point_to_polygon(DVec3::ZERO, DVec3::Z, &square(-1.0, 1.0)),
+            0.0
+        );
     }
 
     #[test]

@@ -197,7 +197,8 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
                 let (nj, cj, aj) = (patches.normal[j], patches.centroid[j], patches.area[j]);
                 // Cull: j entirely on or behind i's plane, or i behind j's: no exchange.
                 let tol = 1e-9 * (scale_i + aj.sqrt());
-                if tj.iter().all(|v| ni.dot(*v - ci) <= tol) || ti.iter().all(|v| nj.dot(*v - cj) <= tol)
+                if tj.iter().all(|v| ni.dot(*v - ci) <= tol)
+                    || ti.iter().all(|v| nj.dot(*v - cj) <= tol)
                 {
                     local_culled += 1;
                     continue;
@@ -205,7 +206,8 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
                 let pj = &points[j * ns..(j + 1) * ns];
                 // Pair x_k with y_{(k + shift) mod n}: decorrelates the pairings of different
                 // pairs while keeping the key deterministic.
-                let shift = (sampling::mix64(settings.seed ^ ((i as u64) << 32 | j as u64)) % ns as u64) as usize;
+                let shift = (sampling::mix64(settings.seed ^ ((i as u64) << 32 | j as u64))
+                    % ns as u64) as usize;
                 let (mut n_valid, mut n_visible) = (0u32, 0u32);
                 for k in 0..ns {
                     let (x, y) = (pi[k], pj[(k + shift) % ns]);
@@ -230,7 +232,11 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
                 let (mut fij, mut fji) = (0.0, 0.0);
                 for k in 0..ns {
                     let (x, y) = (pi[k], pj[(k + shift) % ns]);
-                    let v = if valid_k[k] { vis_k[k] as u8 as f64 } else { v_mean };
+                    let v = if valid_k[k] {
+                        vis_k[k] as u8 as f64
+                    } else {
+                        v_mean
+                    };
                     if v == 0.0 {
                         continue;
                     }

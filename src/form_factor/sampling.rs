@@ -87,7 +87,10 @@ mod tests {
         stratified_triangle_points(tri, 10_000, &mut Rng::new(&[1]), &mut many);
         let mean = many.iter().sum::<DVec3>() / many.len() as f64;
         // Stratified error ≪ the 1/√n = 1e-2 of independent samples.
-        assert!((mean - DVec3::new(1.0 / 3.0, 1.0 / 3.0, 0.0)).length() < 2e-3, "{mean}");
+        assert!(
+            (mean - DVec3::new(1.0 / 3.0, 1.0 / 3.0, 0.0)).length() < 2e-3,
+            "{mean}"
+        );
     }
 
     #[test]

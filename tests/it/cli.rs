@@ -1,0 +1,212 @@
+//! The command line end to end: bake the Cornell box to PLY and OBJ and read the files back;
+//! determinism across thread counts; errors exit non-zero, name the problem and lose nothing.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use radiosity::export::{obj, ply};
+
+use crate::support::{meshes, temp_dir};
+
+fn radiosity(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn cornell() -> String {
+    meshes().join("cornell_box.obj").display().to_string()
+}
+
+/// Bake the Cornell box coarsely (max-edge 110 mm: a few hundred patches, fast) to `out`.
+fn bake(out: &Path, extra: &[&str]) -> Output {
+    let input = cornell();
+    let mut args = vec![
+        "bake",
+        &input,
+        "-o",
+        out.to_str().unwrap(),
+        "--max-edge",
+        "110",
+    ];
+    args.extend_from_slice(extra);
+    radiosity(&args)
+}
+
+#[test]
+fn bake_cornell_to_ply_and_obj_and_read_back() {
+    let dir = temp_dir("bake");
+    let (ply_path, obj_path, report) = (dir.join("c.ply"), dir.join("c.obj"), dir.join("r.json"));
+    let o = bake(&ply_path, &["--report", report.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let patches = json["patches"].as_u64().unwrap() as usize;
+    let vertices = json["vertices"].as_u64().unwrap() as usize;
+    assert!(json["form_factors"]["rays_cast"].as_u64().unwrap() > 0);
+    assert!(json["converged"].as_bool().unwrap());
+    for stage in [
+        "load",
+        "patches",
+        "bvh",
+        "form_factors",
+        "solve",
+        "bake",
+        "write",
+    ] {
+        assert!(json["seconds"][stage].as_f64().unwrap() >= 0.0, "{stage}");
+    }
+    let p = ply::read(&ply_path).unwrap();
+    assert_eq!(p.faces.len(), patches);
+    assert_eq!(p.positions.len(), vertices);
+    let vr = p.vertex_radiance.as_ref().unwrap();
+    let fr = p.face_radiance.as_ref().unwrap();
+    assert!(vr.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
+    // The light's faces carry at least Le = (17, 12, 4); nothing else comes near.
+    let brightest = fr.iter().map(|r| r[0]).fold(0.0f32, f32::max);
+    assert!(brightest >= 17.0, "{brightest}");
+    // Colour bleeding: the white blocks' and floor's vertices near the red wall (x ≈ 550) are
+    // redder than those near the green wall (x ≈ 0): compare mean red/green ratios.
+    let ratio = |sel: &dyn Fn(f32) -> bool| {
+        let (mut r, mut g) = (0.0, 0.0);
+        for (v, rad) in p.positions.iter().zip(vr) {
+            if v[1] < 1.0 && sel(v[0]) {
+                r += rad[0];
+                g += rad[1];
+            }
+        }
+        r / g
+    };
+    assert!(ratio(&|x| x > 450.0) > ratio(&|x| x < 100.0) * 1.1);
+
+    let o = bake(&obj_path, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let q = obj::read(&obj_path).unwrap();
+    assert_eq!(q.faces, p.faces);
+    assert_eq!(q.positions.len(), p.positions.len());
+    // Same automatic exposure ⇒ the same 8-bit colours in both formats.
+    assert_eq!(q.colours, p.colours);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn output_is_identical_for_one_and_two_threads() {
+    let dir = temp_dir("threads");
+    let (a, b) = (dir.join("a.ply"), dir.join("b.ply"));
+    assert!(bake(&a, &["--threads", "1"]).status.success());
+    assert!(bake(&b, &["--threads", "2"]).status.success());
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn bad_input_is_a_clear_error_and_loses_nothing() {
+    let dir = temp_dir("errors");
+    let out = dir.join("keep.ply");
+    std::fs::write(&out, b"precious").unwrap();
+    let missing = dir.join("nope.obj");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "bake".into(),
+                missing.display().to_string(),
+                "-o".into(),
+                out.display().to_string(),
+            ],
+            "nope.obj",
+        ),
+        (
+            vec![
+                "bake".into(),
+                dir.display().to_string(),
+                "-o".into(),
+                out.display().to_string(),
+            ],
+            "radiosity-test",
+        ),
+        (
+            vec![
+                "bake".into(),
+                cornell(),
+                "-o".into(),
+                dir.join("x.stl").display().to_string(),
+            ],
+            "x.stl",
+        ),
+        (
+            vec![
+                "bake".into(),
+                cornell(),
+                "-o".into(),
+                out.display().to_string(),
+                "--max-edge".into(),
+                "0".into(),
+            ],
+            "--max-edge",
+        ),
+        (
+            vec![
+                "bake".into(),
+                cornell(),
+                "-o".into(),
+                out.display().to_string(),
+                "--samples".into(),
+                "0".into(),
+            ],
+            "--samples",
+        ),
+        (
+            vec![
+                "bake".into(),
+                cornell(),
+                "-o".into(),
+                out.display().to_string(),
+                "--tolerance".into(),
+                "-1".into(),
+            ],
+            "--tolerance",
+        ),
+        (
+            vec![
+                "bake".into(),
+                cornell(),
+                "-o".into(),
+                dir.join("missing/x.ply").display().to_string(),
+            ],
+            "missing",
+        ),
+    ];
+    for (args, needle) in cases {
+        let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        let o = radiosity(&args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(needle),
+            "{args:?}: stderr does not name {needle:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            b"precious",
+            "{args:?} touched the output"
+        );
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn non_convergence_exits_non_zero_with_a_warning() {
+    let dir = temp_dir("noconv");
+    let out = dir.join("c.ply");
+    let o = bake(&out, &["--max-iterations", "1", "--tolerance", "1e-12"]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("not converged"));
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -1,0 +1,9 @@
+//! The integration test binary: analytic references first (the verify suite per solver and
+//! estimator), then the solvers against a dense LU oracle, form-factor invariants, visibility
+//! against brute force on a real scene, and the command line end to end.
+
+mod analytic;
+mod cli;
+mod form_factors;
+mod solvers;
+mod support;

@@ -1,0 +1,96 @@
+//! Shared helpers of the integration tests: approximate assertions that print everything,
+//! scene runs with explicit settings, and dense reference solves.
+
+use std::path::PathBuf;
+
+use nalgebra::{DMatrix, DVector};
+use radiosity::form_factor::{self, Estimator};
+use radiosity::matrix::Rgb;
+use radiosity::pipeline::{self, Outcome};
+use radiosity::scene::Scene;
+use radiosity::solve::{self, Method};
+
+/// Assert |got − expected| ≤ tol·|expected| and say all four numbers when not.
+#[track_caller]
+pub fn assert_rel(what: &str, got: f64, expected: f64, tol: f64) {
+    let err = (got - expected).abs() / expected.abs().max(f64::MIN_POSITIVE);
+    assert!(
+        err <= tol,
+        "{what}: got {got}, expected {expected}, relative error {err:.3e} > tolerance {tol:.1e} \
+         (difference {:.3e})",
+        got - expected
+    );
+}
+
+/// Pipeline settings with the given discretisation, estimator and solver.
+pub fn settings(
+    max_edge: f64,
+    estimator: Estimator,
+    samples: u32,
+    method: Method,
+    bounces: u32,
+) -> pipeline::Settings {
+    pipeline::Settings {
+        max_edge: Some(max_edge),
+        form_factors: form_factor::Settings {
+            estimator,
+            samples,
+            seed: 7,
+        },
+        solver: solve::Settings {
+            method,
+            tolerance: 1e-12,
+            max_iterations: 100_000,
+            bounces,
+        },
+        ..pipeline::Settings::default()
+    }
+}
+
+/// Run the pipeline (no file output) and panic with the error's text on failure.
+pub fn run(scene: &Scene, settings: &pipeline::Settings) -> Outcome {
+    pipeline::solve_scene(scene, settings).unwrap_or_else(|e| panic!("pipeline failed: {e}"))
+}
+
+/// Oracle: solve (I − K) L = E per channel with a dense LU decomposition (nalgebra).
+pub fn dense_solve(out: &Outcome) -> Vec<Rgb> {
+    let n = out.patches.len();
+    let mut l = vec![[0.0; 3]; n];
+    for c in 0..3 {
+        let mut a = DMatrix::<f64>::identity(n, n);
+        for (i, row) in out.form_factors.matrix.outer_iterator().enumerate() {
+            for (j, &f) in row.iter() {
+                a[(i, j)] -= out.patches.reflectance[i][c] * f as f64;
+            }
+        }
+        let e = DVector::from_iterator(n, (0..n).map(|i| out.patches.emission[i][c]));
+        let x = a.lu().solve(&e).expect("I − K is non-singular for ρ < 1");
+        for i in 0..n {
+            l[i][c] = x[i];
+        }
+    }
+    l
+}
+
+/// Largest relative difference between two radiance vectors (relative to the largest value).
+pub fn max_rel_diff(a: &[Rgb], b: &[Rgb]) -> f64 {
+    let scale = a.iter().flatten().fold(0.0f64, |m, &x| m.max(x.abs()));
+    a.iter()
+        .zip(b)
+        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs()))
+        .fold(0.0, f64::max)
+        / scale
+}
+
+/// The repository's meshes/ folder.
+pub fn meshes() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("meshes")
+}
+
+/// A fresh, empty temporary directory for one test.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("radiosity-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
