@@ -52,7 +52,12 @@ pub struct BakeArgs {
     pub ascii: bool,
     /// Radiance multiplier before the sRGB curve [default: automatic — the 95th percentile
     /// of vertex luminance maps to white].
-    #[arg(long, value_name = "X", help_heading = "Output")]
+    #[arg(
+        long,
+        value_name = "X",
+        allow_negative_numbers = true,
+        help_heading = "Output"
+    )]
     pub exposure: Option<f64>,
     #[command(flatten)]
     pub solve: SolveArgs,
@@ -62,7 +67,12 @@ pub struct BakeArgs {
 #[derive(Debug, Args)]
 pub struct SolveArgs {
     /// Longest patch edge, scene units [default: bounding-box diagonal / 16].
-    #[arg(long, value_name = "LEN", help_heading = "Discretisation")]
+    #[arg(
+        long,
+        value_name = "LEN",
+        allow_negative_numbers = true,
+        help_heading = "Discretisation"
+    )]
     pub max_edge: Option<f64>,
     /// Crease angle in degrees: vertices are split where normals differ by more.
     #[arg(long, default_value_t = radiosity::bake::DEFAULT_CREASE_DEGREES, value_name = "DEG", help_heading = "Discretisation")]
@@ -88,7 +98,12 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 1, value_name = "N", help_heading = "Solver")]
     pub bounces: u32,
     /// Stop when ‖E − (I − K)L‖ / ‖E‖ ≤ this (jacobi, gauss-seidel).
-    #[arg(long, default_value_t = 1e-6, help_heading = "Solver")]
+    #[arg(
+        long,
+        default_value_t = 1e-6,
+        allow_negative_numbers = true,
+        help_heading = "Solver"
+    )]
     pub tolerance: f64,
     /// Give up (warning, exit status 3) after this many sweeps.
     #[arg(

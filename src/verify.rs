@@ -19,8 +19,9 @@ pub struct Case {
     pub expected: f64,
     /// What the solver got (a mean over the patches the case checks).
     pub got: f64,
-    /// The case's error measure: the largest relative error over the checked patches, or the
-    /// relative error of an aggregated form factor.
+    /// The case's error measure (each case documents its own): the area-weighted mean of the
+    /// per-patch relative errors (sphere), the largest per-patch relative error (furnace), or
+    /// the relative error of an aggregated form factor (plates).
     pub relative_error: f64,
     pub tolerance: f64,
     pub seconds: f64,
@@ -78,8 +79,9 @@ fn case(name: &str, expected: f64, got: f64, err: f64, tol: f64, t: Instant) -> 
 }
 
 /// Integrating sphere, radius 1, 1280-face geodesic (level 3), 30° emitting cap Le = 1,
-/// ρ = 0.5. Returns (mean over wall patches, max relative error over wall patches) against
-/// `expected_wall` computed from the tessellation's own area-weighted mean Le.
+/// ρ = 0.5. `got` is the area-weighted mean radiance of the wall (non-emitting) patches; the
+/// error is the area-weighted mean of the walls' per-patch relative errors, against the
+/// closed form evaluated with the tessellation's own area-weighted mean Le.
 ///
 /// Tolerance: a 1280-face polyhedron is not a sphere. For a point on a flat facet the
 /// form factor to facet j is not exactly A_j/A: facet normals deviate from the radial
@@ -111,10 +113,12 @@ pub fn integrating_sphere(settings: &Settings, bounces: Option<u32>) -> Result<C
         .map(|&i| p.area[i] * out.solution.radiance[i][0])
         .sum::<f64>()
         / wall_area;
+    // Mean of the per-patch relative errors, area-weighted.
     let err = walls
         .iter()
-        .map(|&i| (out.solution.radiance[i][0] - expected).abs() / expected)
-        .fold(0.0, f64::max);
+        .map(|&i| p.area[i] * (out.solution.radiance[i][0] - expected).abs() / expected)
+        .sum::<f64>()
+        / wall_area;
     let name = match bounces {
         Some(1) => "integrating sphere, one bounce".to_string(),
         Some(n) => format!("integrating sphere, {n} bounces"),

@@ -179,7 +179,10 @@ pub fn check_output_dir(path: &Path) -> Result<()> {
         Ok(())
     } else {
         let message = format!("output directory {} does not exist", dir.display());
-        Err(Error::io(path, io::Error::new(io::ErrorKind::NotFound, message)))
+        Err(Error::io(
+            path,
+            io::Error::new(io::ErrorKind::NotFound, message),
+        ))
     }
 }
 

@@ -247,8 +247,14 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
                             fji += ai * g;
                         }
                         _ => {
-                            fij += kernel::point_to_polygon(x, ni, &tj) * v;
-                            fji += kernel::point_to_polygon(y, nj, &ti) * v;
+                            // The contour integral needs the point in front of the polygon
+                            // (one-sided surfaces); a point behind it sees its back: zero.
+                            if nj.dot(x - cj) > 0.0 {
+                                fij += kernel::point_to_polygon(x, ni, &tj) * v;
+                            }
+                            if ni.dot(y - ci) > 0.0 {
+                                fji += kernel::point_to_polygon(y, nj, &ti) * v;
+                            }
                         }
                     }
                 }

@@ -44,12 +44,13 @@ fn exchange(out: &Outcome, a: u32, b: u32) -> f64 {
 fn row_sums_never_exceed_one() {
     for estimator in [Estimator::Contour, Estimator::Area] {
         let out = cornell(120.0, estimator);
-        // The contour integrand is exact per point and the points of a patch are fixed, so a
-        // row sum exceeds 1 only by f32 storage rounding (≈ 1e-7 per entry, ≲ 1e-5 in all).
-        // The area estimator's near field is the same integrand; its far field kernel can
-        // overshoot slightly where r² is only 16× the patch area: allow 1 %.
+        // Per point, the contour integrand over all patches sums to exactly 1 in a closed
+        // unoccluded scene. Occlusion is estimated with one ray per (point, patch): where a
+        // patch is partly hidden the ray says all or nothing, so rows near the blocks overshoot
+        // by up to a few 1e-3 (measured 5e-4 here, 1.4e-3 at the default 60 mm). The area
+        // estimator's far-field kernel adds its O(A/r²) error on top: allow 1 %.
         let tol = if estimator == Estimator::Contour {
-            1e-5
+            5e-3
         } else {
             1e-2
         };
@@ -72,20 +73,38 @@ fn closed_convex_scene_rows_sum_to_one() {
     for (i, s) in out.form_factors.row_sums().iter().enumerate() {
         assert!((s - 1.0).abs() < 1e-5, "row {i} sums to {s}");
     }
-    // And F_ij ≈ A_j / A (exact for a true sphere): within a few per cent for a 320-face
-    // polyhedron (facet normals deviate from radial by up to ~10°).
-    let total = out.patches.total_area();
-    let mut worst = 0.0f64;
-    for (i, row) in out.form_factors.matrix.outer_iterator().enumerate() {
-        for (j, &f) in row.iter() {
-            let expected = out.patches.area[j] / total;
-            let far = out.patches.centroid[i].distance(out.patches.centroid[j]) > 0.5;
-            if far {
-                worst = worst.max((f as f64 - expected).abs() / expected);
+}
+
+#[test]
+fn sphere_form_factors_converge_to_area_fractions() {
+    // For a true sphere F_ij = A_j / A exactly. A geodesic polyhedron deviates (facet normals
+    // are not radial), but the deviation must shrink as the tessellation is refined: compare
+    // the area-weighted mean |F_ij − A_j/A| / (A_j/A) at 80 and 320 facets.
+    let deviation = |level| {
+        let scene = scenes::integrating_sphere(1.0, level, 30.0, 0.5, [1.0; 3]).unwrap();
+        let out = run(
+            &scene,
+            &settings(1.0, Estimator::Contour, 4, Method::Neumann, 1),
+        );
+        let total = out.patches.total_area();
+        let (mut num, mut den) = (0.0, 0.0);
+        for (i, row) in out.form_factors.matrix.outer_iterator().enumerate() {
+            for (j, &f) in row.iter() {
+                let expected = out.patches.area[j] / total;
+                let w = out.patches.area[i] * expected;
+                num += w * (f as f64 - expected).abs() / expected;
+                den += w;
             }
         }
-    }
-    assert!(worst < 0.15, "worst far-pair deviation from A_j/A: {worst}");
+        num / den
+    };
+    let (coarse, fine) = (deviation(1), deviation(2));
+    // Second-order geometry error: ~4× per level; require at least 2×.
+    assert!(
+        fine < coarse / 2.0,
+        "80 facets: {coarse}, 320 facets: {fine}"
+    );
+    assert!(fine < 0.05, "{fine}");
 }
 
 #[test]
