@@ -92,8 +92,8 @@ pub fn bake(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> BakedMe
             let g = group_out[root];
             let p = ps[a] as usize;
             let w = patches.area[p];
-            for c in 0..3 {
-                sums[g].0[c] += w * radiance[p][c];
+            for (s, l) in sums[g].0.iter_mut().zip(radiance[p]) {
+                *s += w * l;
             }
             sums[g].1 += w;
             out_vertex[offsets[v] + a] = (first_out + g) as u32;

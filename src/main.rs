@@ -73,10 +73,13 @@ fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
     }
     if !report.converged {
         eprintln!(
-            "warning: the {:?} solver stopped after {} sweeps at relative residual {:.3e}, \
+            "warning: the {} solver stopped after {} sweeps at relative residual {:.3e}, \
              above the tolerance {:.1e}: the result is not converged (raise --max-iterations, \
              or check for ρ close to 1 in a closed scene)",
-            settings.solver.method, report.iterations, report.residual, settings.solver.tolerance
+            settings.solver.method.name(),
+            report.iterations,
+            report.residual,
+            settings.solver.tolerance
         );
         return Ok(EXIT_NOT_CONVERGED);
     }

@@ -210,7 +210,7 @@ pub fn subdivide(scene: &Scene, max_edge: f64) -> Result<Patches> {
         let [a, b, c] = t.map(|v| patches.positions[v as usize]);
         let cross = (b - a).cross(c - a);
         let area = 0.5 * cross.length();
-        if !(area > 0.0) {
+        if area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             // A midpoint split of a non-degenerate triangle never makes a zero-area child;
             // the scene loader already dropped degenerate input triangles.
             return Err(Error::Internal(format!(

@@ -17,12 +17,12 @@
 //! - The ray–triangle test is the watertight test of Woop, Benthin & Wald, "Watertight
 //!   Ray/Triangle Intersection", JCGT 2(1), 2013: a ray through a shared edge or vertex of a
 //!   closed mesh hits at least one of the triangles that share it.
-//! - The BVH is built over triangle boxes padded by [`BOX_PAD`] canonical units. obvhs's
+//! - The BVH is built over triangle boxes padded by `BOX_PAD` canonical units. obvhs's
 //!   quantised box test is not conservative (a ray grazing a box face can miss the box by one
 //!   rounding), which would undo the watertight triangle test for rays along box boundaries
 //!   (e.g. through the edges of an axis-aligned grid). The padding is far larger than the `f32`
 //!   rounding of the box test and far smaller than any triangle that matters.
-//! - Ray origins are moved back along the ray by [`ORIGIN_SHIFT`] (in the ray's parameter), so
+//! - Ray origins are moved back along the ray by `ORIGIN_SHIFT` (in the ray's parameter), so
 //!   obvhs's fixed `t ≥ 1e-4` box clamp lies before the start of every query interval.
 
 use std::fmt;
@@ -360,7 +360,7 @@ fn power_of_two_scale(extent: f64) -> f64 {
 }
 
 /// A ray prepared once for the watertight test of Woop, Benthin & Wald (JCGT 2013), in the
-/// canonical frame: `x(t) = origin + t·dir` with the origin moved back by [`ORIGIN_SHIFT`]
+/// canonical frame: `x(t) = origin + t·dir` with the origin moved back by `ORIGIN_SHIFT`
 /// (so internal parameters are `t + ORIGIN_SHIFT`).
 #[derive(Clone, Copy, Debug)]
 struct WatertightRay {

@@ -163,7 +163,7 @@ pub fn write(path: &Path, mesh: &BakedMesh, format: Format, exposure: f64) -> Re
     })
 }
 
-/// Writes `bytes` to `path` atomically (see [`write`]); used for reports.
+/// Writes `bytes` to `path` atomically (see [`write()`]); used for reports.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomically(path, |w| w.write_all(bytes))
 }

@@ -179,7 +179,7 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
     let culled = AtomicU64::new(0);
 
     // Each task i produces (j, F_ij) for j > i and (j, F_ji) for j > i.
-    let rows: Vec<(Vec<(u32, f32)>, Vec<(u32, f32)>)> = (0..n)
+    let rows: Vec<PairRows> = (0..n)
         .into_par_iter()
         .map(|i| {
             let mut upper = Vec::new();
@@ -292,10 +292,13 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
     Ok(ff)
 }
 
+/// What task i produces: (column j, F_ij) for j > i, and (row j, F_ji) for j > i.
+type PairRows = (Vec<(u32, f32)>, Vec<(u32, f32)>);
+
 /// Assemble CSR from per-task results: task i holds row i's entries right of the diagonal
 /// (sorted by column) and, for each j > i, the entry (j, i) of row j. Rows are put together as
 /// [lower entries in increasing column i] ++ [upper entries], so columns come out sorted.
-fn assemble(n: usize, rows: Vec<(Vec<(u32, f32)>, Vec<(u32, f32)>)>) -> Result<CsMatI<f32, u32>> {
+fn assemble(n: usize, rows: Vec<PairRows>) -> Result<CsMatI<f32, u32>> {
     let mut counts = vec![0usize; n + 1];
     for (i, (upper, lower)) in rows.iter().enumerate() {
         counts[i + 1] += upper.len();

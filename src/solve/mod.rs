@@ -30,6 +30,17 @@ pub enum Method {
     Neumann,
 }
 
+impl Method {
+    /// The method's command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Jacobi => "jacobi",
+            Method::GaussSeidel => "gauss-seidel",
+            Method::Neumann => "neumann",
+        }
+    }
+}
+
 /// Solver settings.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Settings {

@@ -154,7 +154,7 @@ fn bvh_visibility_equals_brute_force_on_cornell_patches() {
     let tris: Vec<[DVec3; 3]> = (0..patches.len()).map(|i| patches.corners(i)).collect();
     let vis = Visibility::build(&tris);
     let mut rng = Rng::new(&[2024]);
-    let mut point = |rng: &mut Rng| {
+    let point = |rng: &mut Rng| {
         let i = rng.below(patches.len());
         let [a, b, c] = patches.corners(i);
         let (u, v) = (rng.next_f64(), rng.next_f64());

@@ -53,6 +53,7 @@ pub fn run(scene: &Scene, settings: &pipeline::Settings) -> Outcome {
 }
 
 /// Oracle: solve (I − K) L = E per channel with a dense LU decomposition (nalgebra).
+#[allow(clippy::needless_range_loop)] // c indexes ρ, Le and L alike
 pub fn dense_solve(out: &Outcome) -> Vec<Rgb> {
     let n = out.patches.len();
     let mut l = vec![[0.0; 3]; n];
