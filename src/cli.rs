@@ -59,6 +59,18 @@ pub struct BakeArgs {
         help_heading = "Output"
     )]
     pub exposure: Option<f64>,
+    /// Also render a picture of the result (PNG) from the default camera (see
+    /// `export::png::Camera::framing`).
+    #[arg(long, value_name = "FILE.png", help_heading = "Output")]
+    pub png: Option<PathBuf>,
+    /// Width and height of the --png picture, pixels.
+    #[arg(
+        long,
+        default_value_t = 512,
+        value_name = "PIXELS",
+        help_heading = "Output"
+    )]
+    pub png_size: u32,
     #[command(flatten)]
     pub solve: SolveArgs,
 }

@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 use cli::{BakeArgs, Cli, Command, VerifyArgs};
+use radiosity::export::png;
 use radiosity::{export, pipeline, verify, Error};
 
 /// Exit status when the solver did not converge (the output is still written).
@@ -57,8 +58,11 @@ fn main() -> ExitCode {
 fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
     let settings = args.solve.settings()?;
     let options = args.write_options()?;
-    if let Some(report) = &args.report {
-        export::check_output_dir(report)?;
+    for path in args.report.iter().chain(&args.png) {
+        export::check_output_dir(path)?;
+    }
+    if args.png_size == 0 || args.png_size > 16384 {
+        return Err(Error::usage("--png-size", "must be in 1..=16384"));
     }
     let outcome = pipeline::run(&args.input, &args.output, &settings, &options)?;
     let report = &outcome.report;
@@ -67,6 +71,21 @@ fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
     }
     if let Some(path) = &args.report {
         report.write_json(path)?;
+    }
+    if let Some(path) = &args.png {
+        let (lo, hi) = bounds(&outcome.baked.positions);
+        let camera = png::Camera::framing(lo, hi);
+        let size = args.png_size;
+        let image = png::render(
+            &outcome.baked,
+            &camera,
+            size,
+            size,
+            2,
+            report.exposure,
+            false,
+        );
+        png::save(path, &image)?;
     }
     if !quiet {
         eprintln!("{}: {}", args.output.display(), report.summary());
@@ -115,4 +134,15 @@ fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Error> {
         );
     }
     Ok(if failed > 0 { 1 } else { 0 })
+}
+
+/// Bounding box of a point list.
+fn bounds(points: &[[f64; 3]]) -> (glam::DVec3, glam::DVec3) {
+    points.iter().fold(
+        (glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY),
+        |(lo, hi), p| {
+            let p = glam::DVec3::from_array(*p);
+            (lo.min(p), hi.max(p))
+        },
+    )
 }

@@ -9,6 +9,7 @@
 pub mod colour;
 pub mod obj;
 pub mod ply;
+pub mod png;
 
 use std::ffi::OsString;
 use std::fs::{self, File};
