@@ -34,6 +34,32 @@ pub enum Command {
     Bake(BakeArgs),
     /// Run the built-in analytic suite (integrating sphere, furnace, Howell form factors).
     Verify(VerifyArgs),
+    /// Write one of the verification scenes as OBJ + MTL (to try the tool or other renderers).
+    Generate(GenerateArgs),
+}
+
+/// The procedural scenes `radiosity generate` can write.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneKind {
+    /// Geodesic sphere (1280 faces, radius 1) seen from inside, 30° emitting cap (Le = 1), ρ = 0.5.
+    IntegratingSphere,
+    /// Closed unit room with two floating boxes, Le = 1 and ρ = 0.5 everywhere (L = 2).
+    Furnace,
+    /// Unit squares 1 apart, facing (Howell C-11: F = 0.19982).
+    ParallelPlates,
+    /// Unit squares at 90° sharing an edge (Howell C-14: F = 0.20004).
+    PerpendicularPlates,
+}
+
+/// Options of `radiosity generate`.
+#[derive(Debug, Args)]
+pub struct GenerateArgs {
+    /// Which scene.
+    #[arg(value_enum)]
+    pub scene: SceneKind,
+    /// Output OBJ (its MTL is written beside it with the same name).
+    #[arg(short, long, value_name = "FILE.obj")]
+    pub output: PathBuf,
 }
 
 /// Options of `radiosity bake`.

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
-use cli::{BakeArgs, Cli, Command, VerifyArgs};
+use cli::{BakeArgs, Cli, Command, GenerateArgs, SceneKind, VerifyArgs};
 use radiosity::export::png;
 use radiosity::{export, pipeline, verify, Error};
 
@@ -40,6 +40,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Bake(args) => bake(args, cli.quiet),
         Command::Verify(args) => verify(args, cli.quiet),
+        Command::Generate(args) => generate(args),
     };
     match result {
         Ok(code) => ExitCode::from(code),
@@ -145,4 +146,24 @@ fn bounds(points: &[[f64; 3]]) -> (glam::DVec3, glam::DVec3) {
             (lo.min(p), hi.max(p))
         },
     )
+}
+
+fn generate(args: &GenerateArgs) -> Result<u8, Error> {
+    use radiosity::scenes;
+    let ext = args.output.extension().map(|e| e.to_ascii_lowercase());
+    if ext.as_deref() != Some(std::ffi::OsStr::new("obj")) {
+        return Err(Error::usage(
+            "--output",
+            format!("{}: generate writes .obj files", args.output.display()),
+        ));
+    }
+    export::check_output_dir(&args.output)?;
+    let scene = match args.scene {
+        SceneKind::IntegratingSphere => scenes::integrating_sphere(1.0, 3, 30.0, 0.5, [1.0; 3])?,
+        SceneKind::Furnace => scenes::furnace_room(0.5, 1.0)?,
+        SceneKind::ParallelPlates => scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+        SceneKind::PerpendicularPlates => scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+    };
+    radiosity::scene::obj::save(&scene, &args.output)?;
+    Ok(0)
 }

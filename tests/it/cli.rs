@@ -210,3 +210,59 @@ fn non_convergence_exits_non_zero_with_a_warning() {
     assert!(stderr(&o).contains("not converged"));
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn generated_sphere_bakes_to_the_closed_form() {
+    // generate → bake from the file → read the PLY back: the wall faces' area-weighted mean
+    // radiance after one bounce is ρ·mean(Le). Tolerance as in `verify` (tessellation: the
+    // mean itself is within ~0.2 % at 1280 faces; 2 %).
+    let dir = temp_dir("generate");
+    let obj = dir.join("sphere.obj");
+    let o = radiosity(&[
+        "generate",
+        "integrating-sphere",
+        "-o",
+        obj.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("sphere.mtl").exists());
+    let ply_path = dir.join("sphere.ply");
+    let o = radiosity(&[
+        "bake",
+        obj.to_str().unwrap(),
+        "-o",
+        ply_path.to_str().unwrap(),
+        "--max-edge",
+        "1",
+        "--solver",
+        "neumann",
+        "--bounces",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = ply::read(&ply_path).unwrap();
+    let fr = p.face_radiance.unwrap();
+    let area = |f: &[u32; 3]| {
+        let [a, b, c] = f.map(|v| glam::Vec3::from_array(p.positions[v as usize]).as_dvec3());
+        0.5 * (b - a).cross(c - a).length()
+    };
+    let (mut total, mut emitted, mut wall_area, mut wall_sum) = (0.0, 0.0, 0.0, 0.0);
+    for (f, l) in p.faces.iter().zip(&fr) {
+        let a = area(f);
+        total += a;
+        // Emitting faces carry Le = 1 plus their reflection: radiance ≥ 1.
+        if l[0] >= 1.0 {
+            emitted += a;
+        } else {
+            wall_area += a;
+            wall_sum += a * l[0] as f64;
+        }
+    }
+    let expected = 0.5 * emitted / total;
+    let got = wall_sum / wall_area;
+    assert!(
+        (got - expected).abs() / expected < 0.02,
+        "walls {got}, expected {expected}"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
