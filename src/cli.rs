@@ -115,20 +115,8 @@ pub struct SolveArgs {
     /// Crease angle in degrees: vertices are split where normals differ by more.
     #[arg(long, default_value_t = radiosity::bake::DEFAULT_CREASE_DEGREES, value_name = "DEG", help_heading = "Discretisation")]
     pub crease: f64,
-    /// Form-factor estimator.
-    #[arg(long, value_enum, default_value_t = Estimator::Contour, help_heading = "Form factors")]
-    pub form_factors: Estimator,
-    /// Sample points per patch = visibility rays per patch pair.
-    #[arg(
-        long,
-        default_value_t = 4,
-        value_name = "N",
-        help_heading = "Form factors"
-    )]
-    pub samples: u32,
-    /// Seed of all sampling (same seed ⇒ same result for any thread count).
-    #[arg(long, default_value_t = 1, help_heading = "Form factors")]
-    pub seed: u64,
+    #[command(flatten)]
+    pub estimator: FormFactorArgs,
     /// Solver of (I − K)L = E.
     #[arg(long, value_enum, default_value_t = Method::GaussSeidel, help_heading = "Solver")]
     pub solver: Method,
@@ -153,15 +141,44 @@ pub struct SolveArgs {
     pub max_iterations: u32,
 }
 
+/// Form-factor estimation options shared by `bake` and `verify`.
+#[derive(Debug, Args)]
+pub struct FormFactorArgs {
+    /// Form-factor estimator.
+    #[arg(long, value_enum, default_value_t = Estimator::Contour, help_heading = "Form factors")]
+    pub form_factors: Estimator,
+    /// Sample points per patch = visibility rays per patch pair.
+    #[arg(
+        long,
+        default_value_t = 4,
+        value_name = "N",
+        help_heading = "Form factors"
+    )]
+    pub samples: u32,
+    /// Seed of all sampling (same seed ⇒ same result for any thread count).
+    #[arg(long, default_value_t = 1, help_heading = "Form factors")]
+    pub seed: u64,
+}
+
+impl FormFactorArgs {
+    /// Validated form-factor settings.
+    pub fn settings(&self) -> Result<form_factor::Settings> {
+        if self.samples == 0 {
+            return Err(Error::usage("--samples", "must be at least 1"));
+        }
+        Ok(form_factor::Settings {
+            estimator: self.form_factors,
+            samples: self.samples,
+            seed: self.seed,
+        })
+    }
+}
+
 /// Options of `radiosity verify`.
 #[derive(Debug, Args)]
 pub struct VerifyArgs {
-    /// Form-factor estimator to verify.
-    #[arg(long, value_enum, default_value_t = Estimator::Contour)]
-    pub form_factors: Estimator,
-    /// Sample points per patch = visibility rays per patch pair.
-    #[arg(long, default_value_t = 4, value_name = "N")]
-    pub samples: u32,
+    #[command(flatten)]
+    pub estimator: FormFactorArgs,
     /// Solver for the all-bounce cases.
     #[arg(long, value_enum, default_value_t = Method::GaussSeidel)]
     pub solver: Method,
@@ -181,9 +198,6 @@ impl SolveArgs {
                 ));
             }
         }
-        if self.samples == 0 {
-            return Err(Error::usage("--samples", "must be at least 1"));
-        }
         if !(0.0..=180.0).contains(&self.crease) {
             return Err(Error::usage(
                 "--crease",
@@ -199,11 +213,7 @@ impl SolveArgs {
         solver.validate()?;
         Ok(pipeline::Settings {
             max_edge: self.max_edge,
-            form_factors: form_factor::Settings {
-                estimator: self.form_factors,
-                samples: self.samples,
-                seed: self.seed,
-            },
+            form_factors: self.estimator.settings()?,
             solver,
             crease_degrees: self.crease,
         })

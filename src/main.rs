@@ -107,15 +107,8 @@ fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
 }
 
 fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Error> {
-    if args.samples == 0 {
-        return Err(Error::usage("--samples", "must be at least 1"));
-    }
     let settings = verify::Settings {
-        form_factors: radiosity::form_factor::Settings {
-            estimator: args.form_factors,
-            samples: args.samples,
-            seed: 1,
-        },
+        form_factors: args.estimator.settings()?,
         solver: args.solver,
     };
     let cases = verify::run_all(&settings)?;

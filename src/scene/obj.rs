@@ -430,6 +430,49 @@ fn convert_material(m: &tobj::Material, warnings: &mut Vec<String>) -> Material 
     }
 }
 
+/// Write `scene` as an OBJ file at `path` plus its MTL beside it (same name, `.mtl`), both
+/// atomically: `Kd` = ρ, `Ke` = Le, faces in the scene's winding. Used by
+/// `radiosity generate` to hand the procedural verification scenes to users and other tools.
+pub fn save(scene: &Scene, path: &Path) -> Result<()> {
+    use std::fmt::Write as _;
+    let mtl_path = path.with_extension("mtl");
+    let mtl_name = mtl_path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut mtl = String::from(
+        "# written by radiosity: Kd = diffuse reflectance, Ke = emitted radiance (W sr^-1 m^-2)\n",
+    );
+    for m in &scene.materials {
+        let [r, g, b] = m.reflectance;
+        let [er, eg, eb] = m.emission;
+        let _ = writeln!(
+            mtl,
+            "\nnewmtl {}\nKd {r} {g} {b}\nKe {er} {eg} {eb}",
+            m.name
+        );
+    }
+    let mut obj = format!(
+        "# written by radiosity: {} vertices, {} triangles; fronts counter-clockwise\nmtllib {mtl_name}\n",
+        scene.positions.len(),
+        scene.triangles.len()
+    );
+    for p in &scene.positions {
+        let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
+    }
+    let mut current = u32::MAX;
+    for t in &scene.triangles {
+        if t.material != current {
+            current = t.material;
+            let _ = writeln!(obj, "usemtl {}", scene.materials[current as usize].name);
+        }
+        let [a, b, c] = t.vertices.map(|v| v + 1);
+        let _ = writeln!(obj, "f {a} {b} {c}");
+    }
+    crate::export::write_atomic(&mtl_path, mtl.as_bytes())?;
+    crate::export::write_atomic(path, obj.as_bytes())
+}
+
 #[cfg(test)]
 mod tests {
     use std::path::PathBuf;
@@ -733,47 +776,4 @@ mod tests {
             assert_parse(&e, "m.mtl", line, &[material, words]);
         }
     }
-}
-
-/// Write `scene` as an OBJ file at `path` plus its MTL beside it (same name, `.mtl`), both
-/// atomically: `Kd` = ρ, `Ke` = Le, faces in the scene's winding. Used by
-/// `radiosity generate` to hand the procedural verification scenes to users and other tools.
-pub fn save(scene: &Scene, path: &Path) -> Result<()> {
-    use std::fmt::Write as _;
-    let mtl_path = path.with_extension("mtl");
-    let mtl_name = mtl_path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut mtl = String::from(
-        "# written by radiosity: Kd = diffuse reflectance, Ke = emitted radiance (W sr^-1 m^-2)\n",
-    );
-    for m in &scene.materials {
-        let [r, g, b] = m.reflectance;
-        let [er, eg, eb] = m.emission;
-        let _ = writeln!(
-            mtl,
-            "\nnewmtl {}\nKd {r} {g} {b}\nKe {er} {eg} {eb}",
-            m.name
-        );
-    }
-    let mut obj = format!(
-        "# written by radiosity: {} vertices, {} triangles; fronts counter-clockwise\nmtllib {mtl_name}\n",
-        scene.positions.len(),
-        scene.triangles.len()
-    );
-    for p in &scene.positions {
-        let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
-    }
-    let mut current = u32::MAX;
-    for t in &scene.triangles {
-        if t.material != current {
-            current = t.material;
-            let _ = writeln!(obj, "usemtl {}", scene.materials[current as usize].name);
-        }
-        let [a, b, c] = t.vertices.map(|v| v + 1);
-        let _ = writeln!(obj, "f {a} {b} {c}");
-    }
-    crate::export::write_atomic(&mtl_path, mtl.as_bytes())?;
-    crate::export::write_atomic(path, obj.as_bytes())
 }
