@@ -150,7 +150,7 @@ pub struct FormFactorArgs {
     /// Sample points per patch = visibility rays per patch pair.
     #[arg(
         long,
-        default_value_t = 4,
+        default_value_t = 3,
         value_name = "N",
         help_heading = "Form factors"
     )]

@@ -92,10 +92,11 @@ fn case(name: &str, expected: f64, got: f64, err: f64, tol: f64, t: Instant) -> 
 ///
 /// Tolerance: a 1280-face polyhedron is not a sphere. For a point on a flat facet the form
 /// factor to facet j is not exactly A_j/A: facet normals deviate from the radial direction by
-/// up to ~5° at level 3, so patches next to the cap's rim err by several per cent and the
-/// area-weighted mean error is ≈ 0.7 % (measured 7.4e-3 one bounce, 3.7e-3 all bounces),
-/// falling about 4× per level; the contour estimator's own error is far below that (its rows
-/// sum to 1 exactly here). 2 % bounds the tessellation error with margin while still failing
+/// up to ~5° at level 3, so patches next to the cap's rim err by several per cent (an O(1)
+/// error on the O(h) fraction of patches along the rim) and the area-weighted mean error is
+/// ≈ 0.5 % (measured 4.9e-3 one bounce, 2.5e-3 all bounces; 2.4e-3 one bounce at level 4);
+/// the contour estimator's own error is far below that (its rows sum to 1 exactly here and
+/// more quadrature points change the result by < 1e-5). 2 % bounds the tessellation error with margin while still failing
 /// for any physics error (a wrong cosine, a missing bounce or π is ≥ 30 %).
 pub fn integrating_sphere(settings: &Settings, bounces: Option<u32>) -> Result<Case> {
     let t = Instant::now();
@@ -144,7 +145,7 @@ pub fn integrating_sphere(settings: &Settings, bounces: Option<u32>) -> Result<C
 /// Tolerance: with exact row sums the answer is exact; a row-sum error δ (from estimating the
 /// visibility of partly shadowed pairs with one ray per sample point) shifts L by about
 /// ρ/(1 − ρ)·δ = δ at ρ = 0.5. With 4 samples per patch the shadowed rows err by up to a few
-/// 1e-3 (measured max patch error 4e-3), so 1.5 % per patch; a physics error (a lost or
+/// 1e-3 (measured max patch error 4.3e-3), so 1.5 % per patch; a physics error (a lost or
 /// doubled bounce) is ≥ 25 %.
 pub fn furnace(settings: &Settings) -> Result<Case> {
     let t = Instant::now();
@@ -192,12 +193,12 @@ pub fn surface_form_factor(out: &Outcome, from: u32, to: u32) -> f64 {
 /// Form factors between unit plates, parallel (1 apart) and perpendicular (sharing an edge),
 /// against Howell C-11 and C-14.
 ///
-/// Tolerance: the contour estimator is exact per point; the only error is integrating over
-/// the receiving plate with `samples` stratified points per patch, O(h²) for patch size h
-/// (max-edge 0.1 → well under 1e-3 for the parallel pair). The perpendicular pair has an
-/// integrable log singularity along the shared edge that point sampling resolves more slowly,
-/// ~1e-3 at this size. 5e-3 covers both, and the area estimator (kernel far away, exact near)
-/// too.
+/// Tolerance: the contour estimator is exact per point; the only error is integrating that
+/// smooth integrand over the receiving patches (3-point Gauss rule: measured 7e-8 parallel,
+/// 2e-8 perpendicular). With stratified random points instead (other `--samples`) it is
+/// ~1e-3 for the perpendicular pair, whose integrand varies fastest along the shared edge,
+/// and the area estimator's far-field kernel adds O(A/r²) (measured 6.8e-4). 5e-3 covers every
+/// estimator and sample count; a wrong cosine or π is ≥ 20 %.
 pub fn plates(settings: &Settings) -> Result<Vec<Case>> {
     let mut cases = Vec::new();
     let t = Instant::now();

@@ -67,7 +67,7 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             estimator: Estimator::Contour,
-            samples: 4,
+            samples: 3,
             seed: 1,
         }
     }
@@ -163,15 +163,35 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
     }
     let n = patches.len();
     let ns = settings.samples as usize;
-    // Sample points of every patch, fixed per patch (keyed by seed and patch index): the same
-    // points serve every pair, so in a closed unoccluded scene the contour estimator's rows
-    // sum to exactly 1.
+    // Sample points of every patch, fixed per patch, with their quadrature weights (the same
+    // for every patch). The contour estimator integrates a smooth integrand over the
+    // receiving patch, so it uses a symmetric Gauss rule where one has exactly `samples`
+    // points (1, 3, 6, 7, 12); otherwise, and for the area estimator (a Monte Carlo estimate
+    // of a double integral), stratified random points keyed by (seed, patch). The same points
+    // serve every pair, so in a closed unoccluded scene the contour rows sum to exactly 1.
+    let rule = match settings.estimator {
+        Estimator::Contour => sampling::gauss_rule(ns),
+        Estimator::Area => None,
+    };
+    let weights: Vec<f64> = match &rule {
+        Some(r) => r.iter().map(|p| p.1).collect(),
+        None => vec![1.0 / ns as f64; ns],
+    };
     let points: Vec<DVec3> = (0..n)
         .into_par_iter()
         .flat_map_iter(|i| {
             let mut out = Vec::with_capacity(ns);
-            let mut rng = Rng::new(&[settings.seed, i as u64, 0x5A4D]);
-            stratified_triangle_points(patches.corners(i), ns, &mut rng, &mut out);
+            let t = patches.corners(i);
+            match &rule {
+                Some(r) => out.extend(
+                    r.iter()
+                        .map(|(b, _)| b[0] * t[0] + b[1] * t[1] + b[2] * t[2]),
+                ),
+                None => {
+                    let mut rng = Rng::new(&[settings.seed, i as u64, 0x5A4D]);
+                    stratified_triangle_points(t, ns, &mut rng, &mut out);
+                }
+            }
             out
         })
         .collect();
@@ -231,7 +251,8 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
                 let near = ci.distance_squared(cj) < NEAR_FIELD_FACTOR * ai.max(aj);
                 let (mut fij, mut fji) = (0.0, 0.0);
                 for k in 0..ns {
-                    let (x, y) = (pi[k], pj[(k + shift) % ns]);
+                    let ky = (k + shift) % ns;
+                    let (x, y) = (pi[k], pj[ky]);
                     let v = if valid_k[k] {
                         vis_k[k] as u8 as f64
                     } else {
@@ -242,7 +263,8 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
                     }
                     match (settings.estimator, near) {
                         (Estimator::Area, false) => {
-                            let g = kernel::point_to_point(x, ni, y, nj) * v;
+                            // Monte Carlo over the pair (x, y): uniform weights 1/n.
+                            let g = kernel::point_to_point(x, ni, y, nj) * v * weights[k];
                             fij += aj * g;
                             fji += ai * g;
                         }
@@ -250,15 +272,14 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
                             // The contour integral needs the point in front of the polygon
                             // (one-sided surfaces); a point behind it sees its back: zero.
                             if nj.dot(x - cj) > 0.0 {
-                                fij += kernel::point_to_polygon(x, ni, &tj) * v;
+                                fij += weights[k] * kernel::point_to_polygon(x, ni, &tj) * v;
                             }
                             if ni.dot(y - ci) > 0.0 {
-                                fji += kernel::point_to_polygon(y, nj, &ti) * v;
+                                fji += weights[ky] * kernel::point_to_polygon(y, nj, &ti) * v;
                             }
                         }
                     }
                 }
-                let (fij, fji) = (fij / ns as f64, fji / ns as f64);
                 if fij > 0.0 {
                     upper.push((j as u32, fij as f32));
                 }

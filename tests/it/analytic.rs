@@ -9,7 +9,7 @@ fn settings(estimator: Estimator, solver: Method) -> verify::Settings {
     verify::Settings {
         form_factors: form_factor::Settings {
             estimator,
-            samples: 4,
+            samples: 3,
             seed: 1,
         },
         solver,
