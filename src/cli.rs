@@ -155,9 +155,21 @@ pub struct FormFactorArgs {
         help_heading = "Form factors"
     )]
     pub samples: u32,
+    /// Cosine-weighted rays per patch (hemisphere estimator).
+    #[arg(
+        long,
+        default_value_t = 1024,
+        value_name = "N",
+        help_heading = "Form factors"
+    )]
+    pub rays: u32,
     /// Seed of all sampling (same seed ⇒ same result for any thread count).
     #[arg(long, default_value_t = 1, help_heading = "Form factors")]
     pub seed: u64,
+    /// Enforce reciprocity: F_ij ← (A_i F_ij + A_j F_ji)/(2 A_i) (rows then sum to 1 only on
+    /// average).
+    #[arg(long, help_heading = "Form factors")]
+    pub reciprocity: bool,
 }
 
 impl FormFactorArgs {
@@ -166,10 +178,16 @@ impl FormFactorArgs {
         if self.samples == 0 {
             return Err(Error::usage("--samples", "must be at least 1"));
         }
+        if self.rays == 0 {
+            return Err(Error::usage("--rays", "must be at least 1"));
+        }
         Ok(form_factor::Settings {
             estimator: self.form_factors,
             samples: self.samples,
+            rays: self.rays,
             seed: self.seed,
+            reciprocity: self.reciprocity,
+            ..form_factor::Settings::default()
         })
     }
 }

@@ -136,7 +136,12 @@ pub fn integrating_sphere(settings: &Settings, bounces: Option<u32>) -> Result<C
             settings.solver.name()
         ),
     };
-    Ok(case(&name, expected, got, err, 0.02, t))
+    // Hemisphere shooting adds Monte Carlo noise: a wall patch's one-bounce value is ρ·Le times
+    // the fraction of its N rays that hit the cap (probability f = mean(Le)/Le), a binomial
+    // with relative standard deviation σ = √((1 − f)/(f N)); the mean of |error| over ~1200
+    // patches is ≈ 0.8σ with negligible spread, so σ is added to the geometric bound.
+    let noise = hemisphere_sigma(settings, mean_le, 1);
+    Ok(case(&name, expected, got, err, 0.02 + noise, t))
 }
 
 /// Furnace: closed non-convex room (two boxes inside), ρ = 0.5, Le = 1 everywhere: every patch
@@ -206,12 +211,13 @@ pub fn plates(settings: &Settings) -> Result<Vec<Case>> {
     let out = run_case(&scene, 0.1, settings, solve::Method::Neumann, 1)?;
     let expected = reference::parallel_rectangles(1.0, 1.0, 1.0);
     let got = surface_form_factor(&out, 1, 0);
+    let noise = 3.0 * hemisphere_sigma(settings, expected, out.patches.len() / 2);
     cases.push(case(
         "form factor, parallel unit squares 1 apart (Howell C-11)",
         expected,
         got,
         (got - expected).abs() / expected,
-        5e-3,
+        5e-3 + noise,
         t,
     ));
     let t = Instant::now();
@@ -219,15 +225,27 @@ pub fn plates(settings: &Settings) -> Result<Vec<Case>> {
     let out = run_case(&scene, 0.1, settings, solve::Method::Neumann, 1)?;
     let expected = reference::perpendicular_rectangles(1.0, 1.0, 1.0);
     let got = surface_form_factor(&out, 1, 0);
+    let noise = 3.0 * hemisphere_sigma(settings, expected, out.patches.len() / 2);
     cases.push(case(
         "form factor, perpendicular unit squares, common edge (Howell C-14)",
         expected,
         got,
         (got - expected).abs() / expected,
-        5e-3,
+        5e-3 + noise,
         t,
     ));
     Ok(cases)
+}
+
+/// Relative standard deviation of a hemisphere-shooting estimate of a form factor of size `f`
+/// from `patches` patches' rays pooled (binomial: √((1 − f)/(f N))); 0 for the other
+/// estimators, whose error is deterministic quadrature error.
+fn hemisphere_sigma(settings: &Settings, f: f64, patches: usize) -> f64 {
+    if settings.form_factors.estimator != form_factor::Estimator::Hemisphere {
+        return 0.0;
+    }
+    let n = settings.form_factors.rays as f64 * patches.max(1) as f64;
+    ((1.0 - f) / (f * n)).sqrt()
 }
 
 /// The whole suite, in the order the table prints it.

@@ -22,6 +22,7 @@
 //!   integration over i, including patches that share an edge; in a closed unoccluded scene
 //!   each point's form factors sum to exactly 1.
 
+pub mod hemisphere;
 pub mod kernel;
 pub mod sampling;
 
@@ -50,6 +51,8 @@ pub enum Estimator {
     Area,
     /// Exact point-to-polygon integrand × ray visibility.
     Contour,
+    /// Cosine-weighted rays from each patch; the first hit names the receiving patch.
+    Hemisphere,
 }
 
 /// Settings of the form-factor estimation.
@@ -57,10 +60,20 @@ pub enum Estimator {
 pub struct Settings {
     /// The estimator.
     pub estimator: Estimator,
-    /// Sample points per patch and visibility rays per patch pair; ≥ 1.
+    /// Sample points per patch and visibility rays per patch pair (area, contour); ≥ 1.
     pub samples: u32,
+    /// Rays per patch (hemisphere); ≥ 1.
+    pub rays: u32,
+    /// Enforce reciprocity afterwards: F_ij ← (A_i F_ij + A_j F_ji) / (2 A_i). This averages
+    /// the two independent estimates of each exchange A_i F_ij = A_j F_ji, halving their
+    /// variance, but a row then sums to 1 only on average (rows of small patches next to large
+    /// ones can exceed 1 by the estimators' error), so it is off by default.
+    pub reciprocity: bool,
     /// Seed of every random choice; the same seed gives the same F for any thread count.
     pub seed: u64,
+    /// Skip visibility rays in convex enclosures ([`is_convex_enclosure`]); on by default, off
+    /// only to measure or test what the skip saves.
+    pub skip_convex: bool,
 }
 
 impl Default for Settings {
@@ -68,7 +81,10 @@ impl Default for Settings {
         Settings {
             estimator: Estimator::Contour,
             samples: 3,
+            rays: 1024,
             seed: 1,
+            reciprocity: false,
+            skip_convex: true,
         }
     }
 }
@@ -82,6 +98,9 @@ pub struct Stats {
     pub pairs: u64,
     /// Unordered pairs culled without any ray because one lies behind the other's plane.
     pub pairs_culled: u64,
+    /// True when the scene was recognised as a convex enclosure (every patch in front of every
+    /// other's plane), where nothing can occlude anything and no visibility ray is cast.
+    pub convex_enclosure: bool,
     /// Non-zeros of F.
     pub nnz: u64,
     /// Smallest, mean and largest row sum Σ_j F_ij.
@@ -161,8 +180,43 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
     if settings.samples == 0 {
         return Err(Error::usage("--samples", "must be at least 1"));
     }
+    if settings.rays == 0 {
+        return Err(Error::usage("--rays", "must be at least 1"));
+    }
+    let n = patches.len();
+    let mut stats = Stats::default();
+    let mut matrix = if settings.estimator == Estimator::Hemisphere {
+        let rows = hemisphere::rows(patches, vis, settings.rays, settings.seed);
+        stats.rays_cast = rows.iter().map(|r| r.1).sum();
+        assemble_rows(n, rows.into_iter().map(|r| r.0).collect())?
+    } else {
+        pairwise(patches, vis, settings, &mut stats)?
+    };
+    if settings.reciprocity {
+        matrix = enforce_reciprocity(&matrix, &patches.area)?;
+    }
+    let mut ff = FormFactors { matrix, stats };
+    ff.stats.nnz = ff.matrix.nnz() as u64;
+    let sums = ff.row_sums();
+    if !sums.is_empty() {
+        ff.stats.row_sum_min = sums.iter().copied().fold(f64::INFINITY, f64::min);
+        ff.stats.row_sum_max = sums.iter().copied().fold(0.0, f64::max);
+        ff.stats.row_sum_mean = sums.iter().sum::<f64>() / sums.len() as f64;
+    }
+    Ok(ff)
+}
+
+/// The pair estimators (area, contour): every unordered pair once, both directions.
+fn pairwise(
+    patches: &Patches,
+    vis: &Visibility,
+    settings: &Settings,
+    stats: &mut Stats,
+) -> Result<CsMatI<f32, u32>> {
     let n = patches.len();
     let ns = settings.samples as usize;
+    let convex = settings.skip_convex && is_convex_enclosure(patches);
+    stats.convex_enclosure = convex;
     // Sample points of every patch, fixed per patch, with their quadrature weights (the same
     // for every patch). The contour estimator integrates a smooth integrand over the
     // receiving patch, so it uses a symmetric Gauss rule where one has exactly `samples`
@@ -171,7 +225,7 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
     // serve every pair, so in a closed unoccluded scene the contour rows sum to exactly 1.
     let rule = match settings.estimator {
         Estimator::Contour => sampling::gauss_rule(ns),
-        Estimator::Area => None,
+        _ => None,
     };
     let weights: Vec<f64> = match &rule {
         Some(r) => r.iter().map(|p| p.1).collect(),
@@ -236,9 +290,11 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
                     // front of the other's surface.
                     valid_k[k] = ni.dot(d) > 0.0 && nj.dot(d) < 0.0;
                     if valid_k[k] {
-                        local_rays += 1;
                         n_valid += 1;
-                        vis_k[k] = !vis.occluded(x, y, [i as u32, j as u32]);
+                        vis_k[k] = convex || {
+                            local_rays += 1;
+                            !vis.occluded(x, y, [i as u32, j as u32])
+                        };
                         n_visible += vis_k[k] as u32;
                     }
                 }
@@ -293,24 +349,10 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
         })
         .collect();
 
-    let matrix = assemble(n, rows)?;
-    let mut ff = FormFactors {
-        matrix,
-        stats: Stats {
-            rays_cast: rays.into_inner(),
-            pairs: (n as u64) * (n as u64).saturating_sub(1) / 2,
-            pairs_culled: culled.into_inner(),
-            ..Stats::default()
-        },
-    };
-    ff.stats.nnz = ff.matrix.nnz() as u64;
-    let sums = ff.row_sums();
-    if !sums.is_empty() {
-        ff.stats.row_sum_min = sums.iter().copied().fold(f64::INFINITY, f64::min);
-        ff.stats.row_sum_max = sums.iter().copied().fold(0.0, f64::max);
-        ff.stats.row_sum_mean = sums.iter().sum::<f64>() / sums.len() as f64;
-    }
-    Ok(ff)
+    stats.rays_cast = rays.into_inner();
+    stats.pairs = (n as u64) * (n as u64).saturating_sub(1) / 2;
+    stats.pairs_culled = culled.into_inner();
+    assemble(n, rows)
 }
 
 /// What task i produces: (column j, F_ij) for j > i, and (row j, F_ji) for j > i.
@@ -359,4 +401,90 @@ fn assemble(n: usize, rows: Vec<PairRows>) -> Result<CsMatI<f32, u32>> {
     let indptr: Vec<u32> = counts.iter().map(|&c| c as u32).collect();
     CsMatI::try_new((n, n), indptr, indices, data)
         .map_err(|e| Error::Internal(format!("CSR assembly: {}", e.3)))
+}
+
+/// CSR from complete rows (each sorted by column).
+fn assemble_rows(n: usize, rows: Vec<Vec<(u32, f32)>>) -> Result<CsMatI<f32, u32>> {
+    let mut indptr = Vec::with_capacity(n + 1);
+    indptr.push(0u32);
+    let nnz: usize = rows.iter().map(|r| r.len()).sum();
+    if nnz > u32::MAX as usize {
+        return Err(Error::Internal(format!(
+            "{nnz} form factors do not fit 32-bit indices"
+        )));
+    }
+    let (mut indices, mut data) = (Vec::with_capacity(nnz), Vec::with_capacity(nnz));
+    for row in rows {
+        for (j, f) in row {
+            indices.push(j);
+            data.push(f);
+        }
+        indptr.push(indices.len() as u32);
+    }
+    CsMatI::try_new((n, n), indptr, indices, data)
+        .map_err(|e| Error::Internal(format!("CSR assembly: {}", e.3)))
+}
+
+/// F̃_ij = (A_i F_ij + A_j F_ji) / (2 A_i): the symmetric part of the exchange matrix A·F,
+/// so that A_i F̃_ij = A_j F̃_ji exactly. Sparsity pattern: the union of F's and Fᵀ's.
+fn enforce_reciprocity(f: &CsMatI<f32, u32>, area: &[f64]) -> Result<CsMatI<f32, u32>> {
+    let n = f.rows();
+    let ft: CsMatI<f32, u32> = f.transpose_view().to_csr();
+    let rows: Vec<Vec<(u32, f32)>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let a = f.outer_view(i).expect("row in range");
+            let b = ft.outer_view(i).expect("row in range");
+            // Merge two sorted rows: F_ij from `a`, F_ji from `b` (row i of Fᵀ).
+            let (ai, ad) = (a.indices(), a.data());
+            let (bi, bd) = (b.indices(), b.data());
+            let (mut p, mut q) = (0, 0);
+            let mut out = Vec::with_capacity(ai.len().max(bi.len()));
+            while p < ai.len() || q < bi.len() {
+                let ja = ai.get(p).copied().unwrap_or(u32::MAX);
+                let jb = bi.get(q).copied().unwrap_or(u32::MAX);
+                let j = ja.min(jb);
+                let fij = if ja == j {
+                    p += 1;
+                    ad[p - 1] as f64
+                } else {
+                    0.0
+                };
+                let fji = if jb == j {
+                    q += 1;
+                    bd[q - 1] as f64
+                } else {
+                    0.0
+                };
+                let v = (area[i] * fij + area[j as usize] * fji) / (2.0 * area[i]);
+                out.push((j, v as f32));
+            }
+            out
+        })
+        .collect();
+    assemble_rows(n, rows)
+}
+
+/// True when every patch vertex lies on or in front of every patch's plane: the patches bound
+/// a convex region from inside (an integrating sphere, an empty box room), so the segment
+/// between two surface points never leaves that region and nothing can block it. O(patches ×
+/// vertices) with an early exit, so non-convex scenes pay little; very large scenes
+/// (> 2·10⁹ tests) are not checked and are treated as non-convex.
+pub fn is_convex_enclosure(patches: &Patches) -> bool {
+    let (n, v) = (patches.len(), patches.positions.len());
+    if n == 0 || (n as f64) * (v as f64) > 2e9 {
+        return false;
+    }
+    let (lo, hi) = patches
+        .positions
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    // Vertices on a plane (shared edges, coplanar patches) must not count as behind it.
+    let tol = 1e-9 * (hi - lo).length();
+    (0..n).into_par_iter().all(|i| {
+        let (c, nrm) = (patches.centroid[i], patches.normal[i]);
+        patches.positions.iter().all(|p| nrm.dot(*p - c) >= -tol)
+    })
 }

@@ -180,3 +180,78 @@ fn bvh_visibility_equals_brute_force_on_cornell_patches() {
     // Both outcomes are exercised (the blocks and the walls' backs block many segments).
     assert!(blocked > 500 && blocked < 4500, "{blocked}");
 }
+
+#[test]
+fn hemisphere_rows_sum_to_one_in_closed_scenes_and_never_exceed_it() {
+    // Every ray lands on exactly one front face in a closed, consistently oriented scene, so a
+    // row is (N hits)/N = 1 up to f32 storage of k/N (≤ 1e-7 per entry).
+    let scene = scenes::furnace_room(0.5, 1.0).unwrap();
+    let mut s = settings(0.2, Estimator::Hemisphere, 1, Method::Neumann, 1);
+    s.form_factors.rays = 256;
+    let out = run(&scene, &s);
+    assert!(!out.form_factors.stats.convex_enclosure);
+    for (i, sum) in out.form_factors.row_sums().iter().enumerate() {
+        assert!((sum - 1.0).abs() < 1e-5, "row {i} sums to {sum}");
+    }
+    // In the open Cornell box rows are ≤ 1 (rays escape through the front).
+    let cornell = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
+    s.max_edge = Some(100.0);
+    let out = run(&cornell, &s);
+    out.form_factors.validate(1e-5).unwrap();
+    assert!(out.form_factors.stats.row_sum_mean < 0.99);
+}
+
+#[test]
+fn reciprocity_enforcement_is_exact_and_keeps_the_answer() {
+    let scene = scenes::furnace_room(0.5, 1.0).unwrap();
+    let mut s = settings(0.25, Estimator::Hemisphere, 1, Method::GaussSeidel, 1);
+    s.form_factors.rays = 512;
+    s.form_factors.reciprocity = true;
+    let out = run(&scene, &s);
+    let f = &out.form_factors.matrix;
+    let a = &out.patches.area;
+    for (i, row) in f.outer_iterator().enumerate() {
+        for (j, &fij) in row.iter() {
+            let fji = f.get(j, i).copied().unwrap_or(0.0) as f64;
+            let (x, y) = (a[i] * fij as f64, a[j] * fji);
+            // Exact up to f32 storage of each entry (relative 6e-8).
+            assert!(
+                (x - y).abs() <= 1e-6 * x.max(y),
+                "A F between {i} and {j}: {x} vs {y}"
+            );
+        }
+    }
+    // Rows still sum to 1 on average (the average of two estimates that each sum to 1).
+    let sums = out.form_factors.row_sums();
+    let mean = sums.iter().zip(a).map(|(s, a)| s * a).sum::<f64>() / a.iter().sum::<f64>();
+    assert!(
+        (mean - 1.0).abs() < 1e-6,
+        "area-weighted mean row sum {mean}"
+    );
+}
+
+#[test]
+fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
+    let sphere = scenes::integrating_sphere(1.0, 2, 30.0, 0.5, [1.0; 3]).unwrap();
+    let skip = run(
+        &sphere,
+        &settings(1.0, Estimator::Contour, 3, Method::Neumann, 1),
+    );
+    assert!(skip.form_factors.stats.convex_enclosure);
+    assert_eq!(skip.form_factors.stats.rays_cast, 0);
+    let mut s = settings(1.0, Estimator::Contour, 3, Method::Neumann, 1);
+    s.form_factors.skip_convex = false;
+    let cast = run(&sphere, &s);
+    assert!(cast.form_factors.stats.rays_cast > 0);
+    // Nothing occludes inside a sphere: the rays change nothing, bit for bit.
+    assert_eq!(skip.form_factors.matrix, cast.form_factors.matrix);
+    // The furnace and the Cornell box are not convex.
+    let furnace = scenes::furnace_room(0.5, 1.0).unwrap();
+    assert!(!radiosity::form_factor::is_convex_enclosure(
+        &patch::subdivide(&furnace, 0.5).unwrap()
+    ));
+    let cornell = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
+    assert!(!radiosity::form_factor::is_convex_enclosure(
+        &patch::subdivide(&cornell, 200.0).unwrap()
+    ));
+}

@@ -36,6 +36,7 @@ pub fn settings(
             estimator,
             samples,
             seed: 7,
+            ..form_factor::Settings::default()
         },
         solver: solve::Settings {
             method,

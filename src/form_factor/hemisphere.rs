@@ -1,0 +1,132 @@
+//! Hemisphere shooting: the solid-angle form of the form factor. From stratified points of
+//! patch i, cosine-weighted directions are traced to their first hit; the fraction of rays
+//! that land on the front of patch j estimates F_ij (Cohen & Wallace §4.9; Malley's method for
+//! the cosine-weighted directions, pbrt-v4 `SampleCosineHemisphere`):
+//!
+//! F_ij = (1/A_i) ∫_Ai ∫_Ω (cosθ/π) · [ray(x, ω) first hits j] dω dA_i ≈ (1/N) Σ_k [hit_k = j].
+//!
+//! Every ray lands on at most one patch, so a row sums to (rays that hit a front face)/N ≤ 1,
+//! and exactly 1 in a closed scene: the furnace is exact whatever the noise. The cost is
+//! O(patches × rays) instead of O(patches²), so it is the estimator for large scenes; its
+//! error is Monte Carlo noise, O(N^-½) per entry.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::sampling::Rng;
+use crate::patch::Patches;
+use crate::visibility::Visibility;
+
+/// Barycentric margin that keeps ray origins off the patch's edges (an unsampled strip of
+/// relative area ≈ 6e-4, a bias far below the estimator's noise).
+const EDGE_MARGIN: f64 = 1e-4;
+
+/// The row of F for patch `i` (sorted by column) and the number of rays cast.
+pub fn row(
+    patches: &Patches,
+    vis: &Visibility,
+    i: usize,
+    rays: u32,
+    seed: u64,
+) -> (Vec<(u32, f32)>, u64) {
+    let n = rays as usize;
+    let mut rng = Rng::new(&[seed, i as u64, 0x4E4D]);
+    // Latin-hypercube strata, independent permutations for position (u, v) and direction
+    // (s, t): every 1D projection is stratified.
+    let perms: [Vec<usize>; 3] = std::array::from_fn(|_| {
+        let mut p: Vec<usize> = (0..n).collect();
+        for k in (1..n).rev() {
+            p.swap(k, rng.below(k + 1));
+        }
+        p
+    });
+    let [a, b, c] = patches.corners(i);
+    let normal = patches.normal[i];
+    let (tangent, bitangent) = orthonormal_basis(normal);
+    let mut hits: Vec<u32> = Vec::with_capacity(n);
+    #[allow(clippy::needless_range_loop)] // k is the stratum index of four arrays
+    for k in 0..n {
+        let u = (k as f64 + rng.next_f64()) / n as f64;
+        let v = (perms[0][k] as f64 + rng.next_f64()) / n as f64;
+        let su = u.sqrt();
+        // Barycentrics pulled in by EDGE_MARGIN: an origin within f32 rounding of an edge
+        // could otherwise "hit" the coplanar neighbour from behind at t ≈ 0, or start so
+        // close to an adjacent wall that the hit falls below the minimum distance.
+        let w = [1.0 - su, su * (1.0 - v), su * v]
+            .map(|x| (x + EDGE_MARGIN) / (1.0 + 3.0 * EDGE_MARGIN));
+        let origin = w[0] * a + w[1] * b + w[2] * c;
+        let s = (perms[1][k] as f64 + rng.next_f64()) / n as f64;
+        let t = (perms[2][k] as f64 + rng.next_f64()) / n as f64;
+        // Malley: uniform on the unit disk (polar map), lifted onto the hemisphere, gives
+        // density cosθ/π.
+        let r = s.sqrt();
+        let phi = 2.0 * std::f64::consts::PI * t;
+        let (dx, dy) = (r * phi.cos(), r * phi.sin());
+        let dz = (1.0 - s).max(0.0).sqrt();
+        let dir = dx * tangent + dy * bitangent + dz * normal;
+        if let Some(hit) = vis.closest_hit(origin, dir, f64::INFINITY, i as u32) {
+            let j = hit.triangle;
+            // Only the front of a one-sided surface receives light.
+            if patches.normal[j as usize].dot(dir) < 0.0 {
+                hits.push(j);
+            }
+        }
+    }
+    hits.sort_unstable();
+    let mut row: Vec<(u32, f32)> = Vec::new();
+    for j in hits {
+        match row.last_mut() {
+            Some(last) if last.0 == j => last.1 += 1.0,
+            _ => row.push((j, 1.0)),
+        }
+    }
+    for e in &mut row {
+        e.1 /= n as f32;
+    }
+    (row, n as u64)
+}
+
+/// All rows, in parallel (deterministic: each row depends only on (seed, i)).
+pub fn rows(
+    patches: &Patches,
+    vis: &Visibility,
+    rays: u32,
+    seed: u64,
+) -> Vec<(Vec<(u32, f32)>, u64)> {
+    (0..patches.len())
+        .into_par_iter()
+        .map(|i| row(patches, vis, i, rays, seed))
+        .collect()
+}
+
+/// A right-handed orthonormal basis (t, b) with t × b = n (Duff et al., "Building an
+/// orthonormal basis, revisited", JCGT 2017).
+fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
+    let sign = 1f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        DVec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn basis_is_orthonormal() {
+        for n in [
+            DVec3::Z,
+            -DVec3::Z,
+            DVec3::X,
+            DVec3::new(0.3, -0.5, 0.8).normalize(),
+        ] {
+            let (t, b) = orthonormal_basis(n);
+            assert!((t.length() - 1.0).abs() < 1e-12 && (b.length() - 1.0).abs() < 1e-12);
+            assert!(t.dot(b).abs() < 1e-12 && t.dot(n).abs() < 1e-12 && b.dot(n).abs() < 1e-12);
+            assert!((t.cross(b) - n).length() < 1e-12);
+        }
+    }
+}
