@@ -99,9 +99,20 @@ fn bake_cornell_to_ply_and_obj_and_read_back() {
 fn output_is_identical_for_one_and_two_threads() {
     let dir = temp_dir("threads");
     let (a, b) = (dir.join("a.ply"), dir.join("b.ply"));
-    assert!(bake(&a, &["--threads", "1"]).status.success());
-    assert!(bake(&b, &["--threads", "2"]).status.success());
-    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    for estimator in ["contour", "area", "hemisphere"] {
+        let ff = ["--form-factors", estimator, "--rays", "64"];
+        assert!(bake(&a, &[&ff[..], &["--threads", "1"]].concat())
+            .status
+            .success());
+        assert!(bake(&b, &[&ff[..], &["--threads", "2"]].concat())
+            .status
+            .success());
+        assert_eq!(
+            std::fs::read(&a).unwrap(),
+            std::fs::read(&b).unwrap(),
+            "{estimator}"
+        );
+    }
     let _ = std::fs::remove_dir_all(dir);
 }
 
