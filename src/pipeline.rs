@@ -70,15 +70,24 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     report.patches = patches.len();
     seconds.patches = t.elapsed().as_secs_f64();
 
-    let t = Instant::now();
-    let corners: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
-    let visibility = Visibility::build(&corners);
-    seconds.bvh = t.elapsed().as_secs_f64();
+    let form_factors = if scene.has_emitters() {
+        let t = Instant::now();
+        let corners: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
+        let visibility = Visibility::build(&corners);
+        seconds.bvh = t.elapsed().as_secs_f64();
 
-    let t = Instant::now();
-    let form_factors = form_factor::compute(&patches, &visibility, &settings.form_factors)?;
+        let t = Instant::now();
+        let form_factors = form_factor::compute(&patches, &visibility, &settings.form_factors)?;
+        seconds.form_factors = t.elapsed().as_secs_f64();
+        form_factors
+    } else {
+        // Without emitters L = 0 whatever F is: skip the BVH and the form factors.
+        report
+            .warnings
+            .push("no emitters in the scene (no material has Ke > 0): the result is black".into());
+        FormFactors::empty(patches.len())
+    };
     report.form_factors = form_factors.stats.clone();
-    seconds.form_factors = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
     let system = System {
@@ -86,11 +95,6 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
         reflectance: &patches.reflectance,
         emission: &patches.emission,
     };
-    if !scene.has_emitters() {
-        report
-            .warnings
-            .push("no emitters in the scene (no material has Ke > 0): the result is black".into());
-    }
     let solution = solve::solve(&system, &settings.solver)?;
     report.iterations = solution.iterations;
     report.residual = solution.residual;

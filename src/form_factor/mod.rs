@@ -131,6 +131,14 @@ impl FormFactors {
         self.matrix.rows() == 0
     }
 
+    /// An all-zero n × n matrix (what a scene without emitters needs).
+    pub fn empty(n: usize) -> FormFactors {
+        FormFactors {
+            matrix: CsMatI::zero((n, n)),
+            stats: Stats::default(),
+        }
+    }
+
     /// Σ_j F_ij for every row i, accumulated in f64.
     pub fn row_sums(&self) -> Vec<f64> {
         let (indptr, data) = (self.matrix.indptr(), self.matrix.data());
