@@ -6,6 +6,8 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+use glam::DVec3;
+use radiosity::export::{png, BakedMesh};
 use radiosity::form_factor::{self, Estimator};
 use radiosity::pipeline::{self, WriteOptions};
 use radiosity::solve::{self, Method};
@@ -36,6 +38,62 @@ pub enum Command {
     Verify(VerifyArgs),
     /// Write one of the verification scenes as OBJ + MTL (to try the tool or other renderers).
     Generate(GenerateArgs),
+    /// Render a picture (PNG) of a baked PLY, or of a scene (baked first with the options given).
+    Render(RenderArgs),
+}
+
+/// Options of `radiosity render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// A PLY written by `radiosity bake` (rendered as it is), or a scene OBJ (baked first).
+    pub input: PathBuf,
+    /// Output picture (.png).
+    #[arg(short, long, value_name = "FILE.png")]
+    pub output: PathBuf,
+    /// Radiance multiplier before the sRGB curve [default: automatic, as for bake].
+    #[arg(
+        long,
+        value_name = "X",
+        allow_negative_numbers = true,
+        help_heading = "Picture"
+    )]
+    pub exposure: Option<f64>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    #[command(flatten)]
+    pub solve: SolveArgs,
+}
+
+/// Picture options shared by `render` and `bake --png`.
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// Camera as eye,target,up,fov: nine coordinates in scene units and the vertical field of
+    /// view in degrees, e.g. 278,273,-800,278,273,0,0,1,0,39.3 [default: frame the bounding box
+    /// from its −z side, 39.3°].
+    #[arg(
+        long,
+        value_name = "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOV",
+        allow_hyphen_values = true,
+        help_heading = "Picture"
+    )]
+    pub camera: Option<String>,
+    /// Picture size in pixels, WIDTHxHEIGHT or one number for a square.
+    #[arg(
+        long,
+        default_value = "512",
+        value_name = "WxH",
+        help_heading = "Picture"
+    )]
+    pub size: String,
+    /// Samples per pixel along each axis (n² rays per pixel, for anti-aliasing).
+    #[arg(long, default_value_t = 2, value_name = "N", help_heading = "Picture")]
+    pub spp: u32,
+    /// Show each patch's own solved radiance (no interpolation).
+    #[arg(long, help_heading = "Picture")]
+    pub flat: bool,
+    /// Map luminance to a colour scale with a legend instead of sRGB colours.
+    #[arg(long, alias = "false-color", help_heading = "Picture")]
+    pub false_colour: bool,
 }
 
 /// The procedural scenes `radiosity generate` can write.
@@ -85,18 +143,11 @@ pub struct BakeArgs {
         help_heading = "Output"
     )]
     pub exposure: Option<f64>,
-    /// Also render a picture of the result (PNG) from the default camera (see
-    /// `export::png::Camera::framing`).
+    /// Also render a picture of the result (PNG); see the Picture options.
     #[arg(long, value_name = "FILE.png", help_heading = "Output")]
     pub png: Option<PathBuf>,
-    /// Width and height of the --png picture, pixels.
-    #[arg(
-        long,
-        default_value_t = 512,
-        value_name = "PIXELS",
-        help_heading = "Output"
-    )]
-    pub png_size: u32,
+    #[command(flatten)]
+    pub view: ViewArgs,
     #[command(flatten)]
     pub solve: SolveArgs,
 }
@@ -253,5 +304,59 @@ impl BakeArgs {
             ascii: self.ascii,
             exposure: self.exposure,
         })
+    }
+}
+
+impl ViewArgs {
+    /// Validated picture settings for `mesh` (the default camera frames its bounding box).
+    pub fn view(&self, mesh: &BakedMesh, exposure: f64) -> Result<png::View> {
+        let (width, height) = parse_size(&self.size)?;
+        if self.spp == 0 || self.spp > 16 {
+            return Err(Error::usage(
+                "--spp",
+                format!("{} is not in 1..=16", self.spp),
+            ));
+        }
+        let camera = match &self.camera {
+            Some(text) => png::Camera::parse(text)?,
+            None => {
+                let (lo, hi) = mesh
+                    .positions
+                    .iter()
+                    .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+                        (lo.min(DVec3::from_array(*p)), hi.max(DVec3::from_array(*p)))
+                    });
+                png::Camera::framing(lo, hi)
+            }
+        };
+        Ok(png::View {
+            camera,
+            width,
+            height,
+            spp: self.spp,
+            flat: self.flat,
+            false_colour: self.false_colour,
+            exposure,
+        })
+    }
+}
+
+/// `W`x`H` or `N` (square), each in 1..=16384.
+fn parse_size(text: &str) -> Result<(u32, u32)> {
+    let bad = || {
+        Error::usage(
+            "--size",
+            format!("{text:?} is not WIDTHxHEIGHT or N (1..=16384)"),
+        )
+    };
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|n| (1..=16384).contains(n))
+    };
+    match text.split_once(['x', 'X']) {
+        Some((w, h)) => Ok((parse(w).ok_or_else(bad)?, parse(h).ok_or_else(bad)?)),
+        None => parse(text).map(|n| (n, n)).ok_or_else(bad),
     }
 }

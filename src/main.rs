@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
-use cli::{BakeArgs, Cli, Command, GenerateArgs, SceneKind, VerifyArgs};
+use cli::{BakeArgs, Cli, Command, GenerateArgs, RenderArgs, SceneKind, VerifyArgs};
 use radiosity::export::png;
 use radiosity::{export, pipeline, verify, Error};
 
@@ -41,6 +41,7 @@ fn main() -> ExitCode {
         Command::Bake(args) => bake(args, cli.quiet),
         Command::Verify(args) => verify(args, cli.quiet),
         Command::Generate(args) => generate(args),
+        Command::Render(args) => render(args, cli.quiet),
     };
     match result {
         Ok(code) => ExitCode::from(code),
@@ -62,8 +63,9 @@ fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
     for path in args.report.iter().chain(&args.png) {
         export::check_output_dir(path)?;
     }
-    if args.png_size == 0 || args.png_size > 16384 {
-        return Err(Error::usage("--png-size", "must be in 1..=16384"));
+    if args.png.is_some() {
+        // Validate the picture options before the long work (the mesh is not needed for it).
+        args.view.view(&export::BakedMesh::default(), 1.0)?;
     }
     let outcome = pipeline::run(&args.input, &args.output, &settings, &options)?;
     let report = &outcome.report;
@@ -74,19 +76,8 @@ fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
         report.write_json(path)?;
     }
     if let Some(path) = &args.png {
-        let (lo, hi) = bounds(&outcome.baked.positions);
-        let camera = png::Camera::framing(lo, hi);
-        let size = args.png_size;
-        let image = png::render(
-            &outcome.baked,
-            &camera,
-            size,
-            size,
-            2,
-            report.exposure,
-            false,
-        );
-        png::save(path, &image)?;
+        let view = args.view.view(&outcome.baked, report.exposure)?;
+        png::save(path, &png::render(&outcome.baked, &view))?;
     }
     if !quiet {
         eprintln!("{}: {}", args.output.display(), report.summary());
@@ -130,15 +121,72 @@ fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Error> {
     Ok(if failed > 0 { 1 } else { 0 })
 }
 
-/// Bounding box of a point list.
-fn bounds(points: &[[f64; 3]]) -> (glam::DVec3, glam::DVec3) {
-    points.iter().fold(
-        (glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY),
-        |(lo, hi), p| {
-            let p = glam::DVec3::from_array(*p);
-            (lo.min(p), hi.max(p))
-        },
-    )
+fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
+    use radiosity::export::{ply, BakedMesh};
+    let ext = args.output.extension().map(|e| e.to_ascii_lowercase());
+    if ext.as_deref() != Some(std::ffi::OsStr::new("png")) {
+        return Err(Error::usage(
+            "--output",
+            format!("{}: render writes .png files", args.output.display()),
+        ));
+    }
+    export::check_output_dir(&args.output)?;
+    if let Some(x) = args.exposure {
+        if !(x > 0.0 && x.is_finite()) {
+            return Err(Error::usage(
+                "--exposure",
+                format!("{x} is not a positive number"),
+            ));
+        }
+    }
+    let is_ply = args
+        .input
+        .extension()
+        .map(|e| e.eq_ignore_ascii_case("ply"))
+        == Some(true);
+    let mut code = 0;
+    let mesh = if is_ply {
+        // A baked PLY: positions, faces and the radiance `radiosity bake` wrote.
+        let back = ply::read(&args.input)?;
+        let (Some(vr), Some(fr)) = (back.vertex_radiance, back.face_radiance) else {
+            return Err(Error::Input {
+                path: args.input.clone(),
+                message: "no radiance_r/g/b properties: not a PLY written by radiosity bake".into(),
+            });
+        };
+        let f64s = |v: Vec<[f32; 3]>| v.into_iter().map(|x| x.map(f64::from)).collect();
+        BakedMesh {
+            positions: f64s(back.positions),
+            vertex_radiance: f64s(vr),
+            faces: back.faces,
+            face_radiance: f64s(fr),
+        }
+    } else {
+        let settings = args.solve.settings()?;
+        let scene = radiosity::scene::Scene::load(&args.input)?;
+        let outcome = pipeline::solve_scene(&scene, &settings)?;
+        for w in &outcome.report.warnings {
+            eprintln!("warning: {w}");
+        }
+        if !outcome.report.converged {
+            eprintln!(
+                "warning: the solver did not converge (residual {:.3e})",
+                outcome.report.residual
+            );
+            code = EXIT_NOT_CONVERGED;
+        }
+        if !quiet {
+            eprintln!("{}: {}", args.input.display(), outcome.report.summary());
+        }
+        outcome.baked
+    };
+    mesh.validate()?;
+    let exposure = args
+        .exposure
+        .unwrap_or_else(|| export::auto_exposure(&mesh));
+    let view = args.view.view(&mesh, exposure)?;
+    png::save(&args.output, &png::render(&mesh, &view))?;
+    Ok(code)
 }
 
 fn generate(args: &GenerateArgs) -> Result<u8, Error> {
