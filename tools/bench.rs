@@ -1,0 +1,1269 @@
+//! The run-time-vs-error harness: `cargo run --release --example bench -- [--quick] [--out DIR]`.
+//!
+//! Sweeps the analytic scenes of [`radiosity::scenes`] and the Cornell box over resolution,
+//! estimator and sample count, measures each run's error the way `radiosity verify` does
+//! (against [`radiosity::reference`], or a finer run for the Cornell box), and writes to DIR
+//! (default `target/bench`):
+//!
+//! - `runs.csv`: one row per (run, error kind), with patches, rays and seconds per stage;
+//! - `residuals.csv`: the solver study (Jacobi and Gauss–Seidel on the furnace, ρ up to 0.99),
+//!   relative residual per sweep;
+//! - `orders.csv`: fitted convergence orders, the least-squares slope of log(error) against
+//!   log(h) (h = mean √area of the patches) and against log(samples);
+//! - `error_vs_time_<scene>.png`, `residual_vs_iteration.png`: log-log and log-y charts;
+//! - `summary.md`: the tables to paste into BENCHMARKS.md, with date and machine.
+//!
+//! Runs that differ only in ρ or in the solver share one form-factor computation (F depends
+//! on geometry and estimator only); each such row reports the seconds of the shared
+//! computation, i.e. what a standalone run would have cost. Progress goes to stderr.
+//!
+//! Chart text needs a TrueType font, loaded at run time (plotters' `ab_glyph` backend has none
+//! built in): `$BENCH_FONT` if set, else the first of [`FONT_PATHS`] that exists. Without one
+//! the charts are still drawn, with no title, tick labels or legend, and a warning says so.
+//! This module owns the sweep, the error measures' bookkeeping and the output files; the
+//! error measures themselves follow `src/verify.rs`.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::{bail, Context, Result};
+use clap::ValueEnum;
+use plotters::prelude::*;
+use radiosity::form_factor::{self, Estimator};
+use radiosity::matrix::System;
+use radiosity::pipeline::{self, Outcome};
+use radiosity::scene::Scene;
+use radiosity::solve::{self, Method, Solution};
+use radiosity::{reference, scenes, verify};
+
+/// Fonts tried, in order, for chart text (Debian/Ubuntu, Fedora, Arch, macOS, Windows).
+const FONT_PATHS: &[&str] = &[
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    "/usr/share/fonts/liberation-sans/LiberationSans-Regular.ttf",
+    "/usr/share/fonts/truetype/noto/NotoSans-Regular.ttf",
+    "/usr/share/fonts/noto/NotoSans-Regular.ttf",
+    "/System/Library/Fonts/Supplemental/Arial.ttf",
+    "/Library/Fonts/Arial.ttf",
+    "C:\\Windows\\Fonts\\arial.ttf",
+];
+
+/// Chart size, pixels.
+const CHART: (u32, u32) = (640, 480);
+
+/// Tolerance of the sweeps' Gauss–Seidel solves: far below every discretisation error measured.
+const SWEEP_TOLERANCE: f64 = 1e-8;
+
+/// What the command line asks for.
+struct Args {
+    quick: bool,
+    out: PathBuf,
+}
+
+fn parse_args() -> Result<Args> {
+    let mut args = Args {
+        quick: false,
+        out: PathBuf::from("target/bench"),
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--quick" => args.quick = true,
+            "--out" => args.out = it.next().context("--out needs a directory")?.into(),
+            "-h" | "--help" => {
+                println!(
+                    "cargo run --release --example bench -- [--quick] [--out DIR]\n\n\
+                     --quick    smaller sweep (~2 min on 2 cores) instead of the full one\n\
+                     --out DIR  output directory [default: target/bench]"
+                );
+                std::process::exit(0);
+            }
+            other => bail!("unknown argument {other:?} (try --help)"),
+        }
+    }
+    Ok(args)
+}
+
+/// The sweep's sizes; `--quick` shrinks them.
+struct Plan {
+    sphere_levels: Vec<u32>,
+    furnace_rhos: Vec<f64>,
+    furnace_edges: Vec<f64>,
+    plate_edges: Vec<f64>,
+    cornell_edges: Vec<f64>,
+    cornell_reference_edge: f64,
+    solver_rhos: Vec<f64>,
+    solver_edge: f64,
+}
+
+impl Plan {
+    fn new(quick: bool) -> Plan {
+        Plan {
+            sphere_levels: if quick { vec![2, 3] } else { vec![2, 3, 4] },
+            furnace_rhos: vec![0.5, 0.9],
+            furnace_edges: if quick {
+                vec![0.35, 0.2, 0.14]
+            } else {
+                vec![0.35, 0.2, 0.1]
+            },
+            plate_edges: vec![0.5, 0.25, 0.1],
+            cornell_edges: vec![120.0, 90.0, 60.0],
+            cornell_reference_edge: if quick { 45.0 } else { 30.0 },
+            solver_rhos: vec![0.5, 0.9, 0.99],
+            solver_edge: 0.2,
+        }
+    }
+}
+
+/// The sweep variable of an estimator ("samples" in the tables): sample points per patch for
+/// the pair estimators, rays per patch for hemisphere shooting.
+fn sample_counts(e: Estimator) -> Vec<u32> {
+    match e {
+        Estimator::Area | Estimator::Contour => vec![1, 3, 6],
+        // Hemisphere shooting: the sweep variable is rays per patch.
+        Estimator::Hemisphere => vec![256, 1024, 4096],
+    }
+}
+
+fn estimator_name(e: Estimator) -> String {
+    e.to_possible_value()
+        .map(|v| v.get_name().to_string())
+        .unwrap_or_else(|| format!("{e:?}"))
+}
+
+/// Seconds per stage of one run.
+#[derive(Debug, Clone, Copy, Default)]
+struct Stages {
+    patches: f64,
+    bvh: f64,
+    form_factors: f64,
+    solve: f64,
+}
+
+impl Stages {
+    fn total(&self) -> f64 {
+        self.patches + self.bvh + self.form_factors + self.solve
+    }
+}
+
+/// One run and its errors (one CSV row per error kind).
+#[derive(Debug, Clone)]
+struct Run {
+    scene: String,
+    estimator: String,
+    samples: u32,
+    max_edge: f64,
+    solver: String,
+    patches: usize,
+    /// Mean √area of the patches, scene units: the h of the convergence fits.
+    h: f64,
+    rays: u64,
+    seconds: Stages,
+    /// (kind, relative error); the first kind is the one the charts show.
+    errors: Vec<(String, f64)>,
+}
+
+/// Everything the sweep collects.
+#[derive(Default)]
+struct Results {
+    runs: Vec<Run>,
+    /// The solver study, one entry per (method, ρ).
+    solver_study: Vec<SolverRun>,
+}
+
+struct SolverRun {
+    method: String,
+    rho: f64,
+    history: Vec<f64>,
+    seconds: f64,
+    max_error: f64,
+}
+
+fn main() -> Result<()> {
+    let args = parse_args()?;
+    let start = Instant::now();
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let plan = Plan::new(args.quick);
+    let mut results = Results::default();
+    sphere(&plan, &mut results)?;
+    furnace(&plan, &mut results)?;
+    plates(&plan, &mut results)?;
+    cornell(&plan, &mut results)?;
+    solver_study(&plan, &mut results)?;
+    let sweep_seconds = start.elapsed().as_secs_f64();
+
+    let orders = fit_orders(&results.runs);
+    write_runs_csv(&args.out.join("runs.csv"), &results.runs)?;
+    write_residuals_csv(&args.out.join("residuals.csv"), &results.solver_study)?;
+    write_orders_csv(&args.out.join("orders.csv"), &orders)?;
+    let text = load_font();
+    if !text {
+        eprintln!("warning: no TrueType font found (set BENCH_FONT): charts have no text");
+    }
+    plot_errors(&args.out, &results.runs, text)?;
+    plot_residuals(&args.out, &results.solver_study, text)?;
+    let summary = summary(&args, &results, &orders, sweep_seconds);
+    std::fs::write(args.out.join("summary.md"), &summary)?;
+    println!("{summary}");
+    eprintln!(
+        "bench: {} runs in {:.1} s; wrote {}",
+        results.runs.len(),
+        start.elapsed().as_secs_f64(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Running the pipeline
+
+fn settings(
+    max_edge: f64,
+    ff: form_factor::Settings,
+    solver: solve::Settings,
+) -> pipeline::Settings {
+    pipeline::Settings {
+        max_edge: Some(max_edge),
+        form_factors: ff,
+        solver,
+        ..pipeline::Settings::default()
+    }
+}
+
+fn gauss_seidel(tolerance: f64) -> solve::Settings {
+    solve::Settings {
+        method: Method::GaussSeidel,
+        tolerance,
+        max_iterations: 100_000,
+        ..solve::Settings::default()
+    }
+}
+
+fn neumann(bounces: u32) -> solve::Settings {
+    solve::Settings {
+        method: Method::Neumann,
+        bounces,
+        ..solve::Settings::default()
+    }
+}
+
+fn solver_name(s: &solve::Settings) -> String {
+    match s.method {
+        Method::Neumann => format!("neumann-{}", s.bounces),
+        m => m.name().to_string(),
+    }
+}
+
+/// Every (estimator, samples) pair the sweeps cover.
+fn estimator_settings() -> Vec<form_factor::Settings> {
+    let mut out = Vec::new();
+    for &estimator in Estimator::value_variants() {
+        for samples in sample_counts(estimator) {
+            let mut s = form_factor::Settings {
+                estimator,
+                samples,
+                ..Default::default()
+            };
+            if estimator == Estimator::Hemisphere {
+                s.rays = samples;
+                s.samples = 1;
+            }
+            out.push(s);
+        }
+    }
+    out
+}
+
+/// Run the pipeline and fill a [`Run`] (errors left empty).
+fn run(scene: &Scene, name: &str, s: &pipeline::Settings) -> Result<(Outcome, Run)> {
+    let out = pipeline::solve_scene(scene, s)?;
+    if !out.solution.converged {
+        eprintln!("warning: {name}: the solver did not converge");
+    }
+    let r = &out.report;
+    let p = &out.patches;
+    let h = p.area.iter().map(|a| a.sqrt()).sum::<f64>() / p.len() as f64;
+    let run = Run {
+        scene: name.to_string(),
+        estimator: estimator_name(s.form_factors.estimator),
+        samples: match s.form_factors.estimator {
+            Estimator::Hemisphere => s.form_factors.rays,
+            _ => s.form_factors.samples,
+        },
+        max_edge: r.max_edge,
+        solver: solver_name(&s.solver),
+        patches: r.patches,
+        h,
+        rays: r.form_factors.rays_cast,
+        seconds: Stages {
+            patches: r.seconds.patches,
+            bvh: r.seconds.bvh,
+            form_factors: r.seconds.form_factors,
+            solve: r.seconds.solve,
+        },
+        errors: Vec::new(),
+    };
+    Ok((out, run))
+}
+
+/// Solve again on an outcome's form factors with another solver and/or reflectance; the
+/// returned run copies `base` with the new solver and solve seconds.
+fn resolve(
+    out: &Outcome,
+    base: &Run,
+    reflectance: &[[f64; 3]],
+    solver: &solve::Settings,
+) -> Result<(Solution, Run)> {
+    let system = System {
+        form_factors: &out.form_factors,
+        reflectance,
+        emission: &out.patches.emission,
+    };
+    let t = Instant::now();
+    let solution = solve::solve(&system, solver)?;
+    let mut run = base.clone();
+    run.seconds.solve = t.elapsed().as_secs_f64();
+    run.solver = solver_name(solver);
+    run.errors.clear();
+    Ok((solution, run))
+}
+
+fn progress(results: &Results, run: &Run) {
+    let errors: Vec<String> = run
+        .errors
+        .iter()
+        .map(|(k, e)| format!("{k} {e:.2e}"))
+        .collect();
+    eprintln!(
+        "[{:>3}] {:<22} {:<8} s{} edge {:<6} {:<12} {:>6} patches {:>7.2} s  {}",
+        results.runs.len() + 1,
+        run.scene,
+        run.estimator,
+        run.samples,
+        run.max_edge,
+        run.solver,
+        run.patches,
+        run.seconds.total(),
+        errors.join(", ")
+    );
+}
+
+fn push(results: &mut Results, run: Run) {
+    progress(results, &run);
+    results.runs.push(run);
+}
+
+/// Area-weighted mean of `f` over the patches `which`.
+fn area_mean(out: &Outcome, which: &[usize], f: impl Fn(usize) -> f64) -> f64 {
+    let p = &out.patches;
+    let area: f64 = which.iter().map(|&i| p.area[i]).sum();
+    which.iter().map(|&i| p.area[i] * f(i)).sum::<f64>() / area
+}
+
+// ---------------------------------------------------------------------------------------------
+// The scenes
+
+/// Integrating sphere, radius 1, 30° cap, ρ = 0.5, Le = 1 (as in `verify::integrating_sphere`):
+/// one bounce (Neumann N = 1) and all bounces (Gauss–Seidel) on the same F.
+fn sphere(plan: &Plan, results: &mut Results) -> Result<()> {
+    let rho = 0.5;
+    for &level in &plan.sphere_levels {
+        let scene = scenes::integrating_sphere(1.0, level, 30.0, rho, [1.0; 3])?;
+        for ff in estimator_settings() {
+            // max-edge above the facets' edges: the facets are the patches.
+            let s = settings(10.0, ff, neumann(1));
+            let (out, base) = run(&scene, "integrating_sphere", &s)?;
+            let p = &out.patches;
+            let all: Vec<usize> = (0..p.len()).collect();
+            let mean_le = area_mean(&out, &all, |i| p.emission[i][0]);
+            let walls: Vec<usize> = all
+                .iter()
+                .copied()
+                .filter(|&i| p.emission[i][0] == 0.0)
+                .collect();
+            let errors = |l: &[[f64; 3]], bounces| {
+                let expected = reference::sphere_wall_radiance(rho, mean_le, bounces);
+                let mean_rel = area_mean(&out, &walls, |i| (l[i][0] - expected).abs() / expected);
+                let mean = area_mean(&out, &walls, |i| l[i][0]);
+                vec![
+                    ("mean_patch_rel".to_string(), mean_rel),
+                    (
+                        "rel_of_mean".to_string(),
+                        (mean - expected).abs() / expected,
+                    ),
+                ]
+            };
+            let mut one = base.clone();
+            one.errors = errors(&out.solution.radiance, Some(1));
+            push(results, one);
+            let (solution, mut all_bounces) =
+                resolve(&out, &base, &p.reflectance, &gauss_seidel(SWEEP_TOLERANCE))?;
+            all_bounces.errors = errors(&solution.radiance, None);
+            push(results, all_bounces);
+        }
+    }
+    Ok(())
+}
+
+/// Per-patch relative errors against the furnace's L = Le/(1 − ρ): (max, area-weighted mean).
+fn furnace_errors(out: &Outcome, l: &[[f64; 3]], rho: f64) -> Vec<(String, f64)> {
+    let expected = reference::furnace_radiance(rho, 1.0);
+    let rel = |i: usize| (l[i][0] - expected).abs() / expected;
+    let all: Vec<usize> = (0..l.len()).collect();
+    vec![
+        (
+            "max_patch_rel".to_string(),
+            all.iter().map(|&i| rel(i)).fold(0.0, f64::max),
+        ),
+        ("mean_patch_rel".to_string(), area_mean(out, &all, rel)),
+    ]
+}
+
+/// Furnace room (closed, two boxes inside), Le = 1, every ρ of the plan on one F.
+fn furnace(plan: &Plan, results: &mut Results) -> Result<()> {
+    let scene = scenes::furnace_room(plan.furnace_rhos[0], 1.0)?;
+    for &edge in &plan.furnace_edges {
+        for ff in estimator_settings() {
+            let solver = gauss_seidel(SWEEP_TOLERANCE);
+            let (out, base) = run(&scene, "furnace", &settings(edge, ff, solver))?;
+            for &rho in &plan.furnace_rhos {
+                let reflectance = vec![[rho; 3]; out.patches.len()];
+                let (solution, mut r) = resolve(&out, &base, &reflectance, &solver)?;
+                if rho == plan.furnace_rhos[0] {
+                    r.seconds.solve = base.seconds.solve;
+                }
+                r.scene = format!("furnace_rho{rho}");
+                r.errors = furnace_errors(&out, &solution.radiance, rho);
+                push(results, r);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Unit plates, parallel 1 apart (Howell C-11) and perpendicular with a common edge (C-14):
+/// relative error of the receiver → source form factor.
+fn plates(plan: &Plan, results: &mut Results) -> Result<()> {
+    let cases = [
+        (
+            "parallel_plates",
+            scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+            reference::parallel_rectangles(1.0, 1.0, 1.0),
+        ),
+        (
+            "perpendicular_plates",
+            scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+            reference::perpendicular_rectangles(1.0, 1.0, 1.0),
+        ),
+    ];
+    for (name, scene, expected) in &cases {
+        for &edge in &plan.plate_edges {
+            for ff in estimator_settings() {
+                let (out, mut r) = run(scene, name, &settings(edge, ff, neumann(1)))?;
+                let got = verify::surface_form_factor(&out, 1, 0);
+                r.errors = vec![("form_factor_rel".into(), (got - expected).abs() / expected)];
+                push(results, r);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Area-weighted mean radiance per group (material or source triangle) of the patches.
+fn group_means(out: &Outcome, group: impl Fn(usize) -> u32) -> BTreeMap<u32, [f64; 3]> {
+    let mut sums: BTreeMap<u32, ([f64; 3], f64)> = BTreeMap::new();
+    for i in 0..out.patches.len() {
+        let a = out.patches.area[i];
+        let e = sums.entry(group(i)).or_default();
+        for c in 0..3 {
+            e.0[c] += a * out.solution.radiance[i][c];
+        }
+        e.1 += a;
+    }
+    sums.into_iter()
+        .map(|(k, (s, a))| (k, [s[0] / a, s[1] / a, s[2] / a]))
+        .collect()
+}
+
+/// max over groups and channels of |m − m_ref| / m_ref (channels where m_ref = 0 skipped).
+fn max_group_error(got: &BTreeMap<u32, [f64; 3]>, reference: &BTreeMap<u32, [f64; 3]>) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (k, r) in reference {
+        let Some(g) = got.get(k) else { continue };
+        for c in 0..3 {
+            if r[c] > 0.0 {
+                worst = worst.max((g[c] - r[c]).abs() / r[c]);
+            }
+        }
+    }
+    worst
+}
+
+/// Cornell box against a finer run (contour, default samples).
+fn cornell(plan: &Plan, results: &mut Results) -> Result<()> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
+    let scene = Scene::load(&path)?;
+    let solver = gauss_seidel(SWEEP_TOLERANCE);
+    let reference_ff = form_factor::Settings::default();
+    eprintln!(
+        "cornell_box reference: max-edge {} ({} samples)…",
+        plan.cornell_reference_edge,
+        estimator_name(reference_ff.estimator)
+    );
+    let (out, mut r) = run(
+        &scene,
+        "cornell_box",
+        &settings(plan.cornell_reference_edge, reference_ff, solver),
+    )?;
+    let by_material = group_means(&out, |i| out.patches.material[i]);
+    let by_surface = group_means(&out, |i| out.patches.source_triangle[i]);
+    r.errors = vec![("reference".into(), f64::NAN)];
+    push(results, r);
+    drop(out);
+    for &edge in &plan.cornell_edges {
+        for ff in estimator_settings() {
+            let (out, mut r) = run(&scene, "cornell_box", &settings(edge, ff, solver))?;
+            r.errors = vec![
+                (
+                    "max_material_rel".into(),
+                    max_group_error(
+                        &group_means(&out, |i| out.patches.material[i]),
+                        &by_material,
+                    ),
+                ),
+                (
+                    "max_surface_rel".into(),
+                    max_group_error(
+                        &group_means(&out, |i| out.patches.source_triangle[i]),
+                        &by_surface,
+                    ),
+                ),
+            ];
+            push(results, r);
+        }
+    }
+    Ok(())
+}
+
+/// Jacobi and Gauss–Seidel on the furnace at several ρ, to a relative residual of 1e-10.
+fn solver_study(plan: &Plan, results: &mut Results) -> Result<()> {
+    let scene = scenes::furnace_room(0.5, 1.0)?;
+    let s = settings(
+        plan.solver_edge,
+        form_factor::Settings::default(),
+        neumann(1),
+    );
+    let (out, base) = run(&scene, "furnace", &s)?;
+    eprintln!(
+        "solver study: furnace, max-edge {}, {} patches",
+        plan.solver_edge, base.patches
+    );
+    for &rho in &plan.solver_rhos {
+        let reflectance = vec![[rho; 3]; out.patches.len()];
+        for method in [Method::Jacobi, Method::GaussSeidel] {
+            let solver = solve::Settings {
+                method,
+                tolerance: 1e-10,
+                max_iterations: 100_000,
+                ..solve::Settings::default()
+            };
+            let (solution, r) = resolve(&out, &base, &reflectance, &solver)?;
+            let max_error = furnace_errors(&out, &solution.radiance, rho)[0].1;
+            eprintln!(
+                "  {:<12} ρ = {rho:<5} {:>6} sweeps {:>7.3} s  residual {:.1e}  max error {max_error:.2e}",
+                method.name(),
+                solution.iterations,
+                r.seconds.solve,
+                solution.residual
+            );
+            results.solver_study.push(SolverRun {
+                method: method.name().to_string(),
+                rho,
+                history: solution.residual_history,
+                seconds: r.seconds.solve,
+                max_error,
+            });
+        }
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Convergence orders
+
+/// Least-squares line y = a + b·x through the points: (a, b, r²). `None` with fewer than two
+/// distinct x.
+fn fit_line(points: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
+    let n = points.len() as f64;
+    if points.len() < 2 {
+        return None;
+    }
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let syy: f64 = points.iter().map(|p| (p.1 - my).powi(2)).sum();
+    if sxx <= 1e-300 {
+        return None;
+    }
+    let b = sxy / sxx;
+    let r2 = if syy > 0.0 {
+        sxy * sxy / (sxx * syy)
+    } else {
+        1.0
+    };
+    Some((my - b * mx, b, r2))
+}
+
+/// The order p of error ≈ C·x^p: slope of log(error) against log(x), over positive finite points.
+fn fit_order(points: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let logs: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, e)| *x > 0.0 && *e > 0.0 && e.is_finite())
+        .map(|(x, e)| (x.ln(), e.ln()))
+        .collect();
+    fit_line(&logs).map(|(_, b, r2)| (b, r2))
+}
+
+/// One fitted order.
+struct Order {
+    scene: String,
+    estimator: String,
+    solver: String,
+    kind: String,
+    /// "h" or "samples".
+    variable: &'static str,
+    /// What was held fixed: "samples=3" or "h=0.0430".
+    fixed: String,
+    /// Its value (samples, or h).
+    fixed_value: f64,
+    order: f64,
+    r2: f64,
+    points: usize,
+}
+
+fn fit_orders(runs: &[Run]) -> Vec<Order> {
+    // Key: (scene, estimator, solver, kind, variable, fixed); value: (fixed value, points
+    // (x, error)).
+    type Key = (String, String, String, String, &'static str, String);
+    let mut groups: BTreeMap<Key, (f64, Vec<(f64, f64)>)> = BTreeMap::new();
+    for r in runs {
+        for (kind, e) in &r.errors {
+            let key = |variable, fixed| {
+                (
+                    r.scene.clone(),
+                    r.estimator.clone(),
+                    r.solver.clone(),
+                    kind.clone(),
+                    variable,
+                    fixed,
+                )
+            };
+            groups
+                .entry(key("h", format!("samples={}", r.samples)))
+                .or_insert((r.samples as f64, vec![]))
+                .1
+                .push((r.h, *e));
+            groups
+                .entry(key("samples", format!("h={:.4}", r.h)))
+                .or_insert((r.h, vec![]))
+                .1
+                .push((r.samples as f64, *e));
+        }
+    }
+    let mut out = Vec::new();
+    for ((scene, estimator, solver, kind, variable, fixed), (fixed_value, points)) in groups {
+        if let Some((order, r2)) = fit_order(&points) {
+            out.push(Order {
+                scene,
+                estimator,
+                solver,
+                kind,
+                variable,
+                fixed,
+                fixed_value,
+                order,
+                r2,
+                points: points.len(),
+            });
+        }
+    }
+    out
+}
+
+// ---------------------------------------------------------------------------------------------
+// Output files
+
+fn write_runs_csv(path: &Path, runs: &[Run]) -> Result<()> {
+    let mut s = String::from(
+        "scene,estimator,samples,max_edge,solver,patches,h,rays,seconds_patches,seconds_bvh,\
+         seconds_form_factors,seconds_solve,seconds_total,error,error_kind\n",
+    );
+    for r in runs {
+        for (kind, e) in &r.errors {
+            let e = if e.is_finite() {
+                format!("{e:.6e}")
+            } else {
+                String::new()
+            };
+            writeln!(
+                s,
+                "{},{},{},{},{},{},{:.6},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{}",
+                r.scene,
+                r.estimator,
+                r.samples,
+                r.max_edge,
+                r.solver,
+                r.patches,
+                r.h,
+                r.rays,
+                r.seconds.patches,
+                r.seconds.bvh,
+                r.seconds.form_factors,
+                r.seconds.solve,
+                r.seconds.total(),
+                e,
+                kind
+            )?;
+        }
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+fn write_residuals_csv(path: &Path, study: &[SolverRun]) -> Result<()> {
+    let mut s = String::from("method,rho,iteration,residual\n");
+    for r in study {
+        for (k, res) in r.history.iter().enumerate() {
+            writeln!(s, "{},{},{},{:.6e}", r.method, r.rho, k + 1, res)?;
+        }
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+fn write_orders_csv(path: &Path, orders: &[Order]) -> Result<()> {
+    let mut s = String::from("scene,estimator,solver,error_kind,variable,fixed,order,r2,points\n");
+    for o in orders {
+        writeln!(
+            s,
+            "{},{},{},{},{},{},{:.3},{:.3},{}",
+            o.scene, o.estimator, o.solver, o.kind, o.variable, o.fixed, o.order, o.r2, o.points
+        )?;
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Markdown tables: per scene one row per run, then the solver study and the fitted orders.
+fn summary(args: &Args, results: &Results, orders: &[Order], seconds: f64) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "## Run time against error\n");
+    let _ = writeln!(
+        s,
+        "`cargo run --release --example bench{}` ({:.0} s). Measured {}; {}.\n",
+        if args.quick { " -- --quick" } else { "" },
+        seconds,
+        utc_date(),
+        machine()
+    );
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in &results.runs {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    for scene in scenes {
+        let runs: Vec<&Run> = results.runs.iter().filter(|r| r.scene == scene).collect();
+        let mut kinds: Vec<&str> = Vec::new();
+        for r in &runs {
+            for (k, _) in &r.errors {
+                if k != "reference" && !kinds.contains(&k.as_str()) {
+                    kinds.push(k);
+                }
+            }
+        }
+        let _ = writeln!(s, "### {scene}\n");
+        let _ = writeln!(
+            s,
+            "| estimator | samples | max-edge | solver | patches | rays | F s | total s | {} |",
+            kinds.join(" | ")
+        );
+        let _ = writeln!(
+            s,
+            "|---|---|---|---|---|---|---|---|{}",
+            "---|".repeat(kinds.len())
+        );
+        for r in runs {
+            let errors: Vec<String> = kinds
+                .iter()
+                .map(|k| match r.errors.iter().find(|(rk, _)| rk == k) {
+                    Some((_, e)) => format!("{e:.2e}"),
+                    None if r.errors.iter().any(|(rk, _)| rk == "reference") => {
+                        "(reference)".into()
+                    }
+                    None => String::new(),
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {:.3e} | {:.3} | {:.3} | {} |",
+                r.estimator,
+                r.samples,
+                r.max_edge,
+                r.solver,
+                r.patches,
+                r.rays as f64,
+                r.seconds.form_factors,
+                r.seconds.total(),
+                errors.join(" | ")
+            );
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(s, "### Solver study (furnace, relative residual 1e-10)\n");
+    let _ = writeln!(
+        s,
+        "| method | ρ | sweeps | solve s | final residual | max patch error |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    for r in &results.solver_study {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.3} | {:.1e} | {:.2e} |",
+            r.method,
+            r.rho,
+            r.history.len(),
+            r.seconds,
+            r.history.last().copied().unwrap_or(f64::NAN),
+            r.max_error
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n### Fitted orders\n\n\
+         p of error ≈ C·x^p, least squares in log-log (every fit, with r², in orders.csv): \
+         x = h (mean √area of the patches) at each sample count, and x = samples at the \
+         finest h. The Cornell errors are against a finer run, so they flatten near it.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| scene | estimator | solver | error | p vs h (samples) | p vs samples |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    type Row = (Vec<String>, Option<(f64, f64)>);
+    let mut rows: BTreeMap<(&str, &str, &str, &str), Row> = BTreeMap::new();
+    for o in orders {
+        let row = rows
+            .entry((&o.scene, &o.estimator, &o.solver, &o.kind))
+            .or_default();
+        if o.variable == "h" {
+            row.0.push(format!("{:.2} (s{})", o.order, o.fixed_value));
+        } else if row.1.is_none_or(|(h, _)| o.fixed_value < h) {
+            row.1 = Some((o.fixed_value, o.order));
+        }
+    }
+    for ((scene, estimator, solver, kind), (by_h, by_samples)) in rows {
+        let _ = writeln!(
+            s,
+            "| {scene} | {estimator} | {solver} | {kind} | {} | {} |",
+            by_h.join(", "),
+            by_samples.map_or(String::new(), |(_, p)| format!("{p:.2}"))
+        );
+    }
+    s
+}
+
+/// "YYYY-MM-DD HH:MM UTC" from the system clock, or `$BENCH_DATE` if set.
+fn utc_date() -> String {
+    if let Ok(d) = std::env::var("BENCH_DATE") {
+        return d;
+    }
+    let secs = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    let (y, m, d) = civil_from_days(secs.div_euclid(86_400));
+    let t = secs.rem_euclid(86_400);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02} UTC",
+        t / 3600,
+        t / 60 % 60
+    )
+}
+
+/// Proleptic Gregorian (year, month, day) of a day count since 1970-01-01 (H. Hinnant,
+/// "chrono-Compatible Low-Level Date Algorithms", `civil_from_days`).
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097); // [0, 146096]
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365; // [0, 399]
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100); // [0, 365]
+    let mp = (5 * doy + 2) / 153; // [0, 11], March = 0
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    let y = yoe + era * 400 + (m <= 2) as i64;
+    (y, m, d)
+}
+
+/// "CPU model, N cores" from /proc/cpuinfo and the available parallelism.
+fn machine() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    let rustc = std::process::Command::new("rustc")
+        .arg("--version")
+        .output()
+        .ok()
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map(|v| format!(", {}", v.trim()))
+        .unwrap_or_default();
+    format!("{model}, {cores} cores{rustc}")
+}
+
+// ---------------------------------------------------------------------------------------------
+// Charts
+
+/// Register a TrueType font as plotters' "sans-serif"; false if none could be loaded.
+fn load_font() -> bool {
+    let candidates: Vec<String> = match std::env::var("BENCH_FONT") {
+        Ok(p) => vec![p],
+        Err(_) => FONT_PATHS.iter().map(|p| p.to_string()).collect(),
+    };
+    for path in candidates {
+        if let Ok(bytes) = std::fs::read(&path) {
+            // plotters keeps the font for the whole process.
+            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+            if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Ten distinguishable colours (Tableau 10).
+const COLOURS: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// One curve of a chart.
+struct Curve {
+    label: String,
+    points: Vec<(f64, f64)>,
+    /// Index into [`COLOURS`].
+    colour: usize,
+    /// 0: solid line, filled circles; otherwise dashed line, triangles.
+    style: usize,
+}
+
+/// "1e-3" at powers of ten, nothing elsewhere: log axes then label decades only.
+fn decade_label(v: f64) -> String {
+    let e = v.log10().round();
+    if v > 0.0 && (v.log10() - e).abs() < 1e-6 {
+        format!("1e{e}")
+    } else {
+        String::new()
+    }
+}
+
+/// Draw curves on a log y axis and a log (`log_x`) or linear x axis into a PNG.
+fn chart(
+    path: &Path,
+    title: &str,
+    axes: (&str, &str),
+    log_x: bool,
+    curves: &[Curve],
+    text: bool,
+) -> Result<()> {
+    let usable = |p: &(f64, f64)| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite();
+    let all = || {
+        curves
+            .iter()
+            .flat_map(|c| c.points.iter())
+            .filter(|p| usable(p))
+    };
+    let (x0, x1) = all().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.0), b.max(p.0))
+    });
+    let (y0, y1) = all().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.1), b.max(p.1))
+    });
+    if !(x1 >= x0 && y1 >= y0) {
+        eprintln!("warning: {}: nothing to plot", path.display());
+        return Ok(());
+    }
+    let (x0, x1) = if log_x {
+        (x0 / 1.5, x1 * 1.5)
+    } else {
+        (0.0, x1 * 1.02)
+    };
+    let y_range = (y0 / 2.0..y1 * 2.0).log_scale();
+    let mut buf = vec![0u8; (CHART.0 * CHART.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, CHART).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut builder = ChartBuilder::on(&root);
+        builder.margin(12);
+        if text {
+            builder
+                .caption(title, ("sans-serif", 18))
+                .x_label_area_size(36)
+                .y_label_area_size(52);
+        }
+        // The same drawing code for both x coordinate types.
+        macro_rules! draw {
+            ($chart:expr, $x_label:expr) => {{
+                let mut chart = $chart;
+                let mut mesh = chart.configure_mesh();
+                mesh.light_line_style(WHITE)
+                    .bold_line_style(RGBColor(220, 220, 220));
+                if text {
+                    mesh.x_desc(axes.0)
+                        .y_desc(axes.1)
+                        .x_label_formatter(&$x_label)
+                        .y_label_formatter(&|y: &f64| decade_label(*y));
+                } else {
+                    mesh.x_labels(0).y_labels(0);
+                }
+                mesh.draw()?;
+                for c in curves {
+                    let colour = COLOURS[c.colour % COLOURS.len()];
+                    let pts: Vec<(f64, f64)> = c.points.iter().copied().filter(usable).collect();
+                    let width = 2;
+                    let series = if c.style == 0 {
+                        chart
+                            .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(width)))?
+                    } else {
+                        chart.draw_series(DashedLineSeries::new(
+                            pts.clone(),
+                            6,
+                            4,
+                            colour.stroke_width(width),
+                        ))?
+                    };
+                    if text {
+                        series.label(c.label.clone()).legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(width))
+                        });
+                    }
+                    if pts.len() <= 12 {
+                        if c.style == 0 {
+                            chart.draw_series(
+                                pts.iter().map(|&p| Circle::new(p, 3, colour.filled())),
+                            )?;
+                        } else {
+                            chart.draw_series(
+                                pts.iter()
+                                    .map(|&p| TriangleMarker::new(p, 4, colour.filled())),
+                            )?;
+                        }
+                    }
+                }
+                if text {
+                    chart
+                        .configure_series_labels()
+                        .background_style(WHITE.mix(0.85))
+                        .border_style(BLACK)
+                        .label_font(("sans-serif", 11))
+                        .position(SeriesLabelPosition::UpperRight)
+                        .draw()?;
+                }
+            }};
+        }
+        if log_x {
+            let chart = builder.build_cartesian_2d((x0..x1).log_scale(), y_range)?;
+            draw!(chart, |x: &f64| format!("{x}"));
+        } else {
+            let chart = builder.build_cartesian_2d(x0..x1, y_range)?;
+            draw!(chart, |x: &f64| format!("{x:.0}"));
+        }
+        root.present()?;
+    }
+    image::save_buffer(path, &buf, CHART.0, CHART.1, image::ExtendedColorType::Rgb8)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// `error_vs_time_<scene>.png`: the scene's first error kind against total seconds, one curve
+/// per (estimator, samples, solver) through its resolutions; colour by (estimator, samples),
+/// line style by solver.
+fn plot_errors(dir: &Path, runs: &[Run], text: bool) -> Result<()> {
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in runs {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    for scene in scenes {
+        let runs: Vec<&Run> = runs
+            .iter()
+            .filter(|r| r.scene == scene && r.errors.iter().all(|(k, _)| k != "reference"))
+            .collect();
+        let Some(kind) = runs
+            .iter()
+            .find_map(|r| r.errors.first().map(|e| e.0.clone()))
+        else {
+            continue;
+        };
+        let (mut colours, mut styles): (Vec<(String, u32)>, Vec<String>) = (vec![], vec![]);
+        let mut curves: Vec<Curve> = Vec::new();
+        for r in runs {
+            let Some(&(_, e)) = r.errors.iter().find(|(k, _)| *k == kind) else {
+                continue;
+            };
+            let c = (r.estimator.clone(), r.samples);
+            let colour = colours.iter().position(|x| *x == c).unwrap_or_else(|| {
+                colours.push(c);
+                colours.len() - 1
+            });
+            let style = styles
+                .iter()
+                .position(|x| *x == r.solver)
+                .unwrap_or_else(|| {
+                    styles.push(r.solver.clone());
+                    styles.len() - 1
+                });
+            let label = format!("{} s{} {}", r.estimator, r.samples, r.solver);
+            match curves.iter_mut().find(|c| c.label == label) {
+                Some(c) => c.points.push((r.seconds.total(), e)),
+                None => curves.push(Curve {
+                    label,
+                    points: vec![(r.seconds.total(), e)],
+                    colour,
+                    style,
+                }),
+            }
+        }
+        for c in &mut curves {
+            c.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        chart(
+            &dir.join(format!("error_vs_time_{scene}.png")),
+            &format!("{scene}: {kind} vs time"),
+            ("total seconds", &kind),
+            true,
+            &curves,
+            text,
+        )?;
+    }
+    Ok(())
+}
+
+/// `residual_vs_iteration.png`: one curve per (method, ρ); colour by ρ, line style by method.
+fn plot_residuals(dir: &Path, study: &[SolverRun], text: bool) -> Result<()> {
+    let mut rhos: Vec<f64> = study.iter().map(|r| r.rho).collect();
+    rhos.dedup();
+    let curves: Vec<Curve> = study
+        .iter()
+        .map(|r| Curve {
+            label: format!("{} ρ={}", r.method, r.rho),
+            points: (r.history.iter().enumerate())
+                .map(|(k, &v)| ((k + 1) as f64, v))
+                .collect(),
+            colour: rhos.iter().position(|&x| x == r.rho).unwrap_or(0),
+            style: (r.method != "jacobi") as usize,
+        })
+        .collect();
+    chart(
+        &dir.join("residual_vs_iteration.png"),
+        "furnace: relative residual per sweep",
+        ("sweep", "relative residual"),
+        false,
+        &curves,
+        text,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fit_line_recovers_an_exact_line() {
+        let pts: Vec<(f64, f64)> = (0..5).map(|i| (i as f64, 2.0 - 0.5 * i as f64)).collect();
+        let (a, b, r2) = fit_line(&pts).unwrap();
+        assert!(
+            (a - 2.0).abs() < 1e-12 && (b + 0.5).abs() < 1e-12,
+            "{a} {b}"
+        );
+        assert!((r2 - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn fit_line_least_squares_of_noisy_points() {
+        // y = x + (1, −1, −1, 1): residuals orthogonal to (1, x), so the fit is y = x.
+        // By hand: x̄ = ȳ = 1.5, Sxx = 5, Sxy = 5, Syy = 9, so b = 1, a = 0, r² = 25/45.
+        let pts = [(0.0, 1.0), (1.0, 0.0), (2.0, 1.0), (3.0, 4.0)];
+        let (a, b, r2) = fit_line(&pts).unwrap();
+        assert!((b - 1.0).abs() < 1e-12 && a.abs() < 1e-12, "{a} {b}");
+        assert!((r2 - 25.0 / 45.0).abs() < 1e-12, "{r2}");
+        assert!(fit_line(&[(1.0, 1.0)]).is_none());
+        assert!(fit_line(&[(1.0, 1.0), (1.0, 2.0)]).is_none());
+    }
+
+    #[test]
+    fn fit_order_of_a_power_law() {
+        let pts: Vec<(f64, f64)> = [0.5, 0.25, 0.1].iter().map(|&h| (h, 3.0 * h * h)).collect();
+        let (p, r2) = fit_order(&pts).unwrap();
+        assert!((p - 2.0).abs() < 1e-12 && (r2 - 1.0).abs() < 1e-12, "{p}");
+        // Zero and non-finite errors are left out, not turned into −∞.
+        let mut with_zero = pts.clone();
+        with_zero.push((0.05, 0.0));
+        with_zero.push((0.01, f64::NAN));
+        assert!((fit_order(&with_zero).unwrap().0 - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn decade_labels() {
+        assert_eq!(decade_label(1e-3), "1e-3");
+        assert_eq!(decade_label(1.0), "1e0");
+        assert_eq!(decade_label(2e-3), "");
+    }
+
+    #[test]
+    fn charts_are_drawn_without_a_font() {
+        // No font registered: text = false must not touch plotters' text rendering.
+        let dir = std::env::temp_dir().join(format!("radiosity-bench-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("chart.png");
+        let curves = [Curve {
+            label: "a".into(),
+            points: vec![(0.1, 1e-2), (1.0, 1e-3), (2.0, 0.0)],
+            colour: 0,
+            style: 1,
+        }];
+        chart(&path, "t", ("x", "y"), true, &curves, false).unwrap();
+        let png = image::open(&path).unwrap();
+        assert_eq!((png.width(), png.height()), CHART);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn civil_dates() {
+        assert_eq!(civil_from_days(0), (1970, 1, 1));
+        assert_eq!(civil_from_days(-1), (1969, 12, 31));
+        assert_eq!(civil_from_days(11_016), (2000, 2, 29));
+        assert_eq!(civil_from_days(19_782), (2024, 2, 29));
+        assert_eq!(civil_from_days(20_454), (2026, 1, 1));
+    }
+}
