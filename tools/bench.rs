@@ -480,9 +480,12 @@ fn group_means(out: &Outcome, group: impl Fn(usize) -> u32) -> BTreeMap<u32, [f6
     let mut sums: BTreeMap<u32, ([f64; 3], f64)> = BTreeMap::new();
     for i in 0..out.patches.len() {
         let a = out.patches.area[i];
+        // Mean over the surface's whole area: the buried part of a patch (under a block,
+        // behind the light) is dark, and the patch's radiance is that of its visible part.
+        let v = out.form_factors.visible_fraction[i];
         let e = sums.entry(group(i)).or_default();
         for c in 0..3 {
-            e.0[c] += a * out.solution.radiance[i][c];
+            e.0[c] += a * v * out.solution.radiance[i][c];
         }
         e.1 += a;
     }

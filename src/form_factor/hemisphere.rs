@@ -21,14 +21,19 @@ use crate::visibility::Visibility;
 /// relative area ≈ 6e-4, a bias far below the estimator's noise).
 const EDGE_MARGIN: f64 = 1e-4;
 
-/// The row of F for patch `i` (sorted by column) and the number of rays cast.
-pub fn row(
-    patches: &Patches,
-    vis: &Visibility,
-    i: usize,
-    rays: u32,
-    seed: u64,
-) -> (Vec<(u32, f32)>, u64) {
+/// One patch's row of F.
+#[derive(Debug, Clone)]
+pub struct Row {
+    /// (column j, F_ij), sorted by column.
+    pub entries: Vec<(u32, f32)>,
+    /// Rays cast (including the buried-origin tests).
+    pub rays: u64,
+    /// Fraction of the ray origins that are not buried ([`super::is_hidden`]).
+    pub visible_fraction: f64,
+}
+
+/// The row of F for patch `i`.
+pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) -> Row {
     let n = rays as usize;
     let mut rng = Rng::new(&[seed, i as u64, 0x4E4D]);
     // Latin-hypercube strata, independent permutations for position (u, v) and direction
@@ -44,6 +49,7 @@ pub fn row(
     let normal = patches.normal[i];
     let (tangent, bitangent) = orthonormal_basis(normal);
     let mut hits: Vec<u32> = Vec::with_capacity(n);
+    let (mut buried, mut extra_rays) = (0usize, 0usize);
     #[allow(clippy::needless_range_loop)] // k is the stratum index of four arrays
     for k in 0..n {
         let u = (k as f64 + rng.next_f64()) / n as f64;
@@ -69,10 +75,18 @@ pub fn row(
             // Only the front of a one-sided surface receives light.
             if patches.normal[j as usize].dot(dir) < 0.0 {
                 hits.push(j);
+            } else {
+                // A back face: either light lost through an open scene, or an origin buried
+                // in contact geometry, which must not count as a sample of the patch at all.
+                extra_rays += 1;
+                if super::is_hidden(patches, vis, i, origin) {
+                    buried += 1;
+                }
             }
         }
     }
     hits.sort_unstable();
+    let counted = (n - buried).max(1);
     let mut row: Vec<(u32, f32)> = Vec::new();
     for j in hits {
         match row.last_mut() {
@@ -81,18 +95,17 @@ pub fn row(
         }
     }
     for e in &mut row {
-        e.1 /= n as f32;
+        e.1 /= counted as f32;
     }
-    (row, n as u64)
+    Row {
+        entries: row,
+        rays: (n + extra_rays) as u64,
+        visible_fraction: (n - buried) as f64 / n as f64,
+    }
 }
 
 /// All rows, in parallel (deterministic: each row depends only on (seed, i)).
-pub fn rows(
-    patches: &Patches,
-    vis: &Visibility,
-    rays: u32,
-    seed: u64,
-) -> Vec<(Vec<(u32, f32)>, u64)> {
+pub fn rows(patches: &Patches, vis: &Visibility, rays: u32, seed: u64) -> Vec<Row> {
     (0..patches.len())
         .into_par_iter()
         .map(|i| row(patches, vis, i, rays, seed))

@@ -101,6 +101,8 @@ pub struct Stats {
     /// True when the scene was recognised as a convex enclosure (every patch in front of every
     /// other's plane), where nothing can occlude anything and no visibility ray is cast.
     pub convex_enclosure: bool,
+    /// Patches with some sample points buried in contact geometry ([`is_hidden`]).
+    pub patches_partly_hidden: u64,
     /// Non-zeros of F.
     pub nnz: u64,
     /// Smallest, mean and largest row sum Σ_j F_ij.
@@ -118,6 +120,9 @@ pub struct FormFactors {
     pub matrix: CsMatI<f32, u32>,
     /// Counters.
     pub stats: Stats,
+    /// Fraction of each patch's area (by its sample weights) that is not buried in contact
+    /// geometry, in [0, 1]; rows describe the visible part ([`is_hidden`]).
+    pub visible_fraction: Vec<f64>,
 }
 
 impl FormFactors {
@@ -136,6 +141,7 @@ impl FormFactors {
         FormFactors {
             matrix: CsMatI::zero((n, n)),
             stats: Stats::default(),
+            visible_fraction: vec![1.0; n],
         }
     }
 
@@ -193,17 +199,30 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
     }
     let n = patches.len();
     let mut stats = Stats::default();
+    let mut visible_fraction = vec![1.0; n];
     let mut matrix = if settings.estimator == Estimator::Hemisphere {
         let rows = hemisphere::rows(patches, vis, settings.rays, settings.seed);
-        stats.rays_cast = rows.iter().map(|r| r.1).sum();
-        assemble_rows(n, rows.into_iter().map(|r| r.0).collect())?
+        stats.rays_cast = rows.iter().map(|r| r.rays).sum();
+        visible_fraction = rows.iter().map(|r| r.visible_fraction).collect();
+        assemble_rows(n, rows.into_iter().map(|r| r.entries).collect())?
     } else {
-        pairwise(patches, vis, settings, &mut stats)?
+        pairwise(patches, vis, settings, &mut stats, &mut visible_fraction)?
     };
+    stats.patches_partly_hidden = visible_fraction.iter().filter(|&&v| v < 1.0).count() as u64;
     if settings.reciprocity {
-        matrix = enforce_reciprocity(&matrix, &patches.area)?;
+        let visible_area: Vec<f64> = patches
+            .area
+            .iter()
+            .zip(&visible_fraction)
+            .map(|(a, v)| a * v)
+            .collect();
+        matrix = enforce_reciprocity(&matrix, &visible_area)?;
     }
-    let mut ff = FormFactors { matrix, stats };
+    let mut ff = FormFactors {
+        matrix,
+        stats,
+        visible_fraction,
+    };
     ff.stats.nnz = ff.matrix.nnz() as u64;
     let sums = ff.row_sums();
     if !sums.is_empty() {
@@ -220,6 +239,7 @@ fn pairwise(
     vis: &Visibility,
     settings: &Settings,
     stats: &mut Stats,
+    visible_fraction: &mut Vec<f64>,
 ) -> Result<CsMatI<f32, u32>> {
     let n = patches.len();
     let ns = settings.samples as usize;
@@ -257,6 +277,26 @@ fn pairwise(
             out
         })
         .collect();
+    // Sample points buried in contact geometry (the floor under a block, the ceiling behind a
+    // light) see nothing and are seen by nothing; see [`is_hidden`].
+    let hidden: Vec<bool> = if convex {
+        vec![false; points.len()]
+    } else {
+        points
+            .par_iter()
+            .enumerate()
+            .map(|(k, &x)| is_hidden(patches, vis, k / ns, x))
+            .collect()
+    };
+    *visible_fraction = (0..n)
+        .map(|i| {
+            (0..ns)
+                .filter(|&k| !hidden[i * ns + k])
+                .map(|k| weights[k])
+                .sum()
+        })
+        .collect();
+    stats.rays_cast += hidden.len() as u64 * (!convex) as u64;
     let rays = AtomicU64::new(0);
     let culled = AtomicU64::new(0);
 
@@ -292,8 +332,17 @@ fn pairwise(
                     % ns as u64) as usize;
                 let (mut n_valid, mut n_visible) = (0u32, 0u32);
                 for k in 0..ns {
-                    let (x, y) = (pi[k], pj[(k + shift) % ns]);
+                    let ky = (k + shift) % ns;
+                    let (x, y) = (pi[k], pj[ky]);
                     let d = y - x;
+                    if hidden[i * ns + k] && hidden[j * ns + ky] {
+                        // Both ends buried: neither gathers through this sample; no ray.
+                        // (One buried end still needs the ray: the segment is then blocked by
+                        // what buries it, which is how the buried part of a patch counts as
+                        // invisible to the other.)
+                        valid_k[k] = false;
+                        continue;
+                    }
                     // A segment is a meaningful visibility sample only if each end lies in
                     // front of the other's surface.
                     valid_k[k] = ni.dot(d) > 0.0 && nj.dot(d) < 0.0;
@@ -322,23 +371,25 @@ fn pairwise(
                     } else {
                         v_mean
                     };
-                    if v == 0.0 {
+                    // Buried points gather nothing (their patch's row is rescaled later).
+                    let (hx, hy) = (hidden[i * ns + k], hidden[j * ns + ky]);
+                    if v == 0.0 || (hx && hy) {
                         continue;
                     }
                     match (settings.estimator, near) {
                         (Estimator::Area, false) => {
                             // Monte Carlo over the pair (x, y): uniform weights 1/n.
                             let g = kernel::point_to_point(x, ni, y, nj) * v * weights[k];
-                            fij += aj * g;
-                            fji += ai * g;
+                            fij += aj * g * (!hx) as u8 as f64;
+                            fji += ai * g * (!hy) as u8 as f64;
                         }
                         _ => {
                             // The contour integral needs the point in front of the polygon
                             // (one-sided surfaces); a point behind it sees its back: zero.
-                            if nj.dot(x - cj) > 0.0 {
+                            if !hx && nj.dot(x - cj) > 0.0 {
                                 fij += weights[k] * kernel::point_to_polygon(x, ni, &tj) * v;
                             }
-                            if ni.dot(y - ci) > 0.0 {
+                            if !hy && ni.dot(y - ci) > 0.0 {
                                 fji += weights[ky] * kernel::point_to_polygon(y, nj, &ti) * v;
                             }
                         }
@@ -357,10 +408,15 @@ fn pairwise(
         })
         .collect();
 
-    stats.rays_cast = rays.into_inner();
+    stats.rays_cast += rays.into_inner();
     stats.pairs = (n as u64) * (n as u64).saturating_sub(1) / 2;
     stats.pairs_culled = culled.into_inner();
-    assemble(n, rows)
+    let mut matrix = assemble(n, rows)?;
+    // Each row was integrated over the whole patch with zero from its buried points: divide
+    // by the visible weight so the row describes the visible part, whose radiance is what the
+    // rest of the scene sees (hidden-area elimination).
+    scale_rows(&mut matrix, visible_fraction);
+    Ok(matrix)
 }
 
 /// What task i produces: (column j, F_ij) for j > i, and (row j, F_ji) for j > i.
@@ -495,4 +551,30 @@ pub fn is_convex_enclosure(patches: &Patches) -> bool {
         let (c, nrm) = (patches.centroid[i], patches.normal[i]);
         patches.positions.iter().all(|p| nrm.dot(*p - c) >= -tol)
     })
+}
+
+/// True when the surface point `x` of patch `i` is buried: the first surface hit straight
+/// along its normal is seen from behind, i.e. `x` lies inside a closed object or under a
+/// surface lying on it (the floor under a block, the ceiling behind a light mounted on it).
+/// Such points receive no light and are seen by nobody, so they must not dilute their
+/// patch's radiance; their patch's rows are rescaled to its visible part.
+pub fn is_hidden(patches: &Patches, vis: &Visibility, i: usize, x: DVec3) -> bool {
+    let n = patches.normal[i];
+    match vis.closest_hit(x, n, f64::INFINITY, i as u32) {
+        Some(hit) => patches.normal[hit.triangle as usize].dot(n) > 0.0,
+        None => false,
+    }
+}
+
+/// Divide row i by `fraction[i]` where 0 < fraction < 1 (rows with fraction 0 are all zero).
+fn scale_rows(m: &mut CsMatI<f32, u32>, fraction: &[f64]) {
+    let indptr: Vec<u32> = m.indptr().raw_storage().to_vec();
+    let data = m.data_mut();
+    for (i, &f) in fraction.iter().enumerate() {
+        if f > 0.0 && f < 1.0 {
+            for x in &mut data[indptr[i] as usize..indptr[i + 1] as usize] {
+                *x = (*x as f64 / f) as f32;
+            }
+        }
+    }
 }
