@@ -5,5 +5,6 @@
 mod analytic;
 mod cli;
 mod form_factors;
+mod robust;
 mod solvers;
 mod support;
