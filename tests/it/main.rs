@@ -7,4 +7,5 @@ mod cli;
 mod form_factors;
 mod robust;
 mod solvers;
+mod stress;
 mod support;
