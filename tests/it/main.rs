@@ -5,6 +5,7 @@
 mod analytic;
 mod cli;
 mod form_factors;
+mod properties;
 mod robust;
 mod solvers;
 mod stress;
