@@ -36,7 +36,7 @@ pub fn coincident_faces(
     triangles: &[SceneTriangle],
     diagonal: f64,
 ) -> Vec<(usize, usize)> {
-    if !(diagonal > 0.0) {
+    if diagonal.is_nan() || diagonal <= 0.0 {
         return Vec::new();
     }
     let mut buckets: HashMap<[i64; 4], Vec<usize>> = HashMap::new();
