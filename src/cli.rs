@@ -23,7 +23,7 @@ pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
     /// Worker threads (default: all cores). Results do not depend on it.
-    #[arg(long, global = true, value_name = "N")]
+    #[arg(long, global = true, value_name = "N", allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// No summary on stderr (warnings and errors are still printed).
     #[arg(long, short, global = true)]
@@ -164,7 +164,7 @@ pub struct SolveArgs {
     )]
     pub max_edge: Option<f64>,
     /// Crease angle in degrees: vertices are split where normals differ by more.
-    #[arg(long, default_value_t = radiosity::bake::DEFAULT_CREASE_DEGREES, value_name = "DEG", help_heading = "Discretisation")]
+    #[arg(long, default_value_t = radiosity::bake::DEFAULT_CREASE_DEGREES, value_name = "DEG", allow_negative_numbers = true, help_heading = "Discretisation")]
     pub crease: f64,
     #[command(flatten)]
     pub estimator: FormFactorArgs,
@@ -172,7 +172,13 @@ pub struct SolveArgs {
     #[arg(long, value_enum, default_value_t = Method::GaussSeidel, help_heading = "Solver")]
     pub solver: Method,
     /// Bounces N of the Neumann series E + KE + … + K^N E (solver neumann only).
-    #[arg(long, default_value_t = 1, value_name = "N", help_heading = "Solver")]
+    #[arg(
+        long,
+        default_value_t = 1,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Solver"
+    )]
     pub bounces: u32,
     /// Stop when ‖E − (I − K)L‖ / ‖E‖ ≤ this (jacobi, gauss-seidel).
     #[arg(
@@ -187,6 +193,7 @@ pub struct SolveArgs {
         long,
         default_value_t = 10_000,
         value_name = "N",
+        allow_negative_numbers = true,
         help_heading = "Solver"
     )]
     pub max_iterations: u32,
@@ -203,6 +210,7 @@ pub struct FormFactorArgs {
         long,
         default_value_t = 3,
         value_name = "N",
+        allow_negative_numbers = true,
         help_heading = "Form factors"
     )]
     pub samples: u32,
@@ -211,6 +219,7 @@ pub struct FormFactorArgs {
         long,
         default_value_t = 1024,
         value_name = "N",
+        allow_negative_numbers = true,
         help_heading = "Form factors"
     )]
     pub rays: u32,

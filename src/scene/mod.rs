@@ -11,6 +11,7 @@
 //! triangle, no triangle has (relatively) zero area, every ρ is in [0, 1] and every Le is
 //! finite and ≥ 0, and there is at least one triangle.
 
+pub mod checks;
 pub mod obj;
 
 use std::collections::HashMap;
@@ -203,14 +204,19 @@ fn source_path(source: &Option<PathBuf>) -> PathBuf {
 ///    wins, so the result does not depend on hashing;
 /// 3. drop triangles with |(b − a) × (c − a)| ≤ [`ZERO_AREA_RELATIVE`] · d², d the
 ///    bounding-box diagonal of the used positions, with one counted warning;
-/// 4. drop positions no triangle uses (keeping their order) and validate again.
+/// 4. drop positions no triangle uses (keeping their order) and validate again;
+/// 5. warn (keeping every face) about coincident overlapping faces and inconsistent winding
+///    between neighbours ([`checks`]), naming the triangles and, when `face_lines` gives the
+///    source line of every raw triangle, the file and line of their faces.
 pub(crate) fn finish(
     source: Option<PathBuf>,
     positions: Vec<DVec3>,
     triangles: Vec<SceneTriangle>,
     materials: Vec<Material>,
     mut warnings: Vec<String>,
+    face_lines: Option<Vec<usize>>,
 ) -> Result<Scene> {
+    let face_lines = face_lines.filter(|l| l.len() == triangles.len());
     if positions.len() > u32::MAX as usize {
         return Err(Error::Input {
             path: source_path(&source),
@@ -272,13 +278,25 @@ pub(crate) fn finish(
         });
     let threshold = ZERO_AREA_RELATIVE * (hi - lo).length_squared();
     let total = triangles.len();
-    let triangles: Vec<SceneTriangle> = triangles
-        .into_iter()
-        .filter(|t| {
+    let keep: Vec<bool> = triangles
+        .iter()
+        .map(|t| {
             let [a, b, c] = t.vertices.map(|v| positions[v as usize]);
             (b - a).cross(c - a).length() > threshold
         })
         .collect();
+    let triangles: Vec<SceneTriangle> = triangles
+        .into_iter()
+        .zip(&keep)
+        .filter_map(|(t, &k)| k.then_some(t))
+        .collect();
+    let face_lines: Option<Vec<usize>> = face_lines.map(|lines| {
+        lines
+            .into_iter()
+            .zip(&keep)
+            .filter_map(|(l, &k)| k.then_some(l))
+            .collect()
+    });
     let dropped = total - triangles.len();
     if triangles.is_empty() {
         return Err(Error::Input {
@@ -315,7 +333,7 @@ pub(crate) fn finish(
         })
         .collect();
 
-    let scene = Scene {
+    let mut scene = Scene {
         source,
         positions: kept,
         triangles,
@@ -323,8 +341,51 @@ pub(crate) fn finish(
         warnings,
     };
     scene.validate()?;
+
+    // 5. Likely modelling mistakes: warn, keep every face.
+    let diagonal = (hi - lo).length();
+    let name = |t: usize| match (&face_lines, &scene.source) {
+        (Some(lines), Some(path)) => format!("{t} ({}:{})", path.display(), lines[t]),
+        _ => t.to_string(),
+    };
+    let list = |pairs: &[(usize, usize)]| {
+        let mut shown: Vec<String> = pairs
+            .iter()
+            .take(MAX_LISTED_PAIRS)
+            .map(|&(i, j)| format!("triangles {} and {}", name(i), name(j)))
+            .collect();
+        if pairs.len() > MAX_LISTED_PAIRS {
+            shown.push(format!("… {} more", pairs.len() - MAX_LISTED_PAIRS));
+        }
+        shown.join("; ")
+    };
+    let coincident = checks::coincident_faces(&scene.positions, &scene.triangles, diagonal);
+    if !coincident.is_empty() {
+        let n = coincident.len();
+        scene.warnings.push(format!(
+            "{n} pair{} of coincident overlapping faces (same plane, same facing: z-fighting): \
+             {}. Both faces of each pair are kept, so light exchanged with the overlap is \
+             counted for both; move one face off the plane or cut a hole for it",
+            if n == 1 { "" } else { "s" },
+            list(&coincident)
+        ));
+    }
+    let flipped = checks::inconsistent_winding(&scene.triangles);
+    if !flipped.is_empty() {
+        let n = flipped.len();
+        scene.warnings.push(format!(
+            "{n} pair{} of neighbouring faces with inconsistent winding (a shared edge runs \
+             the same way in both, so one of them faces the wrong way): {}. Faces emit and \
+             reflect on their counter-clockwise side only",
+            if n == 1 { "" } else { "s" },
+            list(&flipped)
+        ));
+    }
     Ok(scene)
 }
+
+/// Warnings about pairs of faces list at most this many pairs (and count the rest).
+pub const MAX_LISTED_PAIRS: usize = 5;
 
 /// Builder for procedural scenes used by the verification suite and tests.
 ///
@@ -385,6 +446,7 @@ impl SceneBuilder {
             self.triangles,
             self.materials,
             Vec::new(),
+            None,
         )
     }
 }

@@ -47,7 +47,7 @@ const LOAD_OPTIONS: tobj::LoadOptions = tobj::LoadOptions {
 /// Loads an OBJ file and the MTL files it references into a welded, cleaned and validated
 /// [`Scene`]. Errors name the file and, where there is one, the line (1-based).
 pub fn load(path: &Path) -> Result<Scene> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_text(path)?;
     let scan = scan_obj(path, &text)?;
     let dir = path.parent().unwrap_or(Path::new(""));
 
@@ -147,13 +147,36 @@ pub fn load(path: &Path) -> Result<Scene> {
             message: "the mesh is empty: no faces with 3 or more vertices".into(),
         });
     }
+    // tobj keeps faces in file order and fan-triangulates a face of n vertices into n − 2
+    // triangles, so triangle k comes from the k-th face line below (checked by the count).
+    let face_lines: Vec<usize> = scan
+        .faces
+        .iter()
+        .flat_map(|&(line, n)| std::iter::repeat_n(line, n - 2))
+        .collect();
     finish(
         Some(path.to_path_buf()),
         positions,
         triangles,
         materials,
         warnings,
+        Some(face_lines),
     )
+}
+
+/// Reads a text file; bytes that are not UTF-8 (a binary file, or a legacy encoding) are an
+/// [`Error::Parse`] at the line where the first one is.
+fn read_text(path: &Path) -> Result<String> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
+        parse_error(
+            path,
+            line,
+            "not UTF-8 text (a binary file, or a legacy encoding: save it as UTF-8)",
+        )
+    })
 }
 
 /// A `usemtl` statement: the name, its line, and how many `mtllib` lines precede it.
@@ -169,6 +192,8 @@ struct ObjScan {
     normalised: String,
     usemtl: Vec<UseMtl>,
     mtllib_lines: Vec<usize>,
+    /// Every `f` statement: its line and its number of vertices (≥ 3).
+    faces: Vec<(usize, usize)>,
 }
 
 fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
@@ -192,6 +217,7 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
     let mut out = String::with_capacity(text.len());
     let mut usemtl = Vec::new();
     let mut mtllib_lines = Vec::new();
+    let mut faces = Vec::new();
     let mut vertices = 0usize;
     for (i, raw) in text.lines().enumerate() {
         let ln = i + 1;
@@ -246,6 +272,7 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
                     ));
                 }
                 out.push('f');
+                faces.push((ln, rest.len()));
                 for token in &rest {
                     let index = token.split('/').next().unwrap_or("");
                     let k: i64 = index.parse().map_err(|_| {
@@ -301,17 +328,22 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
         normalised: out,
         usemtl,
         mtllib_lines,
+        faces,
     })
 }
 
 /// Reads the MTL file `mtl` named by the `mtllib` at `obj:line` and returns its normalised
 /// text for `tobj`.
 fn read_mtl(obj: &Path, line: usize, mtl: &Path) -> Result<String> {
-    let text = std::fs::read_to_string(mtl).map_err(|e| {
+    let text = match std::fs::read(mtl) {
+        Ok(bytes) => String::from_utf8(bytes).map_err(|_| "not UTF-8 text".to_string()),
+        Err(e) => Err(e.to_string()),
+    }
+    .map_err(|why| {
         parse_error(
             obj,
             line,
-            format!("cannot read material library {}: {e}", mtl.display()),
+            format!("cannot read material library {}: {why}", mtl.display()),
         )
     })?;
     scan_mtl(mtl, &text)
@@ -641,9 +673,17 @@ mod tests {
             .all(|r| (r - 0.3).abs() < 1e-6));
         assert_eq!(s.materials[1].emission, [1.0, 2.0, 3.0]);
         assert_eq!(s.materials[1].reflectance, [0.5; 3]);
-        assert_eq!(s.warnings.len(), 1);
+        // The two faces both run 1 → 2: a (true) winding warning, naming their lines.
+        assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
         assert!(
             s.warnings[0].contains("'lamp' has no Kd"),
+            "{:?}",
+            s.warnings
+        );
+        assert!(
+            s.warnings[1].contains("inconsistent winding")
+                && s.warnings[1].contains("scene.OBJ:9) and 1 (")
+                && s.warnings[1].contains("scene.OBJ:12)"),
             "{:?}",
             s.warnings
         );

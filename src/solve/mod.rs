@@ -111,11 +111,70 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
             converged: true,
         });
     }
+    if settings.method != Method::Neumann {
+        check_not_singular(system)?;
+    }
     match settings.method {
         Method::Neumann => Ok(neumann(system, settings.bounces)),
         Method::Jacobi => Ok(jacobi(system, settings)),
         Method::GaussSeidel => Ok(gauss_seidel(system, settings)),
     }
+}
+
+/// Row sums at least 1 − this count as "closed" in [`check_not_singular`]: the f32 storage
+/// of F rounds each entry by ~6e-8 relative, so a row of a closed scene estimated to sum to 1
+/// (hemisphere; contour without occluders) sums to 1 within ~1e-7 after storage.
+pub const CLOSED_ROW_SUM_TOLERANCE: f64 = 1e-6;
+
+/// Detects, before iterating, the singular case ρ = 1 in a closed enclosure: for some channel
+/// a non-empty set S of patches with ρ = 1, each with Σ_j F_ij ≥ 1 − [`CLOSED_ROW_SUM_TOLERANCE`]
+/// and gathering only from patches of S. Then K restricted to S is (row-)stochastic, 1 is an
+/// eigenvalue of K, I − K is singular, and light emitted into S would bounce forever (no
+/// finite solution; the iteration would grow without bound or stall). S is found as the
+/// largest such set by elimination: start from every ρ = 1 patch with a full row and remove,
+/// transitively, every patch that gathers from a patch outside S (a work list over Fᵀ, O(nnz)).
+/// The error is [`Error::Numerical`] saying which channel and how many patches.
+///
+/// The Neumann series with a finite bounce count is well defined for any ρ and is not checked.
+pub fn check_not_singular(system: &System) -> Result<()> {
+    const CHANNELS: [&str; 3] = ["red", "green", "blue"];
+    let full_rho = |c: usize| system.reflectance.iter().any(|r| r[c] >= 1.0);
+    if !(0..3).any(full_rho) {
+        return Ok(());
+    }
+    let n = system.len();
+    let row_sums = system.form_factors.row_sums();
+    let transpose = system.form_factors.matrix.transpose_view().to_csr();
+    for (c, channel) in CHANNELS.iter().enumerate() {
+        let mut in_s: Vec<bool> = (0..n)
+            .map(|i| {
+                system.reflectance[i][c] >= 1.0 && row_sums[i] >= 1.0 - CLOSED_ROW_SUM_TOLERANCE
+            })
+            .collect();
+        let mut queue: Vec<usize> = (0..n).filter(|&j| !in_s[j]).collect();
+        while let Some(j) = queue.pop() {
+            // Row j of Fᵀ lists the patches i that gather from j (F_ij > 0).
+            if let Some(gatherers) = transpose.outer_view(j) {
+                for (i, &f) in gatherers.iter() {
+                    if f > 0.0 && in_s[i] {
+                        in_s[i] = false;
+                        queue.push(i);
+                    }
+                }
+            }
+        }
+        let count = in_s.iter().filter(|&&x| x).count();
+        if count > 0 {
+            return Err(Error::Numerical(format!(
+                "the system is singular and has no solution: {count} patches with reflectance \
+                 ρ = 1 in the {channel} channel (MTL Kd) form a closed enclosure (their form \
+                 factors sum to 1 and they see only each other), so light bounces among them \
+                 forever without being absorbed. Lower Kd below 1 (real materials reflect at \
+                 most ~0.95) or open the enclosure"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// E + KE + … + K^N E.

@@ -2,26 +2,11 @@
 //! determinism across thread counts; errors exit non-zero, name the problem and lose nothing.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use radiosity::export::{obj, ply};
 
-use crate::support::{meshes, temp_dir};
-
-fn radiosity(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_radiosity"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn cornell() -> String {
-    meshes().join("cornell_box.obj").display().to_string()
-}
+use crate::support::{cornell, radiosity, stderr, temp_dir};
 
 /// Bake the Cornell box coarsely (max-edge 110 mm: a few hundred patches, fast) to `out`.
 fn bake(out: &Path, extra: &[&str]) -> Output {

@@ -5,5 +5,8 @@
 mod analytic;
 mod cli;
 mod form_factors;
+mod properties;
+mod robust;
 mod solvers;
+mod stress;
 mod support;

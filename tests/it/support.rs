@@ -2,6 +2,7 @@
 //! scene runs with explicit settings, and dense reference solves.
 
 use std::path::PathBuf;
+use std::process::{Command, Output};
 
 use nalgebra::{DMatrix, DVector};
 use radiosity::form_factor::{self, Estimator};
@@ -95,4 +96,22 @@ pub fn temp_dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// Run the `radiosity` binary with `args` and collect its output.
+pub fn radiosity(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// The process's stderr as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The shipped Cornell box OBJ.
+pub fn cornell() -> String {
+    meshes().join("cornell_box.obj").display().to_string()
 }
