@@ -264,8 +264,11 @@ fn split_triangle(
             let (mab, mbc) = (m[(k + 1) % 3].unwrap(), m[(k + 2) % 3].unwrap());
             emit([mab, b, mbc]);
             // The remaining quad a, mab, mbc, c: cut along its shorter diagonal.
+            // Ties (common in regular meshes) go to the first diagonal; the relative margin,
+            // far above f64 rounding, keeps that choice the same in any unit of length.
             let p = |v: u32| positions[v as usize];
-            if p(a).distance_squared(p(mbc)) <= p(mab).distance_squared(p(c)) {
+            let (d1, d2) = (p(a).distance_squared(p(mbc)), p(mab).distance_squared(p(c)));
+            if d1 <= d2 * (1.0 + 1e-9) {
                 emit([a, mab, mbc]);
                 emit([a, mbc, c]);
             } else {

@@ -8,10 +8,12 @@
 //! obvhs works in `f32` and clamps the entry distance of every box test to a fixed `1e-4`. To make
 //! answers independent of the scene's scale and position, [`Visibility::build`] maps the scene
 //! into a canonical frame, `canonical = (scene − centre) · scale`, where `centre` is the centre of
-//! the triangles' bounding box and `scale` is the power of two that brings the largest extent
-//! into (512, 1024] (a power of two, so the scaling itself adds no rounding). Only then are
-//! coordinates rounded to `f32`. A scene in millimetres and the same scene in kilometres, far
-//! from the origin or not, give the same canonical triangles and the same answers.
+//! the triangles' bounding box and `scale = 1024 / largest extent`, and the canonical
+//! coordinates are snapped to a grid of 2⁻²⁰ canonical units (≈ 1e-9 of the extent) before
+//! they are rounded to `f32`. The snap absorbs the last-bit differences that rescaling by a
+//! non-power of two (millimetres vs metres: ×1e-3) leaves in f64, so a scene in any unit, near
+//! the origin or not, gives bit-identical canonical triangles and rays, and a ray aimed exactly
+//! at an edge is decided the same way at every scale.
 //!
 //! # Robustness
 //! - The ray–triangle test is the watertight test of Woop, Benthin & Wald, "Watertight
@@ -159,7 +161,7 @@ impl Visibility {
             return vis;
         }
         vis.centre = 0.5 * (lo + hi);
-        vis.scale = power_of_two_scale(extent);
+        vis.scale = CANONICAL_EXTENT / extent;
         vis.min_distance = MIN_DISTANCE_REL * extent * vis.scale;
 
         let mut tris = Vec::with_capacity(triangles.len());
@@ -315,7 +317,7 @@ impl Visibility {
 
     /// Canonical coordinates of the scene point `x`.
     fn to_canonical(&self, x: DVec3) -> DVec3 {
-        (x - self.centre) * self.scale
+        snap((x - self.centre) * self.scale, CANONICAL_GRID)
     }
 
     /// The watertight ray for the open segment `p`–`q`, parametrised so that `t ∈ [0, 1]` spans
@@ -334,7 +336,7 @@ impl Visibility {
         WatertightRay::new(pc, d, margin, 1.0 - margin)
     }
 
-    /// The watertight ray for `origin + t·dir`, its direction rescaled by the power of two `m`
+    /// The watertight ray for `origin + t·dir`, with a unit (snapped) direction; `m` (returned) is
     /// (returned) so that it is about one canonical unit long: internal `t' = m·t`.
     fn direction_ray(&self, origin: DVec3, dir: DVec3, t_max: f64) -> Option<(WatertightRay, f64)> {
         if self.tris.is_empty() || t_max.is_nan() || t_max <= 0.0 {
@@ -345,24 +347,26 @@ impl Visibility {
         if !(length > 0.0 && length.is_finite()) {
             return None;
         }
-        let m = 2f64.powi(length.log2().round() as i32);
-        let d = dc / m;
+        // Unit direction, snapped so that the same direction at another scene scale gives the
+        // same bits; internal t' = m·t with m = |dir| in canonical units.
+        let m = length;
+        let d = snap(dc / m, DIRECTION_GRID);
         let t_lo = self.min_distance * (HIT_MIN_DISTANCE_REL / MIN_DISTANCE_REL) / length * m;
         let ray = WatertightRay::new(self.to_canonical(origin), d, t_lo, t_max * m)?;
         Some((ray, m))
     }
 }
 
-/// Power of two `s` with `extent·s ∈ (CANONICAL_EXTENT/2, CANONICAL_EXTENT]`.
-fn power_of_two_scale(extent: f64) -> f64 {
-    let mut s = 2f64.powi((CANONICAL_EXTENT / extent).log2().floor() as i32);
-    while extent * s > CANONICAL_EXTENT {
-        s *= 0.5;
-    }
-    while extent * s <= 0.5 * CANONICAL_EXTENT {
-        s *= 2.0;
-    }
-    s
+/// Canonical coordinates are multiples of this (2⁻²⁰ canonical units): far below `f32`
+/// resolution at the frame's size (≈ 6e-5 at 1024), far above f64 rounding (≈ 1e-13).
+const CANONICAL_GRID: f64 = 1.0 / (1u64 << 20) as f64;
+
+/// Unit ray directions are snapped to multiples of 2⁻⁴⁰.
+const DIRECTION_GRID: f64 = 1.0 / (1u64 << 40) as f64;
+
+/// `x` rounded to the nearest multiple of `grid` in each coordinate.
+fn snap(x: DVec3, grid: f64) -> DVec3 {
+    (x / grid).round() * grid
 }
 
 /// A ray prepared once for the watertight test of Woop, Benthin & Wald (JCGT 2013), in the

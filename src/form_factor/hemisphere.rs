@@ -47,7 +47,9 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
     });
     let [a, b, c] = patches.corners(i);
     let normal = patches.normal[i];
-    let (tangent, bitangent) = orthonormal_basis(normal);
+    // The basis flips where n.z changes sign; snap the normal first so that a component that
+    // is 0 in one unit of length and ±1e-19 in another picks the same basis (same rays).
+    let (tangent, bitangent) = orthonormal_basis((normal * 2f64.powi(40)).round() / 2f64.powi(40));
     let mut hits: Vec<u32> = Vec::with_capacity(n);
     let (mut buried, mut extra_rays) = (0usize, 0usize);
     #[allow(clippy::needless_range_loop)] // k is the stratum index of four arrays
@@ -115,7 +117,7 @@ pub fn rows(patches: &Patches, vis: &Visibility, rays: u32, seed: u64) -> Vec<Ro
 /// A right-handed orthonormal basis (t, b) with t × b = n (Duff et al., "Building an
 /// orthonormal basis, revisited", JCGT 2017).
 fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
-    let sign = 1f64.copysign(n.z);
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     (

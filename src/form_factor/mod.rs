@@ -43,6 +43,10 @@ use sampling::{stratified_triangle_points, Rng};
 /// analytic form wherever the point-source assumption A_j ≪ r² fails).
 pub const NEAR_FIELD_FACTOR: f64 = 16.0;
 
+/// Regular meshes put many pairs exactly on the near-field threshold; a relative nudge far
+/// above f64 rounding decides those ties the same way whatever the scene's unit of length.
+const NEAR_FIELD_TIE: f64 = 1.0 + 1e-9;
+
 /// Which estimator of F_ij to use; see the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -361,7 +365,8 @@ fn pairwise(
                     continue;
                 }
                 let v_mean = n_visible as f64 / n_valid as f64;
-                let near = ci.distance_squared(cj) < NEAR_FIELD_FACTOR * ai.max(aj);
+                let near =
+                    ci.distance_squared(cj) < NEAR_FIELD_TIE * NEAR_FIELD_FACTOR * ai.max(aj);
                 let (mut fij, mut fji) = (0.0, 0.0);
                 for k in 0..ns {
                     let ky = (k + shift) % ns;
