@@ -240,8 +240,10 @@ impl Visibility {
             if id == ignore[0] || id == ignore[1] {
                 return f32::INFINITY;
             }
+            // Any hit in [t_lo, t_hi] blocks; obvhs counts a hit only if the returned t is
+            // below the ray's t_max, so report t_lo rather than a t that may equal t_hi.
             match ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi) {
-                Some((t, _, _)) => t,
+                Some(_) => ray.t_lo,
                 None => f32::INFINITY,
             }
         })

@@ -169,6 +169,14 @@ fn bvh_visibility_equals_brute_force_on_cornell_patches() {
     for _ in 0..5000 {
         let (i, p) = point(&mut rng);
         let (j, q) = point(&mut rng);
+        // A segment lying in an endpoint's own plane (two points of one flat face) grazes
+        // that face along its length: ill-posed for any ray caster, and never asked by the
+        // form factors (such pairs are culled). Skip it.
+        let d = q - p;
+        let grazing = |k: u32| patches.normal[k as usize].dot(d).abs() <= 1e-9 * d.length();
+        if grazing(i) || grazing(j) {
+            continue;
+        }
         let bvh = vis.occluded(p, q, [i, j]);
         assert_eq!(
             bvh,
