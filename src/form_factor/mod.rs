@@ -127,6 +127,11 @@ pub struct FormFactors {
     /// Fraction of each patch's area (by its sample weights) that is not buried in contact
     /// geometry, in [0, 1]; rows describe the visible part ([`is_hidden`]).
     pub visible_fraction: Vec<f64>,
+    /// How far below 1 a row of a closed enclosure may fall with this estimator: 1e-6 for
+    /// hemisphere shooting (rows are hit counts, exact up to f32 storage); 0.1 for the pair
+    /// estimators, whose rows next to occluders err by the one-ray-per-point visibility
+    /// estimate (measured up to 6e-2 at coarse settings). Used to recognise ρ = 1 enclosures.
+    pub closed_row_tolerance: f64,
 }
 
 impl FormFactors {
@@ -146,6 +151,7 @@ impl FormFactors {
             matrix: CsMatI::zero((n, n)),
             stats: Stats::default(),
             visible_fraction: vec![1.0; n],
+            closed_row_tolerance: 1e-6,
         }
     }
 
@@ -226,6 +232,10 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
         matrix,
         stats,
         visible_fraction,
+        closed_row_tolerance: match settings.estimator {
+            Estimator::Hemisphere => 1e-6,
+            Estimator::Area | Estimator::Contour => 0.1,
+        },
     };
     ff.stats.nnz = ff.matrix.nnz() as u64;
     let sums = ff.row_sums();

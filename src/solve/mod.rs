@@ -121,13 +121,9 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
     }
 }
 
-/// Row sums at least 1 − this count as "closed" in [`check_not_singular`]: the f32 storage
-/// of F rounds each entry by ~6e-8 relative, so a row of a closed scene estimated to sum to 1
-/// (hemisphere; contour without occluders) sums to 1 within ~1e-7 after storage.
-pub const CLOSED_ROW_SUM_TOLERANCE: f64 = 1e-6;
-
 /// Detects, before iterating, the singular case ρ = 1 in a closed enclosure: for some channel
-/// a non-empty set S of patches with ρ = 1, each with Σ_j F_ij ≥ 1 − [`CLOSED_ROW_SUM_TOLERANCE`]
+/// a non-empty set S of patches with ρ = 1, each with Σ_j F_ij ≥ 1 − the estimator's
+/// [`crate::form_factor::FormFactors::closed_row_tolerance`]
 /// and gathering only from patches of S. Then K restricted to S is (row-)stochastic, 1 is an
 /// eigenvalue of K, I − K is singular, and light emitted into S would bounce forever (no
 /// finite solution; the iteration would grow without bound or stall). S is found as the
@@ -144,12 +140,11 @@ pub fn check_not_singular(system: &System) -> Result<()> {
     }
     let n = system.len();
     let row_sums = system.form_factors.row_sums();
+    let tolerance = system.form_factors.closed_row_tolerance;
     let transpose = system.form_factors.matrix.transpose_view().to_csr();
     for (c, channel) in CHANNELS.iter().enumerate() {
         let mut in_s: Vec<bool> = (0..n)
-            .map(|i| {
-                system.reflectance[i][c] >= 1.0 && row_sums[i] >= 1.0 - CLOSED_ROW_SUM_TOLERANCE
-            })
+            .map(|i| system.reflectance[i][c] >= 1.0 && row_sums[i] >= 1.0 - tolerance)
             .collect();
         let mut queue: Vec<usize> = (0..n).filter(|&j| !in_s[j]).collect();
         while let Some(j) = queue.pop() {
