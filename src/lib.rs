@@ -10,17 +10,30 @@
 //! ([`form_factor`]) → matrix ([`matrix`]) → solve ([`solve`]) → bake ([`bake`]) → write
 //! ([`export`]), with a [`report::Report`] of counts and timings.
 //!
-//! ```no_run
-//! use radiosity::pipeline::{run, Settings, WriteOptions};
-//! let outcome = run(
-//!     "meshes/cornell_box.obj".as_ref(),
-//!     "cornell_lit.ply".as_ref(),
-//!     &Settings::default(),
-//!     &WriteOptions::default(),
-//! )?;
-//! eprintln!("{}", outcome.report.summary());
+//! Load, bake, write in a few lines (here a procedural scene; [`scene::Scene::load`] reads
+//! an OBJ):
+//!
+//! ```
+//! use radiosity::{export, pipeline, scenes};
+//!
+//! // Two facing unit squares 1 apart: a source with Le = 1 and a receiver with ρ = 0.5.
+//! let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?;
+//! let settings = pipeline::Settings { max_edge: Some(0.25), ..Default::default() };
+//! let outcome = pipeline::solve_scene(&scene, &settings)?;
+//! // The receiver's mean radiance is ρ·F·Le with F = 0.19982 (Howell C-11).
+//! let p = &outcome.patches;
+//! let receiver: Vec<usize> = (0..p.len()).filter(|&i| p.material[i] == 1).collect();
+//! let area: f64 = receiver.iter().map(|&i| p.area[i]).sum();
+//! let mean = receiver.iter().map(|&i| p.area[i] * outcome.solution.radiance[i][0]).sum::<f64>() / area;
+//! assert!((mean - 0.5 * 0.199825).abs() < 1e-4);
+//!
+//! let path = std::env::temp_dir().join("radiosity-doc-plates.ply");
+//! export::write(&path, &outcome.baked, export::Format::Ply { ascii: false }, 1.0)?;
+//! # std::fs::remove_file(&path).ok();
 //! # Ok::<(), radiosity::Error>(())
 //! ```
+//!
+//! For a file, [`pipeline::run`] does load → … → write in one call.
 
 pub mod bake;
 pub mod error;
