@@ -30,6 +30,9 @@ pub struct Row {
     pub rays: u64,
     /// Fraction of the ray origins that are not buried ([`super::is_hidden`]).
     pub visible_fraction: f64,
+    /// Rays from unburied origins that left the scene or met the back of a surface: light
+    /// lost from an open scene. 0 for every patch ⇔ (as far as these rays tell) closed.
+    pub escaped: usize,
 }
 
 /// The row of F for patch `i`.
@@ -51,7 +54,7 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
     // is 0 in one unit of length and ±1e-19 in another picks the same basis (same rays).
     let (tangent, bitangent) = orthonormal_basis((normal * 2f64.powi(40)).round() / 2f64.powi(40));
     let mut hits: Vec<u32> = Vec::with_capacity(n);
-    let (mut buried, mut extra_rays) = (0usize, 0usize);
+    let (mut buried, mut extra_rays, mut escaped) = (0usize, 0usize, 0usize);
     #[allow(clippy::needless_range_loop)] // k is the stratum index of four arrays
     for k in 0..n {
         let u = (k as f64 + rng.next_f64()) / n as f64;
@@ -83,8 +86,12 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
                 extra_rays += 1;
                 if super::is_hidden(patches, vis, i, origin) {
                     buried += 1;
+                } else {
+                    escaped += 1;
                 }
             }
+        } else {
+            escaped += 1;
         }
     }
     hits.sort_unstable();
@@ -103,6 +110,7 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
         entries: row,
         rays: (n + extra_rays) as u64,
         visible_fraction: (n - buried) as f64 / n as f64,
+        escaped,
     }
 }
 

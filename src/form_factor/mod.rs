@@ -78,6 +78,9 @@ pub struct Settings {
     /// Skip visibility rays in convex enclosures ([`is_convex_enclosure`]); on by default, off
     /// only to measure or test what the skip saves.
     pub skip_convex: bool,
+    /// Normalise the rows of a closed scene to 1 (pair estimators; see [`compute`]); on by
+    /// default, off to measure the estimators' raw row error.
+    pub normalise_closed: bool,
 }
 
 impl Default for Settings {
@@ -89,6 +92,7 @@ impl Default for Settings {
             seed: 1,
             reciprocity: false,
             skip_convex: true,
+            normalise_closed: true,
         }
     }
 }
@@ -107,6 +111,9 @@ pub struct Stats {
     pub convex_enclosure: bool,
     /// Patches with some sample points buried in contact geometry ([`is_hidden`]).
     pub patches_partly_hidden: u64,
+    /// True when closure probes found the scene closed and the rows were normalised to 1
+    /// (pair estimators with `normalise_closed`).
+    pub closed_scene: bool,
     /// Non-zeros of F.
     pub nnz: u64,
     /// Smallest, mean and largest row sum Σ_j F_ij.
@@ -157,16 +164,7 @@ impl FormFactors {
 
     /// Σ_j F_ij for every row i, accumulated in f64.
     pub fn row_sums(&self) -> Vec<f64> {
-        let (indptr, data) = (self.matrix.indptr(), self.matrix.data());
-        let indptr = indptr.raw_storage();
-        (0..self.len())
-            .map(|i| {
-                data[indptr[i] as usize..indptr[i + 1] as usize]
-                    .iter()
-                    .map(|&f| f as f64)
-                    .sum()
-            })
-            .collect()
+        row_sums_of(&self.matrix)
     }
 
     /// Check the structural invariants: square, finite, non-negative, no diagonal, and row
@@ -218,6 +216,27 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
     } else {
         pairwise(patches, vis, settings, &mut stats, &mut visible_fraction)?
     };
+    if settings.estimator != Estimator::Hemisphere && settings.normalise_closed {
+        // Energy conservation: in a closed enclosure every (visible) row sums to exactly 1.
+        // The pair estimators miss that by their visibility error next to occluders; if
+        // probe rays from every patch all land on the front of some surface, the scene is
+        // closed and the rows are rescaled to 1 (Cohen & Wallace §4.11 discuss this row
+        // normalisation). One escaping probe anywhere and nothing is changed.
+        let closed = (0..n).into_par_iter().all(|i| {
+            let probe = hemisphere::row(patches, vis, i, CLOSURE_PROBES, settings.seed ^ 0xC105ED);
+            probe.escaped == 0
+        });
+        stats.rays_cast += n as u64 * CLOSURE_PROBES as u64;
+        stats.closed_scene = closed;
+        if closed {
+            let sums: Vec<f64> = row_sums_of(&matrix);
+            let factor: Vec<f64> = sums
+                .iter()
+                .map(|&s| if s > 0.0 { s } else { 1.0 })
+                .collect();
+            scale_rows(&mut matrix, &factor);
+        }
+    }
     stats.patches_partly_hidden = visible_fraction.iter().filter(|&&v| v < 1.0).count() as u64;
     if settings.reciprocity {
         let visible_area: Vec<f64> = patches
@@ -581,12 +600,22 @@ pub fn is_hidden(patches: &Patches, vis: &Visibility, i: usize, x: DVec3) -> boo
     }
 }
 
-/// Divide row i by `fraction[i]` where 0 < fraction < 1 (rows with fraction 0 are all zero).
+/// Probe rays per patch that decide whether a scene is closed ([`compute`]).
+pub const CLOSURE_PROBES: u32 = 64;
+
+/// Σ_j F_ij per row, in f64.
+fn row_sums_of(m: &CsMatI<f32, u32>) -> Vec<f64> {
+    m.outer_iterator()
+        .map(|r| r.data().iter().map(|&f| f as f64).sum())
+        .collect()
+}
+
+/// Divide row i by `fraction[i]` where fraction > 0 and ≠ 1 (rows with fraction 0 are left).
 fn scale_rows(m: &mut CsMatI<f32, u32>, fraction: &[f64]) {
     let indptr: Vec<u32> = m.indptr().raw_storage().to_vec();
     let data = m.data_mut();
     for (i, &f) in fraction.iter().enumerate() {
-        if f > 0.0 && f < 1.0 {
+        if f > 0.0 && f != 1.0 {
             for x in &mut data[indptr[i] as usize..indptr[i + 1] as usize] {
                 *x = (*x as f64 / f) as f32;
             }

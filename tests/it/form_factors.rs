@@ -246,11 +246,14 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
         &settings(1.0, Estimator::Contour, 3, Method::Neumann, 1),
     );
     assert!(skip.form_factors.stats.convex_enclosure);
-    assert_eq!(skip.form_factors.stats.rays_cast, 0);
+    // No visibility ray: only the closure probes (64 per patch) that find the sphere closed.
+    let probes = skip.patches.len() as u64 * radiosity::form_factor::CLOSURE_PROBES as u64;
+    assert_eq!(skip.form_factors.stats.rays_cast, probes);
+    assert!(skip.form_factors.stats.closed_scene);
     let mut s = settings(1.0, Estimator::Contour, 3, Method::Neumann, 1);
     s.form_factors.skip_convex = false;
     let cast = run(&sphere, &s);
-    assert!(cast.form_factors.stats.rays_cast > 0);
+    assert!(cast.form_factors.stats.rays_cast > probes);
     // Nothing occludes inside a sphere: the rays change nothing, bit for bit.
     assert_eq!(skip.form_factors.matrix, cast.form_factors.matrix);
     // The furnace and the Cornell box are not convex.
