@@ -579,8 +579,10 @@ pub fn is_convex_enclosure(patches: &Patches) -> bool {
         .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(*p), hi.max(*p))
         });
-    // Vertices on a plane (shared edges, coplanar patches) must not count as behind it.
-    let tol = 1e-9 * (hi - lo).length();
+    // Vertices on a plane (shared edges, coplanar patches) must not count as behind it, nor
+    // may the rounding of OBJ input (tobj parses f32: ~1e-7 relative) make a tessellated
+    // sphere non-convex. A dent of 1e-6 of the scene's size cannot hide anything measurable.
+    let tol = 1e-6 * (hi - lo).length();
     (0..n).into_par_iter().all(|i| {
         let (c, nrm) = (patches.centroid[i], patches.normal[i]);
         patches.positions.iter().all(|p| nrm.dot(*p - c) >= -tol)

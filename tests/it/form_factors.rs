@@ -256,6 +256,12 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
     assert!(cast.form_factors.stats.rays_cast > probes);
     // Nothing occludes inside a sphere: the rays change nothing, bit for bit.
     assert_eq!(skip.form_factors.matrix, cast.form_factors.matrix);
+    // The same sphere read back from OBJ (tobj parses f32: vertices move by ~1e-7 relative, so
+    // facets are no longer exactly coplanar with their neighbours' vertices) is still convex.
+    let from_obj = Scene::load(&meshes().join("integrating_sphere.obj")).unwrap();
+    assert!(radiosity::form_factor::is_convex_enclosure(
+        &patch::subdivide(&from_obj, 10.0).unwrap()
+    ));
     // The furnace and the Cornell box are not convex.
     let furnace = scenes::furnace_room(0.5, 1.0).unwrap();
     assert!(!radiosity::form_factor::is_convex_enclosure(
