@@ -10,6 +10,7 @@ use glam::DVec3;
 use radiosity::export::{png, BakedMesh};
 use radiosity::form_factor::{self, Estimator};
 use radiosity::pipeline::{self, WriteOptions};
+use radiosity::scene::{Override, Property};
 use radiosity::solve::{self, Method};
 use radiosity::{Error, Result};
 
@@ -62,6 +63,8 @@ pub struct RenderArgs {
     pub view: ViewArgs,
     #[command(flatten)]
     pub solve: SolveArgs,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
 }
 
 /// Picture options shared by `render` and `bake --png`.
@@ -150,6 +153,48 @@ pub struct BakeArgs {
     pub view: ViewArgs,
     #[command(flatten)]
     pub solve: SolveArgs,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
+}
+
+/// Material overrides shared by `bake`, `render` and `info`: change ρ or Le of a material
+/// without editing the scene's files. Applied in order; a later one wins.
+#[derive(Debug, Args)]
+pub struct MaterialArgs {
+    /// Set the reflectance ρ of MATERIAL (`*` = every material): R,G,B in [0, 1], or one
+    /// value for grey. Repeatable; later ones win.
+    #[arg(
+        long,
+        value_name = "MATERIAL=R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Materials"
+    )]
+    pub reflectance: Vec<String>,
+    /// Set the emitted radiance Le of MATERIAL (`*` = every material), W·sr⁻¹·m⁻²: R,G,B ≥ 0,
+    /// or one value for grey. Repeatable; later ones win.
+    #[arg(
+        long,
+        value_name = "MATERIAL=R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Materials"
+    )]
+    pub emission: Vec<String>,
+}
+
+impl MaterialArgs {
+    /// The parsed overrides, reflectances first then emissions, each in command-line order
+    /// (the two never act on the same property, so their relative order does not matter).
+    pub fn overrides(&self) -> Result<Vec<Override>> {
+        let rho = self
+            .reflectance
+            .iter()
+            .map(|t| Override::parse(Property::Reflectance, t));
+        let le = self
+            .emission
+            .iter()
+            .map(|t| Override::parse(Property::Emission, t));
+        rho.chain(le).collect()
+    }
 }
 
 /// Discretisation, form-factor and solver options shared by `bake` and `verify`.

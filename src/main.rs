@@ -59,6 +59,7 @@ fn main() -> ExitCode {
 
 fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
     let settings = args.solve.settings()?;
+    let overrides = args.materials.overrides()?;
     let options = args.write_options()?;
     for path in args.report.iter().chain(&args.png) {
         export::check_output_dir(path)?;
@@ -67,7 +68,7 @@ fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
         // Validate the picture options before the long work (the mesh is not needed for it).
         args.view.view(&export::BakedMesh::default(), 1.0)?;
     }
-    let outcome = pipeline::run(&args.input, &args.output, &settings, &options)?;
+    let outcome = pipeline::run_with(&args.input, &args.output, &settings, &options, &overrides)?;
     let report = &outcome.report;
     for w in &report.warnings {
         eprintln!("warning: {w}");
@@ -139,6 +140,7 @@ fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
             ));
         }
     }
+    let overrides = args.materials.overrides()?;
     let is_ply = args
         .input
         .extension()
@@ -163,7 +165,8 @@ fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
         }
     } else {
         let settings = args.solve.settings()?;
-        let scene = radiosity::scene::Scene::load(&args.input)?;
+        let mut scene = radiosity::scene::Scene::load(&args.input)?;
+        scene.apply_overrides(&overrides)?;
         let outcome = pipeline::solve_scene(&scene, &settings)?;
         for w in &outcome.report.warnings {
             eprintln!("warning: {w}");

@@ -13,6 +13,9 @@
 
 pub mod checks;
 pub mod obj;
+pub mod overrides;
+
+pub use overrides::{Override, Property};
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
