@@ -41,6 +41,21 @@ pub enum Command {
     Generate(GenerateArgs),
     /// Render a picture (PNG) of a baked PLY, or of a scene (baked first with the options given).
     Render(RenderArgs),
+    /// Describe a scene without solving it: counts, bounding box, materials, emitters and
+    /// their power, loader warnings, and the patch count the defaults would give.
+    Info(InfoArgs),
+}
+
+/// Options of `radiosity info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Input scene (OBJ with its MTL, or PLY).
+    pub input: PathBuf,
+    /// Print JSON instead of text (the same facts; field names in the README).
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
 }
 
 /// Options of `radiosity render`.

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
-use cli::{BakeArgs, Cli, Command, GenerateArgs, RenderArgs, SceneKind, VerifyArgs};
+use cli::{BakeArgs, Cli, Command, GenerateArgs, InfoArgs, RenderArgs, SceneKind, VerifyArgs};
 use radiosity::export::png;
 use radiosity::{export, pipeline, verify, Error};
 
@@ -42,6 +42,7 @@ fn main() -> ExitCode {
         Command::Verify(args) => verify(args, cli.quiet),
         Command::Generate(args) => generate(args),
         Command::Render(args) => render(args, cli.quiet),
+        Command::Info(args) => info(args),
     };
     match result {
         Ok(code) => ExitCode::from(code),
@@ -190,6 +191,19 @@ fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
     let view = args.view.view(&mesh, exposure)?;
     png::save(&args.output, &png::render(&mesh, &view))?;
     Ok(code)
+}
+
+fn info(args: &InfoArgs) -> Result<u8, Error> {
+    let overrides = args.materials.overrides()?;
+    let mut scene = radiosity::scene::Scene::load(&args.input)?;
+    scene.apply_overrides(&overrides)?;
+    let info = radiosity::info::SceneInfo::of(&scene)?;
+    if args.json {
+        println!("{}", info.to_json());
+    } else {
+        print!("{}", info.text());
+    }
+    Ok(0)
 }
 
 fn generate(args: &GenerateArgs) -> Result<u8, Error> {
