@@ -148,20 +148,24 @@ fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
         .map(|e| e.eq_ignore_ascii_case("ply"))
         == Some(true);
     let mut code = 0;
-    let mesh = if is_ply {
-        // A baked PLY: positions, faces and the radiance `radiosity bake` wrote.
-        let back = ply::read(&args.input)?;
-        let (Some(vr), Some(fr)) = (back.vertex_radiance, back.face_radiance) else {
-            return Err(Error::Input {
-                path: args.input.clone(),
-                message: "no radiance_r/g/b properties: not a PLY written by radiosity bake".into(),
-            });
-        };
+    // A PLY written by `radiosity bake` is rendered as it is (unless material overrides ask
+    // for a new bake); any other input, including other PLY files, is a scene baked first.
+    let baked = if is_ply && overrides.is_empty() {
+        ply::read(&args.input)
+            .ok()
+            .and_then(|b| match (b.vertex_radiance, b.face_radiance) {
+                (Some(vr), Some(fr)) => Some((b.positions, b.faces, vr, fr)),
+                _ => None,
+            })
+    } else {
+        None
+    };
+    let mesh = if let Some((positions, faces, vr, fr)) = baked {
         let f64s = |v: Vec<[f32; 3]>| v.into_iter().map(|x| x.map(f64::from)).collect();
         BakedMesh {
-            positions: f64s(back.positions),
+            positions: f64s(positions),
             vertex_radiance: f64s(vr),
-            faces: back.faces,
+            faces,
             face_radiance: f64s(fr),
         }
     } else {
