@@ -61,7 +61,8 @@ pub struct InfoArgs {
 /// Options of `radiosity render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// A PLY written by `radiosity bake` (rendered as it is), or a scene OBJ (baked first).
+    /// A PLY written by `radiosity bake` (rendered as it is, unless material overrides are
+    /// given), or a scene OBJ or PLY (baked first).
     pub input: PathBuf,
     /// Output picture (.png).
     #[arg(short, long, value_name = "FILE.png")]
@@ -141,7 +142,8 @@ pub struct GenerateArgs {
 /// Options of `radiosity bake`.
 #[derive(Debug, Args)]
 pub struct BakeArgs {
-    /// Input scene: OBJ with its MTL (Kd = reflectance, Ke = emitted radiance).
+    /// Input scene: OBJ with its MTL (Kd = reflectance, Ke = emitted radiance), or PLY
+    /// (optional reflectance_r/g/b and emission_r/g/b per face or vertex).
     pub input: PathBuf,
     /// Output mesh: .ply (binary; --ascii for text) or .obj (vertex colours `v x y z r g b`).
     #[arg(short, long, value_name = "FILE")]

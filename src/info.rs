@@ -83,10 +83,10 @@ impl SceneInfo {
         }
         let mut emitted_power = [0.0; 3];
         for m in &mut materials {
-            for c in 0..3 {
-                // Φ = ∫∫ Le cosθ dω dA = π·Le·A for a Lambertian emitter.
-                m.power[c] = std::f64::consts::PI * m.emission[c] * m.area;
-                emitted_power[c] += m.power[c];
+            // Φ = ∫∫ Le cosθ dω dA = π·Le·A for a Lambertian emitter.
+            m.power = m.emission.map(|le| std::f64::consts::PI * le * m.area);
+            for (total, p) in emitted_power.iter_mut().zip(m.power) {
+                *total += p;
             }
         }
         let (lo, hi) = scene.bounds();

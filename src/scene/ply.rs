@@ -530,7 +530,9 @@ pub fn load(path: &Path) -> Result<Scene> {
     let mut positions = Vec::with_capacity(cap(vertex.count));
     // Per-vertex material groups, when the vertex element has them.
     let mut vertex_values: [Vec<[f64; 3]>; 2] = [Vec::new(), Vec::new()];
-    let mut faces: Vec<(At, Vec<u32>, [Option<[f64; 3]>; 2])> = Vec::with_capacity(cap(face.count));
+    // Per face: where it is, its corners, and its own (ρ, Le) when the face element has them.
+    type Face<'a> = (At<'a>, Vec<u32>, [Option<[f64; 3]>; 2]);
+    let mut faces: Vec<Face> = Vec::with_capacity(cap(face.count));
     let (mut values, mut list) = (Vec::new(), Vec::new());
     for element in &header.elements {
         for i in 0..element.count {
