@@ -20,7 +20,9 @@
 //! would be a surprise. ρ outside [0, 1], Le negative or not finite, non-finite
 //! coordinates, out-of-range or non-integer indices and faces of fewer than 3 vertices are
 //! errors naming the line (ASCII) or the element index (binary). An ASCII body is read as
-//! one record per non-blank line (what every writer we know of produces).
+//! one record per non-blank line (what every writer we know of produces); lines or bytes
+//! after the last record are ignored. An element with records but no properties is refused
+//! (reading it would loop over nothing as many times as the header claims).
 //!
 //! Decision: a hand-written reader, not a crate. `ply-rs-bw` (the maintained fork of
 //! `ply-rs`, 4.0.1) needs Rust 1.87 while this crate supports 1.85, and we want the loader's
@@ -260,6 +262,16 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
             }
         }
     }
+    if let Some(e) = elements
+        .iter()
+        .find(|e| e.properties.is_empty() && e.count > 0)
+    {
+        return Err(parse_error(
+            path,
+            e.line,
+            format!("element {} has records but no properties", e.name),
+        ));
+    }
     let Some(ascii) = format else {
         return Err(parse_error(
             path,
@@ -300,7 +312,7 @@ fn error_at(path: &Path, at: At, message: impl Into<String>) -> Error {
 /// The body, read record by record in either encoding.
 enum Body<'a> {
     Ascii {
-        lines: std::iter::Peekable<Box<dyn Iterator<Item = (usize, &'a str)> + 'a>>,
+        lines: Box<dyn Iterator<Item = (usize, &'a str)> + 'a>,
         last_line: usize,
     },
     Binary {
@@ -515,7 +527,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 .filter(|(_, l)| !l.trim().is_empty()),
         );
         Body::Ascii {
-            lines: lines.peekable(),
+            lines,
             last_line: header.lines + text.lines().count().max(1),
         }
     } else {
@@ -525,14 +537,13 @@ pub fn load(path: &Path) -> Result<Scene> {
         }
     };
 
-    // Counts come from the file: reserve no more than the bytes could hold.
-    let cap = |n: usize| n.min(bytes.len());
-    let mut positions = Vec::with_capacity(cap(vertex.count));
+    // No reservation from the header's counts: a hostile file could claim billions.
+    let mut positions = Vec::new();
     // Per-vertex material groups, when the vertex element has them.
     let mut vertex_values: [Vec<[f64; 3]>; 2] = [Vec::new(), Vec::new()];
     // Per face: where it is, its corners, and its own (ρ, Le) when the face element has them.
     type Face<'a> = (At<'a>, Vec<u32>, [Option<[f64; 3]>; 2]);
-    let mut faces: Vec<Face> = Vec::with_capacity(cap(face.count));
+    let mut faces: Vec<Face> = Vec::new();
     let (mut values, mut list) = (Vec::new(), Vec::new());
     for element in &header.elements {
         for i in 0..element.count {
@@ -663,9 +674,13 @@ pub fn load(path: &Path) -> Result<Scene> {
 mod tests {
     use super::*;
 
-    /// Writes `bytes` as `name` in a fresh temporary directory and loads it.
+    /// Writes `bytes` as `name` in a fresh temporary directory (unique per call, tests run
+    /// in parallel) and loads it.
     fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
-        let dir = std::env::temp_dir().join(format!("radiosity-ply-{}-{name}", std::process::id()));
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("radiosity-ply-{}-{n}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join(name);
         std::fs::write(&path, bytes).unwrap();
@@ -914,6 +929,15 @@ mod tests {
                 "ply\nformat ascii 1.0\nelement vertex 1\n".into(),
                 4,
                 "no end_header",
+            ),
+            (
+                head.replacen(
+                    "element vertex",
+                    "element junk 99999999999\nelement vertex",
+                    1,
+                ) + "end_header\n",
+                3,
+                "element junk has records but no properties",
             ),
         ];
         for (text, line, needle) in cases {
