@@ -164,6 +164,7 @@ pub fn run_with(
     report.exposure = exposure;
     report.input = Some(input.display().to_string());
     report.output = Some(output.display().to_string());
+    report.overrides = overrides.iter().map(Override::to_string).collect();
     report.seconds.load = load_seconds;
     report.seconds.write = t.elapsed().as_secs_f64();
     Ok(outcome)

@@ -96,6 +96,19 @@ impl Override {
     }
 }
 
+/// The override as the command-line option that gives it: `--reflectance white=0.5,0.5,0.5`.
+impl std::fmt::Display for Override {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [r, g, b] = self.value;
+        write!(
+            f,
+            "{} {}={r},{g},{b}",
+            self.property.option(),
+            self.material
+        )
+    }
+}
+
 impl Scene {
     /// Applies `overrides` in order (later ones win). Checks each first: a material name the
     /// scene does not have is an [`Error::Usage`] naming the option and listing the scene's
@@ -168,6 +181,9 @@ mod tests {
         assert_eq!((o.material.as_str(), o.value), ("*", [1.0, 2.0, 3.0]));
         let o = Override::parse(Property::Emission, "a=b=4").unwrap();
         assert_eq!((o.material.as_str(), o.value), ("a=b", [4.0; 3]));
+        assert_eq!(o.to_string(), "--emission a=b=4,4,4");
+        let back = Override::parse(Property::Emission, "a=b=4,4,4").unwrap();
+        assert_eq!(back, o, "the display form parses back");
     }
 
     #[test]

@@ -89,8 +89,22 @@ fn cli_overrides_apply_and_unknown_materials_are_usage_errors() {
         .all(|&l| l == 0.0));
 
     // ρ = 0 everywhere, then the light's own Le raised: radiance is Le or 0, nothing between.
-    let o = bake(&["--reflectance", "*=0", "--emission", "light=2,3,4"]);
+    let report = dir.join("r.json");
+    let o = bake(&[
+        "--reflectance",
+        "*=0",
+        "--emission",
+        "light=2,3,4",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(
+        json["overrides"],
+        serde_json::json!(["--reflectance *=0,0,0", "--emission light=2,3,4"])
+    );
     let p = radiosity::export::ply::read(&out).unwrap();
     for r in p.face_radiance.unwrap() {
         assert!(r == [0.0; 3] || r == [2.0, 3.0, 4.0], "{r:?}");
