@@ -10,6 +10,7 @@ use glam::DVec3;
 use radiosity::export::{png, BakedMesh};
 use radiosity::form_factor::{self, Estimator};
 use radiosity::pipeline::{self, WriteOptions};
+use radiosity::scene::{Override, Property};
 use radiosity::solve::{self, Method};
 use radiosity::{Error, Result};
 
@@ -40,12 +41,28 @@ pub enum Command {
     Generate(GenerateArgs),
     /// Render a picture (PNG) of a baked PLY, or of a scene (baked first with the options given).
     Render(RenderArgs),
+    /// Describe a scene without solving it: counts, bounding box, materials, emitters and
+    /// their power, loader warnings, and the patch count the defaults would give.
+    Info(InfoArgs),
+}
+
+/// Options of `radiosity info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Input scene (OBJ with its MTL, or PLY).
+    pub input: PathBuf,
+    /// Print JSON instead of text (the same facts; field names in the README).
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
 }
 
 /// Options of `radiosity render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// A PLY written by `radiosity bake` (rendered as it is), or a scene OBJ (baked first).
+    /// A PLY written by `radiosity bake` (rendered as it is, unless material overrides are
+    /// given), or a scene OBJ or PLY (baked first).
     pub input: PathBuf,
     /// Output picture (.png).
     #[arg(short, long, value_name = "FILE.png")]
@@ -62,6 +79,8 @@ pub struct RenderArgs {
     pub view: ViewArgs,
     #[command(flatten)]
     pub solve: SolveArgs,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
 }
 
 /// Picture options shared by `render` and `bake --png`.
@@ -123,7 +142,8 @@ pub struct GenerateArgs {
 /// Options of `radiosity bake`.
 #[derive(Debug, Args)]
 pub struct BakeArgs {
-    /// Input scene: OBJ with its MTL (Kd = reflectance, Ke = emitted radiance).
+    /// Input scene: OBJ with its MTL (Kd = reflectance, Ke = emitted radiance), or PLY
+    /// (optional reflectance_r/g/b and emission_r/g/b per face or vertex).
     pub input: PathBuf,
     /// Output mesh: .ply (binary; --ascii for text) or .obj (vertex colours `v x y z r g b`).
     #[arg(short, long, value_name = "FILE")]
@@ -150,6 +170,48 @@ pub struct BakeArgs {
     pub view: ViewArgs,
     #[command(flatten)]
     pub solve: SolveArgs,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
+}
+
+/// Material overrides shared by `bake`, `render` and `info`: change ρ or Le of a material
+/// without editing the scene's files. Applied in order; a later one wins.
+#[derive(Debug, Args)]
+pub struct MaterialArgs {
+    /// Set the reflectance ρ of MATERIAL (`*` = every material): R,G,B in [0, 1], or one
+    /// value for grey. Repeatable; later ones win.
+    #[arg(
+        long,
+        value_name = "MATERIAL=R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Materials"
+    )]
+    pub reflectance: Vec<String>,
+    /// Set the emitted radiance Le of MATERIAL (`*` = every material), W·sr⁻¹·m⁻²: R,G,B ≥ 0,
+    /// or one value for grey. Repeatable; later ones win.
+    #[arg(
+        long,
+        value_name = "MATERIAL=R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Materials"
+    )]
+    pub emission: Vec<String>,
+}
+
+impl MaterialArgs {
+    /// The parsed overrides, reflectances first then emissions, each in command-line order
+    /// (the two never act on the same property, so their relative order does not matter).
+    pub fn overrides(&self) -> Result<Vec<Override>> {
+        let rho = self
+            .reflectance
+            .iter()
+            .map(|t| Override::parse(Property::Reflectance, t));
+        let le = self
+            .emission
+            .iter()
+            .map(|t| Override::parse(Property::Emission, t));
+        rho.chain(le).collect()
+    }
 }
 
 /// Discretisation, form-factor and solver options shared by `bake` and `verify`.

@@ -39,6 +39,7 @@ pub mod bake;
 pub mod error;
 pub mod export;
 pub mod form_factor;
+pub mod info;
 pub mod matrix;
 pub mod patch;
 pub mod pipeline;

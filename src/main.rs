@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
-use cli::{BakeArgs, Cli, Command, GenerateArgs, RenderArgs, SceneKind, VerifyArgs};
+use cli::{BakeArgs, Cli, Command, GenerateArgs, InfoArgs, RenderArgs, SceneKind, VerifyArgs};
 use radiosity::export::png;
 use radiosity::{export, pipeline, verify, Error};
 
@@ -42,6 +42,7 @@ fn main() -> ExitCode {
         Command::Verify(args) => verify(args, cli.quiet),
         Command::Generate(args) => generate(args),
         Command::Render(args) => render(args, cli.quiet),
+        Command::Info(args) => info(args),
     };
     match result {
         Ok(code) => ExitCode::from(code),
@@ -59,6 +60,7 @@ fn main() -> ExitCode {
 
 fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
     let settings = args.solve.settings()?;
+    let overrides = args.materials.overrides()?;
     let options = args.write_options()?;
     for path in args.report.iter().chain(&args.png) {
         export::check_output_dir(path)?;
@@ -67,7 +69,7 @@ fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
         // Validate the picture options before the long work (the mesh is not needed for it).
         args.view.view(&export::BakedMesh::default(), 1.0)?;
     }
-    let outcome = pipeline::run(&args.input, &args.output, &settings, &options)?;
+    let outcome = pipeline::run_with(&args.input, &args.output, &settings, &options, &overrides)?;
     let report = &outcome.report;
     for w in &report.warnings {
         eprintln!("warning: {w}");
@@ -139,31 +141,37 @@ fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
             ));
         }
     }
+    let overrides = args.materials.overrides()?;
     let is_ply = args
         .input
         .extension()
         .map(|e| e.eq_ignore_ascii_case("ply"))
         == Some(true);
     let mut code = 0;
-    let mesh = if is_ply {
-        // A baked PLY: positions, faces and the radiance `radiosity bake` wrote.
-        let back = ply::read(&args.input)?;
-        let (Some(vr), Some(fr)) = (back.vertex_radiance, back.face_radiance) else {
-            return Err(Error::Input {
-                path: args.input.clone(),
-                message: "no radiance_r/g/b properties: not a PLY written by radiosity bake".into(),
-            });
-        };
+    // A PLY written by `radiosity bake` is rendered as it is (unless material overrides ask
+    // for a new bake); any other input, including other PLY files, is a scene baked first.
+    let baked = if is_ply && overrides.is_empty() {
+        ply::read(&args.input)
+            .ok()
+            .and_then(|b| match (b.vertex_radiance, b.face_radiance) {
+                (Some(vr), Some(fr)) => Some((b.positions, b.faces, vr, fr)),
+                _ => None,
+            })
+    } else {
+        None
+    };
+    let mesh = if let Some((positions, faces, vr, fr)) = baked {
         let f64s = |v: Vec<[f32; 3]>| v.into_iter().map(|x| x.map(f64::from)).collect();
         BakedMesh {
-            positions: f64s(back.positions),
+            positions: f64s(positions),
             vertex_radiance: f64s(vr),
-            faces: back.faces,
+            faces,
             face_radiance: f64s(fr),
         }
     } else {
         let settings = args.solve.settings()?;
-        let scene = radiosity::scene::Scene::load(&args.input)?;
+        let mut scene = radiosity::scene::Scene::load(&args.input)?;
+        scene.apply_overrides(&overrides)?;
         let outcome = pipeline::solve_scene(&scene, &settings)?;
         for w in &outcome.report.warnings {
             eprintln!("warning: {w}");
@@ -187,6 +195,19 @@ fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
     let view = args.view.view(&mesh, exposure)?;
     png::save(&args.output, &png::render(&mesh, &view))?;
     Ok(code)
+}
+
+fn info(args: &InfoArgs) -> Result<u8, Error> {
+    let overrides = args.materials.overrides()?;
+    let mut scene = radiosity::scene::Scene::load(&args.input)?;
+    scene.apply_overrides(&overrides)?;
+    let info = radiosity::info::SceneInfo::of(&scene)?;
+    if args.json {
+        println!("{}", info.to_json());
+    } else {
+        print!("{}", info.text());
+    }
+    Ok(0)
 }
 
 fn generate(args: &GenerateArgs) -> Result<u8, Error> {

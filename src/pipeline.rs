@@ -14,7 +14,7 @@ use crate::form_factor::{self, FormFactors};
 use crate::matrix::System;
 use crate::patch::{self, Patches};
 use crate::report::{Report, Seconds};
-use crate::scene::Scene;
+use crate::scene::{Override, Scene};
 use crate::solve::{self, Solution};
 use crate::visibility::Visibility;
 use crate::{bake, Result};
@@ -132,12 +132,25 @@ pub fn run(
     settings: &Settings,
     options: &WriteOptions,
 ) -> Result<Outcome> {
+    run_with(input, output, settings, options, &[])
+}
+
+/// [`run`] with material overrides applied to the scene right after loading
+/// ([`Scene::apply_overrides`]: later ones win; an unknown material is a usage error).
+pub fn run_with(
+    input: &Path,
+    output: &Path,
+    settings: &Settings,
+    options: &WriteOptions,
+    overrides: &[Override],
+) -> Result<Outcome> {
     // Check the output format before any work, so a typo costs nothing.
     let format = Format::from_path(output, options.ascii)?;
     export::check_output_dir(output)?;
 
     let t = Instant::now();
-    let scene = Scene::load(input)?;
+    let mut scene = Scene::load(input)?;
+    scene.apply_overrides(overrides)?;
     let load_seconds = t.elapsed().as_secs_f64();
 
     let mut outcome = solve_scene(&scene, settings)?;
@@ -151,6 +164,7 @@ pub fn run(
     report.exposure = exposure;
     report.input = Some(input.display().to_string());
     report.output = Some(output.display().to_string());
+    report.overrides = overrides.iter().map(Override::to_string).collect();
     report.seconds.load = load_seconds;
     report.seconds.write = t.elapsed().as_secs_f64();
     Ok(outcome)

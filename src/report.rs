@@ -40,6 +40,9 @@ pub struct Report {
     pub version: &'static str,
     pub input: Option<String>,
     pub output: Option<String>,
+    /// Material overrides applied to the scene after loading, in order, as command-line
+    /// options (`--emission light=0,0,0`); empty when there were none.
+    pub overrides: Vec<String>,
     /// Triangles in the input after triangulation and cleaning.
     pub input_triangles: usize,
     /// Longest patch edge used, scene units.
@@ -68,6 +71,7 @@ impl Report {
             version: env!("CARGO_PKG_VERSION"),
             input: None,
             output: None,
+            overrides: Vec::new(),
             input_triangles: 0,
             max_edge: 0.0,
             patches: 0,

@@ -1,7 +1,8 @@
 //! The scene: triangles, their vertex positions and their Lambertian materials, as handed
 //! from the loaders to the patcher. This module owns the types, the shared clean-up every
 //! scene goes through (vertex welding, dropping zero-area triangles, [`Scene::validate`]),
-//! and [`SceneBuilder`] for procedural scenes; file formats live in submodules ([`obj`]).
+//! and [`SceneBuilder`] for procedural scenes; file formats live in submodules ([`obj`],
+//! [`ply`]); material overrides in [`overrides`].
 //! It does not subdivide, compute normals for shading, or know about radiometry beyond
 //! checking that reflectances and emissions are physically meaningful.
 //!
@@ -13,6 +14,10 @@
 
 pub mod checks;
 pub mod obj;
+pub mod overrides;
+pub mod ply;
+
+pub use overrides::{Override, Property};
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -74,24 +79,26 @@ pub struct Scene {
 
 impl Scene {
     /// Loads a scene file, dispatching on the extension: `.obj` (any case) goes to
-    /// [`obj::load`]. A missing path is [`Error::Io`], a directory [`Error::Input`], any
+    /// [`obj::load`], `.ply` to [`ply::load`]. A missing path is [`Error::Io`], a directory [`Error::Input`], any
     /// other extension [`Error::Usage`]; all name the path.
     pub fn load(path: &Path) -> Result<Scene> {
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
         if meta.is_dir() {
             return Err(Error::Input {
                 path: path.to_path_buf(),
-                message: "is a directory, expected a scene file (.obj)".into(),
+                message: "is a directory, expected a scene file (.obj or .ply)".into(),
             });
         }
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
         if ext.eq_ignore_ascii_case("obj") {
             obj::load(path)
+        } else if ext.eq_ignore_ascii_case("ply") {
+            ply::load(path)
         } else {
             Err(Error::usage(
                 "input",
                 format!(
-                    "{}: unsupported scene format (expected a .obj file)",
+                    "{}: unsupported scene format (expected a .obj or .ply file)",
                     path.display()
                 ),
             ))

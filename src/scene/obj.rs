@@ -725,9 +725,9 @@ mod tests {
         std::fs::create_dir(&sub).unwrap();
         assert!(matches!(load(&sub).unwrap_err(), Error::Io { .. }));
 
-        let e = Scene::load(&dir.write("scene.ply", TRIANGLE)).unwrap_err();
+        let e = Scene::load(&dir.write("scene.stl", TRIANGLE)).unwrap_err();
         assert!(matches!(e, Error::Usage { .. }), "{e:?}");
-        assert!(e.to_string().contains("scene.ply"), "{e}");
+        assert!(e.to_string().contains("scene.stl"), "{e}");
 
         let e = load_text("empty", TRIANGLE, &[]).unwrap_err();
         assert!(matches!(e, Error::Input { .. }), "{e:?}");

@@ -10,3 +10,4 @@ mod robust;
 mod solvers;
 mod stress;
 mod support;
+mod ux;

@@ -2,8 +2,8 @@
 //! the input area, normals are unit and agree with their source triangle, every input
 //! triangle yields at least one patch, and the patch mesh is conforming (every patch edge is
 //! shared by two patches unless it lies on the input mesh's boundary; none by more than two).
-//! Plus a deterministic "fuzz-lite": thousands of mutated Cornell OBJs through
-//! `Scene::load` + `patch::subdivide`, asserting no panic.
+//! Plus a deterministic "fuzz-lite": thousands of mutated Cornell OBJs and PLY scenes (ASCII
+//! and binary) through `Scene::load` + `patch::subdivide`, asserting no panic.
 
 use std::collections::HashMap;
 
@@ -175,6 +175,10 @@ const TOKENS: &[&str] = &[
     "\r",
     "é",
     "\u{0}",
+    "element face 4294967295\n",
+    "property list uint uint vertex_indices\n",
+    "property float emission_r\n",
+    "\u{ff}\u{ff}\u{ff}\u{7f}",
 ];
 
 #[test]
@@ -183,17 +187,56 @@ fn fuzz_lite_mutated_cornell_never_panics() {
     // Cornell OBJ, each loaded and (when it loads) subdivided. The property is only "no
     // panic, and a loaded scene satisfies its documented invariants".
     let dir = temp_dir("fuzz-lite");
-    let original = std::fs::read_to_string(meshes().join("cornell_box.obj")).unwrap();
+    let original = std::fs::read(meshes().join("cornell_box.obj")).unwrap();
     std::fs::copy(
         meshes().join("cornell_box.mtl"),
         dir.join("cornell_box.mtl"),
     )
     .unwrap();
-    let path = dir.join("m.obj");
-    let mut rng = Mix(0x5EED);
+    mutate_and_load(&original, &dir.join("m.obj"), 3000, 0x5EED);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn fuzz_lite_mutated_ply_never_panics() {
+    // The same for PLY scenes: an ASCII one with per-face materials and a binary one as
+    // `radiosity bake` writes it (the binary body is where a length or index read from the
+    // file could send a reader astray).
+    let dir = temp_dir("fuzz-lite-ply");
+    let ascii = "ply\nformat ascii 1.0\ncomment lit floor\n\
+        element vertex 7\nproperty float x\nproperty float y\nproperty float z\n\
+        element face 2\nproperty list uchar int vertex_indices\n\
+        property float reflectance_r\nproperty float reflectance_g\nproperty float reflectance_b\n\
+        property float emission_r\nproperty float emission_g\nproperty float emission_b\n\
+        end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.2 0.2 1\n0.8 0.2 1\n0.5 0.8 1\n\
+        4 0 1 2 3 0.5 0.5 0.5 0 0 0\n3 4 6 5 0 0 0 1 2 3\n";
+    mutate_and_load(ascii.as_bytes(), &dir.join("a.ply"), 1500, 0xA5C11);
+    let mesh = radiosity::export::BakedMesh {
+        positions: vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ],
+        vertex_radiance: vec![[0.5; 3]; 4],
+        faces: vec![[0, 1, 2], [0, 2, 3]],
+        face_radiance: vec![[0.5; 3]; 2],
+    };
+    let mut binary = Vec::new();
+    radiosity::export::ply::write_to(&mut binary, &mesh, 1.0, false).unwrap();
+    mutate_and_load(&binary, &dir.join("b.ply"), 1500, 0xB1A);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Writes `cases` mutations of `original` (byte flips, deletions, duplications, token
+/// insertions; seeded) to `path` and loads each with `Scene::load`, subdividing what loads.
+/// Asserts no panic (saving the crashing input beside `path`), that loaded scenes and their
+/// patches validate, and that both loads and rejections occur.
+fn mutate_and_load(original: &[u8], path: &std::path::Path, cases: usize, seed: u64) {
+    let mut rng = Mix(seed);
     let (mut loaded, mut rejected) = (0, 0);
-    for case in 0..3000 {
-        let mut bytes = original.clone().into_bytes();
+    for case in 0..cases {
+        let mut bytes = original.to_vec();
         for _ in 0..1 + rng.below(4) {
             let at = rng.below(bytes.len());
             match rng.below(5) {
@@ -216,8 +259,8 @@ fn fuzz_lite_mutated_cornell_never_panics() {
                 break;
             }
         }
-        std::fs::write(&path, &bytes).unwrap();
-        let outcome = std::panic::catch_unwind(|| match Scene::load(&path) {
+        std::fs::write(path, &bytes).unwrap();
+        let outcome = std::panic::catch_unwind(|| match Scene::load(path) {
             Ok(scene) => {
                 scene.validate().unwrap();
                 let (lo, hi) = scene.bounds();
@@ -234,16 +277,17 @@ fn fuzz_lite_mutated_cornell_never_panics() {
             Ok(true) => loaded += 1,
             Ok(false) => rejected += 1,
             Err(_) => {
-                let keep = dir.with_extension(format!("crash-{case}.obj"));
+                let keep = path.with_extension(format!("crash-{case}"));
                 std::fs::write(&keep, &bytes).unwrap();
                 panic!("case {case} panicked; input saved to {}", keep.display());
             }
         }
     }
     // Both outcomes must occur, or the mutations are not exercising anything.
+    let least = cases / 100;
     assert!(
-        loaded > 100 && rejected > 100,
-        "{loaded} loaded, {rejected} rejected"
+        loaded > least && rejected > least,
+        "{}: {loaded} loaded, {rejected} rejected",
+        path.display()
     );
-    let _ = std::fs::remove_dir_all(dir);
 }

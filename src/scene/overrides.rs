@@ -1,0 +1,258 @@
+//! Material overrides: replace a material's reflectance ρ or emission Le in a loaded
+//! [`Scene`] without editing its files (`--reflectance MAT=r,g,b`, `--emission MAT=r,g,b`).
+//! This module owns parsing the `MATERIAL=VALUE` text, checking the values and applying
+//! them; it does not know which options exist (the binary passes the option name through
+//! [`Property::option`]) and does not touch geometry.
+//!
+//! Semantics: overrides apply in the order given, so a later one wins over an earlier one
+//! for the same material and property (`*=0.5` then `white=0.7` leaves white at 0.7; the
+//! other way round everything is 0.5). `*` names every material of the scene, including
+//! unused ones and the default material of faces without one.
+
+use super::Scene;
+use crate::{Error, Result};
+
+/// Which material property an [`Override`] replaces.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Property {
+    /// ρ, diffuse reflectance per RGB channel, each in [0, 1] (MTL `Kd`).
+    Reflectance,
+    /// Le, emitted radiance per RGB channel, W·sr⁻¹·m⁻², each finite and ≥ 0 (MTL `Ke`).
+    Emission,
+}
+
+impl Property {
+    /// The command-line option that sets this property; errors name it.
+    pub fn option(self) -> &'static str {
+        match self {
+            Property::Reflectance => "--reflectance",
+            Property::Emission => "--emission",
+        }
+    }
+
+    /// Checks one value: ρ in [0, 1], Le finite and ≥ 0 (NaN fails both).
+    fn check(self, value: [f64; 3]) -> std::result::Result<(), String> {
+        match self {
+            Property::Reflectance if value.iter().any(|r| !(0.0..=1.0).contains(r)) => {
+                Err(format!("reflectance ρ = {value:?} is not in [0, 1]"))
+            }
+            Property::Emission if value.iter().any(|e| !(e.is_finite() && *e >= 0.0)) => {
+                Err(format!("emission Le = {value:?} must be finite and ≥ 0"))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// One override: set `property` of the material named `material` (`*` = every material)
+/// to `value` (per RGB channel).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Override {
+    /// A material name of the scene, or `*` for all of them.
+    pub material: String,
+    /// What to replace.
+    pub property: Property,
+    /// The new value per RGB channel; its range is [`Property`]'s.
+    pub value: [f64; 3],
+}
+
+impl Override {
+    /// Parses `MATERIAL=R,G,B` or `MATERIAL=X` (grey: X in every channel). The name is
+    /// everything before the last `=`, so names containing `=` work. Errors are
+    /// [`Error::Usage`] naming [`Property::option`].
+    pub fn parse(property: Property, text: &str) -> Result<Override> {
+        let bad = |why: String| Error::usage(property.option(), format!("{text:?}: {why}"));
+        let (material, values) = text.rsplit_once('=').ok_or_else(|| {
+            bad("expected MATERIAL=R,G,B or MATERIAL=X (MATERIAL may be *)".into())
+        })?;
+        let material = material.trim();
+        if material.is_empty() {
+            return Err(bad("no material name before `=` (use * for all)".into()));
+        }
+        let numbers: Vec<f64> = values
+            .split(',')
+            .map(|v| {
+                v.trim()
+                    .parse::<f64>()
+                    .map_err(|_| bad(format!("malformed number {:?}", v.trim())))
+            })
+            .collect::<Result<_>>()?;
+        let value = match numbers[..] {
+            [x] => [x; 3],
+            [r, g, b] => [r, g, b],
+            _ => {
+                return Err(bad(format!(
+                    "expected 1 or 3 numbers, found {}",
+                    numbers.len()
+                )))
+            }
+        };
+        property.check(value).map_err(bad)?;
+        Ok(Override {
+            material: material.to_string(),
+            property,
+            value,
+        })
+    }
+}
+
+/// The override as the command-line option that gives it: `--reflectance white=0.5,0.5,0.5`.
+impl std::fmt::Display for Override {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [r, g, b] = self.value;
+        write!(
+            f,
+            "{} {}={r},{g},{b}",
+            self.property.option(),
+            self.material
+        )
+    }
+}
+
+impl Scene {
+    /// Applies `overrides` in order (later ones win). Checks each first: a material name the
+    /// scene does not have is an [`Error::Usage`] naming the option and listing the scene's
+    /// materials; a value out of range (ρ ∉ [0, 1], Le < 0, NaN) is an [`Error::Usage`] too.
+    /// Nothing is changed when any override fails.
+    pub fn apply_overrides(&mut self, overrides: &[Override]) -> Result<()> {
+        for o in overrides {
+            let option = o.property.option();
+            o.property
+                .check(o.value)
+                .map_err(|why| Error::usage(option, format!("{}: {why}", o.material)))?;
+            if o.material != "*" && !self.materials.iter().any(|m| m.name == o.material) {
+                let names: Vec<&str> = self.materials.iter().map(|m| m.name.as_str()).collect();
+                return Err(Error::usage(
+                    option,
+                    format!(
+                        "no material '{}' in {}; its materials are: {} (or * for all)",
+                        o.material,
+                        super::source_path(&self.source).display(),
+                        names.join(", ")
+                    ),
+                ));
+            }
+        }
+        for o in overrides {
+            for m in self
+                .materials
+                .iter_mut()
+                .filter(|m| o.material == "*" || m.name == o.material)
+            {
+                match o.property {
+                    Property::Reflectance => m.reflectance = o.value,
+                    Property::Emission => m.emission = o.value,
+                }
+            }
+        }
+        self.validate()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+
+    use super::*;
+    use crate::scene::SceneBuilder;
+
+    fn two_materials() -> Scene {
+        let mut b = SceneBuilder::new();
+        let lamp = b.material("lamp", [0.5; 3], [1.0, 2.0, 3.0]);
+        let wall = b.material("wall", [0.2, 0.3, 0.4], [0.0; 3]);
+        b.quad([DVec3::ZERO, DVec3::X, DVec3::ONE, DVec3::Y], lamp);
+        b.quad(
+            [
+                DVec3::Z,
+                DVec3::Z + DVec3::Y,
+                DVec3::ONE,
+                DVec3::Z + DVec3::X,
+            ],
+            wall,
+        );
+        b.build().unwrap()
+    }
+
+    #[test]
+    fn parse_accepts_grey_rgb_star_and_names_with_equals() {
+        let o = Override::parse(Property::Reflectance, "white=0.25").unwrap();
+        assert_eq!((o.material.as_str(), o.value), ("white", [0.25; 3]));
+        let o = Override::parse(Property::Emission, " * = 1, 2 ,3").unwrap();
+        assert_eq!((o.material.as_str(), o.value), ("*", [1.0, 2.0, 3.0]));
+        let o = Override::parse(Property::Emission, "a=b=4").unwrap();
+        assert_eq!((o.material.as_str(), o.value), ("a=b", [4.0; 3]));
+        assert_eq!(o.to_string(), "--emission a=b=4,4,4");
+        let back = Override::parse(Property::Emission, "a=b=4,4,4").unwrap();
+        assert_eq!(back, o, "the display form parses back");
+    }
+
+    #[test]
+    fn parse_rejects_bad_text_and_values_naming_the_option() {
+        let cases = [
+            (Property::Reflectance, "white", "MATERIAL=R,G,B"),
+            (Property::Reflectance, "=0.5", "no material name"),
+            (Property::Reflectance, "white=0.5,0.5", "1 or 3 numbers"),
+            (Property::Reflectance, "white=x", "malformed number \"x\""),
+            (Property::Reflectance, "white=1.5", "not in [0, 1]"),
+            (Property::Reflectance, "white=NaN", "not in [0, 1]"),
+            (Property::Emission, "light=1,-1,1", "≥ 0"),
+            (Property::Emission, "light=inf", "≥ 0"),
+            (Property::Emission, "light=nan", "≥ 0"),
+        ];
+        for (property, text, needle) in cases {
+            let e = Override::parse(property, text).unwrap_err();
+            let msg = e.to_string();
+            assert!(matches!(e, Error::Usage { .. }), "{text}: {e:?}");
+            assert!(msg.contains(property.option()), "{text}: {msg}");
+            assert!(msg.contains(needle), "{text}: {needle} not in {msg}");
+        }
+    }
+
+    #[test]
+    fn later_overrides_win_and_star_means_all() {
+        let rho = |s: &Scene| {
+            s.materials
+                .iter()
+                .map(|m| m.reflectance)
+                .collect::<Vec<_>>()
+        };
+        let mut s = two_materials();
+        let star = Override::parse(Property::Reflectance, "*=0.5").unwrap();
+        let wall = Override::parse(Property::Reflectance, "wall=0.7").unwrap();
+        s.apply_overrides(&[star.clone(), wall.clone()]).unwrap();
+        assert_eq!(rho(&s), [[0.5; 3], [0.7; 3]]);
+        s.apply_overrides(&[wall, star]).unwrap();
+        assert_eq!(rho(&s), [[0.5; 3], [0.5; 3]]);
+
+        let off = Override::parse(Property::Emission, "lamp=0").unwrap();
+        assert!(s.has_emitters());
+        s.apply_overrides(&[off]).unwrap();
+        assert!(!s.has_emitters());
+        assert_eq!(s.materials[0].reflectance, [0.5; 3], "emission only");
+    }
+
+    #[test]
+    fn unknown_material_or_bad_value_changes_nothing() {
+        let mut s = two_materials();
+        let before = s.materials.clone();
+        let ok = Override::parse(Property::Emission, "wall=5").unwrap();
+        let unknown = Override::parse(Property::Emission, "nosuch=1").unwrap();
+        let e = s.apply_overrides(&[ok.clone(), unknown]).unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, Error::Usage { .. }), "{e:?}");
+        for needle in ["--emission", "'nosuch'", "lamp, wall"] {
+            assert!(msg.contains(needle), "{needle} not in {msg}");
+        }
+        assert_eq!(s.materials, before);
+
+        // Fields are public: a value built by hand is checked too.
+        let hot = Override {
+            material: "*".into(),
+            property: Property::Reflectance,
+            value: [0.5, 1.01, 0.5],
+        };
+        let e = s.apply_overrides(&[ok, hot]).unwrap_err();
+        assert!(e.to_string().contains("--reflectance"), "{e}");
+        assert_eq!(s.materials, before);
+    }
+}
