@@ -360,17 +360,36 @@ impl SolveArgs {
     }
 }
 
+/// `--exposure`, when given, must be a finite number > 0 (`bake` and `render`).
+pub fn check_exposure(exposure: Option<f64>) -> Result<()> {
+    match exposure {
+        Some(x) if !(x > 0.0 && x.is_finite()) => Err(Error::usage(
+            "--exposure",
+            format!("{x} is not a positive number"),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// `--output` of a command that writes one kind of file must end in `.ext` (any case), and
+/// its directory must exist; checked before any work.
+pub fn check_output(path: &std::path::Path, command: &str, ext: &str) -> Result<()> {
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case(ext))
+    {
+        return Err(Error::usage(
+            "--output",
+            format!("{}: {command} writes .{ext} files", path.display()),
+        ));
+    }
+    radiosity::export::check_output_dir(path)
+}
+
 impl BakeArgs {
     /// Validated output options.
     pub fn write_options(&self) -> Result<WriteOptions> {
-        if let Some(x) = self.exposure {
-            if !(x > 0.0 && x.is_finite()) {
-                return Err(Error::usage(
-                    "--exposure",
-                    format!("{x} is not a positive number"),
-                ));
-            }
-        }
+        check_exposure(self.exposure)?;
         Ok(WriteOptions {
             ascii: self.ascii,
             exposure: self.exposure,

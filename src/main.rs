@@ -125,22 +125,8 @@ fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Error> {
 
 fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
     use radiosity::export::{ply, BakedMesh};
-    let ext = args.output.extension().map(|e| e.to_ascii_lowercase());
-    if ext.as_deref() != Some(std::ffi::OsStr::new("png")) {
-        return Err(Error::usage(
-            "--output",
-            format!("{}: render writes .png files", args.output.display()),
-        ));
-    }
-    export::check_output_dir(&args.output)?;
-    if let Some(x) = args.exposure {
-        if !(x > 0.0 && x.is_finite()) {
-            return Err(Error::usage(
-                "--exposure",
-                format!("{x} is not a positive number"),
-            ));
-        }
-    }
+    cli::check_output(&args.output, "render", "png")?;
+    cli::check_exposure(args.exposure)?;
     let overrides = args.materials.overrides()?;
     let is_ply = args
         .input
@@ -212,14 +198,7 @@ fn info(args: &InfoArgs) -> Result<u8, Error> {
 
 fn generate(args: &GenerateArgs) -> Result<u8, Error> {
     use radiosity::scenes;
-    let ext = args.output.extension().map(|e| e.to_ascii_lowercase());
-    if ext.as_deref() != Some(std::ffi::OsStr::new("obj")) {
-        return Err(Error::usage(
-            "--output",
-            format!("{}: generate writes .obj files", args.output.display()),
-        ));
-    }
-    export::check_output_dir(&args.output)?;
+    cli::check_output(&args.output, "generate", "obj")?;
     let scene = match args.scene {
         SceneKind::IntegratingSphere => scenes::integrating_sphere(1.0, 3, 30.0, 0.5, [1.0; 3])?,
         SceneKind::Furnace => scenes::furnace_room(0.5, 1.0)?,

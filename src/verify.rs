@@ -207,36 +207,29 @@ pub fn surface_form_factor(out: &Outcome, from: u32, to: u32) -> f64 {
 /// and the area estimator's far-field kernel adds O(A/r²) (measured 6.8e-4). 5e-3 covers every
 /// estimator and sample count; a wrong cosine or π is ≥ 20 %.
 pub fn plates(settings: &Settings) -> Result<Vec<Case>> {
-    let mut cases = Vec::new();
-    let t = Instant::now();
-    let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?;
-    let out = run_case(&scene, 0.1, settings, solve::Method::Neumann, 1)?;
-    let expected = reference::parallel_rectangles(1.0, 1.0, 1.0);
-    let got = surface_form_factor(&out, 1, 0);
-    let noise = 3.0 * hemisphere_sigma(settings, expected, out.patches.len() / 2);
-    cases.push(case(
-        "form factor, parallel unit squares 1 apart (Howell C-11)",
-        expected,
-        got,
-        (got - expected).abs() / expected,
-        5e-3 + noise,
-        t,
-    ));
-    let t = Instant::now();
-    let scene = scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?;
-    let out = run_case(&scene, 0.1, settings, solve::Method::Neumann, 1)?;
-    let expected = reference::perpendicular_rectangles(1.0, 1.0, 1.0);
-    let got = surface_form_factor(&out, 1, 0);
-    let noise = 3.0 * hemisphere_sigma(settings, expected, out.patches.len() / 2);
-    cases.push(case(
-        "form factor, perpendicular unit squares, common edge (Howell C-14)",
-        expected,
-        got,
-        (got - expected).abs() / expected,
-        5e-3 + noise,
-        t,
-    ));
-    Ok(cases)
+    let cases = [
+        (
+            "form factor, parallel unit squares 1 apart (Howell C-11)",
+            scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+            reference::parallel_rectangles(1.0, 1.0, 1.0),
+        ),
+        (
+            "form factor, perpendicular unit squares, common edge (Howell C-14)",
+            scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+            reference::perpendicular_rectangles(1.0, 1.0, 1.0),
+        ),
+    ];
+    cases
+        .into_iter()
+        .map(|(name, scene, expected)| {
+            let t = Instant::now();
+            let out = run_case(&scene, 0.1, settings, solve::Method::Neumann, 1)?;
+            let got = surface_form_factor(&out, 1, 0);
+            let noise = 3.0 * hemisphere_sigma(settings, expected, out.patches.len() / 2);
+            let err = (got - expected).abs() / expected;
+            Ok(case(name, expected, got, err, 5e-3 + noise, t))
+        })
+        .collect()
 }
 
 /// Relative standard deviation of a hemisphere-shooting estimate of a form factor of size `f`
