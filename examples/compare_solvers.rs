@@ -14,7 +14,7 @@ use radiosity::{patch, reference, scenes};
 
 fn solve_all(rho: f64, max_edge: f64) -> radiosity::Result<Vec<(Method, Solution, f64, f64)>> {
     let scene = scenes::furnace_room(rho, 1.0)?;
-    let patches = patch::subdivide(&scene, max_edge)?;
+    let patches = patch::subdivide(&scene, max_edge, patch::DEFAULT_CREASE_DEGREES)?;
     let tris: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
     // Hemisphere shooting: exact row sums in a closed room, so every solver's error is its own.
     let settings = form_factor::Settings {

@@ -225,8 +225,10 @@ pub struct SolveArgs {
         help_heading = "Discretisation"
     )]
     pub max_edge: Option<f64>,
-    /// Crease angle in degrees: vertices are split where normals differ by more.
-    #[arg(long, default_value_t = radiosity::bake::DEFAULT_CREASE_DEGREES, value_name = "DEG", allow_negative_numbers = true, help_heading = "Discretisation")]
+    /// Crease angle in degrees: where faces meet at smaller angles the mesh samples one smooth
+    /// surface (its interpolated normal enters the form factors; output vertices are shared);
+    /// sharper edges stay creases. 0 = every face flat.
+    #[arg(long, default_value_t = radiosity::patch::DEFAULT_CREASE_DEGREES, value_name = "DEG", allow_negative_numbers = true, help_heading = "Discretisation")]
     pub crease: f64,
     #[command(flatten)]
     pub estimator: FormFactorArgs,

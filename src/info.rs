@@ -91,7 +91,8 @@ impl SceneInfo {
         }
         let (lo, hi) = scene.bounds();
         let default_max_edge = patch::default_max_edge(scene);
-        let default_patches = patch::subdivide(scene, default_max_edge)?.len();
+        let default_patches =
+            patch::subdivide(scene, default_max_edge, patch::DEFAULT_CREASE_DEGREES)?.len();
         Ok(SceneInfo {
             source: scene.source.as_ref().map(|p| p.display().to_string()),
             vertices: scene.positions.len(),

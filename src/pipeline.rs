@@ -65,7 +65,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     let max_edge = settings
         .max_edge
         .unwrap_or_else(|| patch::default_max_edge(scene));
-    let patches = patch::subdivide(scene, max_edge)?;
+    let patches = patch::subdivide(scene, max_edge, settings.crease_degrees)?;
     report.max_edge = max_edge;
     report.patches = patches.len();
     seconds.patches = t.elapsed().as_secs_f64();

@@ -379,31 +379,22 @@ fn sphere(plan: &Plan, results: &mut Results) -> Result<()> {
             // max-edge above the facets' edges: the facets are the patches.
             let s = settings(10.0, ff, neumann(1));
             let (out, base) = run(&scene, "integrating_sphere", &s)?;
-            let p = &out.patches;
-            let all: Vec<usize> = (0..p.len()).collect();
-            let mean_le = area_mean(&out, &all, |i| p.emission[i][0]);
-            let walls: Vec<usize> = all
-                .iter()
-                .copied()
-                .filter(|&i| p.emission[i][0] == 0.0)
-                .collect();
             let errors = |l: &[[f64; 3]], bounces| {
-                let expected = reference::sphere_wall_radiance(rho, mean_le, bounces);
-                let mean_rel = area_mean(&out, &walls, |i| (l[i][0] - expected).abs() / expected);
-                let mean = area_mean(&out, &walls, |i| l[i][0]);
+                let e = verify::sphere_wall_errors(&out.patches, l, rho, bounces);
                 vec![
-                    ("mean_patch_rel".to_string(), mean_rel),
-                    (
-                        "rel_of_mean".to_string(),
-                        (mean - expected).abs() / expected,
-                    ),
+                    ("mean_patch_rel".to_string(), e.mean_patch_relative),
+                    ("rel_of_mean".to_string(), e.relative_of_mean),
                 ]
             };
             let mut one = base.clone();
             one.errors = errors(&out.solution.radiance, Some(1));
             push(results, one);
-            let (solution, mut all_bounces) =
-                resolve(&out, &base, &p.reflectance, &gauss_seidel(SWEEP_TOLERANCE))?;
+            let (solution, mut all_bounces) = resolve(
+                &out,
+                &base,
+                &out.patches.reflectance,
+                &gauss_seidel(SWEEP_TOLERANCE),
+            )?;
             all_bounces.errors = errors(&solution.radiance, None);
             push(results, all_bounces);
         }

@@ -31,7 +31,7 @@ fuzz_target!(|data: &[u8]| {
         scene.validate().expect("a loaded scene is valid");
         let (lo, hi) = scene.bounds();
         // A coarse max-edge keeps each input fast; the patch-count guard covers the rest.
-        if let Ok(patches) = patch::subdivide(&scene, (hi - lo).length() / 4.0) {
+        if let Ok(patches) = patch::subdivide(&scene, (hi - lo).length() / 4.0, patch::DEFAULT_CREASE_DEGREES) {
             patches.validate().expect("patches are valid");
         }
     }

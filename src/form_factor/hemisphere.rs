@@ -15,6 +15,7 @@ use rayon::prelude::*;
 
 use super::sampling::Rng;
 use crate::patch::Patches;
+
 use crate::visibility::Visibility;
 
 /// Barycentric margin that keeps ray origins off the patch's edges (an unsampled strip of
@@ -49,10 +50,7 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
         p
     });
     let [a, b, c] = patches.corners(i);
-    let normal = patches.normal[i];
-    // The basis flips where n.z changes sign; snap the normal first so that a component that
-    // is 0 in one unit of length and ±1e-19 in another picks the same basis (same rays).
-    let (tangent, bitangent) = orthonormal_basis((normal * 2f64.powi(40)).round() / 2f64.powi(40));
+    let facet = patches.normal[i];
     let mut hits: Vec<u32> = Vec::with_capacity(n);
     let (mut buried, mut extra_rays, mut escaped) = (0usize, 0usize, 0usize);
     #[allow(clippy::needless_range_loop)] // k is the stratum index of four arrays
@@ -66,6 +64,13 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
         let w = [1.0 - su, su * (1.0 - v), su * v]
             .map(|x| (x + EDGE_MARGIN) / (1.0 + 3.0 * EDGE_MARGIN));
         let origin = w[0] * a + w[1] * b + w[2] * c;
+        // Cosine-weighted about the surface normal at the origin (the facet's own normal on
+        // flat surfaces; see [`Patches::surface_normal`]). The basis flips where n.z changes
+        // sign; snap the normal first so that a component that is 0 in one unit of length and
+        // ±1e-19 in another picks the same basis (same rays).
+        let normal = patches.surface_normal(i, w);
+        let (tangent, bitangent) =
+            orthonormal_basis((normal * 2f64.powi(40)).round() / 2f64.powi(40));
         let s = (perms[1][k] as f64 + rng.next_f64()) / n as f64;
         let t = (perms[2][k] as f64 + rng.next_f64()) / n as f64;
         // Malley: uniform on the unit disk (polar map), lifted onto the hemisphere, gives
@@ -74,7 +79,14 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
         let phi = 2.0 * std::f64::consts::PI * t;
         let (dx, dy) = (r * phi.cos(), r * phi.sin());
         let dz = (1.0 - s).max(0.0).sqrt();
-        let dir = dx * tangent + dy * bitangent + dz * normal;
+        let mut dir = dx * tangent + dy * bitangent + dz * normal;
+        if facet.dot(dir) <= 0.0 {
+            // Where the surface normal leans off the facet's, a sliver of its hemisphere
+            // (projected measure O(tilt²)) lies behind the facet: on the smooth surface those
+            // grazing directions meet the neighbouring surface, on the facet they would pass
+            // through it. Mirror them into the facet's hemisphere so no energy is lost.
+            dir -= 2.0 * facet.dot(dir) * facet;
+        }
         if let Some(hit) = vis.closest_hit(origin, dir, f64::INFINITY, i as u32) {
             let j = hit.triangle;
             // Only the front of a one-sided surface receives light.

@@ -21,6 +21,10 @@
 //!   points of i and the visibility of a ray x_k → y_k. Exact for unoccluded pairs up to the
 //!   integration over i, including patches that share an edge; in a closed unoccluded scene
 //!   each point's form factors sum to exactly 1.
+//!
+//! The receiving cosine cosθ_i is taken with the surface normal at the sample point
+//! ([`Patches::surface_normal`]): the interpolated vertex normal where the mesh samples a
+//! smooth surface, the facet's own on flat ones (see [`crate::patch::corner_normals`]).
 
 pub mod hemisphere;
 pub mod kernel;
@@ -36,7 +40,7 @@ use sprs::CsMatI;
 use crate::patch::Patches;
 use crate::visibility::Visibility;
 use crate::{Error, Result};
-use sampling::{stratified_triangle_points, Rng};
+use sampling::{stratified_triangle_barycentrics, Rng};
 
 /// Pairs with squared centroid distance below this multiple of the larger patch area use the
 /// exact point-to-polygon integrand even in the `Area` estimator (Baum et al. 1989 use the
@@ -284,32 +288,36 @@ fn pairwise(
     // points (1, 3, 6, 7, 12); otherwise, and for the area estimator (a Monte Carlo estimate
     // of a double integral), stratified random points keyed by (seed, patch). The same points
     // serve every pair, so in a closed unoccluded scene the contour rows sum to exactly 1.
-    let rule = match settings.estimator {
-        Estimator::Contour => sampling::gauss_rule(ns),
-        _ => None,
+    let rule: Vec<([f64; 3], f64)> = match settings.estimator {
+        Estimator::Contour => sampling::gauss_rule(ns).unwrap_or_default(),
+        _ => Vec::new(),
     };
-    let weights: Vec<f64> = match &rule {
-        Some(r) => r.iter().map(|p| p.1).collect(),
-        None => vec![1.0 / ns as f64; ns],
+    let weights: Vec<f64> = if rule.is_empty() {
+        vec![1.0 / ns as f64; ns]
+    } else {
+        rule.iter().map(|p| p.1).collect()
     };
-    let points: Vec<DVec3> = (0..n)
+    // Each sample point with the surface normal there ([`Patches::surface_normal`]), which
+    // is the receiving cosine's normal in the kernels.
+    let samples: Vec<(DVec3, DVec3)> = (0..n)
         .into_par_iter()
         .flat_map_iter(|i| {
-            let mut out = Vec::with_capacity(ns);
-            let t = patches.corners(i);
-            match &rule {
-                Some(r) => out.extend(
-                    r.iter()
-                        .map(|(b, _)| b[0] * t[0] + b[1] * t[1] + b[2] * t[2]),
-                ),
-                None => {
-                    let mut rng = Rng::new(&[settings.seed, i as u64, 0x5A4D]);
-                    stratified_triangle_points(t, ns, &mut rng, &mut out);
-                }
+            let mut bary = Vec::with_capacity(ns);
+            if rule.is_empty() {
+                let mut rng = Rng::new(&[settings.seed, i as u64, 0x5A4D]);
+                stratified_triangle_barycentrics(ns, &mut rng, &mut bary);
+            } else {
+                bary.extend(rule.iter().map(|p| p.0));
             }
-            out
+            let t = patches.corners(i);
+            bary.into_iter().map(move |b| {
+                let x = b[0] * t[0] + b[1] * t[1] + b[2] * t[2];
+                (x, patches.surface_normal(i, b))
+            })
         })
         .collect();
+    let points: Vec<DVec3> = samples.iter().map(|s| s.0).collect();
+    let point_normals: Vec<DVec3> = samples.iter().map(|s| s.1).collect();
     // Sample points buried in contact geometry (the floor under a block, the ceiling behind a
     // light) see nothing and are seen by nothing; see [`is_hidden`].
     let hidden: Vec<bool> = if convex {
@@ -342,6 +350,7 @@ fn pairwise(
             let mut local_rays = 0u64;
             let mut local_culled = 0u64;
             let pi = &points[i * ns..(i + 1) * ns];
+            let mi = &point_normals[i * ns..(i + 1) * ns];
             let ti = patches.corners(i);
             let (ni, ci, ai) = (patches.normal[i], patches.centroid[i], patches.area[i]);
             let scale_i = ai.sqrt();
@@ -359,6 +368,7 @@ fn pairwise(
                     continue;
                 }
                 let pj = &points[j * ns..(j + 1) * ns];
+                let mj = &point_normals[j * ns..(j + 1) * ns];
                 // Pair x_k with y_{(k + shift) mod n}: decorrelates the pairings of different
                 // pairs while keeping the key deterministic.
                 let shift = (sampling::mix64(settings.seed ^ ((i as u64) << 32 | j as u64))
@@ -413,7 +423,7 @@ fn pairwise(
                     match (settings.estimator, near) {
                         (Estimator::Area, false) => {
                             // Monte Carlo over the pair (x, y): uniform weights 1/n.
-                            let g = kernel::point_to_point(x, ni, y, nj) * v * weights[k];
+                            let g = kernel::point_to_point(x, mi[k], y, mj[ky]) * v * weights[k];
                             fij += aj * g * (!hx) as u8 as f64;
                             fji += ai * g * (!hy) as u8 as f64;
                         }
@@ -421,10 +431,10 @@ fn pairwise(
                             // The contour integral needs the point in front of the polygon
                             // (one-sided surfaces); a point behind it sees its back: zero.
                             if !hx && nj.dot(x - cj) > 0.0 {
-                                fij += weights[k] * kernel::point_to_polygon(x, ni, &tj) * v;
+                                fij += weights[k] * kernel::point_to_polygon(x, mi[k], &tj) * v;
                             }
                             if !hy && ni.dot(y - ci) > 0.0 {
-                                fji += weights[ky] * kernel::point_to_polygon(y, nj, &ti) * v;
+                                fji += weights[ky] * kernel::point_to_polygon(y, mj[ky], &ti) * v;
                             }
                         }
                     }

@@ -2,8 +2,6 @@
 //! (seed, patch, …), so every sample depends only on its key and never on thread scheduling,
 //! and stratified points on triangles.
 
-use glam::DVec3;
-
 /// SplitMix64 finaliser (Steele, Lea & Flood, "Fast splittable pseudorandom number
 /// generators", OOPSLA 2014): a bijective 64-bit mix used as a hash of the sample key.
 #[inline]
@@ -48,13 +46,14 @@ impl Rng {
     }
 }
 
-/// `n` stratified points on triangle (a, b, c), written to `out`.
+/// `n` stratified points on a triangle, as barycentric coordinates (weights of its corners a,
+/// b, c), written to `out`.
 ///
 /// Latin-hypercube ("N-rooks") stratification of the unit square — each of the n rows and n
 /// columns holds one jittered sample, for any n — mapped to the triangle by the area-preserving
 /// map p = (1 − √u) a + √u (1 − v) b + √u v c (Shirley, "Nonuniform random point sets via
 /// warping", Graphics Gems III, 1992), so strata of equal area stay equal in area.
-pub fn stratified_triangle_points(tri: [DVec3; 3], n: usize, rng: &mut Rng, out: &mut Vec<DVec3>) {
+pub fn stratified_triangle_barycentrics(n: usize, rng: &mut Rng, out: &mut Vec<[f64; 3]>) {
     let mut perm: Vec<usize> = (0..n).collect();
     for k in (1..n).rev() {
         perm.swap(k, rng.below(k + 1));
@@ -63,7 +62,7 @@ pub fn stratified_triangle_points(tri: [DVec3; 3], n: usize, rng: &mut Rng, out:
         let u = (k as f64 + rng.next_f64()) / n as f64;
         let v = (pk as f64 + rng.next_f64()) / n as f64;
         let su = u.sqrt();
-        out.push((1.0 - su) * tri[0] + su * (1.0 - v) * tri[1] + su * v * tri[2]);
+        out.push([1.0 - su, su * (1.0 - v), su * v]);
     }
 }
 
@@ -127,21 +126,26 @@ pub fn gauss_rule(n: usize) -> Option<Vec<([f64; 3], f64)>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
+
+    /// Stratified points on the triangle (0, X, Y).
+    fn points(n: usize, key: &[u64]) -> Vec<DVec3> {
+        let mut w = Vec::new();
+        stratified_triangle_barycentrics(n, &mut Rng::new(key), &mut w);
+        w.iter()
+            .map(|w| w[1] * DVec3::X + w[2] * DVec3::Y)
+            .collect()
+    }
 
     #[test]
     fn points_lie_inside_and_are_deterministic() {
-        let tri = [DVec3::ZERO, DVec3::X, DVec3::Y];
-        let mut a = Vec::new();
-        let mut b = Vec::new();
-        stratified_triangle_points(tri, 16, &mut Rng::new(&[7, 3]), &mut a);
-        stratified_triangle_points(tri, 16, &mut Rng::new(&[7, 3]), &mut b);
-        assert_eq!(a, b);
+        let a = points(16, &[7, 3]);
+        assert_eq!(a, points(16, &[7, 3]));
         for p in &a {
             assert!(p.x > 0.0 && p.y > 0.0 && p.x + p.y < 1.0, "{p}");
         }
         // The mean of many stratified points converges to the centroid (1/3, 1/3).
-        let mut many = Vec::new();
-        stratified_triangle_points(tri, 10_000, &mut Rng::new(&[1]), &mut many);
+        let many = points(10_000, &[1]);
         let mean = many.iter().sum::<DVec3>() / many.len() as f64;
         // Stratified error ≪ the 1/√n = 1e-2 of independent samples.
         assert!(

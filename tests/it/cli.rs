@@ -209,9 +209,11 @@ fn non_convergence_exits_non_zero_with_a_warning() {
 
 #[test]
 fn generated_sphere_bakes_to_the_closed_form() {
-    // generate → bake from the file → read the PLY back: the wall faces' area-weighted mean
-    // radiance after one bounce is ρ·mean(Le). Tolerance as in `verify` (tessellation: the
-    // mean itself is within ~0.2 % at 1280 faces; 2 %).
+    // generate → bake from the file → read the PLY back: every wall face's radiance after one
+    // bounce is ρ·mean(Le). Tolerance as in `verify` (3e-3 for the area-weighted mean of the
+    // per-face relative errors; measured 1.6e-3): this holds only if the file's shared
+    // vertices are welded so the receiving cosine uses the smooth sphere's normals (flat
+    // facets give 4.9e-3).
     let dir = temp_dir("generate");
     let obj = dir.join("sphere.obj");
     let o = radiosity(&[
@@ -242,24 +244,24 @@ fn generated_sphere_bakes_to_the_closed_form() {
         let [a, b, c] = f.map(|v| glam::Vec3::from_array(p.positions[v as usize]).as_dvec3());
         0.5 * (b - a).cross(c - a).length()
     };
-    let (mut total, mut emitted, mut wall_area, mut wall_sum) = (0.0, 0.0, 0.0, 0.0);
-    for (f, l) in p.faces.iter().zip(&fr) {
-        let a = area(f);
-        total += a;
-        // Emitting faces carry Le = 1 plus their reflection: radiance ≥ 1.
-        if l[0] >= 1.0 {
-            emitted += a;
-        } else {
-            wall_area += a;
-            wall_sum += a * l[0] as f64;
-        }
-    }
+    // Emitting faces carry Le = 1 plus their reflection: radiance ≥ 1.
+    let emitting = |l: &[f32; 3]| l[0] >= 1.0;
+    let total: f64 = p.faces.iter().map(area).sum();
+    let emitted: f64 = p
+        .faces
+        .iter()
+        .zip(&fr)
+        .filter(|(_, l)| emitting(l))
+        .map(|(f, _)| area(f))
+        .sum();
     let expected = 0.5 * emitted / total;
-    let got = wall_sum / wall_area;
-    assert!(
-        (got - expected).abs() / expected < 0.02,
-        "walls {got}, expected {expected}"
-    );
+    let (mut wall_area, mut error_sum) = (0.0, 0.0);
+    for (f, l) in p.faces.iter().zip(&fr).filter(|(_, l)| !emitting(l)) {
+        wall_area += area(f);
+        error_sum += area(f) * (l[0] as f64 - expected).abs() / expected;
+    }
+    let err = error_sum / wall_area;
+    assert!(err < 3e-3, "mean per-face relative error {err:.3e}");
     let _ = std::fs::remove_dir_all(dir);
 }
 

@@ -77,8 +77,9 @@ fn closed_convex_scene_rows_sum_to_one() {
 
 #[test]
 fn sphere_form_factors_converge_to_area_fractions() {
-    // For a true sphere F_ij = A_j / A exactly. A geodesic polyhedron deviates (facet normals
-    // are not radial), but the deviation must shrink as the tessellation is refined: compare
+    // For a true sphere F_ij = A_j / A exactly. A geodesic polyhedron deviates (sample points
+    // lie inside the sphere, outlines are chords), but the deviation must shrink as the
+    // tessellation is refined: compare
     // the area-weighted mean |F_ij − A_j/A| / (A_j/A) at 80 and 320 facets.
     let deviation = |level| {
         let scene = scenes::integrating_sphere(1.0, level, 30.0, 0.5, [1.0; 3]).unwrap();
@@ -150,7 +151,7 @@ fn reciprocity_between_surfaces() {
 #[test]
 fn bvh_visibility_equals_brute_force_on_cornell_patches() {
     let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
-    let patches = patch::subdivide(&scene, 80.0).unwrap();
+    let patches = patch::subdivide(&scene, 80.0, patch::DEFAULT_CREASE_DEGREES).unwrap();
     let tris: Vec<[DVec3; 3]> = (0..patches.len()).map(|i| patches.corners(i)).collect();
     let vis = Visibility::build(&tris);
     let mut rng = Rng::new(&[2024]);
@@ -260,15 +261,15 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
     // facets are no longer exactly coplanar with their neighbours' vertices) is still convex.
     let from_obj = Scene::load(&meshes().join("integrating_sphere.obj")).unwrap();
     assert!(radiosity::form_factor::is_convex_enclosure(
-        &patch::subdivide(&from_obj, 10.0).unwrap()
+        &patch::subdivide(&from_obj, 10.0, patch::DEFAULT_CREASE_DEGREES).unwrap()
     ));
     // The furnace and the Cornell box are not convex.
     let furnace = scenes::furnace_room(0.5, 1.0).unwrap();
     assert!(!radiosity::form_factor::is_convex_enclosure(
-        &patch::subdivide(&furnace, 0.5).unwrap()
+        &patch::subdivide(&furnace, 0.5, patch::DEFAULT_CREASE_DEGREES).unwrap()
     ));
     let cornell = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
     assert!(!radiosity::form_factor::is_convex_enclosure(
-        &patch::subdivide(&cornell, 200.0).unwrap()
+        &patch::subdivide(&cornell, 200.0, patch::DEFAULT_CREASE_DEGREES).unwrap()
     ));
 }

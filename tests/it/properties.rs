@@ -65,7 +65,7 @@ proptest! {
         let Some(scene) = strip(&points, scale) else { return Ok(()) };
         let (lo, hi) = scene.bounds();
         let max_edge = fraction * (hi - lo).length();
-        let p = patch::subdivide(&scene, max_edge).unwrap();
+        let p = patch::subdivide(&scene, max_edge, patch::DEFAULT_CREASE_DEGREES).unwrap();
         p.validate().unwrap();
 
         // Areas: every split is exact up to rounding: 1e-9 relative.
@@ -264,7 +264,12 @@ fn mutate_and_load(original: &[u8], path: &std::path::Path, cases: usize, seed: 
             Ok(scene) => {
                 scene.validate().unwrap();
                 let (lo, hi) = scene.bounds();
-                let p = patch::subdivide(&scene, (hi - lo).length() / 4.0).unwrap();
+                let p = patch::subdivide(
+                    &scene,
+                    (hi - lo).length() / 4.0,
+                    patch::DEFAULT_CREASE_DEGREES,
+                )
+                .unwrap();
                 p.validate().unwrap();
                 true
             }

@@ -196,7 +196,10 @@ fn info_prints_counts_materials_power_and_patches_as_text_and_json() {
         json["default_max_edge"].as_f64().unwrap(),
     );
     let scene = Scene::load(input.as_ref()).unwrap();
-    let expected = radiosity::patch::subdivide(&scene, max_edge).unwrap().len();
+    let expected =
+        radiosity::patch::subdivide(&scene, max_edge, radiosity::patch::DEFAULT_CREASE_DEGREES)
+            .unwrap()
+            .len();
     assert_eq!(patches as usize, expected);
     assert!((max_edge - json["diagonal"].as_f64().unwrap() / 16.0).abs() < 1e-9);
 
