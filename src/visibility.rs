@@ -175,8 +175,15 @@ impl Visibility {
                 ids.push(i as u32);
             }
         }
+        vis.set_triangles(tris, ids);
+        vis
+    }
+
+    /// Build the BVH over canonical triangles `tris` (input ids `ids`) and store both in BVH
+    /// order. Empty input leaves an empty BVH that is never traversed.
+    fn set_triangles(&mut self, tris: Vec<[Vec3A; 3]>, ids: Vec<u32>) {
         if tris.is_empty() {
-            return vis;
+            return;
         }
         let boxes: Vec<Aabb> = tris
             .iter()
@@ -194,23 +201,47 @@ impl Visibility {
             &mut Duration::default(),
         );
         // Reorder once so the primitive id a traversal reports indexes `tris` directly.
-        vis.tris = bvh
+        self.tris = bvh
             .primitive_indices
             .iter()
             .map(|&k| tris[k as usize])
             .collect();
-        vis.ids = bvh
+        self.ids = bvh
             .primitive_indices
             .iter()
             .map(|&k| ids[k as usize])
             .collect();
         debug_assert_eq!(
-            vis.tris.len(),
+            self.tris.len(),
             tris.len(),
             "no spatial splits: a permutation"
         );
-        vis.bvh = bvh;
-        vis
+        self.bvh = bvh;
+    }
+
+    /// The same triangles, frame and conventions, with only those where `keep[id]` is true
+    /// (`keep` is indexed by the ids given to [`Visibility::build`]): answers are those of a
+    /// scene without the others, bit for bit (same canonical triangles and rays).
+    ///
+    /// # Panics
+    /// If `keep.len()` differs from [`Visibility::len`].
+    pub fn restricted(&self, keep: &[bool]) -> Visibility {
+        assert_eq!(keep.len(), self.len, "one flag per triangle");
+        let mut out = Visibility {
+            bvh: CwBvh::default(),
+            tris: Vec::new(),
+            ids: Vec::new(),
+            ..*self
+        };
+        let (tris, ids): (Vec<[Vec3A; 3]>, Vec<u32>) = self
+            .tris
+            .iter()
+            .zip(&self.ids)
+            .filter(|(_, &id)| keep[id as usize])
+            .map(|(t, &id)| (*t, id))
+            .unzip();
+        out.set_triangles(tris, ids);
+        out
     }
 
     /// Number of triangles given to [`Visibility::build`] (including skipped degenerate ones).

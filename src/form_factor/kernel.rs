@@ -36,32 +36,98 @@ pub fn point_to_point(p: DVec3, np: DVec3, q: DVec3, nq: DVec3) -> f64 {
 /// The polygon's own facing is the caller's business (the caller checks that p lies in front
 /// of it); this function integrates the projected solid angle regardless of orientation.
 pub fn point_to_polygon(p: DVec3, np: DVec3, poly: &[DVec3]) -> f64 {
-    let mut clipped = [DVec3::ZERO; 8];
-    let m = clip_above(p, np, poly, &mut clipped);
+    // Work with R_k = v_k − p throughout; clip only when some corner is below the horizon.
+    let n = poly.len();
+    debug_assert!((3..=4).contains(&n));
+    let mut r = [DVec3::ZERO; 4];
+    let mut below = false;
+    for k in 0..n {
+        r[k] = poly[k] - p;
+        below |= np.dot(r[k]) < 0.0;
+    }
+    let sum = if below {
+        let mut clipped = [DVec3::ZERO; 8];
+        let m = clip_above(np, &r[..n], &mut clipped);
+        contour_sum(np, &clipped[..m])
+    } else {
+        contour_sum(np, &r[..n])
+    };
+    (sum.abs() / (2.0 * PI)).min(1.0)
+}
+
+/// Σ_k γ_k n·(R_k × R_{k+1}) / |R_k × R_{k+1}| over the closed polygon `r` (corners relative to
+/// the receiving point); fewer than 3 corners give 0.
+#[inline]
+fn contour_sum(np: DVec3, r: &[DVec3]) -> f64 {
+    let m = r.len();
     if m < 3 {
         return 0.0;
     }
     let mut sum = 0.0;
-    for k in 0..m {
-        let a = clipped[k] - p;
-        let b = clipped[(k + 1) % m] - p;
+    let mut a = r[m - 1];
+    for &b in r {
         let c = a.cross(b);
         let len = c.length();
-        if len == 0.0 {
-            continue;
+        if len > 0.0 {
+            // γ via atan2(|a×b|, a·b): accurate for small and near-π angles, unlike acos.
+            sum += angle(len, a.dot(b)) * np.dot(c) / len;
         }
-        // γ via atan2(|a×b|, a·b): accurate for small and near-π angles, unlike acos.
-        let gamma = len.atan2(a.dot(b));
-        sum += gamma * np.dot(c) / len;
+        a = b;
     }
-    (sum.abs() / (2.0 * PI)).min(1.0)
+    sum
 }
 
-/// Sutherland–Hodgman clip of a convex polygon (≤ 4 vertices in, ≤ 8 out) to the closed
-/// half-space np·(x − p) ≥ 0. Returns the number of vertices written to `out`.
-fn clip_above(p: DVec3, np: DVec3, poly: &[DVec3], out: &mut [DVec3; 8]) -> usize {
+/// atan2(y, x) for y ≥ 0, in [0, π], to within 5e-12 (absolute) of the correctly rounded
+/// value, about 4× faster than libm's `atan2` (which was a fifth of the contour estimator's
+/// time). Octant reduction to t = min/max ∈ [0, 1], then to |u| ≤ tan(π/8) with
+/// atan t = π/4 + atan((t − 1)/(t + 1)), then atan u = u·P(u²) with P of degree 6 fitted to
+/// minimise the largest error on [0, tan(π/8)] (iteratively reweighted least squares; max
+/// error 4.2e-12). The error is far below the f32 storage of F (6e-8 relative).
+#[inline]
+pub fn angle(y: f64, x: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+    const TAN_PI_8: f64 = 0.414_213_562_373_095_03;
+    const P: [f64; 7] = [
+        9.999_999_998_467_06e-1,
+        -3.333_332_995_640_025e-1,
+        1.999_978_419_877_117e-1,
+        -1.427_959_860_346_548_8e-1,
+        1.102_115_504_291_284e-1,
+        -8.365_991_317_740_744e-2,
+        4.545_439_503_578_544e-2,
+    ];
+    debug_assert!(y >= 0.0);
+    let ax = x.abs();
+    let (num, den, swap) = if y <= ax {
+        (y, ax, false)
+    } else {
+        (ax, y, true)
+    };
+    if den == 0.0 {
+        return 0.0;
+    }
+    let t = num / den;
+    let (u, base) = if t > TAN_PI_8 {
+        ((t - 1.0) / (t + 1.0), FRAC_PI_4)
+    } else {
+        (t, 0.0)
+    };
+    let s = u * u;
+    let p = P[0] + s * (P[1] + s * (P[2] + s * (P[3] + s * (P[4] + s * (P[5] + s * P[6])))));
+    let a = base + u * p;
+    let a = if swap { FRAC_PI_2 - a } else { a };
+    if x < 0.0 {
+        PI - a
+    } else {
+        a
+    }
+}
+
+/// Sutherland–Hodgman clip of a convex polygon (≤ 4 corners relative to the receiving point
+/// in, ≤ 8 out) to the closed half-space np·x ≥ 0. Returns the number of corners written.
+fn clip_above(np: DVec3, poly: &[DVec3], out: &mut [DVec3; 8]) -> usize {
     let n = poly.len();
-    let dist: [f64; 4] = std::array::from_fn(|k| if k < n { np.dot(poly[k] - p) } else { 0.0 });
+    let dist: [f64; 4] = std::array::from_fn(|k| if k < n { np.dot(poly[k]) } else { 0.0 });
     if dist[..n].iter().all(|&d| d >= 0.0) {
         out[..n].copy_from_slice(poly);
         return n;
@@ -139,6 +205,90 @@ mod tests {
             point_to_polygon(DVec3::ZERO, DVec3::Z, &square(-1.0, 1.0)),
             0.0
         );
+    }
+
+    /// The contour integral written out directly (libm atan2, clipping by brute force), as the
+    /// oracle of the optimised [`point_to_polygon`].
+    fn contour_reference(p: DVec3, np: DVec3, poly: &[DVec3]) -> f64 {
+        let n = poly.len();
+        let mut pts = Vec::new();
+        for k in 0..n {
+            let (a, b) = (poly[k], poly[(k + 1) % n]);
+            let (da, db) = (np.dot(a - p), np.dot(b - p));
+            if da >= 0.0 {
+                pts.push(a);
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                pts.push(a + da / (da - db) * (b - a));
+            }
+        }
+        let m = pts.len();
+        let mut sum = 0.0;
+        for k in 0..m {
+            let (a, b) = (pts[k] - p, pts[(k + 1) % m] - p);
+            let c = a.cross(b);
+            if c.length() > 0.0 {
+                sum += c.length().atan2(a.dot(b)) * np.dot(c) / c.length();
+            }
+        }
+        if m < 3 {
+            0.0
+        } else {
+            (sum.abs() / (2.0 * PI)).min(1.0)
+        }
+    }
+
+    #[test]
+    fn point_to_polygon_matches_the_direct_formula() {
+        let mut rng = super::super::sampling::Rng::new(&[5]);
+        let v = |r: &mut super::super::sampling::Rng| {
+            DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 2.0 - DVec3::ONE
+        };
+        for k in 0..20_000 {
+            let p = v(&mut rng) * 0.5;
+            let np = v(&mut rng).normalize();
+            let corners = if k % 2 == 0 { 3 } else { 4 };
+            // Planar quads: a parallelogram.
+            let (a, b, c) = (v(&mut rng), v(&mut rng), v(&mut rng));
+            let poly: Vec<DVec3> = if corners == 3 {
+                vec![a, b, c]
+            } else {
+                vec![a, b, c, c + a - b]
+            };
+            let (got, want) = (
+                point_to_polygon(p, np, &poly),
+                contour_reference(p, np, &poly),
+            );
+            assert!((got - want).abs() < 1e-11, "{k}: {got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn fast_angle_matches_atan2() {
+        // Every octant, tiny and huge ratios, zeros and the reduction boundaries.
+        let mut worst: f64 = 0.0;
+        let mut rng = super::super::sampling::Rng::new(&[11]);
+        for k in 0..200_000 {
+            let (y, x) = if k < 8 {
+                [
+                    (0.0, 1.0),
+                    (0.0, -1.0),
+                    (1.0, 0.0),
+                    (0.0, 0.0),
+                    (1.0, 1.0),
+                    (1.0, -1.0),
+                    (0.414_213_562_373_095, 1.0),
+                    (1e-300, -1.0),
+                ][k]
+            } else {
+                let e = |r: &mut super::super::sampling::Rng| 10f64.powf(12.0 * r.next_f64() - 6.0);
+                let y = e(&mut rng) * rng.next_f64();
+                let x = e(&mut rng) * (2.0 * rng.next_f64() - 1.0);
+                (y, x)
+            };
+            worst = worst.max((angle(y, x) - y.atan2(x)).abs());
+        }
+        assert!(worst < 5e-12, "{worst:e}");
     }
 
     #[test]

@@ -79,9 +79,11 @@ pub struct Settings {
     pub reciprocity: bool,
     /// Seed of every random choice; the same seed gives the same F for any thread count.
     pub seed: u64,
-    /// Skip visibility rays in convex enclosures ([`is_convex_enclosure`]); on by default, off
-    /// only to measure or test what the skip saves.
-    pub skip_convex: bool,
+    /// Leave the faces that lie on the scene's convex hull out of the occlusion tests
+    /// ([`occluders`]): they cannot block a segment between two scene points. In a convex
+    /// enclosure (a sphere, an empty room) that is every face, and no visibility ray is cast at
+    /// all. On by default; off only to measure or test what the skip saves.
+    pub skip_hull: bool,
     /// Normalise the rows of a closed scene to 1 (pair estimators; see [`compute`]); on by
     /// default, off to measure the estimators' raw row error.
     pub normalise_closed: bool,
@@ -95,7 +97,7 @@ impl Default for Settings {
             rays: 1024,
             seed: 1,
             reciprocity: false,
-            skip_convex: true,
+            skip_hull: true,
             normalise_closed: true,
         }
     }
@@ -110,9 +112,12 @@ pub struct Stats {
     pub pairs: u64,
     /// Unordered pairs culled without any ray because one lies behind the other's plane.
     pub pairs_culled: u64,
-    /// True when the scene was recognised as a convex enclosure (every patch in front of every
-    /// other's plane), where nothing can occlude anything and no visibility ray is cast.
+    /// True when the scene was recognised as a convex enclosure (every patch on the scene's
+    /// convex hull), where nothing can occlude anything and no visibility ray is cast.
     pub convex_enclosure: bool,
+    /// Patches that can occlude (not on the convex hull, [`occluders`]): the only ones in the
+    /// BVH of the visibility rays.
+    pub occluder_patches: u64,
     /// Patches with some sample points buried in contact geometry ([`is_hidden`]).
     pub patches_partly_hidden: u64,
     /// True when closure probes found the scene closed and the rows were normalised to 1
@@ -280,8 +285,22 @@ fn pairwise(
 ) -> Result<CsMatI<f32, u32>> {
     let n = patches.len();
     let ns = settings.samples as usize;
-    let convex = settings.skip_convex && is_convex_enclosure(patches);
+    // Only patches off the convex hull can block a segment: trace against those alone.
+    let occluder_mask = if settings.skip_hull {
+        occluders(patches)
+    } else {
+        vec![true; n]
+    };
+    stats.occluder_patches = occluder_mask.iter().filter(|&&o| o).count() as u64;
+    let convex = stats.occluder_patches == 0;
     stats.convex_enclosure = convex;
+    let restricted;
+    let blockers = if convex || stats.occluder_patches == n as u64 {
+        vis
+    } else {
+        restricted = vis.restricted(&occluder_mask);
+        &restricted
+    };
     // Sample points of every patch, fixed per patch, with their quadrature weights (the same
     // for every patch). The contour estimator integrates a smooth integrand over the
     // receiving patch, so it uses a symmetric Gauss rule where one has exactly `samples`
@@ -393,7 +412,7 @@ fn pairwise(
                         n_valid += 1;
                         vis_k[k] = convex || {
                             local_rays += 1;
-                            !vis.occluded(x, y, [i as u32, j as u32])
+                            !blockers.occluded(x, y, [i as u32, j as u32])
                         };
                         n_visible += vis_k[k] as u32;
                     }
@@ -573,30 +592,57 @@ fn enforce_reciprocity(f: &CsMatI<f32, u32>, area: &[f64]) -> Result<CsMatI<f32,
     assemble_rows(n, rows)
 }
 
-/// True when every patch vertex lies on or in front of every patch's plane: the patches bound
-/// a convex region from inside (an integrating sphere, an empty box room), so the segment
-/// between two surface points never leaves that region and nothing can block it. O(patches ×
-/// vertices) with an early exit, so non-convex scenes pay little; very large scenes
-/// (> 2·10⁹ tests) are not checked and are treated as non-convex.
-pub fn is_convex_enclosure(patches: &Patches) -> bool {
-    let (n, v) = (patches.len(), patches.positions.len());
-    if n == 0 || (n as f64) * (v as f64) > 2e9 {
-        return false;
+/// Which patches can block a segment between two points of the scene: those whose plane is
+/// not a supporting plane of the scene (one with every patch vertex on one side of it). A face
+/// on a supporting plane lies on the boundary of the scene's convex hull, and a segment
+/// between two points of a convex set meets a supporting plane at most at its ends, which the
+/// open-segment test never counts; so leaving such faces out of the occlusion BVH changes no
+/// answer. In a room that is every wall, floor and ceiling face (only furniture remains); in a
+/// convex enclosure (a sphere, an empty room) it is every face, and no ray is needed at all.
+///
+/// One test per scene triangle (its patches share its plane) against every patch vertex,
+/// with a tolerance of 1e-6 of the scene's size (the f32 rounding of OBJ input must not make
+/// a tessellated sphere's facets non-supporting; a dent that small hides nothing measurable).
+/// A triangle stops at the first vertices found on both sides, so only supporting faces cost
+/// a full pass; if that could exceed 4·10⁹ tests, every patch is kept as an occluder.
+pub fn occluders(patches: &Patches) -> Vec<bool> {
+    let n = patches.len();
+    let positions = &patches.positions;
+    // First patch of each source triangle (all of its patches share its plane).
+    let mut first = std::collections::HashMap::new();
+    for i in 0..n {
+        first.entry(patches.source_triangle[i]).or_insert(i);
     }
-    let (lo, hi) = patches
-        .positions
+    let mut reps: Vec<usize> = first.into_values().collect();
+    reps.sort_unstable();
+    if (reps.len() as f64) * (positions.len() as f64) > 4e9 {
+        return vec![true; n];
+    }
+    let (lo, hi) = positions
         .iter()
         .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(*p), hi.max(*p))
         });
-    // Vertices on a plane (shared edges, coplanar patches) must not count as behind it, nor
-    // may the rounding of OBJ input (tobj parses f32: ~1e-7 relative) make a tessellated
-    // sphere non-convex. A dent of 1e-6 of the scene's size cannot hide anything measurable.
     let tol = 1e-6 * (hi - lo).length();
-    (0..n).into_par_iter().all(|i| {
-        let (c, nrm) = (patches.centroid[i], patches.normal[i]);
-        patches.positions.iter().all(|p| nrm.dot(*p - c) >= -tol)
-    })
+    let supporting: std::collections::HashMap<u32, bool> = reps
+        .par_iter()
+        .map(|&i| {
+            let (c, nrm) = (patches.centroid[i], patches.normal[i]);
+            let (mut front, mut back) = (false, false);
+            for p in positions {
+                let d = nrm.dot(*p - c);
+                front |= d > tol;
+                back |= d < -tol;
+                if front && back {
+                    break;
+                }
+            }
+            (patches.source_triangle[i], !(front && back))
+        })
+        .collect();
+    (0..n)
+        .map(|i| !supporting[&patches.source_triangle[i]])
+        .collect()
 }
 
 /// True when the surface point `x` of patch `i` is buried: the first surface hit straight
@@ -618,7 +664,8 @@ pub const CLOSURE_PROBES: u32 = 64;
 /// Σ_j F_ij per row, in f64.
 fn row_sums_of(m: &CsMatI<f32, u32>) -> Vec<f64> {
     m.outer_iterator()
-        .map(|r| r.data().iter().map(|&f| f as f64).sum())
+        // `+ 0.0` turns the empty sum's −0.0 into 0.
+        .map(|r| r.data().iter().map(|&f| f as f64).sum::<f64>() + 0.0)
         .collect()
 }
 

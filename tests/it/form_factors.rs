@@ -247,12 +247,13 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
         &settings(1.0, Estimator::Contour, 3, Method::Neumann, 1),
     );
     assert!(skip.form_factors.stats.convex_enclosure);
+    assert_eq!(skip.form_factors.stats.occluder_patches, 0);
     // No visibility ray: only the closure probes (64 per patch) that find the sphere closed.
     let probes = skip.patches.len() as u64 * radiosity::form_factor::CLOSURE_PROBES as u64;
     assert_eq!(skip.form_factors.stats.rays_cast, probes);
     assert!(skip.form_factors.stats.closed_scene);
     let mut s = settings(1.0, Estimator::Contour, 3, Method::Neumann, 1);
-    s.form_factors.skip_convex = false;
+    s.form_factors.skip_hull = false;
     let cast = run(&sphere, &s);
     assert!(cast.form_factors.stats.rays_cast > probes);
     // Nothing occludes inside a sphere: the rays change nothing, bit for bit.
@@ -260,16 +261,47 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
     // The same sphere read back from OBJ (tobj parses f32: vertices move by ~1e-7 relative, so
     // facets are no longer exactly coplanar with their neighbours' vertices) is still convex.
     let from_obj = Scene::load(&meshes().join("integrating_sphere.obj")).unwrap();
-    assert!(radiosity::form_factor::is_convex_enclosure(
-        &patch::subdivide(&from_obj, 10.0, patch::DEFAULT_CREASE_DEGREES).unwrap()
-    ));
-    // The furnace and the Cornell box are not convex.
+    let occluders = |scene: &Scene, max_edge: f64| {
+        let p = patch::subdivide(scene, max_edge, patch::DEFAULT_CREASE_DEGREES).unwrap();
+        let mask = radiosity::form_factor::occluders(&p);
+        (p, mask)
+    };
+    assert!(occluders(&from_obj, 10.0).1.iter().all(|&o| !o));
+    // In the furnace room the walls are on the hull and only the two boxes occlude.
     let furnace = scenes::furnace_room(0.5, 1.0).unwrap();
-    assert!(!radiosity::form_factor::is_convex_enclosure(
-        &patch::subdivide(&furnace, 0.5, patch::DEFAULT_CREASE_DEGREES).unwrap()
-    ));
+    let (p, mask) = occluders(&furnace, 0.5);
+    for (c, &occludes) in p.centroid.iter().zip(&mask) {
+        let on_wall = [c.x, c.y, c.z]
+            .iter()
+            .any(|&x| x.abs() < 1e-12 || (x - 1.0).abs() < 1e-12);
+        assert_eq!(occludes, !on_wall, "patch at {c}");
+    }
+}
+
+#[test]
+fn hull_faces_leave_the_occlusion_tests_without_changing_any_form_factor() {
+    // The Cornell box: walls, floor and ceiling lie on the convex hull and cannot block
+    // anything; the blocks and the light (lowered 0.5 mm below the ceiling) can. Tracing only
+    // against those gives the same F, bit for bit, with the same ray count.
     let cornell = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
-    assert!(!radiosity::form_factor::is_convex_enclosure(
-        &patch::subdivide(&cornell, 200.0, patch::DEFAULT_CREASE_DEGREES).unwrap()
-    ));
+    let s = settings(120.0, Estimator::Contour, 3, Method::Neumann, 1);
+    let skip = run(&cornell, &s);
+    let p = &skip.patches;
+    let mask = radiosity::form_factor::occluders(p);
+    let names: Vec<&str> = (0..p.len())
+        .filter(|&i| mask[i])
+        .map(|i| cornell.materials[p.material[i] as usize].name.as_str())
+        .collect();
+    let light = names.iter().filter(|&&n| n == "light").count();
+    assert!(light > 0 && names.iter().all(|&n| n == "white" || n == "light"));
+    let mut full = s;
+    full.form_factors.skip_hull = false;
+    let traced = run(&cornell, &full);
+    assert_eq!(traced.form_factors.stats.occluder_patches, p.len() as u64);
+    assert!(skip.form_factors.stats.occluder_patches < p.len() as u64 / 3);
+    assert_eq!(
+        skip.form_factors.stats.rays_cast,
+        traced.form_factors.stats.rays_cast
+    );
+    assert_eq!(skip.form_factors.matrix, traced.form_factors.matrix);
 }
