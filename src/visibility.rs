@@ -423,7 +423,10 @@ impl WatertightRay {
     /// Ray from `origin` along `dir` (canonical, `f64`), counting hits with
     /// `t ∈ [t_lo, t_hi]`. `None` if it cannot be represented in `f32`.
     fn new(origin: DVec3, dir: DVec3, t_lo: f64, t_hi: f64) -> Option<WatertightRay> {
-        let dir32 = dir.as_vec3a();
+        // `+ 0.0` turns −0.0 components into +0.0: obvhs picks a box's near plane by
+        // `dir < 0.0` (false for −0.0) but inverts −0.0 to −1/ε, so a direction such as a floor's
+        // normal (0, 1, −0) would miss every box it should enter.
+        let dir32 = dir.as_vec3a() + Vec3A::ZERO;
         let origin32 = (origin - ORIGIN_SHIFT * dir).as_vec3a();
         if !(origin32.is_finite() && dir32.is_finite()) || dir32 == Vec3A::ZERO {
             return None;

@@ -140,8 +140,9 @@ pub struct FormFactors {
     pub matrix: CsMatI<f32, u32>,
     /// Counters.
     pub stats: Stats,
-    /// Fraction of each patch's area (by its sample weights) that is not buried in contact
-    /// geometry, in [0, 1]; rows describe the visible part ([`is_hidden`]).
+    /// Fraction of each patch's area that is not buried in contact geometry, in [0, 1]
+    /// (pair estimators: measured on a lattice of 16 points; hemisphere: the unburied ray
+    /// origins); rows describe the visible part ([`is_hidden`]).
     pub visible_fraction: Vec<f64>,
     /// How far below 1 a row of a closed enclosure may fall with this estimator: 1e-6 for
     /// hemisphere shooting (rows are hit counts, exact up to f32 storage); 0.1 for the pair
@@ -348,7 +349,10 @@ fn pairwise(
             .map(|(k, &x)| is_hidden(patches, vis, k / ns, x))
             .collect()
     };
-    *visible_fraction = (0..n)
+    // The rows integrate over the unburied quadrature points only: their weight is what each
+    // row is divided by below. The visible area itself (for area weights: reciprocity, surface
+    // means) is measured on a finer lattice, since three points quantise it to thirds.
+    let quadrature_visible: Vec<f64> = (0..n)
         .map(|i| {
             (0..ns)
                 .filter(|&k| !hidden[i * ns + k])
@@ -357,6 +361,21 @@ fn pairwise(
         })
         .collect();
     stats.rays_cast += hidden.len() as u64 * (!convex) as u64;
+    if !convex {
+        let lattice = sampling::lattice_barycentrics(VISIBLE_AREA_LATTICE);
+        *visible_fraction = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let t = patches.corners(i);
+                let buried = lattice
+                    .iter()
+                    .filter(|b| is_hidden(patches, vis, i, b[0] * t[0] + b[1] * t[1] + b[2] * t[2]))
+                    .count();
+                1.0 - buried as f64 / lattice.len() as f64
+            })
+            .collect();
+        stats.rays_cast += (n * lattice.len()) as u64;
+    }
     let rays = AtomicU64::new(0);
     let culled = AtomicU64::new(0);
 
@@ -478,7 +497,7 @@ fn pairwise(
     // Each row was integrated over the whole patch with zero from its buried points: divide
     // by the visible weight so the row describes the visible part, whose radiance is what the
     // rest of the scene sees (hidden-area elimination).
-    scale_rows(&mut matrix, visible_fraction);
+    scale_rows(&mut matrix, &quadrature_visible);
     Ok(matrix)
 }
 
@@ -657,6 +676,10 @@ pub fn is_hidden(patches: &Patches, vis: &Visibility, i: usize, x: DVec3) -> boo
         None => false,
     }
 }
+
+/// The visible (unburied) fraction of a patch's area is measured at the centroids of its
+/// regular split into this many squared sub-triangles ([`sampling::lattice_barycentrics`]).
+pub const VISIBLE_AREA_LATTICE: usize = 4;
 
 /// Probe rays per patch that decide whether a scene is closed ([`compute`]).
 pub const CLOSURE_PROBES: u32 = 64;

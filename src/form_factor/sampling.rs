@@ -66,6 +66,28 @@ pub fn stratified_triangle_barycentrics(n: usize, rng: &mut Rng, out: &mut Vec<[
     }
 }
 
+/// Centroids of the n² congruent triangles of the regular n-fold split of a triangle, as
+/// barycentric coordinates: n² points of equal weight that cover the triangle evenly (a
+/// deterministic estimate of area fractions with error ≤ one sub-triangle per boundary
+/// crossing).
+pub fn lattice_barycentrics(n: usize) -> Vec<[f64; 3]> {
+    let mut out = Vec::with_capacity(n * n);
+    let third = 1.0 / (3 * n) as f64;
+    for i in 0..n {
+        for j in 0..n - i {
+            // Upright sub-triangle (i, j), (i+1, j), (i, j+1) in lattice coordinates.
+            let (u, v) = ((3 * i + 1) as f64 * third, (3 * j + 1) as f64 * third);
+            out.push([1.0 - u - v, u, v]);
+            if i + j + 2 <= n {
+                // Inverted sub-triangle (i+1, j), (i, j+1), (i+1, j+1).
+                let (u, v) = ((3 * i + 2) as f64 * third, (3 * j + 2) as f64 * third);
+                out.push([1.0 - u - v, u, v]);
+            }
+        }
+    }
+    out
+}
+
 /// Symmetric Gauss quadrature rules on the triangle (Dunavant, "High degree efficient
 /// symmetrical Gaussian quadrature rules for the triangle", IJNME 21, 1985), for the point
 /// counts that have a rule with positive weights: 1 (degree 1), 3 (degree 2), 6 (degree 4),
@@ -135,6 +157,26 @@ mod tests {
         w.iter()
             .map(|w| w[1] * DVec3::X + w[2] * DVec3::Y)
             .collect()
+    }
+
+    #[test]
+    fn lattice_points_are_the_sub_triangle_centroids() {
+        for n in 1..6 {
+            let pts = lattice_barycentrics(n);
+            assert_eq!(pts.len(), n * n);
+            // Inside, and their mean is the centroid (the sub-triangles tile the triangle).
+            let mut mean = [0.0; 3];
+            for b in &pts {
+                assert!(b.iter().all(|&w| w > 0.0) && (b.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+                for k in 0..3 {
+                    mean[k] += b[k] / pts.len() as f64;
+                }
+            }
+            assert!(
+                mean.iter().all(|&m| (m - 1.0 / 3.0).abs() < 1e-12),
+                "{n}: {mean:?}"
+            );
+        }
     }
 
     #[test]
