@@ -230,6 +230,24 @@ pub struct SolveArgs {
     /// sharper edges stay creases. 0 = every face flat.
     #[arg(long, default_value_t = radiosity::patch::DEFAULT_CREASE_DEGREES, value_name = "DEG", allow_negative_numbers = true, help_heading = "Discretisation")]
     pub crease: f64,
+    /// Adaptive refinement rounds: after each solve, split the patches whose radiance differs
+    /// from a neighbour's (same surface) by more than --refine-threshold, and solve again.
+    #[arg(
+        long,
+        default_value_t = radiosity::pipeline::Settings::default().refine_rounds,
+        value_name = "N",
+        help_heading = "Discretisation"
+    )]
+    pub refine: u32,
+    /// Relative luminance jump between neighbouring patches that marks both for splitting.
+    #[arg(
+        long,
+        default_value_t = radiosity::refine::DEFAULT_THRESHOLD,
+        value_name = "X",
+        allow_negative_numbers = true,
+        help_heading = "Discretisation"
+    )]
+    pub refine_threshold: f64,
     #[command(flatten)]
     pub estimator: FormFactorArgs,
     /// Solver of (I − K)L = E.
@@ -346,6 +364,12 @@ impl SolveArgs {
                 format!("{} is not in [0, 180] degrees", self.crease),
             ));
         }
+        if !(self.refine_threshold > 0.0 && self.refine_threshold.is_finite()) {
+            return Err(Error::usage(
+                "--refine-threshold",
+                format!("{} is not a positive number", self.refine_threshold),
+            ));
+        }
         let solver = solve::Settings {
             method: self.solver,
             tolerance: self.tolerance,
@@ -358,6 +382,8 @@ impl SolveArgs {
             form_factors: self.estimator.settings()?,
             solver,
             crease_degrees: self.crease,
+            refine_rounds: self.refine,
+            refine_threshold: self.refine_threshold,
         })
     }
 }

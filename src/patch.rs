@@ -203,25 +203,8 @@ pub fn subdivide(scene: &Scene, max_edge: f64, crease_degrees: f64) -> Result<Pa
         {
             break;
         }
-        let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut next = Vec::with_capacity(tris.len() * 4);
-        for &(t, src) in &tris {
-            // m[k] = midpoint of edge (t[k], t[k+1]) if that edge is split.
-            let mut m = [None; 3];
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                if long(a, b, &positions) {
-                    let key = (a.min(b), a.max(b));
-                    let id = *midpoints.entry(key).or_insert_with(|| {
-                        positions.push(0.5 * (positions[a as usize] + positions[b as usize]));
-                        (positions.len() - 1) as u32
-                    });
-                    m[k] = Some(id);
-                }
-            }
-            split_triangle(t, m, &positions, |c| next.push((c, src)));
-        }
-        tris = next;
+        let snapshot = positions.clone();
+        tris = split_edges(&mut positions, &tris, |a, b| long(a, b, &snapshot));
         if tris.len() > MAX_PATCHES {
             return Err(Error::usage(
                 "--max-edge",
@@ -229,7 +212,82 @@ pub fn subdivide(scene: &Scene, max_edge: f64, crease_degrees: f64) -> Result<Pa
             ));
         }
     }
+    build(scene, positions, tris, crease_degrees)
+}
 
+/// One round of conforming refinement: every patch marked in `marked` has all three edges
+/// split at their midpoints, and each neighbour sharing a split edge is split along it too
+/// (1 → 2 children), so the mesh stays conforming. Patches keep their source triangles;
+/// corner normals are interpolated afresh ([`subdivide`]). Used for adaptive refinement.
+pub fn refine(
+    scene: &Scene,
+    patches: &Patches,
+    marked: &[bool],
+    crease_degrees: f64,
+) -> Result<Patches> {
+    let mut edges = std::collections::HashSet::new();
+    for (t, _) in patches.triangles.iter().zip(marked).filter(|(_, &m)| m) {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            edges.insert((a.min(b), a.max(b)));
+        }
+    }
+    let tris: Vec<([u32; 3], u32)> = patches
+        .triangles
+        .iter()
+        .zip(&patches.source_triangle)
+        .map(|(t, s)| (*t, *s))
+        .collect();
+    let mut positions = patches.positions.clone();
+    let tris = split_edges(&mut positions, &tris, |a, b| {
+        edges.contains(&(a.min(b), a.max(b)))
+    });
+    if tris.len() > MAX_PATCHES {
+        return Err(Error::usage(
+            "--refine",
+            format!("refinement makes more than {MAX_PATCHES} patches"),
+        ));
+    }
+    build(scene, positions, tris, crease_degrees)
+}
+
+/// Split every edge (a, b) of `tris` for which `split(a, b)` holds at a midpoint shared by
+/// both triangles on it (appended to `positions`), and re-triangulate each triangle by how
+/// many of its edges were split ([`split_triangle`]). Children keep the source index.
+fn split_edges(
+    positions: &mut Vec<DVec3>,
+    tris: &[([u32; 3], u32)],
+    split: impl Fn(u32, u32) -> bool,
+) -> Vec<([u32; 3], u32)> {
+    let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut next = Vec::with_capacity(tris.len() * 4);
+    for &(t, src) in tris {
+        // m[k] = midpoint of edge (t[k], t[k+1]) if that edge is split.
+        let mut m = [None; 3];
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if split(a, b) {
+                let key = (a.min(b), a.max(b));
+                let id = *midpoints.entry(key).or_insert_with(|| {
+                    positions.push(0.5 * (positions[a as usize] + positions[b as usize]));
+                    (positions.len() - 1) as u32
+                });
+                m[k] = Some(id);
+            }
+        }
+        split_triangle(t, m, positions, |c| next.push((c, src)));
+    }
+    next
+}
+
+/// The patches of `tris` (patch triangle, source scene triangle) over `positions`: geometry,
+/// materials and corner normals.
+fn build(
+    scene: &Scene,
+    positions: Vec<DVec3>,
+    tris: Vec<([u32; 3], u32)>,
+    crease_degrees: f64,
+) -> Result<Patches> {
     let n = tris.len();
     let smooth = corner_normals(scene, crease_degrees);
     let mut patches = Patches {
@@ -538,13 +596,10 @@ mod tests {
         }
     }
 
-    #[test]
-    fn subdivision_is_conforming() {
-        // Conforming ⇔ every edge of the patch mesh is used by exactly two patches (interior
-        // or shared edge) or by one (open boundary of the input), and every boundary edge
-        // lies on a boundary edge of the input: count edge uses, each once per direction.
-        let scene = two_quads();
-        let p = subdivide(&scene, 0.13, DEFAULT_CREASE_DEGREES).unwrap();
+    /// Panics unless the patch mesh is conforming: every edge is used by exactly two patches
+    /// (interior or shared edge) or by one (open boundary of the input), and no vertex lies
+    /// inside a boundary edge (a T-junction).
+    fn assert_conforming(p: &Patches) {
         let mut uses: HashMap<(u32, u32), i32> = HashMap::new();
         for t in &p.triangles {
             for k in 0..3 {
@@ -568,6 +623,38 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn subdivision_is_conforming() {
+        let scene = two_quads();
+        assert_conforming(&subdivide(&scene, 0.13, DEFAULT_CREASE_DEGREES).unwrap());
+    }
+
+    #[test]
+    fn refinement_splits_marked_patches_and_stays_conforming() {
+        let scene = two_quads();
+        let p = subdivide(&scene, 0.3, DEFAULT_CREASE_DEGREES).unwrap();
+        // Mark every third patch, including some on the crease between the two quads.
+        let marked: Vec<bool> = (0..p.len()).map(|i| i % 3 == 0).collect();
+        let r = refine(&scene, &p, &marked, DEFAULT_CREASE_DEGREES).unwrap();
+        r.validate().unwrap();
+        assert_conforming(&r);
+        assert!((r.total_area() - p.total_area()).abs() < 1e-12);
+        // Each marked patch became 4, and a neighbour of a marked patch at least 2.
+        let marked_count = marked.iter().filter(|&&m| m).count();
+        assert!(
+            r.len() >= p.len() + 3 * marked_count,
+            "{} → {}",
+            p.len(),
+            r.len()
+        );
+        // No patch grew.
+        let largest = |q: &Patches| q.area.iter().cloned().fold(0.0, f64::max);
+        assert!(largest(&r) <= largest(&p) + 1e-15);
+        // Marking nothing changes nothing.
+        let same = refine(&scene, &p, &vec![false; p.len()], DEFAULT_CREASE_DEGREES).unwrap();
+        assert_eq!(same.triangles, p.triangles);
     }
 
     #[test]

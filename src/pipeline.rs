@@ -17,7 +17,7 @@ use crate::report::{Report, Seconds};
 use crate::scene::{Override, Scene};
 use crate::solve::{self, Solution};
 use crate::visibility::Visibility;
-use crate::{bake, Result};
+use crate::{bake, refine, Result};
 
 /// Everything that controls a bake.
 #[derive(Debug, Clone, Copy)]
@@ -28,8 +28,15 @@ pub struct Settings {
     pub form_factors: form_factor::Settings,
     /// Linear solve.
     pub solver: solve::Settings,
-    /// Crease angle of the bake, degrees.
+    /// Crease angle, degrees: where faces meet at smaller angles the mesh samples one smooth
+    /// surface (interpolated normals, shared output vertices).
     pub crease_degrees: f64,
+    /// Adaptive refinement: rounds of splitting the patches whose radiance jumps against a
+    /// neighbour's by more than `refine_threshold` (relative), each followed by a new solve
+    /// ([`crate::refine`]); 0 = none.
+    pub refine_rounds: u32,
+    /// Relative luminance jump that marks two neighbours for splitting.
+    pub refine_threshold: f64,
 }
 
 impl Default for Settings {
@@ -39,6 +46,8 @@ impl Default for Settings {
             form_factors: form_factor::Settings::default(),
             solver: solve::Settings::default(),
             crease_degrees: bake::DEFAULT_CREASE_DEGREES,
+            refine_rounds: 0,
+            refine_threshold: crate::refine::DEFAULT_THRESHOLD,
         }
     }
 }
@@ -65,41 +74,30 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     let max_edge = settings
         .max_edge
         .unwrap_or_else(|| patch::default_max_edge(scene));
-    let patches = patch::subdivide(scene, max_edge, settings.crease_degrees)?;
+    let mut patches = patch::subdivide(scene, max_edge, settings.crease_degrees)?;
     report.max_edge = max_edge;
-    report.patches = patches.len();
     seconds.patches = t.elapsed().as_secs_f64();
 
-    let form_factors = if scene.has_emitters() {
+    let (mut form_factors, mut solution) =
+        light_transport(scene, &patches, settings, &mut report, &mut seconds)?;
+    for _ in 0..settings.refine_rounds {
+        let marked = refine::marks(
+            &patches,
+            &solution.radiance,
+            settings.refine_threshold,
+            settings.crease_degrees,
+        );
+        if !marked.contains(&true) {
+            break;
+        }
         let t = Instant::now();
-        let corners: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
-        let visibility = Visibility::build(&corners);
-        seconds.bvh = t.elapsed().as_secs_f64();
-
-        let t = Instant::now();
-        let form_factors = form_factor::compute(&patches, &visibility, &settings.form_factors)?;
-        seconds.form_factors = t.elapsed().as_secs_f64();
-        form_factors
-    } else {
-        // Without emitters L = 0 whatever F is: skip the BVH and the form factors.
-        report
-            .warnings
-            .push("no emitters in the scene (no material has Ke > 0): the result is black".into());
-        FormFactors::empty(patches.len())
-    };
-    report.form_factors = form_factors.stats.clone();
-
-    let t = Instant::now();
-    let system = System {
-        form_factors: &form_factors,
-        reflectance: &patches.reflectance,
-        emission: &patches.emission,
-    };
-    let solution = solve::solve(&system, &settings.solver)?;
-    report.iterations = solution.iterations;
-    report.residual = solution.residual;
-    report.converged = solution.converged;
-    seconds.solve = t.elapsed().as_secs_f64();
+        patches = patch::refine(scene, &patches, &marked, settings.crease_degrees)?;
+        seconds.patches += t.elapsed().as_secs_f64();
+        report.refine_rounds += 1;
+        (form_factors, solution) =
+            light_transport(scene, &patches, settings, &mut report, &mut seconds)?;
+    }
+    report.patches = patches.len();
 
     let t = Instant::now();
     let baked = bake::bake(&patches, &solution.radiance, settings.crease_degrees);
@@ -114,6 +112,49 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
         baked,
         report,
     })
+}
+
+/// BVH → form factors → matrix → solve for `patches`: fills the report's counters and adds
+/// to the stage times (refinement rounds add up).
+fn light_transport(
+    scene: &Scene,
+    patches: &Patches,
+    settings: &Settings,
+    report: &mut Report,
+    seconds: &mut Seconds,
+) -> Result<(FormFactors, Solution)> {
+    let form_factors = if scene.has_emitters() {
+        let t = Instant::now();
+        let corners: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
+        let visibility = Visibility::build(&corners);
+        seconds.bvh += t.elapsed().as_secs_f64();
+
+        let t = Instant::now();
+        let form_factors = form_factor::compute(patches, &visibility, &settings.form_factors)?;
+        seconds.form_factors += t.elapsed().as_secs_f64();
+        form_factors
+    } else {
+        // Without emitters L = 0 whatever F is: skip the BVH and the form factors.
+        let warning = "no emitters in the scene (no material has Ke > 0): the result is black";
+        if !report.warnings.iter().any(|w| w == warning) {
+            report.warnings.push(warning.into());
+        }
+        FormFactors::empty(patches.len())
+    };
+    report.form_factors = form_factors.stats.clone();
+
+    let t = Instant::now();
+    let system = System {
+        form_factors: &form_factors,
+        reflectance: &patches.reflectance,
+        emission: &patches.emission,
+    };
+    let solution = solve::solve(&system, &settings.solver)?;
+    report.iterations = solution.iterations;
+    report.residual = solution.residual;
+    report.converged = solution.converged;
+    seconds.solve += t.elapsed().as_secs_f64();
+    Ok((form_factors, solution))
 }
 
 /// Output options of [`run`].

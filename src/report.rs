@@ -47,7 +47,10 @@ pub struct Report {
     pub input_triangles: usize,
     /// Longest patch edge used, scene units.
     pub max_edge: f64,
+    /// Patches of the final solve (after refinement).
     pub patches: usize,
+    /// Adaptive refinement rounds performed (each split patches and solved again).
+    pub refine_rounds: u32,
     /// Vertices of the output mesh (after splitting at creases and material borders).
     pub vertices: usize,
     pub form_factor_settings: form_factor::Settings,
@@ -75,6 +78,7 @@ impl Report {
             input_triangles: 0,
             max_edge: 0.0,
             patches: 0,
+            refine_rounds: 0,
             vertices: 0,
             form_factor_settings: settings.form_factors,
             solver_settings: settings.solver,
