@@ -22,7 +22,12 @@ fn solve_all(rho: f64, max_edge: f64) -> radiosity::Result<Vec<(Method, Solution
         rays: 256,
         ..Default::default()
     };
-    let ff: FormFactors = form_factor::compute(&patches, &Visibility::build(&tris), &settings)?;
+    let ff: FormFactors = form_factor::compute(
+        &patches,
+        &Visibility::build(&tris),
+        &settings,
+        &form_factor::Needed::all(patches.len()),
+    )?;
     let system = System {
         form_factors: &ff,
         reflectance: &patches.reflectance,

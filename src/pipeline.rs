@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::export::{self, BakedMesh, Format};
-use crate::form_factor::{self, FormFactors};
+use crate::form_factor::{self, FormFactors, Needed};
 use crate::matrix::System;
 use crate::patch::{self, Patches};
 use crate::report::{Report, Seconds};
@@ -130,7 +130,15 @@ fn light_transport(
         seconds.bvh += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
-        let form_factors = form_factor::compute(patches, &visibility, &settings.form_factors)?;
+        let needed = if settings.form_factors.skip_unneeded {
+            let bounces = (settings.solver.method == solve::Method::Neumann)
+                .then_some(settings.solver.bounces);
+            Needed::for_solve(patches, bounces)
+        } else {
+            Needed::all(patches.len())
+        };
+        let form_factors =
+            form_factor::compute(patches, &visibility, &settings.form_factors, &needed)?;
         seconds.form_factors += t.elapsed().as_secs_f64();
         form_factors
     } else {

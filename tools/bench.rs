@@ -230,7 +230,12 @@ fn settings(
 ) -> pipeline::Settings {
     pipeline::Settings {
         max_edge: Some(max_edge),
-        form_factors: ff,
+        // The whole F: several runs solve again on one run's F (`resolve`) with another
+        // solver or reflectance, which may read entries a one-bounce solve would skip.
+        form_factors: form_factor::Settings {
+            skip_unneeded: false,
+            ..ff
+        },
         solver,
         ..pipeline::Settings::default()
     }

@@ -126,11 +126,30 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
     }
 }
 
-/// All rows, in parallel (deterministic: each row depends only on (seed, i)).
-pub fn rows(patches: &Patches, vis: &Visibility, rays: u32, seed: u64) -> Vec<Row> {
+/// The rows in `needed` (each keeping only the needed columns; the other rows empty, with
+/// no ray cast), in parallel (deterministic: each row depends only on (seed, i)).
+pub fn rows(
+    patches: &Patches,
+    vis: &Visibility,
+    rays: u32,
+    seed: u64,
+    needed: &super::Needed,
+) -> Vec<Row> {
     (0..patches.len())
         .into_par_iter()
-        .map(|i| row(patches, vis, i, rays, seed))
+        .map(|i| {
+            if !needed.rows[i] {
+                return Row {
+                    entries: Vec::new(),
+                    rays: 0,
+                    visible_fraction: 1.0,
+                    escaped: 0,
+                };
+            }
+            let mut r = row(patches, vis, i, rays, seed);
+            r.entries.retain(|&(j, _)| needed.columns[j as usize]);
+            r
+        })
         .collect()
 }
 

@@ -87,6 +87,10 @@ pub struct Settings {
     /// Normalise the rows of a closed scene to 1 (pair estimators; see [`compute`]); on by
     /// default, off to measure the estimators' raw row error.
     pub normalise_closed: bool,
+    /// Compute only the entries the solve reads ([`Needed::for_solve`]: no rows for black
+    /// patches, only emitters' columns for one bounce); on by default, off to measure what
+    /// the skip saves.
+    pub skip_unneeded: bool,
 }
 
 impl Default for Settings {
@@ -99,6 +103,70 @@ impl Default for Settings {
             reciprocity: false,
             skip_hull: true,
             normalise_closed: true,
+            skip_unneeded: true,
+        }
+    }
+}
+
+/// Which entries F_ij the solve will read: row i when patch i reflects (ρ_i > 0 in some
+/// channel: a black patch's radiance is its Le whatever F says), column j when patch j's
+/// radiance is gathered at all (with one bounce, only emitters' is). [`compute`] skips every
+/// pair that needs neither F_ij nor F_ji — no rays, no integrals — and leaves unneeded
+/// entries out of F. Rows are all computed when they are rescaled to 1 in a closed scene or
+/// symmetrised (`reciprocity`), which need the whole row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Needed {
+    /// Row i is needed.
+    pub rows: Vec<bool>,
+    /// Column j is needed.
+    pub columns: Vec<bool>,
+}
+
+impl Needed {
+    /// Every entry.
+    pub fn all(n: usize) -> Self {
+        Needed {
+            rows: vec![true; n],
+            columns: vec![true; n],
+        }
+    }
+
+    /// What a solve of these patches reads: rows of reflecting patches; with `bounces` =
+    /// Some(1) (direct light only) only the emitters' columns, with Some(0) nothing.
+    pub fn for_solve(patches: &Patches, bounces: Option<u32>) -> Self {
+        let rows = patches
+            .reflectance
+            .iter()
+            .map(|r| r.iter().any(|&x| x > 0.0))
+            .collect();
+        let columns = match bounces {
+            Some(0) => vec![false; patches.len()],
+            Some(1) => patches
+                .emission
+                .iter()
+                .map(|e| e.iter().any(|&x| x > 0.0))
+                .collect(),
+            _ => vec![true; patches.len()],
+        };
+        Needed { rows, columns }
+    }
+
+    /// Entry (i, j) is needed.
+    #[inline]
+    pub fn entry(&self, i: usize, j: usize) -> bool {
+        self.rows[i] && self.columns[j]
+    }
+
+    /// True when nothing is skipped.
+    pub fn is_all(&self) -> bool {
+        self.rows.iter().chain(&self.columns).all(|&x| x)
+    }
+
+    /// The same rows with every column.
+    fn whole_rows(&self) -> Self {
+        Needed {
+            rows: self.rows.clone(),
+            columns: vec![true; self.columns.len()],
         }
     }
 }
@@ -112,6 +180,10 @@ pub struct Stats {
     pub pairs: u64,
     /// Unordered pairs culled without any ray because one lies behind the other's plane.
     pub pairs_culled: u64,
+    /// Unordered pairs skipped because the solve needs neither F_ij nor F_ji ([`Needed`]).
+    pub pairs_skipped: u64,
+    /// Rows not computed because the solve does not read them (black patches, [`Needed`]).
+    pub rows_skipped: u64,
     /// True when the scene was recognised as a convex enclosure (every patch on the scene's
     /// convex hull), where nothing can occlude anything and no visibility ray is cast.
     pub convex_enclosure: bool,
@@ -208,7 +280,15 @@ impl FormFactors {
 /// Estimate every F_ij of the patches, casting visibility rays through `vis` (built over the
 /// patch triangles, triangle index = patch index). Rows are computed in parallel; the result
 /// is deterministic for a given seed whatever the thread count.
-pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Result<FormFactors> {
+///
+/// Only the entries in `needed` are computed ([`Needed`]; pass [`Needed::all`] for the whole
+/// matrix); the others are absent from the result, as if zero.
+pub fn compute(
+    patches: &Patches,
+    vis: &Visibility,
+    settings: &Settings,
+    needed: &Needed,
+) -> Result<FormFactors> {
     if settings.samples == 0 {
         return Err(Error::usage("--samples", "must be at least 1"));
     }
@@ -218,34 +298,56 @@ pub fn compute(patches: &Patches, vis: &Visibility, settings: &Settings) -> Resu
     let n = patches.len();
     let mut stats = Stats::default();
     let mut visible_fraction = vec![1.0; n];
+    let pair_estimator = settings.estimator != Estimator::Hemisphere;
+    // Energy conservation: in a closed enclosure every (visible) row sums to exactly 1. The
+    // pair estimators miss that by their visibility error next to occluders; if probe rays
+    // from every patch all land on the front of some surface, the scene is closed and the
+    // rows are rescaled to 1 (Cohen & Wallace §4.11 discuss this row normalisation). One
+    // escaping probe anywhere and nothing is changed.
+    let normalise = pair_estimator
+        && settings.normalise_closed
+        && (0..n).into_par_iter().all(|i| {
+            let probe = hemisphere::row(patches, vis, i, CLOSURE_PROBES, settings.seed ^ 0xC105ED);
+            probe.escaped == 0
+        });
+    if pair_estimator && settings.normalise_closed {
+        stats.rays_cast += n as u64 * CLOSURE_PROBES as u64;
+        stats.closed_scene = normalise;
+    }
+    // Normalising and symmetrising read whole rows.
+    let needed = if normalise || settings.reciprocity {
+        needed.whole_rows()
+    } else {
+        needed.clone()
+    };
+    let needed = if settings.reciprocity {
+        Needed::all(n)
+    } else {
+        needed
+    };
+    stats.rows_skipped = needed.rows.iter().filter(|&&r| !r).count() as u64;
     let mut matrix = if settings.estimator == Estimator::Hemisphere {
-        let rows = hemisphere::rows(patches, vis, settings.rays, settings.seed);
+        let rows = hemisphere::rows(patches, vis, settings.rays, settings.seed, &needed);
         stats.rays_cast = rows.iter().map(|r| r.rays).sum();
         visible_fraction = rows.iter().map(|r| r.visible_fraction).collect();
         assemble_rows(n, rows.into_iter().map(|r| r.entries).collect())?
     } else {
-        pairwise(patches, vis, settings, &mut stats, &mut visible_fraction)?
+        pairwise(
+            patches,
+            vis,
+            settings,
+            &needed,
+            &mut stats,
+            &mut visible_fraction,
+        )?
     };
-    if settings.estimator != Estimator::Hemisphere && settings.normalise_closed {
-        // Energy conservation: in a closed enclosure every (visible) row sums to exactly 1.
-        // The pair estimators miss that by their visibility error next to occluders; if
-        // probe rays from every patch all land on the front of some surface, the scene is
-        // closed and the rows are rescaled to 1 (Cohen & Wallace §4.11 discuss this row
-        // normalisation). One escaping probe anywhere and nothing is changed.
-        let closed = (0..n).into_par_iter().all(|i| {
-            let probe = hemisphere::row(patches, vis, i, CLOSURE_PROBES, settings.seed ^ 0xC105ED);
-            probe.escaped == 0
-        });
-        stats.rays_cast += n as u64 * CLOSURE_PROBES as u64;
-        stats.closed_scene = closed;
-        if closed {
-            let sums: Vec<f64> = row_sums_of(&matrix);
-            let factor: Vec<f64> = sums
-                .iter()
-                .map(|&s| if s > 0.0 { s } else { 1.0 })
-                .collect();
-            scale_rows(&mut matrix, &factor);
-        }
+    if normalise {
+        let sums: Vec<f64> = row_sums_of(&matrix);
+        let factor: Vec<f64> = sums
+            .iter()
+            .map(|&s| if s > 0.0 { s } else { 1.0 })
+            .collect();
+        scale_rows(&mut matrix, &factor);
     }
     stats.patches_partly_hidden = visible_fraction.iter().filter(|&&v| v < 1.0).count() as u64;
     if settings.reciprocity {
@@ -281,6 +383,7 @@ fn pairwise(
     patches: &Patches,
     vis: &Visibility,
     settings: &Settings,
+    needed: &Needed,
     stats: &mut Stats,
     visible_fraction: &mut Vec<f64>,
 ) -> Result<CsMatI<f32, u32>> {
@@ -378,6 +481,7 @@ fn pairwise(
     }
     let rays = AtomicU64::new(0);
     let culled = AtomicU64::new(0);
+    let skipped = AtomicU64::new(0);
 
     // Each task i produces (j, F_ij) for j > i and (j, F_ji) for j > i.
     let rows: Vec<PairRows> = (0..n)
@@ -387,6 +491,7 @@ fn pairwise(
             let mut lower = Vec::new();
             let mut local_rays = 0u64;
             let mut local_culled = 0u64;
+            let mut local_skipped = 0u64;
             let pi = &points[i * ns..(i + 1) * ns];
             let mi = &point_normals[i * ns..(i + 1) * ns];
             let ti = patches.corners(i);
@@ -395,6 +500,11 @@ fn pairwise(
             let mut vis_k = vec![false; ns];
             let mut valid_k = vec![false; ns];
             for j in i + 1..n {
+                let (need_ij, need_ji) = (needed.entry(i, j), needed.entry(j, i));
+                if !need_ij && !need_ji {
+                    local_skipped += 1;
+                    continue;
+                }
                 let tj = patches.corners(j);
                 let (nj, cj, aj) = (patches.normal[j], patches.centroid[j], patches.area[j]);
                 // Cull: j entirely on or behind i's plane, or i behind j's: no exchange.
@@ -454,7 +564,10 @@ fn pairwise(
                         v_mean
                     };
                     // Buried points gather nothing (their patch's row is rescaled later).
-                    let (hx, hy) = (hidden[i * ns + k], hidden[j * ns + ky]);
+                    let (hx, hy) = (
+                        hidden[i * ns + k] || !need_ij,
+                        hidden[j * ns + ky] || !need_ji,
+                    );
                     if v == 0.0 || (hx && hy) {
                         continue;
                     }
@@ -486,6 +599,7 @@ fn pairwise(
             }
             rays.fetch_add(local_rays, Ordering::Relaxed);
             culled.fetch_add(local_culled, Ordering::Relaxed);
+            skipped.fetch_add(local_skipped, Ordering::Relaxed);
             (upper, lower)
         })
         .collect();
@@ -493,6 +607,7 @@ fn pairwise(
     stats.rays_cast += rays.into_inner();
     stats.pairs = (n as u64) * (n as u64).saturating_sub(1) / 2;
     stats.pairs_culled = culled.into_inner();
+    stats.pairs_skipped = skipped.into_inner();
     let mut matrix = assemble(n, rows)?;
     // Each row was integrated over the whole patch with zero from its buried points: divide
     // by the visible weight so the row describes the visible part, whose radiance is what the

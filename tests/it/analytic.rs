@@ -146,6 +146,8 @@ fn sphere_errors(level: u32, crease: f64) -> (f64, f64) {
     // max-edge above the facets' edges: the facets are the patches.
     let mut s = crate::support::settings(10.0, Estimator::Contour, 3, Method::Neumann, 1);
     s.crease_degrees = crease;
+    // The whole F: it is solved again for all bounces below.
+    s.form_factors.skip_unneeded = false;
     let out = crate::support::run(&scene, &s);
     let one = verify::sphere_wall_errors(&out.patches, &out.solution.radiance, rho, Some(1));
     let system = System {

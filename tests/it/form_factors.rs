@@ -15,10 +15,10 @@ use crate::support::{meshes, run, settings};
 
 fn cornell(max_edge: f64, estimator: Estimator) -> Outcome {
     let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
-    run(
-        &scene,
-        &settings(max_edge, estimator, 4, Method::Neumann, 1),
-    )
+    let mut s = settings(max_edge, estimator, 4, Method::Neumann, 1);
+    // The whole F (a one-bounce solve needs only the light's columns).
+    s.form_factors.skip_unneeded = false;
+    run(&scene, &s)
 }
 
 /// Σ over patches of material a of A_i v_i Σ_{j in b} F_ij: the exchange A_a F_ab, with the
@@ -343,4 +343,59 @@ fn hull_faces_leave_the_occlusion_tests_without_changing_any_form_factor() {
         traced.form_factors.stats.rays_cast
     );
     assert_eq!(skip.form_factors.matrix, traced.form_factors.matrix);
+}
+
+#[test]
+fn skipping_unneeded_entries_changes_no_radiance() {
+    // One bounce needs only the light's columns; a black material's rows are never read. The
+    // skipped pairs cost no ray, and the radiance is the same bit for bit (the skipped
+    // entries only ever multiply a zero emission or a zero reflectance).
+    let mut scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
+    let green = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "green")
+        .unwrap();
+    scene.materials[green].reflectance = [0.0; 3];
+    for (estimator, method, bounces) in [
+        (Estimator::Contour, Method::Neumann, 1),
+        (Estimator::Contour, Method::GaussSeidel, 1),
+        (Estimator::Hemisphere, Method::Neumann, 1),
+        (Estimator::Hemisphere, Method::GaussSeidel, 1),
+    ] {
+        let mut s = settings(120.0, estimator, 3, method, bounces);
+        s.form_factors.rays = 64;
+        let skip = run(&scene, &s);
+        s.form_factors.skip_unneeded = false;
+        let full = run(&scene, &s);
+        let what = format!("{estimator:?} {method:?}");
+        assert_eq!(skip.solution.radiance, full.solution.radiance, "{what}");
+        let stats = &skip.form_factors.stats;
+        let green_rows = skip
+            .patches
+            .material
+            .iter()
+            .filter(|&&m| m as usize == green);
+        assert_eq!(stats.rows_skipped, green_rows.count() as u64, "{what}");
+        assert!(
+            skip.form_factors.matrix.nnz() < full.form_factors.matrix.nnz(),
+            "{what}"
+        );
+        // A pair of a green patch with another still needs its rays for the other's row;
+        // pairs within the (flat) green wall were culled anyway.
+        assert!(
+            stats.rays_cast <= full.form_factors.stats.rays_cast,
+            "{what}"
+        );
+        if method == Method::Neumann || estimator == Estimator::Hemisphere {
+            assert!(
+                stats.rays_cast < full.form_factors.stats.rays_cast,
+                "{what}"
+            );
+        }
+        if estimator == Estimator::Contour && method == Method::Neumann {
+            // Only pairs with the light (or from a green patch to it) are left.
+            assert!(stats.pairs_skipped > stats.pairs / 2, "{stats:?}");
+        }
+    }
 }
