@@ -20,7 +20,7 @@ use glam::DVec3;
 use crate::{Error, Result};
 
 /// The vertical field of view of the Cornell box's published camera, degrees: a 35 mm lens on
-/// a 25 mm film, 2·atan(12.5/35) ≈ 39.3077°.
+/// a 25 mm film, 2·atan(12.5/35) ≈ 39.30765°.
 pub fn cornell_vfov_degrees() -> f64 {
     2.0 * (12.5f64 / 35.0).atan().to_degrees()
 }
@@ -232,6 +232,6 @@ mod tests {
         let c = Camera::framing(DVec3::ZERO, DVec3::new(556.0, 548.8, 559.2));
         let published = DVec3::new(278.0, 273.0, -800.0);
         assert!(c.eye.distance(published) < 30.0, "{}", c.eye);
-        assert!((cornell_vfov_degrees() - 39.3077).abs() < 1e-4);
+        assert!((cornell_vfov_degrees() - 39.30765).abs() < 1e-5);
     }
 }

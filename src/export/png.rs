@@ -243,6 +243,7 @@ mod tests {
             vertex_radiance: vec![[0.5; 3]; 4],
             faces: vec![[0, 2, 1], [0, 3, 2]],
             face_radiance: vec![[0.5; 3]; 2],
+            camera: None,
         };
         let view = View {
             camera: Camera {
