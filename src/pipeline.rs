@@ -30,6 +30,8 @@ pub struct Settings {
     pub solver: solve::Settings,
     /// Crease angle of the bake, degrees.
     pub crease_degrees: f64,
+    /// Give every face a back side with its material ([`Scene::make_two_sided`]).
+    pub two_sided: bool,
 }
 
 impl Default for Settings {
@@ -39,6 +41,7 @@ impl Default for Settings {
             form_factors: form_factor::Settings::default(),
             solver: solve::Settings::default(),
             crease_degrees: bake::DEFAULT_CREASE_DEGREES,
+            two_sided: false,
         }
     }
 }
@@ -54,6 +57,8 @@ pub struct Outcome {
 
 /// patches → BVH → form factors → matrix → solve → bake, for a scene in memory.
 pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
+    let two_sided = settings.two_sided.then(|| scene.to_two_sided());
+    let scene = two_sided.as_ref().unwrap_or(scene);
     scene.validate()?;
     settings.solver.validate()?;
     let mut report = Report::new(settings);
@@ -102,7 +107,8 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     seconds.solve = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let baked = bake::bake(&patches, &solution.radiance, settings.crease_degrees);
+    let mut baked = bake::bake(&patches, &solution.radiance, settings.crease_degrees);
+    baked.camera = scene.camera;
     report.vertices = baked.positions.len();
     seconds.bake = t.elapsed().as_secs_f64();
 
