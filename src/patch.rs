@@ -727,6 +727,66 @@ mod tests {
     }
 
     #[test]
+    fn backs_mirror_fronts_where_a_second_subdivision_would_cut_differently() {
+        // An isosceles triangle whose two long sides are split: the remaining quad's diagonals
+        // tie, and the tie goes by vertex order, which the reverse changes.
+        let corners = |p: &Patches, i: usize| {
+            let mut c: Vec<[u64; 3]> = p
+                .corners(i)
+                .iter()
+                .map(|v| v.to_array().map(f64::to_bits))
+                .collect();
+            c.sort();
+            c
+        };
+        let mut b = SceneBuilder::new();
+        let m = b.material("white", [0.5; 3], [0.0; 3]);
+        let v = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.5, 2.0, 0.0),
+        ]
+        .map(|p| b.vertex(p));
+        b.triangle([v[0], v[1], v[2]], m);
+        let front_only = b.clone().build().unwrap();
+        // The reverse given as a face of its own (one-sided) is cut the other way.
+        b.triangle([v[0], v[2], v[1]], m);
+        let both = b.build().unwrap();
+        let p = subdivide(&both, 1.5, 0.0).unwrap();
+        let of = |src: u32| {
+            let mut all: Vec<_> = (0..p.len())
+                .filter(|&i| p.source_triangle[i] == src)
+                .map(|i| corners(&p, i))
+                .collect();
+            all.sort();
+            all
+        };
+        assert_eq!(p.len(), 6);
+        assert_ne!(of(0), of(1));
+        // Made two-sided, the back's patches are the front's mirrored.
+        let mut two = front_only.clone();
+        two.make_two_sided();
+        let p = subdivide(&two, 1.5, 0.0).unwrap();
+        p.validate().unwrap();
+        assert_eq!(p.len(), 6);
+        for i in 0..3 {
+            let j = p.twin[i] as usize;
+            assert_eq!((j, p.twin[j] as usize), (i + 3, i));
+            let [a, b, c] = p.corners(i);
+            assert_eq!(p.corners(j), [a, c, b]);
+            assert_eq!(p.normal[j], -p.normal[i]);
+            assert_eq!(p.source_triangle[j], 1);
+            // Own vertex copies: the sides never share an output vertex.
+            assert!(p.triangles[i].iter().all(|v| !p.triangles[j].contains(v)));
+        }
+        assert_eq!(
+            subdivide(&front_only, 1.5, 0.0).unwrap().twin,
+            [NO_TWIN; 3],
+            "one-sided scenes have no twins"
+        );
+    }
+
+    #[test]
     fn bad_max_edge_is_a_usage_error() {
         let scene = two_quads();
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e-9] {
