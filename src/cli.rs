@@ -91,7 +91,7 @@ pub struct RenderArgs {
 #[derive(Debug, Args)]
 pub struct ViewArgs {
     /// Camera as eye,target,up,fov: nine coordinates in scene units and the vertical field of
-    /// view in degrees, e.g. 278,273,-800,278,273,0,0,1,0,39.3077 [default: the scene file's
+    /// view in degrees, e.g. 278,273,-800,278,273,0,0,1,0,39.30765 [default: the scene file's
     /// camera line (`# camera:` in OBJ, `comment camera:` in PLY), else frame the bounding box
     /// from its −z side at 39.3°].
     #[arg(

@@ -216,14 +216,16 @@ impl SceneInfo {
         }
         match &self.camera {
             Some(c) => {
+                // The file's numbers exactly, as --camera would take them.
+                let x = |a: [f64; 3]| format!("{} {} {}", a[0], a[1], a[2]);
                 let _ = writeln!(
                     s,
                     "camera:       eye ({}), target ({}), up ({}), vertical field of view {}° \
                      (from the file)",
-                    v(c.eye),
-                    v(c.target),
-                    v(c.up),
-                    g(c.vfov_degrees)
+                    x(c.eye),
+                    x(c.target),
+                    x(c.up),
+                    c.vfov_degrees
                 );
             }
             None => {

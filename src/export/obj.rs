@@ -71,7 +71,8 @@ pub fn write_to(w: &mut impl Write, mesh: &BakedMesh, exposure: f64) -> io::Resu
 
 /// Reads an OBJ file written by [`write_to`]: `#` comments, blank lines, `v x y z r g b` and
 /// `f a b c` (positive 1-based indices) only. Colours come back as MeshLab sees them
-/// ([`component_to_u8`]); radiance is `None`. Problems are [`Error::Parse`] with the line.
+/// ([`component_to_u8`]); radiance is `None`; a `# camera: …` comment gives
+/// [`ReadBack::camera`]. Problems are [`Error::Parse`] with the line.
 pub fn read(path: &Path) -> Result<ReadBack> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let parse_err = |line: usize, message: String| Error::Parse {

@@ -118,7 +118,7 @@ fn put_f32s(out: &mut [u8], values: [f32; 3]) {
 }
 
 /// Reads a PLY file written by [`write_to`] (ASCII or binary little-endian, as its header
-/// says). Header and ASCII body problems are [`Error::Parse`] with the line; binary body
+/// says), with the camera of its `comment camera: …` line if it has one. Header and ASCII body problems are [`Error::Parse`] with the line; binary body
 /// problems are [`Error::Input`] naming the vertex or face.
 pub fn read(path: &Path) -> Result<ReadBack> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
