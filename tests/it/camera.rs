@@ -48,6 +48,29 @@ fn scene_files_carry_their_camera() {
     // The verification scenes have none.
     let furnace = Scene::load(&meshes().join("furnace.obj")).unwrap();
     assert_eq!(furnace.camera, None);
+    // `radiosity info` shows the file's camera exactly, or says that pictures frame the box.
+    let o = radiosity(&["info", &cornell()]);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    let line = "camera:       eye (278 273 -800), target (278 273 0), up (0 1 0), vertical field \
+                of view 39.30765° (from the file)";
+    assert!(text.contains(line), "{text}");
+    let o = radiosity(&["info", &cornell(), "--json"]);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        json["camera"]["eye"],
+        serde_json::json!([278.0, 273.0, -800.0])
+    );
+    assert_eq!(json["camera"]["vfov_degrees"], 39.30765);
+    let furnace = meshes().join("furnace.obj");
+    let o = radiosity(&["info", furnace.to_str().unwrap(), "--json"]);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(json["camera"].is_null());
+    let o = radiosity(&["info", furnace.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text.contains("camera:       none in the file; pictures frame"),
+        "{text}"
+    );
 
     let dir = temp_dir("camera-scenes");
     std::fs::write(dir.join("m.mtl"), MTL).unwrap();
