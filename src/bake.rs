@@ -26,6 +26,7 @@ pub fn bake(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> BakedMe
         vertex_radiance: Vec::new(),
         faces: patches.triangles.clone(),
         face_radiance: radiance.to_vec(),
+        camera: None,
     };
     // out_vertex[slot of a (vertex, patch) incidence] = its output vertex.
     let mut out_vertex = vec![u32::MAX; around.len()];

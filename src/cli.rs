@@ -54,6 +54,10 @@ pub struct InfoArgs {
     /// Print JSON instead of text (the same facts; field names in the README).
     #[arg(long)]
     pub json: bool,
+    /// Describe the scene as `--two-sided` makes it for bake and render: every face with a
+    /// back face of its own (counts, area and emitted power include the back faces).
+    #[arg(long)]
+    pub two_sided: bool,
     #[command(flatten)]
     pub materials: MaterialArgs,
 }
@@ -87,8 +91,9 @@ pub struct RenderArgs {
 #[derive(Debug, Args)]
 pub struct ViewArgs {
     /// Camera as eye,target,up,fov: nine coordinates in scene units and the vertical field of
-    /// view in degrees, e.g. 278,273,-800,278,273,0,0,1,0,39.3 [default: frame the bounding box
-    /// from its −z side, 39.3°].
+    /// view in degrees, e.g. 278,273,-800,278,273,0,0,1,0,39.30765 [default: the scene file's
+    /// camera line (`# camera:` in OBJ, `comment camera:` in PLY), else frame the bounding box
+    /// from its −z side at 39.3°].
     #[arg(
         long,
         value_name = "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOV",
@@ -230,6 +235,10 @@ pub struct SolveArgs {
     /// sharper edges stay creases. 0 = every face flat.
     #[arg(long, default_value_t = radiosity::patch::DEFAULT_CREASE_DEGREES, value_name = "DEG", allow_negative_numbers = true, help_heading = "Discretisation")]
     pub crease: f64,
+    /// Surfaces reflect and emit on both sides: every face gets a back face with the same
+    /// material (ρ, Le) and its own radiance, and the output has both (twice the patches).
+    #[arg(long, help_heading = "Discretisation")]
+    pub two_sided: bool,
     /// Adaptive refinement rounds: after each solve, split the patches whose radiance differs
     /// from a neighbour's (same surface) by more than --refine-threshold, and solve again.
     #[arg(
@@ -382,6 +391,7 @@ impl SolveArgs {
             form_factors: self.estimator.settings()?,
             solver,
             crease_degrees: self.crease,
+            two_sided: self.two_sided,
             refine_rounds: self.refine,
             refine_threshold: self.refine_threshold,
         })
@@ -426,7 +436,8 @@ impl BakeArgs {
 }
 
 impl ViewArgs {
-    /// Validated picture settings for `mesh` (the default camera frames its bounding box).
+    /// Validated picture settings for `mesh`. The camera: `--camera` if given, else the one
+    /// the scene file carries (`mesh.camera`), else one framing the mesh's bounding box.
     pub fn view(&self, mesh: &BakedMesh, exposure: f64) -> Result<png::View> {
         let (width, height) = parse_size(&self.size)?;
         if self.spp == 0 || self.spp > 16 {
@@ -435,9 +446,10 @@ impl ViewArgs {
                 format!("{} is not in 1..=16", self.spp),
             ));
         }
-        let camera = match &self.camera {
-            Some(text) => png::Camera::parse(text)?,
-            None => {
+        let camera = match (&self.camera, mesh.camera) {
+            (Some(text), _) => png::Camera::parse(text)?,
+            (None, Some(camera)) => camera,
+            (None, None) => {
                 let (lo, hi) = mesh
                     .positions
                     .iter()

@@ -1,15 +1,36 @@
 //! What `radiosity info` prints: a summary of a loaded [`Scene`] (counts, bounding box,
-//! materials, emitters and their power, loader warnings, and the patch count the default
-//! discretisation would give), as text or JSON. This module owns the summary and its two
+//! materials, emitters and their power, one or two sides, the camera, loader warnings, and
+//! the patch count the default discretisation would give), as text or JSON. This module owns the summary and its two
 //! renderings; it does no I/O, solves nothing and only subdivides to count patches.
 
 use std::fmt::Write as _;
 
 use serde::Serialize;
 
+use crate::camera::Camera;
 use crate::patch;
-use crate::scene::Scene;
+use crate::scene::{Scene, NO_TWIN};
 use crate::Result;
+
+/// A camera in JSON: eye, target and up in scene units, vertical field of view in degrees.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct CameraInfo {
+    pub eye: [f64; 3],
+    pub target: [f64; 3],
+    pub up: [f64; 3],
+    pub vfov_degrees: f64,
+}
+
+impl From<Camera> for CameraInfo {
+    fn from(c: Camera) -> Self {
+        CameraInfo {
+            eye: c.eye.to_array(),
+            target: c.target.to_array(),
+            up: c.up.to_array(),
+            vfov_degrees: c.vfov_degrees,
+        }
+    }
+}
 
 /// One material of the scene and what the triangles using it add up to.
 #[derive(Debug, Clone, Serialize)]
@@ -51,6 +72,14 @@ pub struct SceneInfo {
     pub materials: Vec<MaterialInfo>,
     /// Σ over emitting triangles of π·Le·A, per channel (units as [`MaterialInfo::power`]).
     pub emitted_power: [f64; 3],
+    /// True if faces have back faces of their own ([`Scene::make_two_sided`], `--two-sided`);
+    /// the counts, area and power above then include both sides.
+    pub two_sided: bool,
+    /// Number of faces with a back face (twin pairs); 0 for a one-sided scene.
+    pub back_faces: usize,
+    /// The camera the scene file carries, which pictures use unless `--camera` is given;
+    /// `None` (JSON `null`) when it has none and pictures frame the bounding box.
+    pub camera: Option<CameraInfo>,
     /// Warnings from loading (and cleaning) the scene.
     pub warnings: Vec<String>,
     /// [`patch::default_max_edge`], scene units.
@@ -103,6 +132,9 @@ impl SceneInfo {
             area: materials.iter().map(|m| m.area).sum(),
             materials,
             emitted_power,
+            two_sided: scene.is_two_sided(),
+            back_faces: scene.twin.iter().filter(|&&u| u != NO_TWIN).count() / 2,
+            camera: scene.camera.map(CameraInfo::from),
             warnings: scene.warnings.clone(),
             default_max_edge,
             default_patches,
@@ -168,6 +200,46 @@ impl SceneInfo {
                 v(self.emitted_power),
                 if emitters == 1 { "" } else { "s" }
             );
+        }
+        if self.two_sided {
+            let _ = writeln!(
+                s,
+                "sides:        two: {} faces have a back face of their own (counts, area and \
+                 power include both sides)",
+                self.back_faces
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "sides:        one (the counter-clockwise front; --two-sided adds back faces)"
+            );
+        }
+        match &self.camera {
+            Some(c) => {
+                // The file's numbers exactly, as --camera would take them.
+                let x = |a: [f64; 3]| format!("{} {} {}", a[0], a[1], a[2]);
+                let _ = writeln!(
+                    s,
+                    "camera:       eye ({}), target ({}), up ({}), vertical field of view {}° \
+                     (from the file)",
+                    x(c.eye),
+                    x(c.target),
+                    x(c.up),
+                    c.vfov_degrees
+                );
+            }
+            None => {
+                let c = Camera::framing(self.bounds_min.into(), self.bounds_max.into());
+                let _ = writeln!(
+                    s,
+                    "camera:       none in the file; pictures frame the bounding box: eye ({}), \
+                     target ({}), up ({}), vertical field of view {}°",
+                    v(c.eye.to_array()),
+                    v(c.target.to_array()),
+                    v(c.up.to_array()),
+                    g(c.vfov_degrees)
+                );
+            }
         }
         let _ = writeln!(s, "warnings:     {}", self.warnings.len());
         for w in &self.warnings {

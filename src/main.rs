@@ -140,19 +140,32 @@ fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Error> {
         ply::read(&args.input)
             .ok()
             .and_then(|b| match (b.vertex_radiance, b.face_radiance) {
-                (Some(vr), Some(fr)) => Some((b.positions, b.faces, vr, fr)),
+                (Some(vr), Some(fr)) => Some((b.positions, b.faces, vr, fr, b.camera)),
                 _ => None,
             })
     } else {
         None
     };
-    let mesh = if let Some((positions, faces, vr, fr)) = baked {
+    if baked.is_some() && args.solve.two_sided {
+        // Its radiance is already solved: doubling its faces now would only add black backs.
+        return Err(Error::usage(
+            "--two-sided",
+            format!(
+                "{} was written by `radiosity bake` and is rendered as it is (a bake made with \
+                 --two-sided already has both sides); bake the original scene with \
+                 --two-sided, or give material overrides to bake this mesh again as a scene",
+                args.input.display()
+            ),
+        ));
+    }
+    let mesh = if let Some((positions, faces, vr, fr, camera)) = baked {
         let f64s = |v: Vec<[f32; 3]>| v.into_iter().map(|x| x.map(f64::from)).collect();
         BakedMesh {
             positions: f64s(positions),
             vertex_radiance: f64s(vr),
             faces,
             face_radiance: f64s(fr),
+            camera,
         }
     } else {
         let settings = args.solve.settings()?;
@@ -187,6 +200,9 @@ fn info(args: &InfoArgs) -> Result<u8, Error> {
     let overrides = args.materials.overrides()?;
     let mut scene = radiosity::scene::Scene::load(&args.input)?;
     scene.apply_overrides(&overrides)?;
+    if args.two_sided {
+        scene.make_two_sided();
+    }
     let info = radiosity::info::SceneInfo::of(&scene)?;
     if args.json {
         println!("{}", info.to_json());

@@ -9,12 +9,18 @@
 //! how many of its edges were split (1 → 2 children, 2 → 3, 3 → 4, the classic red/green
 //! refinement). Neighbouring patches therefore always share vertices: no T-junctions appear
 //! that were not already in the input.
+//!
+//! Two-sided scenes ([`Scene::make_two_sided`]): only one triangle of each twin pair is
+//! subdivided; the other's patches are its patches mirrored (reversed winding, negated normals,
+//! the same corners at their own copies of the vertices), appended after all others and linked
+//! in [`Patches::twin`]. Subdividing both would not do: the re-triangulation breaks ties by
+//! vertex order, which the reversal changes, so twins could be cut differently.
 
 use std::collections::HashMap;
 
 use glam::DVec3;
 
-use crate::scene::Scene;
+use crate::scene::{Scene, NO_TWIN};
 use crate::{Error, Result};
 
 /// Default crease angle, degrees. Where the faces around a vertex meet at angles up to this,
@@ -54,6 +60,11 @@ pub struct Patches {
     pub emission: Vec<[f64; 3]>,
     /// Index of the scene triangle each patch was cut from.
     pub source_triangle: Vec<u32>,
+    /// The patch on the other side of the same surface ([`NO_TWIN`] for none: every patch of a
+    /// one-sided scene). Invariants: `twin[twin[i]] == i`; twins have the same corners (at
+    /// different vertex indices) in reverse order, opposite normals, the same area, and come
+    /// from twin scene triangles.
+    pub twin: Vec<u32>,
 }
 
 impl Patches {
@@ -108,6 +119,7 @@ impl Patches {
             self.reflectance.len(),
             self.emission.len(),
             self.source_triangle.len(),
+            self.twin.len(),
         ];
         if lengths.iter().any(|&l| l != n) {
             return Err(Error::Internal(format!(
@@ -139,6 +151,20 @@ impl Patches {
                 return Err(Error::Internal(format!(
                     "patch {i}: a corner normal faces away from the patch's front"
                 )));
+            }
+            let u = self.twin[i];
+            if u != NO_TWIN {
+                let ok = (u as usize) < n
+                    && self.twin[u as usize] == i as u32
+                    && self.corners(u as usize) == {
+                        let [a, b, c] = self.corners(i);
+                        [a, c, b]
+                    };
+                if !ok {
+                    return Err(Error::Internal(format!(
+                        "patch {i}: twin {u} is not its mirror image"
+                    )));
+                }
             }
             let ok_rho = self.reflectance[i].iter().all(|r| (0.0..=1.0).contains(r));
             let ok_le = self.emission[i].iter().all(|e| e.is_finite() && *e >= 0.0);
@@ -185,11 +211,19 @@ pub fn subdivide(scene: &Scene, max_edge: f64, crease_degrees: f64) -> Result<Pa
     }
 
     let mut positions = scene.positions.clone();
-    // (triangle, source triangle index)
+    // (triangle, source triangle index); of a twin pair only the first is cut (see the module
+    // documentation).
+    let mirrored = |i: usize| {
+        scene
+            .twin
+            .get(i)
+            .is_some_and(|&u| u != NO_TWIN && (u as usize) < i)
+    };
     let mut tris: Vec<([u32; 3], u32)> = scene
         .triangles
         .iter()
         .enumerate()
+        .filter(|&(i, _)| !mirrored(i))
         .map(|(i, t)| (t.vertices, i as u32))
         .collect();
     let limit2 = (max_edge * (1.0 + 1e-12)).powi(2);
@@ -225,18 +259,24 @@ pub fn refine(
     marked: &[bool],
     crease_degrees: f64,
 ) -> Result<Patches> {
+    // Two-sided scenes: only the fronts are split (a front is marked if either side is);
+    // `build` mirrors them again, so the backs stay exact mirror images.
+    let front = |i: usize| patches.twin[i] == NO_TWIN || patches.twin[i] as usize > i;
+    let either =
+        |i: usize| marked[i] || (patches.twin[i] != NO_TWIN && marked[patches.twin[i] as usize]);
     let mut edges = std::collections::HashSet::new();
-    for (t, _) in patches.triangles.iter().zip(marked).filter(|(_, &m)| m) {
+    for (i, t) in patches.triangles.iter().enumerate() {
+        if !front(i) || !either(i) {
+            continue;
+        }
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             edges.insert((a.min(b), a.max(b)));
         }
     }
-    let tris: Vec<([u32; 3], u32)> = patches
-        .triangles
-        .iter()
-        .zip(&patches.source_triangle)
-        .map(|(t, s)| (*t, *s))
+    let tris: Vec<([u32; 3], u32)> = (0..patches.len())
+        .filter(|&i| front(i))
+        .map(|i| (patches.triangles[i], patches.source_triangle[i]))
         .collect();
     let mut positions = patches.positions.clone();
     let tris = split_edges(&mut positions, &tris, |a, b| {
@@ -301,6 +341,7 @@ fn build(
         reflectance: Vec::with_capacity(n),
         emission: Vec::with_capacity(n),
         source_triangle: Vec::with_capacity(n),
+        twin: Vec::with_capacity(n),
     };
     for (t, src) in tris {
         let [a, b, c] = t.map(|v| patches.positions[v as usize]);
@@ -335,8 +376,49 @@ fn build(
         patches.reflectance.push(mat.reflectance);
         patches.emission.push(mat.emission);
         patches.source_triangle.push(src);
+        patches.twin.push(NO_TWIN);
+    }
+    if scene.is_two_sided() {
+        mirror_twins(scene, &mut patches);
     }
     Ok(patches)
+}
+
+/// Appends the mirror image of every patch whose scene triangle has a twin (the twin's
+/// patches: reversed winding, negated normals, the twin triangle's material and index), at
+/// copies of the corner vertices (so the two sides never share an output vertex in the bake,
+/// whatever the crease angle), and links each pair in [`Patches::twin`].
+fn mirror_twins(scene: &Scene, patches: &mut Patches) {
+    let n = patches.len();
+    let mut copy = vec![u32::MAX; patches.positions.len()];
+    for i in 0..n {
+        let u = scene.twin[patches.source_triangle[i] as usize];
+        if u == NO_TWIN {
+            continue;
+        }
+        let [a, b, c] = patches.triangles[i].map(|v| {
+            if copy[v as usize] == u32::MAX {
+                copy[v as usize] = patches.positions.len() as u32;
+                patches.positions.push(patches.positions[v as usize]);
+            }
+            copy[v as usize]
+        });
+        let material = scene.triangles[u as usize].material;
+        let mat = &scene.materials[material as usize];
+        let m = patches.corner_normal[i];
+        let j = patches.len() as u32;
+        patches.triangles.push([a, c, b]);
+        patches.centroid.push(patches.centroid[i]);
+        patches.normal.push(-patches.normal[i]);
+        patches.corner_normal.push([-m[0], -m[2], -m[1]]);
+        patches.area.push(patches.area[i]);
+        patches.material.push(material);
+        patches.reflectance.push(mat.reflectance);
+        patches.emission.push(mat.emission);
+        patches.source_triangle.push(u);
+        patches.twin.push(i as u32);
+        patches.twin[i] = j;
+    }
 }
 
 /// Barycentric coordinates of `p` (a point in the triangle's plane) in triangle `t`.
@@ -363,7 +445,18 @@ fn barycentric(p: DVec3, t: [DVec3; 3]) -> [f64; 3] {
 /// normals", JGT 4(2), 1999), which is exact for any triangles whose corners lie on a sphere.
 /// A group whose weighted sum is not within 90° of a member facet's normal (a folded fan)
 /// falls back to that facet's own normal.
+///
+/// In a two-sided scene the back of each twin pair (the later triangle) takes no part in the
+/// grouping and gets the negated corner normals of its front, so the front's normals are those
+/// of the one-sided scene.
 pub fn corner_normals(scene: &Scene, crease_degrees: f64) -> Vec<[DVec3; 3]> {
+    // The backs of twin pairs, mirrored at the end.
+    let back = |t: usize| {
+        scene
+            .twin
+            .get(t)
+            .is_some_and(|&u| u != NO_TWIN && (u as usize) < t)
+    };
     let facet: Vec<DVec3> = scene
         .triangles
         .iter()
@@ -378,7 +471,11 @@ pub fn corner_normals(scene: &Scene, crease_degrees: f64) -> Vec<[DVec3; 3]> {
     }
     let cos_crease = crease_degrees.to_radians().cos();
     let tris: Vec<[u32; 3]> = scene.triangles.iter().map(|t| t.vertices).collect();
-    let around = VertexFaces::new(&tris, scene.positions.len());
+    // Backs are left out of the incidence lists (a triangle with no corners).
+    let fronts: Vec<[u32; 3]> = (0..tris.len())
+        .map(|t| if back(t) { [u32::MAX; 3] } else { tris[t] })
+        .collect();
+    let around = VertexFaces::new(&fronts, scene.positions.len());
     for v in 0..scene.positions.len() {
         let faces = around.faces(v);
         let group = groups(faces.len(), |a, b| {
@@ -410,6 +507,13 @@ pub fn corner_normals(scene: &Scene, crease_degrees: f64) -> Vec<[DVec3; 3]> {
             }
         }
     }
+    for t in (0..tris.len()).filter(|&t| back(t)) {
+        let front = scene.twin[t] as usize;
+        out[t] = tris[t].map(|v| {
+            let k = tris[front].iter().position(|&w| w == v).unwrap_or(0);
+            -out[front][k]
+        });
+    }
     out
 }
 
@@ -421,10 +525,11 @@ pub(crate) struct VertexFaces {
 }
 
 impl VertexFaces {
+    /// Corners equal to `u32::MAX` are left out (a triangle to be skipped).
     pub(crate) fn new(triangles: &[[u32; 3]], vertices: usize) -> Self {
         let mut offsets = vec![0usize; vertices + 1];
         for t in triangles {
-            for &v in t {
+            for &v in t.iter().filter(|&&v| v != u32::MAX) {
                 offsets[v as usize + 1] += 1;
             }
         }
@@ -434,7 +539,7 @@ impl VertexFaces {
         let mut faces = vec![0u32; offsets[vertices]];
         let mut fill = offsets.clone();
         for (f, t) in triangles.iter().enumerate() {
-            for &v in t {
+            for &v in t.iter().filter(|&&v| v != u32::MAX) {
                 faces[fill[v as usize]] = f as u32;
                 fill[v as usize] += 1;
             }
@@ -712,6 +817,66 @@ mod tests {
                 (w[0] * coarse[src][0] + w[1] * coarse[src][1] + w[2] * coarse[src][2]).normalize();
             assert!((p.surface_normal(i, b) - expected).length() < 1e-12, "{i}");
         }
+    }
+
+    #[test]
+    fn backs_mirror_fronts_where_a_second_subdivision_would_cut_differently() {
+        // An isosceles triangle whose two long sides are split: the remaining quad's diagonals
+        // tie, and the tie goes by vertex order, which the reverse changes.
+        let corners = |p: &Patches, i: usize| {
+            let mut c: Vec<[u64; 3]> = p
+                .corners(i)
+                .iter()
+                .map(|v| v.to_array().map(f64::to_bits))
+                .collect();
+            c.sort();
+            c
+        };
+        let mut b = SceneBuilder::new();
+        let m = b.material("white", [0.5; 3], [0.0; 3]);
+        let v = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.5, 2.0, 0.0),
+        ]
+        .map(|p| b.vertex(p));
+        b.triangle([v[0], v[1], v[2]], m);
+        let front_only = b.clone().build().unwrap();
+        // The reverse given as a face of its own (one-sided) is cut the other way.
+        b.triangle([v[0], v[2], v[1]], m);
+        let both = b.build().unwrap();
+        let p = subdivide(&both, 1.5, 0.0).unwrap();
+        let of = |src: u32| {
+            let mut all: Vec<_> = (0..p.len())
+                .filter(|&i| p.source_triangle[i] == src)
+                .map(|i| corners(&p, i))
+                .collect();
+            all.sort();
+            all
+        };
+        assert_eq!(p.len(), 6);
+        assert_ne!(of(0), of(1));
+        // Made two-sided, the back's patches are the front's mirrored.
+        let mut two = front_only.clone();
+        two.make_two_sided();
+        let p = subdivide(&two, 1.5, 0.0).unwrap();
+        p.validate().unwrap();
+        assert_eq!(p.len(), 6);
+        for i in 0..3 {
+            let j = p.twin[i] as usize;
+            assert_eq!((j, p.twin[j] as usize), (i + 3, i));
+            let [a, b, c] = p.corners(i);
+            assert_eq!(p.corners(j), [a, c, b]);
+            assert_eq!(p.normal[j], -p.normal[i]);
+            assert_eq!(p.source_triangle[j], 1);
+            // Own vertex copies: the sides never share an output vertex.
+            assert!(p.triangles[i].iter().all(|v| !p.triangles[j].contains(v)));
+        }
+        assert_eq!(
+            subdivide(&front_only, 1.5, 0.0).unwrap().twin,
+            [NO_TWIN; 3],
+            "one-sided scenes have no twins"
+        );
     }
 
     #[test]

@@ -31,6 +31,8 @@ pub struct Settings {
     /// Crease angle, degrees: where faces meet at smaller angles the mesh samples one smooth
     /// surface (interpolated normals, shared output vertices).
     pub crease_degrees: f64,
+    /// Give every face a back side with its material ([`Scene::make_two_sided`]).
+    pub two_sided: bool,
     /// Adaptive refinement: rounds of splitting the patches whose radiance jumps against a
     /// neighbour's by more than `refine_threshold` (relative), each followed by a new solve
     /// ([`crate::refine`]); 0 = none.
@@ -46,6 +48,7 @@ impl Default for Settings {
             form_factors: form_factor::Settings::default(),
             solver: solve::Settings::default(),
             crease_degrees: bake::DEFAULT_CREASE_DEGREES,
+            two_sided: false,
             refine_rounds: 0,
             refine_threshold: crate::refine::DEFAULT_THRESHOLD,
         }
@@ -63,6 +66,8 @@ pub struct Outcome {
 
 /// patches → BVH → form factors → matrix → solve → bake, for a scene in memory.
 pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
+    let two_sided = settings.two_sided.then(|| scene.to_two_sided());
+    let scene = two_sided.as_ref().unwrap_or(scene);
     scene.validate()?;
     settings.solver.validate()?;
     let mut report = Report::new(settings);
@@ -100,7 +105,8 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     report.patches = patches.len();
 
     let t = Instant::now();
-    let baked = bake::bake(&patches, &solution.radiance, settings.crease_degrees);
+    let mut baked = bake::bake(&patches, &solution.radiance, settings.crease_degrees);
+    baked.camera = scene.camera;
     report.vertices = baked.positions.len();
     seconds.bake = t.elapsed().as_secs_f64();
 

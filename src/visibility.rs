@@ -26,7 +26,23 @@
 //!   rounding of the box test and far smaller than any triangle that matters.
 //! - Ray origins are moved back along the ray by `ORIGIN_SHIFT` (in the ray's parameter), so
 //!   obvhs's fixed `t ≥ 1e-4` box clamp lies before the start of every query interval.
+//!
+//! # Twins: the two sides of one surface
+//! A triangle and its reverse over the same three corners (bitwise the same canonical
+//! coordinates, opposite winding) are *twins*: the front and the back of one two-sided surface
+//! (what `--two-sided` makes of every face, and what a two-sided bake writes). [`Visibility::build`]
+//! pairs them itself, so callers need no extra input, and traces each pair as one triangle:
+//! - [`Visibility::occluded`] ignores the twins of the triangles in `ignore` as well (a point on
+//!   one side lies on the other side too);
+//! - [`Visibility::closest_hit`] ignores the twin of `ignore` and reports, of a pair, the
+//!   triangle whose front faces the ray (so a caller that checks `normal · dir < 0` sees a front
+//!   face), with barycentrics in that triangle's own vertex order.
+//!
+//! Pairing is deterministic: in input order, each triangle pairs with the earliest unpaired
+//! triangle over the same corners with the opposite winding. A third copy (a duplicate face
+//! with the same winding as one of a pair) stays a separate triangle, as any coincident face does.
 
+use std::collections::HashMap;
 use std::fmt;
 use std::time::Duration;
 
@@ -90,10 +106,13 @@ pub struct Hit {
 
 /// A BVH over a triangle soup answering occlusion and closest-hit queries.
 ///
-/// Invariants: `tris`, `ids` have the same length, and `tris[i]` is the canonical-frame,
-/// non-degenerate triangle `ids[i]` of the input, in the BVH's primitive order
-/// (`tris[i]` is the primitive the traversal reports as id `i`). `bvh` is only traversed when
-/// `tris` is non-empty.
+/// Invariants: `tris`, `ids`, `twins` and `twin_corners` have the same length, and `tris[i]` is
+/// the canonical-frame, non-degenerate triangle `ids[i]` of the input, in the BVH's primitive
+/// order (`tris[i]` is the primitive the traversal reports as id `i`). A twin pair (see the
+/// module documentation) is one primitive: `ids[i]` is the earlier of the two input indices,
+/// `twins[i]` the later (or [`NONE`]), and corner `k` of the twin is corner
+/// `twin_corners[i][k]` of `tris[i]`. `twin_of` is empty when there are no twins, else it maps
+/// every input index to its twin or [`NONE`]. `bvh` is only traversed when `tris` is non-empty.
 #[derive(Clone)]
 pub struct Visibility {
     /// Compressed wide BVH8 over the padded boxes of `tris`.
@@ -102,6 +121,12 @@ pub struct Visibility {
     tris: Vec<[Vec3A; 3]>,
     /// Input index of each triangle of `tris`.
     ids: Vec<u32>,
+    /// Input index of the twin of each triangle of `tris`, or [`NONE`].
+    twins: Vec<u32>,
+    /// Which corner of `tris[i]` each corner of its twin is (unused without a twin).
+    twin_corners: Vec<[u8; 3]>,
+    /// Twin of each input index ([`NONE`] for none); empty when no triangle has a twin.
+    twin_of: Vec<u32>,
     /// Number of triangles given to `build`, including skipped ones.
     len: usize,
     /// Centre of the scene's bounding box, scene units.
@@ -117,6 +142,7 @@ impl fmt::Debug for Visibility {
         f.debug_struct("Visibility")
             .field("len", &self.len)
             .field("traced_triangles", &self.tris.len())
+            .field("twin_pairs", &self.twin_pairs())
             .field("bvh_nodes", &self.bvh.nodes.len())
             .field("centre", &self.centre)
             .field("scale", &self.scale)
@@ -130,7 +156,8 @@ impl Visibility {
     /// Triangles with a non-finite vertex or zero area (collinear vertices after rounding to the
     /// canonical `f32` frame) can never be hit and are left out of the BVH; their indices stay
     /// valid (they are simply never reported). An empty list gives a `Visibility` that never
-    /// occludes and never hits.
+    /// occludes and never hits. Twins (a triangle and its reverse over the same corners) are
+    /// paired and traced as one surface with two sides; see the module documentation.
     ///
     /// # Panics
     /// If `triangles.len() ≥ u32::MAX` (indices are `u32` and [`NONE`] is reserved).
@@ -151,6 +178,9 @@ impl Visibility {
             bvh: CwBvh::default(),
             tris: Vec::new(),
             ids: Vec::new(),
+            twins: Vec::new(),
+            twin_corners: Vec::new(),
+            twin_of: Vec::new(),
             len: triangles.len(),
             centre: DVec3::ZERO,
             scale: 1.0,
@@ -185,6 +215,37 @@ impl Visibility {
         if tris.is_empty() {
             return;
         }
+        // One primitive per twin pair: the earlier triangle, with its twin attached.
+        let pairs = pair_twins(&tris);
+        let mut twins = Vec::with_capacity(tris.len());
+        let mut twin_corners = Vec::with_capacity(tris.len());
+        let mut keep = Vec::with_capacity(tris.len());
+        for (k, pair) in pairs.iter().enumerate() {
+            match *pair {
+                Some((other, _)) if other < k => {} // the later twin: traced with `other`
+                Some((other, corners)) => {
+                    keep.push(k);
+                    twins.push(ids[other]);
+                    twin_corners.push(corners);
+                }
+                None => {
+                    keep.push(k);
+                    twins.push(NONE);
+                    twin_corners.push([0, 1, 2]);
+                }
+            }
+        }
+        if keep.len() < tris.len() {
+            self.twin_of = vec![NONE; self.len];
+            for (&k, &twin) in keep.iter().zip(&twins) {
+                if twin != NONE {
+                    self.twin_of[ids[k] as usize] = twin;
+                    self.twin_of[twin as usize] = ids[k];
+                }
+            }
+        }
+        let tris: Vec<[Vec3A; 3]> = keep.iter().map(|&k| tris[k]).collect();
+        let ids: Vec<u32> = keep.iter().map(|&k| ids[k]).collect();
         let boxes: Vec<Aabb> = tris
             .iter()
             .map(|t| {
@@ -211,6 +272,16 @@ impl Visibility {
             .iter()
             .map(|&k| ids[k as usize])
             .collect();
+        self.twins = bvh
+            .primitive_indices
+            .iter()
+            .map(|&k| twins[k as usize])
+            .collect();
+        self.twin_corners = bvh
+            .primitive_indices
+            .iter()
+            .map(|&k| twin_corners[k as usize])
+            .collect();
         debug_assert_eq!(
             self.tris.len(),
             tris.len(),
@@ -231,15 +302,28 @@ impl Visibility {
             bvh: CwBvh::default(),
             tris: Vec::new(),
             ids: Vec::new(),
-            ..*self
+            twins: Vec::new(),
+            twin_corners: Vec::new(),
+            twin_of: Vec::new(),
+            len: self.len,
+            centre: self.centre,
+            scale: self.scale,
+            min_distance: self.min_distance,
         };
-        let (tris, ids): (Vec<[Vec3A; 3]>, Vec<u32>) = self
-            .tris
-            .iter()
-            .zip(&self.ids)
-            .filter(|(_, &id)| keep[id as usize])
-            .map(|(t, &id)| (*t, id))
-            .unzip();
+        // Every kept triangle, a twin pair's back rebuilt from its corners, in input order so
+        // that pairs form again exactly as in `build`.
+        let mut kept: Vec<(u32, [Vec3A; 3])> = Vec::new();
+        for (i, tri) in self.tris.iter().enumerate() {
+            if keep[self.ids[i] as usize] {
+                kept.push((self.ids[i], *tri));
+            }
+            let twin = self.twins[i];
+            if twin != NONE && keep[twin as usize] {
+                kept.push((twin, self.twin_corners[i].map(|k| tri[k as usize])));
+            }
+        }
+        kept.sort_unstable_by_key(|&(id, _)| id);
+        let (ids, tris): (Vec<u32>, Vec<[Vec3A; 3]>) = kept.into_iter().unzip();
         out.set_triangles(tris, ids);
         out
     }
@@ -254,8 +338,48 @@ impl Visibility {
         self.len == 0
     }
 
+    /// The twin of input triangle `triangle` (its reverse over the same corners, the other side
+    /// of the same surface), or [`NONE`] if it has none (or is out of range).
+    pub fn twin(&self, triangle: u32) -> u32 {
+        self.twin_of.get(triangle as usize).copied().unwrap_or(NONE)
+    }
+
+    /// Number of twin pairs found by [`Visibility::build`].
+    pub fn twin_pairs(&self) -> usize {
+        self.twins.iter().filter(|&&t| t != NONE).count()
+    }
+
+    /// True if primitive `i` (a triangle or a twin pair) is `ignore[0]` or `ignore[1]`.
+    #[inline(always)]
+    fn ignored(&self, i: usize, ignore: [u32; 2]) -> bool {
+        let (id, twin) = (self.ids[i], self.twins[i]);
+        id == ignore[0]
+            || id == ignore[1]
+            || (twin != NONE && (twin == ignore[0] || twin == ignore[1]))
+    }
+
+    /// The triangle of primitive `i` a ray along canonical `dir` meets, with barycentrics
+    /// `(u, v)` (of the primitive's corners 1 and 2) converted to that triangle's own corners:
+    /// the primitive itself, or its twin when the primitive's back faces the ray.
+    #[inline]
+    fn facing(&self, i: usize, dir: Vec3A, u: f32, v: f32) -> (u32, f32, f32) {
+        let twin = self.twins[i];
+        if twin == NONE {
+            return (self.ids[i], u, v);
+        }
+        let [a, b, c] = self.tris[i].map(|p| p.as_dvec3());
+        if (b - a).cross(c - a).dot(dir.as_dvec3()) < 0.0 {
+            return (self.ids[i], u, v);
+        }
+        // Corner k of the twin is corner twin_corners[i][k] of the primitive.
+        let w = [1.0 - u - v, u, v];
+        let m = self.twin_corners[i];
+        (twin, w[m[1] as usize], w[m[2] as usize])
+    }
+
     /// True if the open segment between `p` and `q` (scene coordinates) is blocked by a triangle
-    /// whose index is not in `ignore` (pass [`NONE`] to ignore nothing).
+    /// whose index is not in `ignore` (pass [`NONE`] to ignore nothing) and that is not the twin
+    /// of one in `ignore`.
     ///
     /// With `x(t) = p + t·(q − p)`, hits count for `t ∈ [m, 1 − m]`, where
     /// `m = max(SEGMENT_EPS, 1e-5 × extent / |q − p|)` ([`SEGMENT_EPS`], [`MIN_DISTANCE_REL`]):
@@ -267,8 +391,7 @@ impl Visibility {
         };
         let obvhs_ray = ray.obvhs_ray();
         !self.bvh.ray_traverse_miss(obvhs_ray, |_, i| {
-            let id = self.ids[i];
-            if id == ignore[0] || id == ignore[1] {
+            if self.ignored(i, ignore) {
                 return f32::INFINITY;
             }
             // Any hit in [t_lo, t_hi] blocks; obvhs counts a hit only if the returned t is
@@ -286,13 +409,14 @@ impl Visibility {
         let Some(ray) = self.segment_ray(p, q) else {
             return false;
         };
-        self.tris.iter().zip(&self.ids).any(|(tri, &id)| {
-            id != ignore[0] && id != ignore[1] && ray.intersect(tri, ray.t_lo, ray.t_hi).is_some()
+        (0..self.tris.len()).any(|i| {
+            !self.ignored(i, ignore) && ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi).is_some()
         })
     }
 
-    /// The first triangle, other than `ignore` (or [`NONE`]), hit by the ray
-    /// `origin + t·dir` (scene coordinates) for `t ∈ (t_min, t_max]`.
+    /// The first triangle, other than `ignore` (or [`NONE`]) and its twin, hit by the ray
+    /// `origin + t·dir` (scene coordinates) for `t ∈ (t_min, t_max]`. Of a twin pair, the one
+    /// whose front faces the ray is reported.
     ///
     /// `t` is measured in units of `|dir|` (`dir` need not be unit; `t_max` may be infinite).
     /// `t_min = 1e-9 × extent / |dir|` ([`HIT_MIN_DISTANCE_REL`]) stands in for 0: the caller
@@ -305,13 +429,13 @@ impl Visibility {
         let mut best: Option<(f32, u32, f32, f32)> = None;
         let mut hit = RayHit::none();
         self.bvh.ray_traverse(ray.obvhs_ray(), &mut hit, |_, i| {
-            let id = self.ids[i];
-            if id == ignore {
+            if self.ignored(i, [ignore, ignore]) {
                 return f32::INFINITY;
             }
             let t_hi = best.map_or(ray.t_hi, |b| b.0);
             match ray.intersect(&self.tris[i], ray.t_lo, t_hi) {
                 Some((t, u, v)) => {
+                    let (id, u, v) = self.facing(i, ray.dir, u, v);
                     if best.is_none_or(|b| t < b.0 || (t == b.0 && id < b.1)) {
                         best = Some((t, id, u, v));
                     }
@@ -334,12 +458,13 @@ impl Visibility {
     ) -> Option<Hit> {
         let (ray, m) = self.direction_ray(origin, dir, t_max)?;
         let mut best: Option<(f32, u32, f32, f32)> = None;
-        for (tri, &id) in self.tris.iter().zip(&self.ids) {
-            if id == ignore {
+        for (i, tri) in self.tris.iter().enumerate() {
+            if self.ignored(i, [ignore, ignore]) {
                 continue;
             }
             let t_hi = best.map_or(ray.t_hi, |b| b.0);
             if let Some((t, u, v)) = ray.intersect(tri, ray.t_lo, t_hi) {
+                let (id, u, v) = self.facing(i, ray.dir, u, v);
                 if best.is_none_or(|b| t < b.0 || (t == b.0 && id < b.1)) {
                     best = Some((t, id, u, v));
                 }
@@ -388,6 +513,65 @@ impl Visibility {
         let ray = WatertightRay::new(self.to_canonical(origin), d, t_lo, t_max * m)?;
         Some((ray, m))
     }
+}
+
+/// Twin pairing of canonical triangles (see the module documentation): for each triangle, its
+/// twin's position in `tris` and which of its own corners each corner of the *later* of the two
+/// is (`corners[k]` = the earlier triangle's corner that is the later one's corner `k`), or
+/// `None`. Symmetric: if `k` pairs with `j`, `j` pairs with `k` (with the same `corners`).
+fn pair_twins(tris: &[[Vec3A; 3]]) -> Vec<Option<(usize, [u8; 3])>> {
+    // Corner bits with −0.0 made +0.0, so the two sides of one surface always match.
+    let bits = |p: Vec3A| (p + Vec3A::ZERO).to_array().map(f32::to_bits);
+    // (sorted corners, parity of the sort) of each triangle: twins have the same corners and
+    // opposite parity (a reversed triangle is an odd permutation of the original's corners).
+    let keyed: Vec<([[u32; 3]; 3], bool)> = tris
+        .iter()
+        .map(|t| {
+            let mut c = t.map(bits);
+            let mut odd = false;
+            for (a, b) in [(0, 1), (1, 2), (0, 1)] {
+                if c[a] > c[b] {
+                    c.swap(a, b);
+                    odd = !odd;
+                }
+            }
+            (c, odd)
+        })
+        .collect();
+    // Corner sets that occur more than once, each with its triangles in input order. One hash
+    // insert per triangle; map iteration order is never used, so nothing depends on hashing.
+    let mut first: HashMap<[[u32; 3]; 3], usize> = HashMap::with_capacity(tris.len());
+    let mut group_of_first: HashMap<usize, usize> = HashMap::new();
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (k, (corners, _)) in keyed.iter().enumerate() {
+        let f = *first.entry(*corners).or_insert(k);
+        if f != k {
+            let g = *group_of_first.entry(f).or_insert_with(|| {
+                groups.push(vec![f]);
+                groups.len() - 1
+            });
+            groups[g].push(k);
+        }
+    }
+    let mut pairs = vec![None; tris.len()];
+    for group in &groups {
+        // Each member pairs with the earliest unpaired member of the opposite winding.
+        let mut waiting: [Vec<usize>; 2] = [Vec::new(), Vec::new()];
+        for &k in group {
+            let odd = keyed[k].1 as usize;
+            if waiting[1 - odd].is_empty() {
+                waiting[odd].push(k);
+                continue;
+            }
+            let j = waiting[1 - odd].remove(0);
+            let earlier = tris[j].map(bits);
+            let later = tris[k].map(bits);
+            let map = later.map(|c| earlier.iter().position(|&e| e == c).unwrap_or(0) as u8);
+            pairs[j] = Some((k, map));
+            pairs[k] = Some((j, map));
+        }
+    }
+    pairs
 }
 
 /// Canonical coordinates are multiples of this (2⁻²⁰ canonical units): far below `f32`
@@ -967,6 +1151,111 @@ mod tests {
             "zero direction"
         );
         assert_eq!(vis.closest_hit(p, -DVec3::Z, f64::INFINITY, NONE), None);
+    }
+
+    /// `tris` followed by the reverse of each (corners rotated differently per triangle, so every
+    /// corner correspondence occurs), then one same-facing duplicate of triangle 0.
+    fn with_twins(tris: &[[DVec3; 3]]) -> Vec<[DVec3; 3]> {
+        let mut all = tris.to_vec();
+        for (k, &[a, b, c]) in tris.iter().enumerate() {
+            all.push([[a, c, b], [c, b, a], [b, a, c]][k % 3]);
+        }
+        all.push(tris[0]);
+        all
+    }
+
+    #[test]
+    fn twins_are_paired_deterministically() {
+        let mut rng = Rng(7);
+        let tris = random_scene(&mut rng, 100);
+        let n = tris.len() as u32;
+        let all = with_twins(&tris);
+        let vis = Visibility::build(&all);
+        assert_eq!(vis.twin_pairs(), tris.len());
+        for i in 0..n {
+            assert_eq!(vis.twin(i), i + n, "{i}");
+            assert_eq!(vis.twin(i + n), i, "{i}");
+        }
+        // The third copy (same winding as triangle 0) stays a separate triangle.
+        assert_eq!(vis.twin(2 * n), NONE);
+        assert_eq!(vis.twin(u32::MAX - 1), NONE);
+        // One-sided scenes have no twins; a coincident same-facing pair is not one.
+        let one = Visibility::build(&tris);
+        assert_eq!((one.twin_pairs(), one.twin(0)), (0, NONE));
+        assert_eq!(Visibility::build(&[tris[0], tris[0]]).twin_pairs(), 0);
+        // −0.0 and +0.0 are the same corner.
+        let t = [
+            dvec3(-0.0, 0.0, 0.0),
+            dvec3(1.0, 0.0, 0.0),
+            dvec3(0.0, 1.0, 0.0),
+        ];
+        let r = [
+            dvec3(0.0, 0.0, 0.0),
+            dvec3(0.0, 1.0, 0.0),
+            dvec3(1.0, 0.0, 0.0),
+        ];
+        assert_eq!(Visibility::build(&[t, r]).twin(0), 1);
+    }
+
+    #[test]
+    fn twins_block_like_one_surface_and_report_the_side_facing_the_ray() {
+        let mut rng = Rng(8);
+        let tris = random_scene(&mut rng, 150);
+        let n = tris.len() as u32;
+        let one = Visibility::build(&tris);
+        let two = Visibility::build(&with_twins(&tris));
+        // Occlusion: the two-sided scene blocks exactly what the one-sided scene blocks, and
+        // ignoring a triangle ignores its twin (either index names the surface).
+        let twin = |i: u32| if i == NONE { NONE } else { i + n };
+        for (k, (p, q, ignore)) in random_segments(&mut rng, &tris, 3000)
+            .into_iter()
+            .enumerate()
+        {
+            let expected = one.occluded(p, q, ignore);
+            assert_eq!(two.occluded(p, q, ignore), expected, "segment {k}");
+            assert_eq!(
+                two.occluded(p, q, ignore.map(twin)),
+                expected,
+                "segment {k}"
+            );
+            assert_eq!(
+                two.occluded_brute_force(p, q, ignore),
+                expected,
+                "segment {k}"
+            );
+        }
+        // Closest hit: the same surface at the same distance, reported as the side whose front
+        // faces the ray, with barycentrics of that side's own corners.
+        let all = with_twins(&tris);
+        let mut fronts = [0, 0];
+        for k in 0..3000 {
+            let (origin, dir) = (rng.vec(-1.0, 11.0), rng.direction());
+            let ignore = if k % 2 == 0 {
+                NONE
+            } else {
+                rng.index(tris.len()) as u32
+            };
+            let a = one.closest_hit(origin, dir, f64::INFINITY, ignore);
+            let b = two.closest_hit(origin, dir, f64::INFINITY, twin(ignore));
+            assert_eq!(
+                b,
+                two.closest_hit_brute_force(origin, dir, f64::INFINITY, ignore)
+            );
+            assert_eq!(b, two.closest_hit(origin, dir, f64::INFINITY, ignore));
+            let (Some(a), Some(b)) = (a, b) else {
+                assert_eq!(a.is_none(), b.is_none(), "ray {k}");
+                continue;
+            };
+            assert_eq!(b.triangle % n, a.triangle, "ray {k}");
+            assert_eq!(b.t, a.t, "ray {k}");
+            let t = &all[b.triangle as usize];
+            let normal = (t[1] - t[0]).cross(t[2] - t[0]);
+            assert!(normal.dot(dir) < 0.0, "ray {k}: reported a back face");
+            let on_tri = (1.0 - b.u - b.v) * t[0] + b.u * t[1] + b.v * t[2];
+            assert!((on_tri - (origin + b.t * dir)).length() < 1e-4, "ray {k}");
+            fronts[(b.triangle >= n) as usize] += 1;
+        }
+        assert!(fronts[0] > 300 && fronts[1] > 300, "{fronts:?}");
     }
 
     /// `cargo test --release -- --ignored --nocapture throughput`

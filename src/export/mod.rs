@@ -17,6 +17,7 @@ use std::io::{self, BufWriter, Write};
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use crate::camera::Camera;
 use crate::{Error, Result};
 
 /// A mesh ready to write: baked vertices (split at creases and material borders) and patch faces.
@@ -32,6 +33,9 @@ pub struct BakedMesh {
     /// Solved radiance of each face's patch, W·sr⁻¹·m⁻² per RGB channel; finite and >= 0.
     /// One entry per face (PLY only: OBJ has nowhere to put it).
     pub face_radiance: Vec<[f64; 3]>,
+    /// The scene file's camera, repeated in the output (`comment camera: …` in PLY, `# camera:
+    /// …` in OBJ) so a picture of the baked file uses it too; `None` if the scene had none.
+    pub camera: Option<Camera>,
 }
 
 impl BakedMesh {
@@ -200,6 +204,8 @@ pub struct ReadBack {
     pub faces: Vec<[u32; 3]>,
     /// Face radiance, W·sr⁻¹·m⁻² per RGB channel (PLY only; `None` for OBJ).
     pub face_radiance: Option<Vec<[f32; 3]>>,
+    /// The camera line of the file (`comment camera: …` / `# camera: …`), if it has one.
+    pub camera: Option<Camera>,
 }
 
 /// Buffer size for writers: large enough that 100k+ vertices cost few system calls.
@@ -346,6 +352,7 @@ pub(crate) mod test_support {
             vertex_radiance,
             faces: face_list,
             face_radiance,
+            camera: None,
         }
     }
 }

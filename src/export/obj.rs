@@ -1,7 +1,8 @@
 //! Wavefront OBJ output with per-vertex colours (`v x y z r g b`, the extension MeshLab
 //! reads) and a reader for exactly our own files. OBJ has no place for radiance values, so
 //! only the 8-bit sRGB colours survive (face radiance is dropped); use PLY to keep radiance.
-//! This file owns the text layout only; atomic file replacement is in `export`, the colour
+//! The scene's camera, if any, is kept as a `# camera: …` comment (see [`crate::camera`]), so
+//! loading the baked OBJ as a scene keeps it. This file owns the text layout only; atomic file replacement is in `export`, the colour
 //! pipeline in `export::colour`.
 
 use std::io::{self, Write};
@@ -9,6 +10,7 @@ use std::path::Path;
 
 use super::colour::radiance_to_srgb8;
 use super::{BakedMesh, ReadBack};
+use crate::camera;
 use crate::{Error, Result};
 
 /// The OBJ colour component written for 8-bit code `k`.
@@ -32,7 +34,7 @@ pub fn component_to_u8(c: f64) -> u8 {
 }
 
 /// Writes `mesh` as OBJ to `w` with colours sRGB(radiance · `exposure`): a comment header
-/// (units, exposure, counts), `v x y z r g b` per vertex (positions as `f32` in Rust's
+/// (units, exposure, the scene's camera as `# camera: …` when it has one, counts), `v x y z r g b` per vertex (positions as `f32` in Rust's
 /// shortest round-trip plain decimal form), then `f a b c` per face with 1-based indices.
 /// Expects a validated mesh.
 pub fn write_to(w: &mut impl Write, mesh: &BakedMesh, exposure: f64) -> io::Result<()> {
@@ -43,6 +45,9 @@ pub fn write_to(w: &mut impl Write, mesh: &BakedMesh, exposure: f64) -> io::Resu
         "# colours = sRGB(radiance * exposure), radiance linear in W sr^-1 m^-2"
     )?;
     writeln!(w, "# exposure {exposure}")?;
+    if let Some(camera) = &mesh.camera {
+        writeln!(w, "# {} {}", camera::FILE_KEYWORD, camera.to_text())?;
+    }
     writeln!(
         w,
         "# colour byte k is written as (k + 0.5)/255 (1 for 255) so that floor(c * 255) = k"
@@ -66,7 +71,8 @@ pub fn write_to(w: &mut impl Write, mesh: &BakedMesh, exposure: f64) -> io::Resu
 
 /// Reads an OBJ file written by [`write_to`]: `#` comments, blank lines, `v x y z r g b` and
 /// `f a b c` (positive 1-based indices) only. Colours come back as MeshLab sees them
-/// ([`component_to_u8`]); radiance is `None`. Problems are [`Error::Parse`] with the line.
+/// ([`component_to_u8`]); radiance is `None`; a `# camera: …` comment gives
+/// [`ReadBack::camera`]. Problems are [`Error::Parse`] with the line.
 pub fn read(path: &Path) -> Result<ReadBack> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let parse_err = |line: usize, message: String| Error::Parse {
@@ -88,6 +94,7 @@ pub fn read(path: &Path) -> Result<ReadBack> {
         vertex_radiance: None,
         faces: Vec::new(),
         face_radiance: None,
+        camera: None,
     };
     // Faces with the line they came from, checked against the vertex count at the end.
     let mut face_lines = Vec::new();
@@ -96,7 +103,11 @@ pub fn read(path: &Path) -> Result<ReadBack> {
         let t: Vec<&str> = line.split_whitespace().collect();
         match t.first() {
             None => {}
-            Some(s) if s.starts_with('#') => {}
+            Some(s) if s.starts_with('#') => {
+                if let Some(c) = camera::from_comment(line.trim_start()[1..].trim_start()) {
+                    out.camera = Some(c.map_err(|why| parse_err(n, why))?);
+                }
+            }
             Some(&"v") => {
                 if t.len() != 7 {
                     return Err(parse_err(
@@ -211,6 +222,7 @@ mod tests {
             vertex_radiance: vec![[0.0, 0.5, 1.0], [0.0; 3], [0.0; 3]],
             faces: vec![[0, 1, 2]],
             face_radiance: vec![[1.0; 3]],
+            camera: None,
         };
         let mut bytes = Vec::new();
         write_to(&mut bytes, &mesh, 1.0).unwrap();

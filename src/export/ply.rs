@@ -2,7 +2,8 @@
 //! Per vertex: `float x y z`, `uchar red green blue` (the 8-bit sRGB colours MeshLab shows)
 //! and `float radiance_r/g/b` (linear W·sr⁻¹·m⁻², which MeshLab drops but plyfile/trimesh
 //! keep); per face: `list uchar int vertex_indices` and `float radiance_r/g/b`. The header
-//! records the exposure in a comment. This file owns the byte layout only; atomic file
+//! records the exposure in a comment, and the scene's camera (`comment camera: EX EY EZ TX TY
+//! TZ UX UY UZ FOV`, see [`crate::camera`]) when it has one. This file owns the byte layout only; atomic file
 //! replacement is in `export`, the colour pipeline in `export::colour`. The reader is not a
 //! general PLY parser: it accepts our header (any comments) and nothing else.
 
@@ -11,6 +12,7 @@ use std::path::Path;
 
 use super::colour::radiance_to_srgb8;
 use super::{BakedMesh, ReadBack};
+use crate::camera::{self, Camera};
 use crate::{Error, Result};
 
 /// First header comment: what the numbers mean.
@@ -61,6 +63,9 @@ pub fn write_to(
     writeln!(w, "format {format} 1.0")?;
     writeln!(w, "{COMMENT_UNITS}")?;
     writeln!(w, "comment exposure {exposure}")?;
+    if let Some(camera) = &mesh.camera {
+        writeln!(w, "comment {} {}", camera::FILE_KEYWORD, camera.to_text())?;
+    }
     writeln!(w, "element vertex {}", mesh.positions.len())?;
     for p in VERTEX_PROPERTIES {
         writeln!(w, "{p}")?;
@@ -113,7 +118,7 @@ fn put_f32s(out: &mut [u8], values: [f32; 3]) {
 }
 
 /// Reads a PLY file written by [`write_to`] (ASCII or binary little-endian, as its header
-/// says). Header and ASCII body problems are [`Error::Parse`] with the line; binary body
+/// says), with the camera of its `comment camera: …` line if it has one. Header and ASCII body problems are [`Error::Parse`] with the line; binary body
 /// problems are [`Error::Input`] naming the vertex or face.
 pub fn read(path: &Path) -> Result<ReadBack> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
@@ -135,6 +140,8 @@ struct Header {
     body_start: usize,
     /// Number of header lines (the body's first line is `lines + 1`).
     lines: usize,
+    /// The `comment camera: …` line's camera.
+    camera: Option<Camera>,
 }
 
 fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
@@ -145,6 +152,7 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
     };
     // Non-comment header lines with their 1-based numbers, up to and including end_header.
     let mut lines: Vec<(usize, String)> = Vec::new();
+    let mut camera = None;
     let mut pos = 0;
     let mut number = 0;
     loop {
@@ -166,7 +174,13 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
                 "not a PLY file (first line is not `ply`)".into(),
             ));
         }
-        if text.starts_with("comment ") || text == "comment" || text.starts_with("obj_info") {
+        if let Some(comment) = text.strip_prefix("comment ") {
+            if let Some(c) = camera::from_comment(comment) {
+                camera = Some(c.map_err(|why| parse_err(number, why))?);
+            }
+            continue;
+        }
+        if text == "comment" || text.starts_with("obj_info") {
             continue;
         }
         let end = text == "end_header";
@@ -227,6 +241,7 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
         faces,
         body_start: pos,
         lines: number,
+        camera,
     })
 }
 
@@ -256,6 +271,7 @@ fn read_ascii_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack
         vertex_radiance: None,
         faces: Vec::with_capacity(cap(header.faces)),
         face_radiance: None,
+        camera: header.camera,
     };
     let mut vertex_radiance = Vec::with_capacity(cap(header.vertices));
     let mut face_radiance = Vec::with_capacity(cap(header.faces));
@@ -407,6 +423,7 @@ fn read_binary_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBac
         vertex_radiance: Some(vertex_radiance),
         faces,
         face_radiance: Some(face_radiance),
+        camera: header.camera,
     })
 }
 

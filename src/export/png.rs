@@ -1,8 +1,10 @@
 //! Pictures of a baked mesh: one primary ray per sub-pixel through the BVH, shaded with the
 //! baked vertex radiance interpolated across the hit face (or the face's own patch radiance
 //! with `flat`), then the same exposure and sRGB mapping as the vertex colours. This module
-//! owns the camera and the image; it does no lighting of its own (a radiosity solution is
-//! view-independent: the picture is a look-up).
+//! owns the image (the [`Camera`] is [`crate::camera`]'s); it does no lighting of its own (a
+//! radiosity solution is view-independent: the picture is a look-up). A surface made of a
+//! face and its reversed twin over the same corners (a two-sided bake) shows each side's own
+//! radiance: the BVH reports the face whose front faces the ray ([`Visibility::closest_hit`]).
 
 use std::path::Path;
 
@@ -12,42 +14,9 @@ use rayon::prelude::*;
 
 use super::colour::{luminance, radiance_to_srgb8};
 use super::BakedMesh;
+pub use crate::camera::Camera;
 use crate::visibility::{Visibility, NONE};
 use crate::{Error, Result};
-
-/// A pinhole camera.
-#[derive(Debug, Clone, Copy)]
-pub struct Camera {
-    /// Eye position, scene units.
-    pub eye: DVec3,
-    /// Point looked at, scene units.
-    pub target: DVec3,
-    /// Up direction (need not be unit or orthogonal to the view direction).
-    pub up: DVec3,
-    /// Vertical field of view, degrees, in (0, 180).
-    pub vfov_degrees: f64,
-}
-
-impl Camera {
-    /// The default view: looking along +z at the centre of the bounding box [lo, hi] from in
-    /// front of it (its −z side), up +y, 39.3° vertical field of view (the Cornell box's
-    /// published camera lens), far enough back that the box's front face fills the picture
-    /// height. For the Cornell box this puts the eye at about (278, 274, −770), close to the
-    /// published (278, 273, −800).
-    pub fn framing(lo: DVec3, hi: DVec3) -> Camera {
-        let vfov_degrees = 2.0 * (12.5f64 / 35.0).atan().to_degrees();
-        let centre = 0.5 * (lo + hi);
-        let half = 0.5 * (hi - lo);
-        let half_extent = half.x.max(half.y);
-        let distance = half_extent / (0.5 * vfov_degrees.to_radians()).tan() + half.z;
-        Camera {
-            eye: centre - DVec3::Z * distance,
-            target: centre,
-            up: DVec3::Y,
-            vfov_degrees,
-        }
-    }
-}
 
 /// What a picture shows and how.
 #[derive(Debug, Clone, Copy)]
@@ -213,47 +182,6 @@ fn draw_text(image: &mut RgbImage, x: u32, y: u32, text: &str, scale: u32) {
     }
 }
 
-impl Camera {
-    /// Parse `ex,ey,ez,tx,ty,tz,ux,uy,uz,fov` (scene units, degrees).
-    pub fn parse(text: &str) -> Result<Camera> {
-        let bad = |m: String| Error::usage("--camera", format!("{text:?}: {m}"));
-        let v: Vec<f64> = text
-            .split(',')
-            .map(|s| {
-                s.trim()
-                    .parse::<f64>()
-                    .map_err(|_| bad(format!("{s:?} is not a number")))
-            })
-            .collect::<Result<_>>()?;
-        if v.len() != 10 {
-            return Err(bad(format!(
-                "expected 10 numbers (eye, target, up, fov), got {}",
-                v.len()
-            )));
-        }
-        if v.iter().any(|x| !x.is_finite()) {
-            return Err(bad("numbers must be finite".into()));
-        }
-        let camera = Camera {
-            eye: DVec3::new(v[0], v[1], v[2]),
-            target: DVec3::new(v[3], v[4], v[5]),
-            up: DVec3::new(v[6], v[7], v[8]),
-            vfov_degrees: v[9],
-        };
-        let forward = camera.target - camera.eye;
-        if forward.length() == 0.0 {
-            return Err(bad("eye and target coincide".into()));
-        }
-        if forward.cross(camera.up).length() <= 1e-12 * forward.length() * camera.up.length() {
-            return Err(bad("up is zero or parallel to the view direction".into()));
-        }
-        if !(camera.vfov_degrees > 0.0 && camera.vfov_degrees < 180.0) {
-            return Err(bad("the field of view must be in (0, 180) degrees".into()));
-        }
-        Ok(camera)
-    }
-}
-
 /// Radiance seen along one primary ray.
 fn shade(
     mesh: &BakedMesh,
@@ -302,25 +230,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn camera_parsing() {
-        let c = Camera::parse("278,273,-800,278,273,0,0,1,0,39.3").unwrap();
-        assert_eq!(c.eye, DVec3::new(278.0, 273.0, -800.0));
-        assert_eq!(c.vfov_degrees, 39.3);
-        for bad in [
-            "1,2,3",
-            "0,0,0,0,0,0,0,1,0,40",
-            "0,0,0,0,0,1,0,0,1,40",
-            "0,0,0,0,0,1,0,1,0,0",
-            "a,0,0,0,0,1,0,1,0,40",
-        ] {
-            assert!(
-                matches!(Camera::parse(bad), Err(Error::Usage { .. })),
-                "{bad}"
-            );
-        }
-    }
-
-    #[test]
     fn render_a_lit_quad_in_front_of_the_camera() {
         // One quad at z = 1 facing the camera (−z) with radiance 0.5: the centre pixel is
         // sRGB(0.5) = 188 at exposure 1, the corners (outside the quad) black.
@@ -334,6 +243,7 @@ mod tests {
             vertex_radiance: vec![[0.5; 3]; 4],
             faces: vec![[0, 2, 1], [0, 3, 2]],
             face_radiance: vec![[0.5; 3]; 2],
+            camera: None,
         };
         let view = View {
             camera: Camera {

@@ -10,7 +10,18 @@
 //! every index is in range, every position is finite, no two positions are bitwise equal
 //! (welded, so faces that share a corner share its index), every position is used by a
 //! triangle, no triangle has (relatively) zero area, every ρ is in [0, 1] and every Le is
-//! finite and ≥ 0, and there is at least one triangle.
+//! finite and ≥ 0, and there is at least one triangle. A loaded scene is one-sided
+//! ([`Scene::twin`] empty); [`Scene::make_two_sided`] gives faces a back side.
+//!
+//! # Two-sided scenes
+//! Every face is one-sided by default: its front is the counter-clockwise side, light arriving
+//! at its back is lost, and its back emits nothing. [`Scene::make_two_sided`] (`--two-sided`)
+//! appends, for every triangle, its *twin*: the same three vertices in reverse order with the
+//! same material, i.e. the back side as a face of its own with its own radiance. Twins are
+//! linked in [`Scene::twin`]; the patcher subdivides a twin exactly like its original
+//! ([`crate::patch::subdivide`]) and the ray caster traces a pair as one surface with two
+//! sides ([`crate::visibility`]). A face that already has a reversed face over the same
+//! corners in the file is paired with it instead of being doubled (each keeps its material).
 
 pub mod checks;
 pub mod obj;
@@ -24,7 +35,11 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
+use crate::camera::Camera;
 use crate::{Error, Result};
+
+/// "No twin" in [`Scene::twin`] (and [`crate::patch::Patches::twin`]).
+pub const NO_TWIN: u32 = u32::MAX;
 
 /// Triangles whose doubled area |(b − a) × (c − a)| is at most this fraction of the squared
 /// bounding-box diagonal are treated as zero-area and dropped. Relative to the scene's
@@ -75,6 +90,14 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Human-readable warnings found while loading (e.g. "skipped 3 zero-area triangles").
     pub warnings: Vec<String>,
+    /// The other side of each triangle ([`Scene::make_two_sided`]): empty for a one-sided
+    /// scene (every loaded or built scene); otherwise one entry per triangle, the index of its
+    /// twin or [`NO_TWIN`]. Invariants: `twin[twin[t]] == t`, `twin[t] != t`, and a twin has
+    /// the same three vertex indices as its triangle in the opposite winding.
+    pub twin: Vec<u32>,
+    /// The camera the scene file carries (`# camera: …` in OBJ, `comment camera: …` in a PLY
+    /// header; see [`crate::camera`]); pictures use it unless `--camera` is given.
+    pub camera: Option<Camera>,
 }
 
 impl Scene {
@@ -159,7 +182,129 @@ impl Scene {
                 ));
             }
         }
+        if !self.twin.is_empty() && self.twin.len() != self.triangles.len() {
+            return fail(format!(
+                "{} twin entries for {} triangles",
+                self.twin.len(),
+                self.triangles.len()
+            ));
+        }
+        for (t, &u) in self.twin.iter().enumerate() {
+            if u == NO_TWIN {
+                continue;
+            }
+            let reversed = |a: [u32; 3], b: [u32; 3]| {
+                (0..3).any(|k| a == [b[k], b[(k + 2) % 3], b[(k + 1) % 3]])
+            };
+            let ok = (u as usize) < self.triangles.len()
+                && u as usize != t
+                && self.twin[u as usize] == t as u32
+                && reversed(
+                    self.triangles[t].vertices,
+                    self.triangles[u as usize].vertices,
+                );
+            if !ok {
+                return fail(format!(
+                    "triangle {t}: twin {u} is not its reverse over the same corners"
+                ));
+            }
+        }
         Ok(())
+    }
+
+    /// True if some triangle has a twin (a back side of its own; see [`Scene::make_two_sided`]).
+    pub fn is_two_sided(&self) -> bool {
+        self.twin.iter().any(|&u| u != NO_TWIN)
+    }
+
+    /// A copy with every face two-sided ([`Scene::make_two_sided`]).
+    pub fn to_two_sided(&self) -> Scene {
+        let mut scene = self.clone();
+        scene.make_two_sided();
+        scene
+    }
+
+    /// Makes every face two-sided (`--two-sided`; see the module documentation) and returns
+    /// the number of back faces added: [`Scene::make_two_sided_where`] for every material.
+    pub fn make_two_sided(&mut self) -> usize {
+        self.make_two_sided_where(|_| true)
+    }
+
+    /// Gives each triangle whose material `pick` accepts a back side of its own, and returns
+    /// the number of back faces added. In triangle order, a picked triangle without a twin is
+    /// paired with the first unpaired triangle over the same three vertices in the opposite
+    /// winding, if the scene has one (a back face modelled in the file: it keeps its own
+    /// material; the pairs found are counted in a warning), and otherwise gets a new twin
+    /// appended at the end: its vertices reversed, `[v0, v2, v1]`, with the same material (ρ
+    /// and Le are the same on both sides). Positions, materials and the order of the existing
+    /// triangles are unchanged, and calling it again adds nothing.
+    ///
+    /// The loader's checks are not run again: twins lie in the same plane facing opposite
+    /// ways, which the overlap check already accepts, and every shared edge is now used in
+    /// both directions on purpose.
+    pub fn make_two_sided_where(&mut self, mut pick: impl FnMut(&Material) -> bool) -> usize {
+        let n = self.triangles.len();
+        if self.twin.is_empty() {
+            self.twin = vec![NO_TWIN; n];
+        }
+        // Triangles over the same vertex set, by sorted indices and winding parity.
+        let key = |v: [u32; 3]| {
+            let mut s = v;
+            let mut odd = false;
+            for (a, b) in [(0, 1), (1, 2), (0, 1)] {
+                if s[a] > s[b] {
+                    s.swap(a, b);
+                    odd = !odd;
+                }
+            }
+            (s, odd)
+        };
+        let mut unpaired: HashMap<([u32; 3], bool), Vec<usize>> = HashMap::new();
+        for t in 0..n {
+            if self.twin[t] == NO_TWIN {
+                unpaired
+                    .entry(key(self.triangles[t].vertices))
+                    .or_default()
+                    .push(t);
+            }
+        }
+        let mut paired_in_file = 0;
+        let mut added = 0;
+        for t in 0..n {
+            let tri = self.triangles[t];
+            if self.twin[t] != NO_TWIN || !pick(&self.materials[tri.material as usize]) {
+                continue;
+            }
+            let (sorted, odd) = key(tri.vertices);
+            let partner = unpaired
+                .get_mut(&(sorted, !odd))
+                .and_then(|list| (!list.is_empty()).then(|| list.remove(0)));
+            if let Some(u) = partner {
+                self.twin[t] = u as u32;
+                self.twin[u] = t as u32;
+                if let Some(list) = unpaired.get_mut(&(sorted, odd)) {
+                    list.retain(|&x| x != t);
+                }
+                paired_in_file += 1;
+                continue;
+            }
+            let [a, b, c] = tri.vertices;
+            self.triangles.push(SceneTriangle {
+                vertices: [a, c, b],
+                material: tri.material,
+            });
+            let u = self.triangles.len() - 1;
+            self.twin.push(t as u32);
+            self.twin[t] = u as u32;
+            added += 1;
+        }
+        if paired_in_file > 0 {
+            self.warnings.push(format!(
+                "two-sided: {paired_in_file} face{} already had a reversed face over the same                  corners; each such pair is taken as the two sides of one surface (each side                  keeps its own material) instead of being doubled",
+                if paired_in_file == 1 { "" } else { "s" }
+            ));
+        }
+        added
     }
 
     /// Axis-aligned bounding box of all positions as (min, max). An empty scene gives the
@@ -246,6 +391,8 @@ pub(crate) fn finish(
         triangles,
         materials,
         warnings: Vec::new(),
+        twin: Vec::new(),
+        camera: None,
     };
     raw.validate()?;
     let Scene {
@@ -346,6 +493,8 @@ pub(crate) fn finish(
         triangles,
         materials,
         warnings,
+        twin: Vec::new(),
+        camera: None,
     };
     scene.validate()?;
 
@@ -591,6 +740,44 @@ mod tests {
     }
 
     #[test]
+    fn two_sided_appends_reversed_twins_once_and_validate_checks_them() {
+        let mut b = SceneBuilder::new();
+        let m = b.material("grey", [0.5; 3], [0.0; 3]);
+        b.quad(
+            [DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y],
+            m,
+        );
+        let mut s = b.build().unwrap();
+        assert!(!s.is_two_sided() && s.twin.is_empty());
+        assert_eq!(s.make_two_sided(), 2);
+        assert!(s.is_two_sided());
+        assert_eq!(s.twin, [2, 3, 0, 1]);
+        let [a, b_, c] = s.triangles[0].vertices;
+        assert_eq!(s.triangles[2].vertices, [a, c, b_]);
+        assert_eq!(s.triangles[2].material, m);
+        assert!((normal(&s, 2) + normal(&s, 0)).length() < 1e-12);
+        s.validate().unwrap();
+        assert_eq!(s.make_two_sided(), 0, "idempotent");
+        assert_eq!(s.triangles.len(), 4);
+        assert!(s.warnings.is_empty());
+
+        // A broken twin map is an internal inconsistency validate reports.
+        let mut bad = s.clone();
+        bad.twin[0] = 3;
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("triangle 0: twin 3"));
+        let mut bad = s.clone();
+        bad.triangles[2].vertices = [a, b_, c];
+        assert!(bad.validate().is_err());
+        let mut bad = s.clone();
+        bad.twin.pop();
+        assert!(bad.validate().is_err());
+    }
+
+    #[test]
     fn validate_names_out_of_range_triangle() {
         let s = Scene {
             source: Some(PathBuf::from("x.obj")),
@@ -607,6 +794,8 @@ mod tests {
             ],
             materials: vec![Scene::default_material()],
             warnings: vec![],
+            twin: vec![],
+            camera: None,
         };
         let e = s.validate().unwrap_err().to_string();
         assert!(e.starts_with("x.obj: triangle 1: vertex index 3"), "{e}");

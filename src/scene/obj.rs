@@ -25,6 +25,10 @@
 //! material no earlier `mtllib` defines is an error at that line (`tobj` would silently
 //! leave those faces without a material); a missing MTL file is an error at the `mtllib`
 //! line naming the MTL path; a material without `Kd` gets ρ = 0.5 with a warning.
+//!
+//! A comment `# camera: EX EY EZ TX TY TZ UX UY UZ FOV` gives the scene its camera
+//! ([`crate::camera`]; eye, target and up in scene units, vertical field of view in degrees).
+//! A malformed one, or a second one, is an error at its line; other comments are ignored.
 
 use std::cell::RefCell;
 use std::collections::HashSet;
@@ -34,6 +38,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::{finish, Material, Scene, SceneTriangle};
+use crate::camera::{self, Camera};
 use crate::{Error, Result};
 
 /// The options the scene loader passes to `tobj`.
@@ -154,14 +159,16 @@ pub fn load(path: &Path) -> Result<Scene> {
         .iter()
         .flat_map(|&(line, n)| std::iter::repeat_n(line, n - 2))
         .collect();
-    finish(
+    let mut scene = finish(
         Some(path.to_path_buf()),
         positions,
         triangles,
         materials,
         warnings,
         Some(face_lines),
-    )
+    )?;
+    scene.camera = scan.camera;
+    Ok(scene)
 }
 
 /// Reads a text file; bytes that are not UTF-8 (a binary file, or a legacy encoding) are an
@@ -194,6 +201,8 @@ struct ObjScan {
     mtllib_lines: Vec<usize>,
     /// Every `f` statement: its line and its number of vertices (≥ 3).
     faces: Vec<(usize, usize)>,
+    /// The `# camera: …` comment's camera (at most one such line).
+    camera: Option<Camera>,
 }
 
 fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
@@ -218,6 +227,7 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
     let mut usemtl = Vec::new();
     let mut mtllib_lines = Vec::new();
     let mut faces = Vec::new();
+    let mut camera = None;
     let mut vertices = 0usize;
     for (i, raw) in text.lines().enumerate() {
         let ln = i + 1;
@@ -300,6 +310,19 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
                     out.push_str(&absolute.to_string());
                 }
             }
+            _ if keyword.starts_with('#') => {
+                if let Some(c) = camera::from_comment(&line[1..]) {
+                    let c = c.map_err(|why| parse_error(path, ln, why))?;
+                    if let Some((first, _)) = camera {
+                        return Err(parse_error(
+                            path,
+                            ln,
+                            format!("a second camera line (the first is line {first})"),
+                        ));
+                    }
+                    camera = Some((ln, c));
+                }
+            }
             "o" | "g" => out.push_str(line),
             "usemtl" | "mtllib" => {
                 // Names may contain spaces: everything after the keyword.
@@ -329,6 +352,7 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
         usemtl,
         mtllib_lines,
         faces,
+        camera: camera.map(|(_, c)| c),
     })
 }
 

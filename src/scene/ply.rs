@@ -24,6 +24,10 @@
 //! after the last record are ignored. An element with records but no properties is refused
 //! (reading it would loop over nothing as many times as the header claims).
 //!
+//! A header comment `comment camera: EX EY EZ TX TY TZ UX UY UZ FOV` gives the scene its
+//! camera ([`crate::camera`]), as `radiosity bake` writes it; a malformed one, or a second
+//! one, is an error at its header line. Other comments are ignored.
+//!
 //! Decision: a hand-written reader, not a crate. `ply-rs-bw` (the maintained fork of
 //! `ply-rs`, 4.0.1) needs Rust 1.87 while this crate supports 1.85, and we want the loader's
 //! error positions (header line, body line, element index) in our own error type like the
@@ -36,6 +40,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::{finish, Material, Scene, SceneTriangle};
+use crate::camera::{self, Camera};
 use crate::{Error, Result};
 
 /// A PLY scalar type (`char`…`double`, or the sized aliases `int8`…`float64`).
@@ -157,12 +162,15 @@ struct Header {
     body_start: usize,
     /// Number of header lines (the body's first line is `lines + 1`).
     lines: usize,
+    /// The `comment camera: …` line's camera (at most one such line).
+    camera: Option<Camera>,
 }
 
 fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
     let mut pos = 0;
     let mut number = 0;
     let mut format = None;
+    let mut camera = None;
     let mut elements: Vec<Element> = Vec::new();
     loop {
         number += 1;
@@ -191,7 +199,21 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
             continue;
         }
         match words[..] {
-            [] | ["comment", ..] | ["obj_info", ..] => {}
+            ["comment", ..] => {
+                let comment = text.trim_start().strip_prefix("comment").unwrap_or("");
+                if let Some(c) = camera::from_comment(comment) {
+                    let c = c.map_err(|why| parse_error(path, number, why))?;
+                    if let Some((first, _)) = camera {
+                        return Err(parse_error(
+                            path,
+                            number,
+                            format!("a second camera comment (the first is line {first})"),
+                        ));
+                    }
+                    camera = Some((number, c));
+                }
+            }
+            [] | ["obj_info", ..] => {}
             ["format", kind, "1.0"] => {
                 format = Some(match kind {
                     "ascii" => true,
@@ -284,6 +306,7 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
         elements,
         body_start: pos,
         lines: number,
+        camera: camera.map(|(_, c)| c),
     })
 }
 
@@ -660,14 +683,16 @@ pub fn load(path: &Path) -> Result<Scene> {
     if triangles.is_empty() {
         return Err(input("the mesh is empty: no faces".into()));
     }
-    finish(
+    let mut scene = finish(
         Some(path.to_path_buf()),
         positions,
         triangles,
         materials,
         Vec::new(),
         header.ascii.then_some(face_lines),
-    )
+    )?;
+    scene.camera = header.camera;
+    Ok(scene)
 }
 
 #[cfg(test)]
@@ -812,6 +837,7 @@ mod tests {
             vertex_radiance: vec![[1.0, 2.0, 3.0]; 4],
             faces: vec![[0, 1, 2], [1, 3, 2]],
             face_radiance: vec![[4.0, 5.0, 6.0]; 2],
+            camera: None,
         };
         for ascii in [true, false] {
             let mut bytes = Vec::new();

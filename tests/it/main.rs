@@ -3,6 +3,7 @@
 //! against brute force on a real scene, and the command line end to end.
 
 mod analytic;
+mod camera;
 mod cli;
 mod form_factors;
 mod properties;
@@ -10,4 +11,5 @@ mod robust;
 mod solvers;
 mod stress;
 mod support;
+mod two_sided;
 mod ux;

@@ -221,6 +221,7 @@ fn fuzz_lite_mutated_ply_never_panics() {
         vertex_radiance: vec![[0.5; 3]; 4],
         faces: vec![[0, 1, 2], [0, 2, 3]],
         face_radiance: vec![[0.5; 3]; 2],
+        camera: None,
     };
     let mut binary = Vec::new();
     radiosity::export::ply::write_to(&mut binary, &mesh, 1.0, false).unwrap();
