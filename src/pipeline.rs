@@ -49,7 +49,7 @@ impl Default for Settings {
             solver: solve::Settings::default(),
             crease_degrees: bake::DEFAULT_CREASE_DEGREES,
             two_sided: false,
-            refine_rounds: 0,
+            refine_rounds: 2,
             refine_threshold: crate::refine::DEFAULT_THRESHOLD,
         }
     }

@@ -19,7 +19,7 @@ use crate::matrix::Rgb;
 use crate::patch::Patches;
 
 /// Default relative luminance jump between neighbours that marks both for splitting.
-pub const DEFAULT_THRESHOLD: f64 = 0.2;
+pub const DEFAULT_THRESHOLD: f64 = 0.3;
 
 /// Luminance (Rec. 709 weights) of a radiance triple, W·sr⁻¹·m⁻².
 fn luminance(l: &Rgb) -> f64 {

@@ -323,6 +323,8 @@ fn two_sided_bake_writes_both_sides_deterministically() {
             out.to_str().unwrap(),
             "--max-edge",
             "110",
+            "--refine",
+            "0",
             "--two-sided",
             "--threads",
             threads,
@@ -340,6 +342,8 @@ fn two_sided_bake_writes_both_sides_deterministically() {
         one_path.to_str().unwrap(),
         "--max-edge",
         "110",
+        "--refine",
+        "0",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let one = radiosity::export::ply::read(&one_path).unwrap();
