@@ -41,6 +41,7 @@ fn solve_all(rho: f64, max_edge: f64) -> radiosity::Result<Vec<(Method, Solution
             tolerance: 1e-8,
             max_iterations: 100_000,
             bounces: 200,
+            ..solve::Settings::default()
         };
         let t = Instant::now();
         let sol = solve::solve(&system, &s)?;

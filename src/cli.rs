@@ -259,6 +259,10 @@ pub struct SolveArgs {
     pub refine_threshold: f64,
     #[command(flatten)]
     pub estimator: FormFactorArgs,
+    /// Form-factor cache directory: F (geometry only) is stored there and reused by later
+    /// runs with the same geometry and form-factor settings, whatever the materials.
+    #[arg(long, value_name = "DIR", help_heading = "Form factors")]
+    pub cache: Option<PathBuf>,
     /// Solver of (I − K)L = E.
     #[arg(long, value_enum, default_value_t = Method::GaussSeidel, help_heading = "Solver")]
     pub solver: Method,
@@ -288,6 +292,15 @@ pub struct SolveArgs {
         help_heading = "Solver"
     )]
     pub max_iterations: u32,
+    /// Over-relaxation ω of Gauss–Seidel (SOR), in (0, 2); 1 = plain Gauss–Seidel.
+    #[arg(
+        long,
+        default_value_t = radiosity::solve::DEFAULT_OMEGA,
+        value_name = "W",
+        allow_negative_numbers = true,
+        help_heading = "Solver"
+    )]
+    pub omega: f64,
 }
 
 /// Form-factor estimation options shared by `bake` and `verify`.
@@ -384,6 +397,7 @@ impl SolveArgs {
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
             bounces: self.bounces,
+            omega: self.omega,
         };
         solver.validate()?;
         Ok(pipeline::Settings {
@@ -394,6 +408,7 @@ impl SolveArgs {
             two_sided: self.two_sided,
             refine_rounds: self.refine,
             refine_threshold: self.refine_threshold,
+            cache: self.cache.clone(),
         })
     }
 }

@@ -36,6 +36,7 @@
 //! For a file, [`pipeline::run`] does load → … → write in one call.
 
 pub mod bake;
+pub mod cache;
 pub mod camera;
 pub mod error;
 pub mod export;

@@ -17,10 +17,10 @@ use crate::report::{Report, Seconds};
 use crate::scene::{Override, Scene};
 use crate::solve::{self, Solution};
 use crate::visibility::Visibility;
-use crate::{bake, refine, Result};
+use crate::{bake, cache, refine, Result};
 
 /// Everything that controls a bake.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Settings {
     /// Longest patch edge, scene units; `None` = [`patch::default_max_edge`].
     pub max_edge: Option<f64>,
@@ -39,6 +39,9 @@ pub struct Settings {
     pub refine_rounds: u32,
     /// Relative luminance jump that marks two neighbours for splitting.
     pub refine_threshold: f64,
+    /// Form-factor cache directory (`--cache`): F is read from it when these patches and
+    /// estimator settings were computed before, and stored otherwise ([`crate::cache`]).
+    pub cache: Option<std::path::PathBuf>,
 }
 
 impl Default for Settings {
@@ -51,6 +54,7 @@ impl Default for Settings {
             two_sided: false,
             refine_rounds: 2,
             refine_threshold: crate::refine::DEFAULT_THRESHOLD,
+            cache: None,
         }
     }
 }
@@ -130,23 +134,7 @@ fn light_transport(
     seconds: &mut Seconds,
 ) -> Result<(FormFactors, Solution)> {
     let form_factors = if scene.has_emitters() {
-        let t = Instant::now();
-        let corners: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
-        let visibility = Visibility::build(&corners);
-        seconds.bvh += t.elapsed().as_secs_f64();
-
-        let t = Instant::now();
-        let needed = if settings.form_factors.skip_unneeded {
-            let bounces = (settings.solver.method == solve::Method::Neumann)
-                .then_some(settings.solver.bounces);
-            Needed::for_solve(patches, bounces)
-        } else {
-            Needed::all(patches.len())
-        };
-        let form_factors =
-            form_factor::compute(patches, &visibility, &settings.form_factors, &needed)?;
-        seconds.form_factors += t.elapsed().as_secs_f64();
-        form_factors
+        form_factors(patches, settings, report, seconds)?
     } else {
         // Without emitters L = 0 whatever F is: skip the BVH and the form factors.
         let warning = "no emitters in the scene (no material has Ke > 0): the result is black";
@@ -169,6 +157,60 @@ fn light_transport(
     report.converged = solution.converged;
     seconds.solve += t.elapsed().as_secs_f64();
     Ok((form_factors, solution))
+}
+
+/// F for `patches`: from the cache when `settings.cache` has it, else BVH → estimator (and
+/// stored in the cache).
+fn form_factors(
+    patches: &Patches,
+    settings: &Settings,
+    report: &mut Report,
+    seconds: &mut Seconds,
+) -> Result<FormFactors> {
+    let key = settings
+        .cache
+        .as_ref()
+        .map(|dir| (dir, cache::key(patches, &settings.form_factors)));
+    if let Some((dir, key)) = &key {
+        let entry = report.cache.get_or_insert_with(|| cache::CacheReport {
+            dir: dir.display().to_string(),
+            ..Default::default()
+        });
+        match cache::load(dir, key, patches.len()) {
+            Ok(Some((ff, saved))) => {
+                entry.hits += 1;
+                entry.seconds_saved += saved;
+                return Ok(ff);
+            }
+            Ok(None) => {}
+            Err(e) => report.warnings.push(e.to_string()),
+        }
+    }
+    let t = Instant::now();
+    let corners: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
+    let visibility = Visibility::build(&corners);
+    let bvh_seconds = t.elapsed().as_secs_f64();
+    seconds.bvh += bvh_seconds;
+
+    let t = Instant::now();
+    // A cached F must serve any materials: compute every entry then.
+    let needed = if settings.form_factors.skip_unneeded && key.is_none() {
+        let bounces =
+            (settings.solver.method == solve::Method::Neumann).then_some(settings.solver.bounces);
+        Needed::for_solve(patches, bounces)
+    } else {
+        Needed::all(patches.len())
+    };
+    let ff = form_factor::compute(patches, &visibility, &settings.form_factors, &needed)?;
+    let ff_seconds = t.elapsed().as_secs_f64();
+    seconds.form_factors += ff_seconds;
+    if let Some((dir, key)) = &key {
+        cache::store(dir, key, &ff, bvh_seconds + ff_seconds)?;
+        if let Some(entry) = report.cache.as_mut() {
+            entry.stored += 1;
+        }
+    }
+    Ok(ff)
 }
 
 /// Output options of [`run`].

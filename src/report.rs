@@ -64,6 +64,8 @@ pub struct Report {
     /// Exposure used for the 8-bit colours (radiance multiplier before sRGB).
     pub exposure: f64,
     pub seconds: Seconds,
+    /// What the form-factor cache did (`--cache`), if one was used.
+    pub cache: Option<crate::cache::CacheReport>,
     pub warnings: Vec<String>,
 }
 
@@ -88,6 +90,7 @@ impl Report {
             converged: false,
             exposure: 1.0,
             seconds: Seconds::default(),
+            cache: None,
             warnings: Vec::new(),
         }
     }

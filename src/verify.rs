@@ -62,6 +62,7 @@ fn run_case(
             tolerance: 1e-9,
             max_iterations: 10_000,
             bounces,
+            ..solve::Settings::default()
         },
         ..pipeline::Settings::default()
     };

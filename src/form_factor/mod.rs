@@ -172,7 +172,7 @@ impl Needed {
 }
 
 /// Counters of the estimation (reported in `--report`).
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct Stats {
     /// Visibility rays (segments) cast.
     pub rays_cast: u64,
@@ -212,6 +212,9 @@ pub struct FormFactors {
     pub matrix: CsMatI<f32, u32>,
     /// Counters.
     pub stats: Stats,
+    /// Area of each patch, scene units² (with `visible_fraction`, the weights of area-weighted
+    /// operations: reciprocity, the symmetric form of conjugate gradient, shooting order).
+    pub area: Vec<f64>,
     /// Fraction of each patch's area that is not buried in contact geometry, in [0, 1]
     /// (pair estimators: measured on a lattice of 16 points; hemisphere: the unburied ray
     /// origins); rows describe the visible part ([`is_hidden`]).
@@ -239,6 +242,7 @@ impl FormFactors {
         FormFactors {
             matrix: CsMatI::zero((n, n)),
             stats: Stats::default(),
+            area: vec![0.0; n],
             visible_fraction: vec![1.0; n],
             closed_row_tolerance: 1e-6,
         }
@@ -357,11 +361,12 @@ pub fn compute(
             .zip(&visible_fraction)
             .map(|(a, v)| a * v)
             .collect();
-        matrix = enforce_reciprocity(&matrix, &visible_area)?;
+        matrix = symmetric_part(&matrix, &visible_area)?;
     }
     let mut ff = FormFactors {
         matrix,
         stats,
+        area: patches.area.clone(),
         visible_fraction,
         closed_row_tolerance: match settings.estimator {
             Estimator::Hemisphere => 1e-6,
@@ -686,12 +691,22 @@ fn assemble_rows(n: usize, rows: Vec<Vec<(u32, f32)>>) -> Result<CsMatI<f32, u32
         .map_err(|e| Error::Internal(format!("CSR assembly: {}", e.3)))
 }
 
-/// F̃_ij = (A_i F_ij + A_j F_ji) / (2 A_i): the symmetric part of the exchange matrix A·F,
-/// so that A_i F̃_ij = A_j F̃_ji exactly. Sparsity pattern: the union of F's and Fᵀ's.
-fn enforce_reciprocity(f: &CsMatI<f32, u32>, area: &[f64]) -> Result<CsMatI<f32, u32>> {
+/// A reciprocal version F̃ of F: A_i F̃_ij = A_j F̃_ji exactly, with every row summing to what
+/// it did (energy conservation is kept: a closed scene's rows still sum to 1). Rows with
+/// A_i = 0 (no visible area) are left as they are.
+///
+/// The exchange matrix X = A·F is symmetric in theory (reciprocity) and only approximately
+/// so when estimated. Its symmetric part X̄ = (X + Xᵀ)/2 is reciprocal but shifts light
+/// between rows; the balanced S = D X̄ D, with the diagonal D chosen so that S's row sums
+/// equal X's, is both (symmetric Sinkhorn–Knopp scaling, d ← √(d · t / (X̄ d)) from d = 1;
+/// Knight, "The Sinkhorn–Knopp algorithm: convergence and applications", SIAM J. Matrix
+/// Anal. Appl. 30(1), 2008). Iterates until every row sum is within 1e-10 (relative) or 500
+/// rounds. Then F̃_ij = S_ij / A_i. Sparsity pattern: the union of F's and Fᵀ's.
+pub fn symmetric_part(f: &CsMatI<f32, u32>, area: &[f64]) -> Result<CsMatI<f32, u32>> {
     let n = f.rows();
     let ft: CsMatI<f32, u32> = f.transpose_view().to_csr();
-    let rows: Vec<Vec<(u32, f32)>> = (0..n)
+    // X̄ row by row, in f64: (column j, (A_i F_ij + A_j F_ji)/2); rows of A_i = 0 keep F.
+    let rows: Vec<Vec<(u32, f64)>> = (0..n)
         .into_par_iter()
         .map(|i| {
             let a = f.outer_view(i).expect("row in range");
@@ -717,10 +732,67 @@ fn enforce_reciprocity(f: &CsMatI<f32, u32>, area: &[f64]) -> Result<CsMatI<f32,
                 } else {
                     0.0
                 };
-                let v = (area[i] * fij + area[j as usize] * fji) / (2.0 * area[i]);
-                out.push((j, v as f32));
+                let both = area[i] > 0.0 && area[j as usize] > 0.0;
+                let v = if both {
+                    0.5 * (area[i] * fij + area[j as usize] * fji)
+                } else {
+                    fij
+                };
+                if v > 0.0 {
+                    out.push((j, v));
+                }
             }
             out
+        })
+        .collect();
+    // Target row sums t_i = A_i Σ_j F_ij; scaling only where every partner has area.
+    let target: Vec<f64> = (0..n)
+        .map(|i| {
+            let r = f.outer_view(i).expect("row in range");
+            r.data().iter().map(|&x| x as f64).sum::<f64>() * area[i]
+        })
+        .collect();
+    let balanced: Vec<bool> = (0..n).map(|i| area[i] > 0.0 && target[i] > 0.0).collect();
+    let mut d = vec![1.0f64; n];
+    for _ in 0..500 {
+        let xd: Vec<f64> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                rows[i]
+                    .iter()
+                    .filter(|(j, _)| balanced[*j as usize])
+                    .map(|&(j, v)| v * d[j as usize])
+                    .sum()
+            })
+            .collect();
+        let worst = (0..n)
+            .filter(|&i| balanced[i])
+            .map(|i| (d[i] * xd[i] / target[i] - 1.0).abs())
+            .fold(0.0, f64::max);
+        if worst < 1e-10 {
+            break;
+        }
+        for i in (0..n).filter(|&i| balanced[i] && xd[i] > 0.0) {
+            d[i] = (d[i] * target[i] / xd[i]).sqrt();
+        }
+    }
+    let rows: Vec<Vec<(u32, f32)>> = rows
+        .into_iter()
+        .enumerate()
+        .map(|(i, row)| {
+            row.into_iter()
+                .map(|(j, v)| {
+                    let ju = j as usize;
+                    let f = if balanced[i] && balanced[ju] {
+                        d[i] * v * d[ju] / area[i]
+                    } else if area[i] > 0.0 && area[ju] > 0.0 {
+                        v / area[i]
+                    } else {
+                        v
+                    };
+                    (j, f as f32)
+                })
+                .collect()
         })
         .collect();
     assemble_rows(n, rows)

@@ -1,21 +1,42 @@
-//! Solving (I − K) L = E for the patch radiance L, per RGB channel (three channels share each
-//! pass over F). Three methods, one entry point [`solve`]:
+//! Solving (I − K) L = E for the patch radiance L, per RGB channel, with K = diag(ρ)·F. Five
+//! methods behind one entry point [`solve`]:
 //!
 //! - **Neumann** (`--bounces N`): L = Σ_{b=0}^{N} K^b E exactly; term b is the light after b
 //!   bounces, so N = 1 is direct illumination (emission plus one reflection).
-//! - **Jacobi**: L⁽ᵏ⁺¹⁾ = E + K L⁽ᵏ⁾ from L⁽⁰⁾ = E. Its iterates are the Neumann partial sums
-//!   (L⁽ᴺ⁾ = Σ_{b≤N} K^b E), and since E − (I − K)L⁽ᵏ⁾ = L⁽ᵏ⁺¹⁾ − L⁽ᵏ⁾ the residual costs
-//!   nothing extra. Converges because ‖K‖∞ ≤ max ρ · max row sum < 1 (Cohen & Wallace §5.3).
-//! - **Gauss–Seidel**: the same update, in place, row by row (uses the newest values):
-//!   typically about half the sweeps of Jacobi for the same tolerance.
+//! - **Jacobi**: L⁽ᵏ⁺¹⁾ = E + K L⁽ᵏ⁾ from L⁽⁰⁾ = E. Its iterates are the Neumann partial sums,
+//!   and since E − (I − K)L⁽ᵏ⁾ = L⁽ᵏ⁺¹⁾ − L⁽ᵏ⁾ the residual costs nothing extra. Converges
+//!   because ‖K‖∞ ≤ max ρ · max row sum < 1 (Cohen & Wallace §5.3), by that factor per sweep.
+//! - **Gauss–Seidel** with over-relaxation ω (`--omega`, SOR): the same update, in place, row
+//!   by row, so each row uses the newest values of the rows before it — exactly, yet on every
+//!   core: each row's sum is split by column into the part that is known before the sweep
+//!   (rows after it), the part known once the earlier row blocks are done, and a small
+//!   sequential remainder ([`stationary::gauss_seidel`]).
+//! - **Conjugate gradient** on the symmetric form ([`cg`]): row i multiplied by a_i/ρ_i (a_i
+//!   the patch's visible area) turns the system into (diag(a/ρ) − A·F) L = diag(a/ρ) E, whose
+//!   matrix is symmetric when A·F is (reciprocity, a_i F_ij = a_j F_ji) and diagonally
+//!   dominant, hence positive definite. Estimated form factors are reciprocal only up to their
+//!   error, so CG solves with A·F replaced by its symmetric part — the system `--reciprocity`
+//!   gives — and rows with ρ_i = 0 eliminated (L_i = E_i). Sweeps grow as 1/√(1 − ρ) instead
+//!   of 1/(1 − ρ).
+//! - **Southwell** (progressive refinement, [`southwell`]): shoot the patch with the most
+//!   unshot power, repeatedly (Cohen, Chen, Wallace & Greenberg, "A progressive refinement
+//!   approach to fast radiosity image generation", SIGGRAPH 1988). The unshot radiance is
+//!   exactly the residual, and the brightest sources are shot first, so a few shots already
+//!   give a useful image.
 //!
-//! The iterative methods stop when the relative residual ‖E − (I − K)L‖₂ / ‖E‖₂ ≤ tolerance or
-//! after `max_iterations` sweeps; [`Solution::converged`] says which, and the caller must not
-//! hide it.
+//! The iterative methods stop when the relative residual ‖E − (I − K)L‖₂ / ‖E‖₂ ≤ tolerance
+//! (for CG: that of the symmetric system it solves) or after `max_iterations` sweeps
+//! (Southwell: n shots count as one sweep); [`Solution::converged`] says which, and the
+//! caller must not hide it. A grey scene (ρ and Le equal in the three channels on every
+//! patch) is solved in one channel and copied: a third of the arithmetic.
+
+pub mod cg;
+pub mod southwell;
+pub mod stationary;
 
 use serde::Serialize;
 
-use crate::matrix::{norm, Rgb, System};
+use crate::matrix::{Rgb, System};
 use crate::{Error, Result};
 
 /// The solution method.
@@ -24,10 +45,14 @@ use crate::{Error, Result};
 pub enum Method {
     /// Jacobi iteration from L = E.
     Jacobi,
-    /// Gauss–Seidel iteration, in place.
+    /// Gauss–Seidel iteration (SOR with `omega`), in fixed parallel blocks.
     GaussSeidel,
     /// Truncated Neumann series E + KE + … + K^N E (N = `bounces`).
     Neumann,
+    /// Conjugate gradient on the symmetric (reciprocity-enforced) form.
+    Cg,
+    /// Southwell / progressive refinement: shoot the largest unshot power first.
+    Southwell,
 }
 
 impl Method {
@@ -37,6 +62,8 @@ impl Method {
             Method::Jacobi => "jacobi",
             Method::GaussSeidel => "gauss-seidel",
             Method::Neumann => "neumann",
+            Method::Cg => "cg",
+            Method::Southwell => "southwell",
         }
     }
 }
@@ -46,13 +73,18 @@ impl Method {
 pub struct Settings {
     /// The method.
     pub method: Method,
-    /// Relative residual at which Jacobi and Gauss–Seidel stop; > 0.
+    /// Relative residual at which the iterative methods stop; > 0.
     pub tolerance: f64,
-    /// Sweep limit of Jacobi and Gauss–Seidel; ≥ 1.
+    /// Sweep limit of the iterative methods (Southwell: n shots per sweep); ≥ 1.
     pub max_iterations: u32,
     /// Number of bounces N of the Neumann series.
     pub bounces: u32,
+    /// Over-relaxation factor ω of Gauss–Seidel, in (0, 2); 1 = plain Gauss–Seidel.
+    pub omega: f64,
 }
+
+/// Default over-relaxation of Gauss–Seidel (see BENCHMARKS.md, "Solvers").
+pub const DEFAULT_OMEGA: f64 = 1.0;
 
 impl Default for Settings {
     fn default() -> Self {
@@ -61,6 +93,7 @@ impl Default for Settings {
             tolerance: 1e-6,
             max_iterations: 10_000,
             bounces: 1,
+            omega: DEFAULT_OMEGA,
         }
     }
 }
@@ -77,6 +110,15 @@ impl Settings {
         if self.max_iterations == 0 {
             return Err(Error::usage("--max-iterations", "must be at least 1"));
         }
+        if !(self.omega > 0.0 && self.omega < 2.0) {
+            return Err(Error::usage(
+                "--omega",
+                format!(
+                    "{} is not in (0, 2): over-relaxation diverges outside",
+                    self.omega
+                ),
+            ));
+        }
         Ok(())
     }
 }
@@ -87,14 +129,103 @@ pub struct Solution {
     /// Radiance of every patch, W·sr⁻¹·m⁻² per RGB channel.
     #[serde(skip)]
     pub radiance: Vec<Rgb>,
-    /// Sweeps (Jacobi, Gauss–Seidel) or bounces (Neumann) performed.
+    /// Sweeps (Jacobi, Gauss–Seidel, CG: one product with the matrix each), bounces (Neumann)
+    /// or shots (Southwell) performed.
     pub iterations: u32,
-    /// Final relative residual ‖E − (I − K)L‖₂ / ‖E‖₂ of the returned L.
+    /// Final relative residual ‖E − (I − K)L‖₂ / ‖E‖₂ of the returned L (CG: of the
+    /// symmetric system it solves).
     pub residual: f64,
-    /// Relative residual per sweep: for Gauss–Seidel after sweep k; for Jacobi of the iterate
-    /// each sweep started from (free, see the module docs); for Neumann the final one.
+    /// Relative residual after each sweep (Southwell: after every n shots; Neumann: the
+    /// final one).
     pub residual_history: Vec<f64>,
     /// False when an iterative method hit `max_iterations` above the tolerance.
+    pub converged: bool,
+    /// True when the scene was grey and solved in one channel.
+    pub grey: bool,
+}
+
+/// A system in `C` channels: F shared, ρ and E per channel. The solvers are written once for
+/// any channel count; a grey scene runs them with C = 1.
+pub struct Problem<'a, const C: usize> {
+    /// Form factors and visible areas (through [`System`]).
+    pub system: &'a System<'a>,
+    /// ρ per patch and channel.
+    pub rho: Vec<[f64; C]>,
+    /// E = Le per patch and channel.
+    pub e: Vec<[f64; C]>,
+}
+
+impl<const C: usize> Problem<'_, C> {
+    /// Number of patches.
+    pub fn len(&self) -> usize {
+        self.e.len()
+    }
+
+    /// True when there are no patches.
+    pub fn is_empty(&self) -> bool {
+        self.e.is_empty()
+    }
+
+    /// Σ_j F_ij x_j for row i, all channels in one pass over the row.
+    #[inline]
+    pub fn gather(&self, i: usize, x: &[[f64; C]]) -> [f64; C] {
+        let (cols, vals) = self.system.row(i);
+        let mut acc = [0.0f64; C];
+        for (&j, &f) in cols.iter().zip(vals) {
+            let xj = &x[j as usize];
+            let f = f as f64;
+            for c in 0..C {
+                acc[c] += f * xj[c];
+            }
+        }
+        acc
+    }
+
+    /// ‖E‖₂ over all channels.
+    pub fn e_norm(&self) -> f64 {
+        norm(&self.e)
+    }
+
+    /// Relative residual ‖E − (I − K) L‖₂ / ‖E‖₂ over all channels, summed in a fixed order
+    /// (the stopping decision must not depend on the thread count).
+    pub fn relative_residual(&self, l: &[[f64; C]]) -> f64 {
+        use rayon::prelude::*;
+        let terms: Vec<f64> = (0..self.len())
+            .into_par_iter()
+            .map(|i| {
+                let g = self.gather(i, l);
+                (0..C)
+                    .map(|c| {
+                        let r = self.e[i][c] - l[i][c] + self.rho[i][c] * g[c];
+                        r * r
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        let e = self.e_norm();
+        let r = terms.iter().sum::<f64>().sqrt();
+        if e == 0.0 {
+            r
+        } else {
+            r / e
+        }
+    }
+}
+
+/// Euclidean norm over all entries and channels.
+pub fn norm<const C: usize>(x: &[[f64; C]]) -> f64 {
+    x.iter()
+        .map(|v| v.iter().map(|a| a * a).sum::<f64>())
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// What one method returns: the radiance in C channels and its bookkeeping.
+pub(crate) struct Run<const C: usize> {
+    pub radiance: Vec<[f64; C]>,
+    pub iterations: u32,
+    pub residual: f64,
+    pub residual_history: Vec<f64>,
     pub converged: bool,
 }
 
@@ -109,15 +240,70 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
             residual: 0.0,
             residual_history: vec![],
             converged: true,
+            grey: false,
         });
     }
     if settings.method != Method::Neumann {
         check_not_singular(system)?;
     }
-    match settings.method {
-        Method::Neumann => Ok(neumann(system, settings.bounces)),
-        Method::Jacobi => Ok(jacobi(system, settings)),
-        Method::GaussSeidel => Ok(gauss_seidel(system, settings)),
+    let grey = (0..n).all(|i| {
+        let (r, e) = (system.reflectance[i], system.emission[i]);
+        r[0] == r[1] && r[1] == r[2] && e[0] == e[1] && e[1] == e[2]
+    });
+    if grey {
+        let problem = Problem::<1> {
+            system,
+            rho: system.reflectance.iter().map(|r| [r[0]]).collect(),
+            e: system.emission.iter().map(|e| [e[0]]).collect(),
+        };
+        let run = dispatch(&problem, settings)?;
+        Ok(finish(run, |x| [x[0]; 3], true))
+    } else {
+        let problem = Problem::<3> {
+            system,
+            rho: system.reflectance.to_vec(),
+            e: system.emission.to_vec(),
+        };
+        let run = dispatch(&problem, settings)?;
+        Ok(finish(run, |x| x, false))
+    }
+}
+
+fn dispatch<const C: usize>(problem: &Problem<C>, settings: &Settings) -> Result<Run<C>> {
+    let run = match settings.method {
+        Method::Neumann => stationary::neumann(problem, settings.bounces),
+        Method::Jacobi => stationary::jacobi(problem, settings),
+        Method::GaussSeidel => stationary::gauss_seidel(problem, settings),
+        Method::Cg => cg::solve(problem, settings)?,
+        Method::Southwell => southwell::solve(problem, settings),
+    };
+    if !run.residual.is_finite() || run.radiance.iter().flatten().any(|x| !x.is_finite()) {
+        return Err(Error::Numerical(format!(
+            "the {} solver diverged (residual {:e} after {} iterations){}",
+            settings.method.name(),
+            run.residual,
+            run.iterations,
+            if settings.method == Method::GaussSeidel && settings.omega > 1.0 {
+                format!(
+                    "; over-relaxation ω = {} is too large here, try 1",
+                    settings.omega
+                )
+            } else {
+                String::new()
+            }
+        )));
+    }
+    Ok(run)
+}
+
+fn finish<const C: usize>(run: Run<C>, widen: impl Fn([f64; C]) -> Rgb, grey: bool) -> Solution {
+    Solution {
+        radiance: run.radiance.into_iter().map(widen).collect(),
+        iterations: run.iterations,
+        residual: run.residual,
+        residual_history: run.residual_history,
+        converged: run.converged,
+        grey,
     }
 }
 
@@ -170,97 +356,4 @@ pub fn check_not_singular(system: &System) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// E + KE + … + K^N E.
-fn neumann(system: &System, bounces: u32) -> Solution {
-    let mut l = system.emission.to_vec();
-    let mut term = l.clone();
-    let mut next = vec![[0.0; 3]; l.len()];
-    for _ in 0..bounces {
-        system.apply_k(&term, &mut next);
-        std::mem::swap(&mut term, &mut next);
-        for (li, ti) in l.iter_mut().zip(&term) {
-            for c in 0..3 {
-                li[c] += ti[c];
-            }
-        }
-    }
-    let residual = system.relative_residual(&l);
-    Solution {
-        radiance: l,
-        iterations: bounces,
-        residual,
-        residual_history: vec![residual],
-        converged: true,
-    }
-}
-
-fn jacobi(system: &System, settings: &Settings) -> Solution {
-    let e_norm = system.emission_norm();
-    let mut l = system.emission.to_vec();
-    let mut next = vec![[0.0; 3]; l.len()];
-    let mut history = Vec::new();
-    let mut iterations = 0;
-    let mut converged = false;
-    while iterations < settings.max_iterations {
-        // next = E + K l; and E − (I − K) l = next − l.
-        system.apply_k(&l, &mut next);
-        for (x, e) in next.iter_mut().zip(system.emission) {
-            for c in 0..3 {
-                x[c] += e[c];
-            }
-        }
-        let diff: Vec<Rgb> = next
-            .iter()
-            .zip(&l)
-            .map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]])
-            .collect();
-        std::mem::swap(&mut l, &mut next);
-        iterations += 1;
-        // Residual of the iterate just replaced; the new iterate's is ≤ ‖K‖ times smaller.
-        let r_prev = norm(&diff) / e_norm;
-        history.push(r_prev);
-        if r_prev <= settings.tolerance {
-            converged = true;
-            break;
-        }
-    }
-    let residual = system.relative_residual(&l);
-    Solution {
-        radiance: l,
-        iterations,
-        residual,
-        residual_history: history,
-        converged: converged || residual <= settings.tolerance,
-    }
-}
-
-fn gauss_seidel(system: &System, settings: &Settings) -> Solution {
-    let mut l = system.emission.to_vec();
-    let mut history = Vec::new();
-    let mut iterations = 0;
-    let mut converged = false;
-    let mut residual = system.relative_residual(&l);
-    while iterations < settings.max_iterations {
-        for i in 0..l.len() {
-            let g = system.gather(i, &l);
-            let (e, r) = (system.emission[i], system.reflectance[i]);
-            l[i] = [e[0] + r[0] * g[0], e[1] + r[1] * g[1], e[2] + r[2] * g[2]];
-        }
-        iterations += 1;
-        residual = system.relative_residual(&l);
-        history.push(residual);
-        if residual <= settings.tolerance {
-            converged = true;
-            break;
-        }
-    }
-    Solution {
-        radiance: l,
-        iterations,
-        residual,
-        residual_history: history,
-        converged,
-    }
 }

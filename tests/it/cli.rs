@@ -98,6 +98,21 @@ fn output_is_identical_for_one_and_two_threads() {
             "{estimator}"
         );
     }
+    // Every solver, including the parallel Gauss–Seidel sweep and CG's reductions.
+    for solver in ["jacobi", "gauss-seidel", "cg", "southwell"] {
+        let s = ["--solver", solver, "--omega", "1.2"];
+        assert!(bake(&a, &[&s[..], &["--threads", "1"]].concat())
+            .status
+            .success());
+        assert!(bake(&b, &[&s[..], &["--threads", "2"]].concat())
+            .status
+            .success());
+        assert_eq!(
+            std::fs::read(&a).unwrap(),
+            std::fs::read(&b).unwrap(),
+            "{solver}"
+        );
+    }
     let _ = std::fs::remove_dir_all(dir);
 }
 
@@ -329,5 +344,75 @@ fn render_a_baked_ply_and_a_scene() {
         assert!(stderr(&o).contains(bad[0]), "{}", stderr(&o));
     }
     assert_eq!(std::fs::read(&png_path).unwrap(), before);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn form_factor_cache_serves_relighting_and_survives_corruption() {
+    let dir = temp_dir("cache");
+    let cache = dir.join("ff");
+    let c = cache.to_str().unwrap();
+    let report = |name: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(dir.join(name)).unwrap()).unwrap()
+    };
+    let run = |out: &str, json: &str, extra: &[&str]| {
+        let o = bake(
+            &dir.join(out),
+            &[
+                &[
+                    "--refine",
+                    "0",
+                    "--report",
+                    dir.join(json).to_str().unwrap(),
+                ][..],
+                extra,
+            ]
+            .concat(),
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        o
+    };
+    // First run stores, second reads: same bytes out, no form-factor time.
+    run("a.ply", "a.json", &["--cache", c]);
+    run("b.ply", "b.json", &["--cache", c]);
+    let (a, b) = (report("a.json"), report("b.json"));
+    assert_eq!(a["cache"]["stored"], 1);
+    assert_eq!(b["cache"]["hits"], 1);
+    assert!(b["cache"]["seconds_saved"].as_f64().unwrap() > 0.0);
+    assert_eq!(b["seconds"]["form_factors"].as_f64().unwrap(), 0.0);
+    assert_eq!(
+        std::fs::read(dir.join("a.ply")).unwrap(),
+        std::fs::read(dir.join("b.ply")).unwrap()
+    );
+    // Relighting (other emission and reflectance) hits the cache and gives exactly what a
+    // run without the cache gives.
+    let relight = ["--emission", "light=20,10,2", "--reflectance", "red=0.3"];
+    run("c.ply", "c.json", &[&relight[..], &["--cache", c]].concat());
+    assert_eq!(report("c.json")["cache"]["hits"], 1);
+    run("d.ply", "d.json", &relight);
+    assert_eq!(
+        std::fs::read(dir.join("c.ply")).unwrap(),
+        std::fs::read(dir.join("d.ply")).unwrap()
+    );
+    // A corrupted cache file is a warning and a recomputation, and is replaced.
+    let file = std::fs::read_dir(&cache)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let mut bytes = std::fs::read(&file).unwrap();
+    bytes.truncate(bytes.len() / 2);
+    std::fs::write(&file, &bytes).unwrap();
+    let o = run("e.ply", "e.json", &["--cache", c]);
+    assert!(
+        stderr(&o).contains("cache") || report("e.json")["warnings"].to_string().contains("cache")
+    );
+    assert_eq!(report("e.json")["cache"]["stored"], 1);
+    assert_eq!(
+        std::fs::read(dir.join("a.ply")).unwrap(),
+        std::fs::read(dir.join("e.ply")).unwrap()
+    );
+    assert!(std::fs::read(&file).unwrap().len() > bytes.len());
     let _ = std::fs::remove_dir_all(dir);
 }

@@ -164,7 +164,7 @@ fn radiance_does_not_depend_on_the_unit_of_length() {
             s.form_factors.rays = 64;
             let base: Outcome = run(scene, &s);
             for factor in factors {
-                let mut t = s;
+                let mut t = s.clone();
                 t.max_edge = Some(max_edge * factor);
                 let other = run(&scaled(scene, factor), &t);
                 assert_eq!(

@@ -44,6 +44,7 @@ pub fn settings(
             tolerance: 1e-12,
             max_iterations: 100_000,
             bounces,
+            ..solve::Settings::default()
         },
         ..pipeline::Settings::default()
     }
