@@ -26,9 +26,12 @@ pub struct Cli {
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long, global = true, value_name = "N", allow_negative_numbers = true)]
     pub threads: Option<usize>,
-    /// No summary on stderr (warnings and errors are still printed).
+    /// No summary and no progress bars on stderr (warnings and errors are still printed).
     #[arg(long, short, global = true)]
     pub quiet: bool,
+    /// More detail on stderr: each solve's counts, refinement rounds, seconds per stage.
+    #[arg(long, short, global = true)]
+    pub verbose: bool,
 }
 
 #[derive(Debug, Subcommand)]

@@ -46,6 +46,7 @@ pub mod matrix;
 pub mod montecarlo;
 pub mod patch;
 pub mod pipeline;
+pub mod progress;
 pub mod reference;
 pub mod refine;
 pub mod report;

@@ -3,6 +3,7 @@
 //! usage, 3 the solver stopped at --max-iterations without converging (the output is written).
 
 mod cli;
+mod progress_bars;
 
 use std::process::ExitCode;
 
@@ -37,6 +38,7 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     }
+    progress_bars::install(cli.quiet, cli.verbose);
     let result = match &cli.command {
         Command::Bake(args) => bake(args, cli.quiet),
         Command::Verify(args) => verify(args, cli.quiet),
@@ -84,6 +86,14 @@ fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Error> {
     if !quiet {
         eprintln!("{}: {}", args.output.display(), report.summary());
     }
+    radiosity::progress::note(|| {
+        let s = &report.seconds;
+        format!(
+            "seconds: load {:.3}, patches {:.3}, bvh {:.3}, form factors {:.3}, solve {:.3}, \
+             bake {:.3}, write {:.3}",
+            s.load, s.patches, s.bvh, s.form_factors, s.solve, s.bake, s.write
+        )
+    });
     if !report.converged {
         eprintln!(
             "warning: the {} solver stopped after {} sweeps at relative residual {:.3e}, \

@@ -100,7 +100,16 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
             break;
         }
         let t = Instant::now();
+        let before = patches.len();
         patches = patch::refine(scene, &patches, &marked, settings.crease_degrees)?;
+        crate::progress::note(|| {
+            format!(
+                "refinement round {}: {} of {before} patches marked, {} patches now",
+                report.refine_rounds + 1,
+                marked.iter().filter(|&&m| m).count(),
+                patches.len()
+            )
+        });
         seconds.patches += t.elapsed().as_secs_f64();
         report.refine_rounds += 1;
         (form_factors, solution) =
@@ -152,6 +161,27 @@ fn light_transport(
         emission: &patches.emission,
     };
     let solution = solve::solve(&system, &settings.solver)?;
+    crate::progress::note(|| {
+        let s = &form_factors.stats;
+        format!(
+            "{} patches: {} pairs ({} culled, {} skipped), {:.3e} rays, {} non-zeros; \
+             {} {} iterations, residual {:.2e}{}",
+            patches.len(),
+            s.pairs,
+            s.pairs_culled,
+            s.pairs_skipped,
+            s.rays_cast as f64,
+            s.nnz,
+            settings.solver.method.name(),
+            solution.iterations,
+            solution.residual,
+            if solution.grey {
+                " (grey: one channel)"
+            } else {
+                ""
+            }
+        )
+    });
     report.iterations = solution.iterations;
     report.residual = solution.residual;
     report.converged = solution.converged;

@@ -53,10 +53,12 @@ pub fn render(mesh: &BakedMesh, view: &View) -> RgbImage {
     let aspect = width as f64 / height as f64;
     let spp = view.spp.max(1);
     let mut pixels = vec![[0u8; 3]; (width * height) as usize];
+    let progress = crate::progress::stage("render", Some(height as u64));
     pixels
         .par_chunks_mut(width as usize)
         .enumerate()
         .for_each(|(y, row)| {
+            progress.advance(1);
             for (x, px) in row.iter_mut().enumerate() {
                 let mut sum = [0.0; 3];
                 for sy in 0..spp {

@@ -135,9 +135,11 @@ pub fn rows(
     seed: u64,
     needed: &super::Needed,
 ) -> Vec<Row> {
+    let progress = crate::progress::stage("form factors", Some(patches.len() as u64));
     (0..patches.len())
         .into_par_iter()
         .map(|i| {
+            progress.advance(1);
             if !needed.rows[i] {
                 return Row {
                     entries: Vec::new(),

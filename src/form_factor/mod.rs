@@ -489,9 +489,12 @@ fn pairwise(
     let skipped = AtomicU64::new(0);
 
     // Each task i produces (j, F_ij) for j > i and (j, F_ji) for j > i.
+    let progress =
+        crate::progress::stage("form factors", Some((n * n.saturating_sub(1) / 2) as u64));
     let rows: Vec<PairRows> = (0..n)
         .into_par_iter()
         .map(|i| {
+            progress.advance((n - i - 1) as u64);
             let mut upper = Vec::new();
             let mut lower = Vec::new();
             let mut local_rays = 0u64;

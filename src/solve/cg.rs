@@ -174,6 +174,7 @@ pub(crate) fn solve<const C: usize>(p: &Problem<C>, s: &Settings) -> Result<Run<
         iterations += 1;
         residual = relative(&r);
         history.push(residual);
+        super::report_sweep(iterations, residual);
         converged = residual <= s.tolerance;
     }
     let radiance = (0..n)

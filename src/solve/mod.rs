@@ -10,7 +10,7 @@
 //!   by row, so each row uses the newest values of the rows before it — exactly, yet on every
 //!   core: each row's sum is split by column into the part that is known before the sweep
 //!   (rows after it), the part known once the earlier row blocks are done, and a small
-//!   sequential remainder ([`stationary::gauss_seidel`]).
+//!   sequential remainder (see [`stationary`]).
 //! - **Conjugate gradient** on the symmetric form ([`cg`]): row i multiplied by a_i/ρ_i (a_i
 //!   the patch's visible area) turns the system into (diag(a/ρ) − A·F) L = diag(a/ρ) E, whose
 //!   matrix is symmetric when A·F is (reciprocity, a_i F_ij = a_j F_ji) and diagonally
@@ -212,6 +212,11 @@ impl<const C: usize> Problem<'_, C> {
     }
 }
 
+/// Reports one sweep to the progress observer (a status line; no effect on the result).
+pub(crate) fn report_sweep(iteration: u32, residual: f64) {
+    crate::progress::note_status(|| format!("sweep {iteration}: residual {residual:.2e}"));
+}
+
 /// Euclidean norm over all entries and channels.
 pub fn norm<const C: usize>(x: &[[f64; C]]) -> f64 {
     x.iter()
@@ -270,6 +275,7 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
 }
 
 fn dispatch<const C: usize>(problem: &Problem<C>, settings: &Settings) -> Result<Run<C>> {
+    let _progress = crate::progress::stage(&format!("solve ({})", settings.method.name()), None);
     let run = match settings.method {
         Method::Neumann => stationary::neumann(problem, settings.bounces),
         Method::Jacobi => stationary::jacobi(problem, settings),

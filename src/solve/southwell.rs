@@ -69,6 +69,7 @@ pub(crate) fn solve<const C: usize>(p: &Problem<C>, s: &Settings) -> Run<C> {
         if shots % n as u64 == 0 || shots == max_shots {
             residual = residual_of(&unshot);
             history.push(residual);
+            super::report_sweep((shots / n as u64) as u32, residual);
             converged = residual <= s.tolerance;
         }
     }

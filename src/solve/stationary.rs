@@ -72,6 +72,7 @@ pub(crate) fn jacobi<const C: usize>(p: &Problem<C>, s: &Settings) -> Run<C> {
         // Residual of the iterate just replaced; the new iterate's is ≤ ‖K‖ times smaller.
         let r_prev = diff / e_norm;
         history.push(r_prev);
+        super::report_sweep(iterations, r_prev);
         if r_prev <= s.tolerance {
             converged = true;
             break;
@@ -151,6 +152,7 @@ pub(crate) fn gauss_seidel<const C: usize>(p: &Problem<C>, s: &Settings) -> Run<
         iterations += 1;
         residual = p.relative_residual(&l);
         history.push(residual);
+        super::report_sweep(iterations, residual);
         if !residual.is_finite() {
             break;
         }

@@ -302,3 +302,44 @@ fn ply_scenes_bake_render_and_describe() {
     assert!(!stderr(&o).contains("panicked"));
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn progress_is_hidden_off_a_terminal_and_verbose_adds_detail() {
+    // Tests run with stderr piped: no bars, no escape codes, only the summary line. `-v` adds
+    // one line per solve, per refinement round and the seconds per stage; `-q` removes the
+    // summary but not what `-v` asked for.
+    let dir = temp_dir("progress");
+    let out = dir.join("c.ply");
+    let input = cornell();
+    let run = |extra: &[&str]| {
+        let mut a = vec![
+            "bake",
+            &input,
+            "-o",
+            out.to_str().unwrap(),
+            "--max-edge",
+            "150",
+        ];
+        a.extend_from_slice(extra);
+        let o = radiosity(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let plain = run(&[]);
+    assert!(
+        !plain.contains('\u{1b}') && !plain.contains("form factors ["),
+        "{plain}"
+    );
+    assert_eq!(plain.lines().count(), 1, "{plain}");
+    let verbose = run(&["-v"]);
+    assert!(verbose.contains("refinement round 1"), "{verbose}");
+    assert!(verbose.contains("seconds: load"), "{verbose}");
+    assert!(
+        verbose.contains("gauss-seidel") && verbose.contains("rays"),
+        "{verbose}"
+    );
+    assert!(!verbose.contains('\u{1b}'), "{verbose}");
+    let quiet = run(&["-q"]);
+    assert!(quiet.is_empty(), "{quiet}");
+    let _ = std::fs::remove_dir_all(dir);
+}
