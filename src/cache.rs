@@ -60,7 +60,8 @@ pub fn key(patches: &Patches, settings: &form_factor::Settings) -> String {
         }
         h.word(patches.source_triangle[i] as u64);
     }
-    // Every setting that changes F (the skip of unneeded entries is off with a cache).
+    // Every setting that changes F (the skip of unneeded entries is off with a cache; reuse
+    // between refinement rounds keeps F as it was).
     h.word(settings.estimator as u64);
     h.word(settings.samples as u64);
     h.word(settings.rays as u64);
@@ -68,6 +69,7 @@ pub fn key(patches: &Patches, settings: &form_factor::Settings) -> String {
     h.word(settings.reciprocity as u64);
     h.word(settings.skip_hull as u64);
     h.word(settings.normalise_closed as u64);
+    h.word(settings.exact_direct as u64);
     h.hex()
 }
 
@@ -170,6 +172,7 @@ pub fn load(dir: &Path, key: &str, n: usize) -> Result<Option<(FormFactors, f64)
         CsMatI::try_new((n, n), indptr, indices, data).map_err(|_| bad("not a CSR matrix"))?;
     let ff = FormFactors {
         matrix,
+        pair_matrix: None,
         stats,
         area,
         visible_fraction,

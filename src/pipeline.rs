@@ -16,7 +16,7 @@ use crate::patch::{self, Patches};
 use crate::report::{Report, Seconds};
 use crate::scene::{Override, Scene};
 use crate::solve::{self, Solution};
-use crate::visibility::Visibility;
+use crate::visibility::{Visibility, NONE};
 use crate::{bake, cache, refine, Result};
 
 /// Everything that controls a bake.
@@ -88,7 +88,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     seconds.patches = t.elapsed().as_secs_f64();
 
     let (mut form_factors, mut solution) =
-        light_transport(scene, &patches, settings, &mut report, &mut seconds)?;
+        light_transport(scene, &patches, settings, None, &mut report, &mut seconds)?;
     for _ in 0..settings.refine_rounds {
         let marked = refine::marks(
             &patches,
@@ -100,8 +100,9 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
             break;
         }
         let t = Instant::now();
-        let before = patches.len();
-        patches = patch::refine(scene, &patches, &marked, settings.crease_degrees)?;
+        let old = patches;
+        patches = patch::refine(scene, &old, &marked, settings.crease_degrees)?;
+        let before = old.len();
         crate::progress::note(|| {
             format!(
                 "refinement round {}: {} of {before} patches marked, {} patches now",
@@ -112,8 +113,43 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
         });
         seconds.patches += t.elapsed().as_secs_f64();
         report.refine_rounds += 1;
-        (form_factors, solution) =
-            light_transport(scene, &patches, settings, &mut report, &mut seconds)?;
+        // Pairs of patches that refinement left as they were keep their form factors.
+        // (Pair estimators only, and not from a normalised matrix without its raw form, as a
+        // cache hit gives.)
+        let raw_known = form_factors.pair_matrix.is_some()
+            || !(form_factors.stats.closed_scene || settings.form_factors.reciprocity);
+        let reuse = (settings.form_factors.reuse
+            && raw_known
+            && settings.form_factors.estimator != form_factor::Estimator::Hemisphere)
+            .then(|| {
+                let old_index: std::collections::HashMap<([u32; 3], u32), u32> = old
+                    .triangles
+                    .iter()
+                    .zip(&old.source_triangle)
+                    .enumerate()
+                    .map(|(k, (t, s))| ((*t, *s), k as u32))
+                    .collect();
+                form_factor::Reuse {
+                    matrix: form_factors
+                        .pair_matrix
+                        .as_ref()
+                        .unwrap_or(&form_factors.matrix),
+                    old_of_new: patches
+                        .triangles
+                        .iter()
+                        .zip(&patches.source_triangle)
+                        .map(|(t, s)| old_index.get(&(*t, *s)).copied().unwrap_or(NONE))
+                        .collect(),
+                }
+            });
+        (form_factors, solution) = light_transport(
+            scene,
+            &patches,
+            settings,
+            reuse.as_ref(),
+            &mut report,
+            &mut seconds,
+        )?;
     }
     report.patches = patches.len();
 
@@ -139,11 +175,12 @@ fn light_transport(
     scene: &Scene,
     patches: &Patches,
     settings: &Settings,
+    reuse: Option<&form_factor::Reuse>,
     report: &mut Report,
     seconds: &mut Seconds,
 ) -> Result<(FormFactors, Solution)> {
     let form_factors = if scene.has_emitters() {
-        form_factors(patches, settings, report, seconds)?
+        form_factors(patches, settings, reuse, report, seconds)?
     } else {
         // Without emitters L = 0 whatever F is: skip the BVH and the form factors.
         let warning = "no emitters in the scene (no material has Ke > 0): the result is black";
@@ -194,6 +231,7 @@ fn light_transport(
 fn form_factors(
     patches: &Patches,
     settings: &Settings,
+    reuse: Option<&form_factor::Reuse>,
     report: &mut Report,
     seconds: &mut Seconds,
 ) -> Result<FormFactors> {
@@ -231,7 +269,8 @@ fn form_factors(
     } else {
         Needed::all(patches.len())
     };
-    let ff = form_factor::compute(patches, &visibility, &settings.form_factors, &needed)?;
+    let ff =
+        form_factor::compute_reusing(patches, &visibility, &settings.form_factors, &needed, reuse)?;
     let ff_seconds = t.elapsed().as_secs_f64();
     seconds.form_factors += ff_seconds;
     if let Some((dir, key)) = &key {

@@ -87,6 +87,15 @@ pub struct Settings {
     /// Normalise the rows of a closed scene to 1 (pair estimators; see [`compute`]); on by
     /// default, off to measure the estimators' raw row error.
     pub normalise_closed: bool,
+    /// Hemisphere shooting: compute the emitters' columns (direct light) with the contour
+    /// estimator instead of counting rays, when emitters are a small part of the scene
+    /// ([`EXACT_DIRECT_FRACTION`], [`EXACT_DIRECT_PAIRS`]). A small light is hit by few of a
+    /// patch's rays, so shot direct light is the noisiest part of the estimate; computed
+    /// exactly it costs emitters × patches pairs. On by default.
+    pub exact_direct: bool,
+    /// Adaptive refinement: keep the entries of pairs of patches a round left unchanged
+    /// instead of computing them again ([`Reuse`]); on by default, off to measure the saving.
+    pub reuse: bool,
     /// Compute only the entries the solve reads ([`Needed::for_solve`]: no rows for black
     /// patches, only emitters' columns for one bounce); on by default, off to measure what
     /// the skip saves.
@@ -104,6 +113,8 @@ impl Default for Settings {
             skip_hull: true,
             normalise_closed: true,
             skip_unneeded: true,
+            exact_direct: true,
+            reuse: true,
         }
     }
 }
@@ -184,6 +195,9 @@ pub struct Stats {
     pub pairs_skipped: u64,
     /// Rows not computed because the solve does not read them (black patches, [`Needed`]).
     pub rows_skipped: u64,
+    /// Unordered pairs whose entries were taken from the previous refinement round's F
+    /// (both patches unchanged, [`Reuse`]).
+    pub pairs_reused: u64,
     /// True when the scene was recognised as a convex enclosure (every patch on the scene's
     /// convex hull), where nothing can occlude anything and no visibility ray is cast.
     pub convex_enclosure: bool,
@@ -195,6 +209,9 @@ pub struct Stats {
     /// True when closure probes found the scene closed and the rows were normalised to 1
     /// (pair estimators with `normalise_closed`).
     pub closed_scene: bool,
+    /// True when hemisphere shooting took the emitters' columns from the contour estimator
+    /// (`exact_direct`).
+    pub exact_direct: bool,
     /// Non-zeros of F.
     pub nnz: u64,
     /// Smallest, mean and largest row sum Σ_j F_ij.
@@ -206,6 +223,9 @@ pub struct Stats {
 /// The form-factor matrix and its statistics.
 #[derive(Debug, Clone)]
 pub struct FormFactors {
+    /// The pair estimator's F before closed-scene normalisation and symmetrisation, when
+    /// those changed it (otherwise `matrix` is it): what the next refinement round reuses.
+    pub pair_matrix: Option<CsMatI<f32, u32>>,
     /// F in CSR: row i, column j holds F_ij (dimensionless, ≥ 0, stored as f32 and
     /// accumulated in f64). Invariants: F_ii = 0 for planar patches; every row sum ≤ 1 up to
     /// the estimator's error (= 1 in a closed scene); A_i F_ij ≈ A_j F_ji.
@@ -241,6 +261,7 @@ impl FormFactors {
     pub fn empty(n: usize) -> FormFactors {
         FormFactors {
             matrix: CsMatI::zero((n, n)),
+            pair_matrix: None,
             stats: Stats::default(),
             area: vec![0.0; n],
             visible_fraction: vec![1.0; n],
@@ -293,6 +314,31 @@ pub fn compute(
     settings: &Settings,
     needed: &Needed,
 ) -> Result<FormFactors> {
+    compute_reusing(patches, vis, settings, needed, None)
+}
+
+/// The pair estimators' F of an earlier patch mesh, for [`compute_reusing`]: a pair of
+/// patches that both survive unchanged in the new mesh (same corners, same source) keeps its
+/// two entries instead of being computed again — what adaptive refinement needs, since it
+/// splits a few patches and keeps the rest.
+pub struct Reuse<'a> {
+    /// The earlier F as the pair estimator made it (before closed-scene normalisation or
+    /// symmetrisation: [`FormFactors::pair_matrix`]).
+    pub matrix: &'a CsMatI<f32, u32>,
+    /// For each new patch, its index in the earlier mesh, or [`crate::visibility::NONE`].
+    pub old_of_new: Vec<u32>,
+}
+
+/// [`compute`], taking the entries of unchanged pairs from `reuse` (pair estimators only; the
+/// hemisphere estimator's rows change when any patch they hit is split). A reused entry equals
+/// what computing it again with the earlier indices would give, up to one f32 rounding.
+pub fn compute_reusing(
+    patches: &Patches,
+    vis: &Visibility,
+    settings: &Settings,
+    needed: &Needed,
+    reuse: Option<&Reuse>,
+) -> Result<FormFactors> {
     if settings.samples == 0 {
         return Err(Error::usage("--samples", "must be at least 1"));
     }
@@ -330,21 +376,70 @@ pub fn compute(
         needed
     };
     stats.rows_skipped = needed.rows.iter().filter(|&&r| !r).count() as u64;
+    let emitter: Vec<bool> = patches
+        .emission
+        .iter()
+        .map(|e| e.iter().any(|&x| x > 0.0))
+        .collect();
+    let emitters = emitter.iter().filter(|&&e| e).count();
+    let exact_direct = settings.estimator == Estimator::Hemisphere
+        && settings.exact_direct
+        && emitters > 0
+        && emitters * EXACT_DIRECT_FRACTION <= n
+        && (emitters as f64) * (n as f64) <= EXACT_DIRECT_PAIRS;
+    stats.exact_direct = exact_direct;
     let mut matrix = if settings.estimator == Estimator::Hemisphere {
-        let rows = hemisphere::rows(patches, vis, settings.rays, settings.seed, &needed);
+        // With exact direct light, the emitters' columns come from the contour estimator
+        // below and the rays only estimate the others.
+        let shot = if exact_direct {
+            Needed {
+                rows: needed.rows.clone(),
+                columns: (0..n).map(|j| needed.columns[j] && !emitter[j]).collect(),
+            }
+        } else {
+            needed.clone()
+        };
+        let rows = hemisphere::rows(patches, vis, settings.rays, settings.seed, &shot);
         stats.rays_cast = rows.iter().map(|r| r.rays).sum();
         visible_fraction = rows.iter().map(|r| r.visible_fraction).collect();
-        assemble_rows(n, rows.into_iter().map(|r| r.entries).collect())?
+        let shot = assemble_rows(n, rows.into_iter().map(|r| r.entries).collect())?;
+        if exact_direct {
+            let direct = Needed {
+                rows: needed.rows.clone(),
+                columns: (0..n).map(|j| needed.columns[j] && emitter[j]).collect(),
+            };
+            let contour = Settings {
+                estimator: Estimator::Contour,
+                ..*settings
+            };
+            let exact = pairwise(
+                patches,
+                vis,
+                &contour,
+                &direct,
+                None,
+                &mut stats,
+                &mut visible_fraction,
+            )?;
+            &shot + &exact
+        } else {
+            shot
+        }
     } else {
         pairwise(
             patches,
             vis,
             settings,
             &needed,
+            reuse,
             &mut stats,
             &mut visible_fraction,
         )?
     };
+    // The pair estimator's own matrix, for the next refinement round, when what follows
+    // changes it.
+    let pair_matrix =
+        (pair_estimator && (normalise || settings.reciprocity)).then(|| matrix.clone());
     if normalise {
         let sums: Vec<f64> = row_sums_of(&matrix);
         let factor: Vec<f64> = sums
@@ -365,6 +460,7 @@ pub fn compute(
     }
     let mut ff = FormFactors {
         matrix,
+        pair_matrix,
         stats,
         area: patches.area.clone(),
         visible_fraction,
@@ -389,6 +485,7 @@ fn pairwise(
     vis: &Visibility,
     settings: &Settings,
     needed: &Needed,
+    reuse: Option<&Reuse>,
     stats: &mut Stats,
     visible_fraction: &mut Vec<f64>,
 ) -> Result<CsMatI<f32, u32>> {
@@ -487,6 +584,7 @@ fn pairwise(
     let rays = AtomicU64::new(0);
     let culled = AtomicU64::new(0);
     let skipped = AtomicU64::new(0);
+    let reused = AtomicU64::new(0);
 
     // Each task i produces (j, F_ij) for j > i and (j, F_ji) for j > i.
     let progress =
@@ -500,6 +598,7 @@ fn pairwise(
             let mut local_rays = 0u64;
             let mut local_culled = 0u64;
             let mut local_skipped = 0u64;
+            let mut local_reused = 0u64;
             let pi = &points[i * ns..(i + 1) * ns];
             let mi = &point_normals[i * ns..(i + 1) * ns];
             let ti = patches.corners(i);
@@ -512,6 +611,32 @@ fn pairwise(
                 if !need_ij && !need_ji {
                     local_skipped += 1;
                     continue;
+                }
+                if let Some(r) = reuse {
+                    let (oi, oj) = (r.old_of_new[i], r.old_of_new[j]);
+                    if oi != crate::visibility::NONE && oj != crate::visibility::NONE {
+                        // Both unchanged: the earlier entries, back to this function's
+                        // unscaled form (rows are divided by the visible weight below).
+                        let old = |a: u32, b: u32| {
+                            let row = r.matrix.outer_view(a as usize).expect("row in range");
+                            let k = row.indices().binary_search(&b).ok();
+                            k.map_or(0.0, |k| row.data()[k] as f64)
+                        };
+                        if need_ij {
+                            let f = old(oi, oj) * quadrature_visible[i];
+                            if f > 0.0 {
+                                upper.push((j as u32, f as f32));
+                            }
+                        }
+                        if need_ji {
+                            let f = old(oj, oi) * quadrature_visible[j];
+                            if f > 0.0 {
+                                lower.push((j as u32, f as f32));
+                            }
+                        }
+                        local_reused += 1;
+                        continue;
+                    }
                 }
                 let tj = patches.corners(j);
                 let (nj, cj, aj) = (patches.normal[j], patches.centroid[j], patches.area[j]);
@@ -608,6 +733,7 @@ fn pairwise(
             rays.fetch_add(local_rays, Ordering::Relaxed);
             culled.fetch_add(local_culled, Ordering::Relaxed);
             skipped.fetch_add(local_skipped, Ordering::Relaxed);
+            reused.fetch_add(local_reused, Ordering::Relaxed);
             (upper, lower)
         })
         .collect();
@@ -616,6 +742,7 @@ fn pairwise(
     stats.pairs = (n as u64) * (n as u64).saturating_sub(1) / 2;
     stats.pairs_culled = culled.into_inner();
     stats.pairs_skipped = skipped.into_inner();
+    stats.pairs_reused = reused.into_inner();
     let mut matrix = assemble(n, rows)?;
     // Each row was integrated over the whole patch with zero from its buried points: divide
     // by the visible weight so the row describes the visible part, whose radiance is what the
@@ -870,6 +997,13 @@ pub fn is_hidden(patches: &Patches, vis: &Visibility, i: usize, x: DVec3) -> boo
 /// The visible (unburied) fraction of a patch's area is measured at the centroids of its
 /// regular split into this many squared sub-triangles ([`sampling::lattice_barycentrics`]).
 pub const VISIBLE_AREA_LATTICE: usize = 4;
+
+/// Hemisphere shooting computes direct light exactly only when at most 1/this of the patches
+/// emit (not in a furnace, where every patch does).
+pub const EXACT_DIRECT_FRACTION: usize = 20;
+
+/// … and when emitters × patches (the pairs that costs) is at most this.
+pub const EXACT_DIRECT_PAIRS: f64 = 2e8;
 
 /// Probe rays per patch that decide whether a scene is closed ([`compute`]).
 pub const CLOSURE_PROBES: u32 = 64;

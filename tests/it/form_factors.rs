@@ -401,3 +401,87 @@ fn skipping_unneeded_entries_changes_no_radiance() {
         }
     }
 }
+
+#[test]
+fn hemisphere_takes_direct_light_from_the_contour_estimator() {
+    // One bounce needs only the light's columns; with exact direct light the hemisphere
+    // estimator computes exactly those with the contour estimator, so its one-bounce answer
+    // is the contour estimator's, bit for bit, and none of its rays are shot for it.
+    let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
+    let mut s = settings(120.0, Estimator::Contour, 3, Method::Neumann, 1);
+    s.refine_rounds = 0;
+    let contour = run(&scene, &s);
+    s.form_factors.estimator = Estimator::Hemisphere;
+    s.form_factors.rays = 64;
+    let hemi = run(&scene, &s);
+    assert!(hemi.form_factors.stats.exact_direct);
+    assert_eq!(hemi.solution.radiance, contour.solution.radiance);
+    // Without it, the light's columns are hit counts: the same on average, not bit for bit.
+    s.form_factors.exact_direct = false;
+    let shot = run(&scene, &s);
+    assert!(!shot.form_factors.stats.exact_direct);
+    assert_ne!(shot.solution.radiance, contour.solution.radiance);
+    // A furnace emits everywhere: nothing to single out, plain shooting.
+    let furnace = scenes::furnace_room(0.5, 1.0).unwrap();
+    let mut f = settings(0.5, Estimator::Hemisphere, 1, Method::GaussSeidel, 1);
+    f.form_factors.rays = 64;
+    assert!(!run(&furnace, &f).form_factors.stats.exact_direct);
+}
+
+#[test]
+fn refinement_reuses_the_form_factors_of_unchanged_pairs() {
+    // Round 1 of adaptive refinement keeps most patches; their pairs' entries are taken from
+    // round 0's F (to one f32 rounding) instead of being computed again.
+    use radiosity::form_factor::{self, Needed, Reuse};
+    let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
+    let p0 = patch::subdivide(&scene, 120.0, patch::DEFAULT_CREASE_DEGREES).unwrap();
+    let s = form_factor::Settings::default();
+    let vis0 = Visibility::build(&(0..p0.len()).map(|i| p0.corners(i)).collect::<Vec<_>>());
+    let f0 = form_factor::compute(&p0, &vis0, &s, &Needed::all(p0.len())).unwrap();
+    let marked: Vec<bool> = (0..p0.len()).map(|i| i % 7 == 0).collect();
+    let p1 = patch::refine(&scene, &p0, &marked, patch::DEFAULT_CREASE_DEGREES).unwrap();
+    let old: std::collections::HashMap<[u32; 3], u32> = p0
+        .triangles
+        .iter()
+        .enumerate()
+        .map(|(k, t)| (*t, k as u32))
+        .collect();
+    let old_of_new: Vec<u32> = p1
+        .triangles
+        .iter()
+        .map(|t| old.get(t).copied().unwrap_or(radiosity::visibility::NONE))
+        .collect();
+    let kept = old_of_new
+        .iter()
+        .filter(|&&o| o != radiosity::visibility::NONE)
+        .count();
+    assert!(
+        kept > p0.len() / 2 && kept < p1.len(),
+        "{kept} of {}",
+        p1.len()
+    );
+    let vis1 = Visibility::build(&(0..p1.len()).map(|i| p1.corners(i)).collect::<Vec<_>>());
+    let reuse = Reuse {
+        matrix: &f0.matrix,
+        old_of_new: old_of_new.clone(),
+    };
+    let f1 =
+        form_factor::compute_reusing(&p1, &vis1, &s, &Needed::all(p1.len()), Some(&reuse)).unwrap();
+    assert!(f1.stats.pairs_reused as usize >= kept * (kept - 1) / 2);
+    let fresh = form_factor::compute(&p1, &vis1, &s, &Needed::all(p1.len())).unwrap();
+    assert!(f1.stats.rays_cast < fresh.stats.rays_cast);
+    let entry =
+        |m: &sprs::CsMatI<f32, u32>, i: usize, j: usize| m.get(i, j).copied().unwrap_or(0.0) as f64;
+    for i in (0..p1.len()).step_by(3) {
+        for j in (0..p1.len()).step_by(5) {
+            let (oi, oj) = (old_of_new[i], old_of_new[j]);
+            if i != j && oi != radiosity::visibility::NONE && oj != radiosity::visibility::NONE {
+                let (a, b) = (
+                    entry(&f1.matrix, i, j),
+                    entry(&f0.matrix, oi as usize, oj as usize),
+                );
+                assert!((a - b).abs() <= 1e-6 * b.abs(), "({i}, {j}): {a} vs {b}");
+            }
+        }
+    }
+}
