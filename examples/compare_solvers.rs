@@ -1,8 +1,9 @@
 //! User task: compare the solvers on one scene.
 //!
 //! `cargo run --release --example compare_solvers`: the furnace room at ρ = 0.9 solved by
-//! Jacobi, Gauss–Seidel and the Neumann series, with sweeps, residual, seconds and the error
-//! against the closed form L = Le/(1 − ρ).
+//! Jacobi, Gauss–Seidel, conjugate gradient, Southwell shooting and the Neumann series, with
+//! sweeps (Southwell: shots), residual, seconds and the error against the closed form
+//! L = Le/(1 − ρ).
 
 use std::time::Instant;
 
@@ -35,7 +36,13 @@ fn solve_all(rho: f64, max_edge: f64) -> radiosity::Result<Vec<(Method, Solution
     };
     let expected = reference::furnace_radiance(rho, 1.0);
     let mut rows = Vec::new();
-    for method in [Method::Jacobi, Method::GaussSeidel, Method::Neumann] {
+    for method in [
+        Method::Jacobi,
+        Method::GaussSeidel,
+        Method::Cg,
+        Method::Southwell,
+        Method::Neumann,
+    ] {
         let s = solve::Settings {
             method,
             tolerance: 1e-8,
@@ -85,7 +92,8 @@ mod tests {
             assert!(*err < 1e-5, "{method:?}: {err}");
             assert!(sol.converged);
         }
-        // Gauss–Seidel needs fewer sweeps than Jacobi.
+        // Gauss–Seidel needs fewer sweeps than Jacobi, and CG fewer still.
         assert!(rows[1].1.iterations < rows[0].1.iterations);
+        assert!(rows[2].1.iterations < rows[1].1.iterations);
     }
 }

@@ -248,6 +248,7 @@ pub struct SolveArgs {
         long,
         default_value_t = radiosity::pipeline::Settings::default().refine_rounds,
         value_name = "N",
+        allow_negative_numbers = true,
         help_heading = "Discretisation"
     )]
     pub refine: u32,

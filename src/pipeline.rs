@@ -333,5 +333,6 @@ pub fn run_with(
     report.overrides = overrides.iter().map(Override::to_string).collect();
     report.seconds.load = load_seconds;
     report.seconds.write = t.elapsed().as_secs_f64();
+    report.peak_memory_bytes = crate::report::peak_memory_bytes();
     Ok(outcome)
 }

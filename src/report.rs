@@ -64,6 +64,9 @@ pub struct Report {
     /// Exposure used for the 8-bit colours (radiance multiplier before sRGB).
     pub exposure: f64,
     pub seconds: Seconds,
+    /// Peak resident memory of the process so far, bytes (Linux: `VmHWM` of
+    /// /proc/self/status; `None` elsewhere).
+    pub peak_memory_bytes: Option<u64>,
     /// What the form-factor cache did (`--cache`), if one was used.
     pub cache: Option<crate::cache::CacheReport>,
     pub warnings: Vec<String>,
@@ -90,6 +93,7 @@ impl Report {
             converged: false,
             exposure: 1.0,
             seconds: Seconds::default(),
+            peak_memory_bytes: None,
             cache: None,
             warnings: Vec::new(),
         }
@@ -118,4 +122,12 @@ impl Report {
             .map_err(|e| crate::Error::Internal(format!("report serialisation: {e}")))?;
         export::write_atomic(path, text.as_bytes())
     }
+}
+
+/// Peak resident memory of this process, bytes: `VmHWM` of /proc/self/status (Linux only).
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }

@@ -93,6 +93,9 @@ pub struct Settings {
     /// patch's rays, so shot direct light is the noisiest part of the estimate; computed
     /// exactly it costs emitters × patches pairs. On by default.
     pub exact_direct: bool,
+    /// Skip, without a ray, every pair where one patch lies wholly behind the other's plane
+    /// (they cannot exchange light); on by default, off only to measure the saving.
+    pub cull_behind: bool,
     /// Adaptive refinement: keep the entries of pairs of patches a round left unchanged
     /// instead of computing them again ([`Reuse`]); on by default, off to measure the saving.
     pub reuse: bool,
@@ -114,6 +117,7 @@ impl Default for Settings {
             normalise_closed: true,
             skip_unneeded: true,
             exact_direct: true,
+            cull_behind: true,
             reuse: true,
         }
     }
@@ -642,8 +646,9 @@ fn pairwise(
                 let (nj, cj, aj) = (patches.normal[j], patches.centroid[j], patches.area[j]);
                 // Cull: j entirely on or behind i's plane, or i behind j's: no exchange.
                 let tol = 1e-9 * (scale_i + aj.sqrt());
-                if tj.iter().all(|v| ni.dot(*v - ci) <= tol)
-                    || ti.iter().all(|v| nj.dot(*v - cj) <= tol)
+                if settings.cull_behind
+                    && (tj.iter().all(|v| ni.dot(*v - ci) <= tol)
+                        || ti.iter().all(|v| nj.dot(*v - cj) <= tol))
                 {
                     local_culled += 1;
                     continue;

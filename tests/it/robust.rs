@@ -269,7 +269,7 @@ fn material_value_errors_give_mtl_line_and_material() {
 fn option_values_out_of_range_name_the_option() {
     let f = Fixture::new("robust-options");
     let input = f.write("valid.obj", VALID);
-    let cases: [(&[&str], &str); 22] = [
+    let cases: [(&[&str], &str); 29] = [
         (&["--max-edge", "0"], "--max-edge"),
         (&["--max-edge", "-1"], "--max-edge"),
         (&["--max-edge", "nan"], "--max-edge"),
@@ -292,6 +292,13 @@ fn option_values_out_of_range_name_the_option() {
         (&["--bounces", "-1"], "--bounces"),
         (&["--crease", "-5"], "--crease"),
         (&["--threads", "-2"], "--threads"),
+        (&["--omega", "0"], "--omega"),
+        (&["--omega", "2"], "--omega"),
+        (&["--omega", "nan"], "--omega"),
+        (&["--refine-threshold", "0"], "--refine-threshold"),
+        (&["--refine-threshold", "-0.5"], "--refine-threshold"),
+        (&["--refine", "-1"], "--refine"),
+        (&["--solver", "cg", "--omega", "3"], "--omega"),
     ];
     for (extra, option) in cases {
         // A later --max-edge overrides the fixture's 0.5 (clap keeps the last value).
