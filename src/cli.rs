@@ -296,15 +296,15 @@ pub struct SolveArgs {
         help_heading = "Solver"
     )]
     pub max_iterations: u32,
-    /// Over-relaxation ω of Gauss–Seidel (SOR), in (0, 2); 1 = plain Gauss–Seidel.
+    /// Over-relaxation ω of Gauss–Seidel (SOR), in (0, 2); 1 = plain Gauss–Seidel
+    /// [default: automatic, Young's optimum for the scene's largest ρ·(row sum), at most 1.7].
     #[arg(
         long,
-        default_value_t = radiosity::solve::DEFAULT_OMEGA,
         value_name = "W",
         allow_negative_numbers = true,
         help_heading = "Solver"
     )]
-    pub omega: f64,
+    pub omega: Option<f64>,
 }
 
 /// Form-factor estimation options shared by `bake` and `verify`.

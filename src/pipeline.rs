@@ -209,7 +209,15 @@ fn light_transport(
             s.pairs_skipped,
             s.rays_cast as f64,
             s.nnz,
-            settings.solver.method.name(),
+            if solution.omega != 1.0 {
+                format!(
+                    "{} (ω = {:.2})",
+                    settings.solver.method.name(),
+                    solution.omega
+                )
+            } else {
+                settings.solver.method.name().to_string()
+            },
             solution.iterations,
             solution.residual,
             if solution.grey {
@@ -220,6 +228,7 @@ fn light_transport(
         )
     });
     report.iterations = solution.iterations;
+    report.omega = solution.omega;
     report.residual = solution.residual;
     report.converged = solution.converged;
     seconds.solve += t.elapsed().as_secs_f64();

@@ -58,6 +58,8 @@ pub struct Report {
     /// Rays cast, non-zeros and row-sum statistics of F.
     pub form_factors: form_factor::Stats,
     pub iterations: u32,
+    /// Over-relaxation the Gauss–Seidel solve used (automatic unless `--omega`; 1 otherwise).
+    pub omega: f64,
     /// Final relative residual ‖E − (I − K)L‖₂ / ‖E‖₂.
     pub residual: f64,
     pub converged: bool,
@@ -89,6 +91,7 @@ impl Report {
             solver_settings: settings.solver,
             form_factors: form_factor::Stats::default(),
             iterations: 0,
+            omega: 1.0,
             residual: 0.0,
             converged: false,
             exposure: 1.0,

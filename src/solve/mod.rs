@@ -79,12 +79,32 @@ pub struct Settings {
     pub max_iterations: u32,
     /// Number of bounces N of the Neumann series.
     pub bounces: u32,
-    /// Over-relaxation factor ω of Gauss–Seidel, in (0, 2); 1 = plain Gauss–Seidel.
-    pub omega: f64,
+    /// Over-relaxation factor ω of Gauss–Seidel, in (0, 2); 1 = plain Gauss–Seidel; `None`
+    /// = automatic ([`auto_omega`]).
+    pub omega: Option<f64>,
 }
 
-/// Default over-relaxation of Gauss–Seidel (see BENCHMARKS.md, "Solvers").
-pub const DEFAULT_OMEGA: f64 = 1.0;
+/// Largest ω the automatic choice takes: at 1.9 SOR diverged on the furnace room at ρ ≥ 0.99
+/// (BENCHMARKS.md, "Solvers"); at 1.7 it converged everywhere measured.
+pub const MAX_AUTO_OMEGA: f64 = 1.7;
+
+/// Automatic over-relaxation: Young's optimum ω = 2 / (1 + √(1 − q²)) for a Jacobi
+/// convergence factor q, with q bounded by max_i ρ_i Σ_j F_ij (the largest channel), capped at
+/// [`MAX_AUTO_OMEGA`] (D. M. Young, *Iterative Solution of Large Linear Systems*, 1971, for
+/// consistently ordered matrices; measured here: Gauss–Seidel's factor per sweep is q², as
+/// that theory says, and the best ω of a scan is within 0.1 of the formula up to the cap).
+/// If it diverges anyway, the solve falls back to ω = 1.
+pub fn auto_omega(system: &System) -> f64 {
+    let sums = system.form_factors.row_sums();
+    let q = system
+        .reflectance
+        .iter()
+        .zip(&sums)
+        .map(|(r, s)| r.iter().cloned().fold(0.0, f64::max) * s)
+        .fold(0.0, f64::max)
+        .min(1.0);
+    (2.0 / (1.0 + (1.0 - q * q).sqrt())).min(MAX_AUTO_OMEGA)
+}
 
 impl Default for Settings {
     fn default() -> Self {
@@ -93,7 +113,7 @@ impl Default for Settings {
             tolerance: 1e-6,
             max_iterations: 10_000,
             bounces: 1,
-            omega: DEFAULT_OMEGA,
+            omega: None,
         }
     }
 }
@@ -110,14 +130,13 @@ impl Settings {
         if self.max_iterations == 0 {
             return Err(Error::usage("--max-iterations", "must be at least 1"));
         }
-        if !(self.omega > 0.0 && self.omega < 2.0) {
-            return Err(Error::usage(
-                "--omega",
-                format!(
-                    "{} is not in (0, 2): over-relaxation diverges outside",
-                    self.omega
-                ),
-            ));
+        if let Some(w) = self.omega {
+            if !(w > 0.0 && w < 2.0) {
+                return Err(Error::usage(
+                    "--omega",
+                    format!("{w} is not in (0, 2): over-relaxation diverges outside"),
+                ));
+            }
         }
         Ok(())
     }
@@ -142,6 +161,8 @@ pub struct Solution {
     pub converged: bool,
     /// True when the scene was grey and solved in one channel.
     pub grey: bool,
+    /// The over-relaxation Gauss–Seidel used (1 for the other methods).
+    pub omega: f64,
 }
 
 /// A system in `C` channels: F shared, ρ and E per channel. The solvers are written once for
@@ -246,6 +267,7 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
             residual_history: vec![],
             converged: true,
             grey: false,
+            omega: 1.0,
         });
     }
     if settings.method != Method::Neumann {
@@ -255,6 +277,22 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
         let (r, e) = (system.reflectance[i], system.emission[i]);
         r[0] == r[1] && r[1] == r[2] && e[0] == e[1] && e[1] == e[2]
     });
+    let mut settings = *settings;
+    let auto = settings.method == Method::GaussSeidel && settings.omega.is_none();
+    if auto {
+        settings.omega = Some(auto_omega(system));
+    }
+    let result = solve_as_given(system, &settings, grey);
+    match result {
+        Err(Error::Numerical(_)) if auto && settings.omega != Some(1.0) => {
+            settings.omega = Some(1.0);
+            solve_as_given(system, &settings, grey)
+        }
+        other => other,
+    }
+}
+
+fn solve_as_given(system: &System, settings: &Settings, grey: bool) -> Result<Solution> {
     if grey {
         let problem = Problem::<1> {
             system,
@@ -262,7 +300,7 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
             e: system.emission.iter().map(|e| [e[0]]).collect(),
         };
         let run = dispatch(&problem, settings)?;
-        Ok(finish(run, |x| [x[0]; 3], true))
+        Ok(finish(run, |x| [x[0]; 3], true, settings))
     } else {
         let problem = Problem::<3> {
             system,
@@ -270,7 +308,7 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
             e: system.emission.to_vec(),
         };
         let run = dispatch(&problem, settings)?;
-        Ok(finish(run, |x| x, false))
+        Ok(finish(run, |x| x, false, settings))
     }
 }
 
@@ -289,21 +327,28 @@ fn dispatch<const C: usize>(problem: &Problem<C>, settings: &Settings) -> Result
             settings.method.name(),
             run.residual,
             run.iterations,
-            if settings.method == Method::GaussSeidel && settings.omega > 1.0 {
-                format!(
-                    "; over-relaxation ω = {} is too large here, try 1",
-                    settings.omega
-                )
-            } else {
-                String::new()
+            match settings.omega {
+                Some(w) if settings.method == Method::GaussSeidel && w > 1.0 => {
+                    format!("; over-relaxation ω = {w} is too large here, try 1")
+                }
+                _ => String::new(),
             }
         )));
     }
     Ok(run)
 }
 
-fn finish<const C: usize>(run: Run<C>, widen: impl Fn([f64; C]) -> Rgb, grey: bool) -> Solution {
+fn finish<const C: usize>(
+    run: Run<C>,
+    widen: impl Fn([f64; C]) -> Rgb,
+    grey: bool,
+    settings: &Settings,
+) -> Solution {
     Solution {
+        omega: match settings.method {
+            Method::GaussSeidel => settings.omega.unwrap_or(1.0),
+            _ => 1.0,
+        },
         radiance: run.radiance.into_iter().map(widen).collect(),
         iterations: run.iterations,
         residual: run.residual,

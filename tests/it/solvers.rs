@@ -19,10 +19,11 @@ fn small_scene() -> radiosity::scene::Scene {
 fn iterative_solvers_match_dense_lu() {
     let scene = small_scene();
     for (method, omega) in [
-        (Method::Jacobi, 1.0),
-        (Method::GaussSeidel, 1.0),
-        (Method::GaussSeidel, 1.3),
-        (Method::Southwell, 1.0),
+        (Method::Jacobi, None),
+        (Method::GaussSeidel, Some(1.0)),
+        (Method::GaussSeidel, Some(1.3)),
+        (Method::GaussSeidel, None),
+        (Method::Southwell, None),
     ] {
         let mut s = settings(0.35, Estimator::Contour, 2, method, 0);
         s.solver.omega = omega;
@@ -39,7 +40,7 @@ fn iterative_solvers_match_dense_lu() {
         let diff = max_rel_diff(&dense, &out.solution.radiance);
         assert!(
             diff < 1e-9,
-            "{method:?} ω = {omega}: max relative difference {diff:.3e} from dense LU"
+            "{method:?} ω = {omega:?}: max relative difference {diff:.3e} from dense LU"
         );
     }
 }
@@ -116,7 +117,7 @@ fn over_relaxation_and_shooting_converge_to_the_same_answer() {
     .iter()
     .map(|&(m, w)| {
         let mut s = settings(0.35, Estimator::Contour, 2, m, 0);
-        s.solver.omega = w;
+        s.solver.omega = Some(w);
         s.solver.tolerance = 1e-10;
         let out = run(&scene, &s);
         assert!(out.solution.converged, "{m:?} {w}");
@@ -261,4 +262,28 @@ fn invalid_solver_settings_are_usage_errors() {
         assert!(matches!(s.validate(), Err(radiosity::Error::Usage { .. })));
     }
     let _ = assert_rel;
+}
+
+#[test]
+fn automatic_over_relaxation_follows_young_and_is_capped() {
+    // q = max ρ·(row sum): ω = 2/(1 + √(1 − q²)), at most 1.7. The small scene's largest ρ is
+    // 0.9 (red channel) with row sums of a closed room (1): ω = 1.39. At ρ = 0.999: capped.
+    let scene = small_scene();
+    let out = run(
+        &scene,
+        &settings(0.35, Estimator::Contour, 2, Method::GaussSeidel, 0),
+    );
+    let expected = 2.0 / (1.0 + (1.0f64 - 0.81).sqrt());
+    assert!(
+        (out.solution.omega - expected).abs() < 1e-3,
+        "{}",
+        out.solution.omega
+    );
+    let mut bright = scene.clone();
+    bright.materials[0].reflectance = [0.999; 3];
+    let mut s = settings(0.35, Estimator::Contour, 2, Method::GaussSeidel, 0);
+    s.solver.tolerance = 1e-6;
+    let out = run(&bright, &s);
+    assert_eq!(out.solution.omega, solve::MAX_AUTO_OMEGA);
+    assert!(out.solution.converged);
 }
