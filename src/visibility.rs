@@ -89,6 +89,13 @@ const BOX_PAD: f32 = 1.0 / 64.0;
 /// the ray. Must exceed obvhs's box-test clamp `t ≥ 1e-4` with margin.
 const ORIGIN_SHIFT: f64 = 1.0 / 1024.0;
 
+/// A point in scene coordinates with its canonical coordinates ([`Visibility::point`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Point {
+    scene: DVec3,
+    canonical: DVec3,
+}
+
 /// The closest intersection found by [`Visibility::closest_hit`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -473,10 +480,26 @@ impl Visibility {
     /// the triangles `p` and `q` lie on do not block, even when not ignored. A degenerate
     /// segment (`p == q`, or shorter than `2e-5 × extent`) is never occluded.
     pub fn occluded(&self, p: DVec3, q: DVec3, ignore: [u32; 2]) -> bool {
-        if !self.may_block(p, q) {
+        self.occluded_points(&self.point(p), &self.point(q), ignore)
+    }
+
+    /// A scene point with its canonical coordinates computed once, for callers that trace many
+    /// segments from the same points ([`Visibility::occluded_points`]).
+    pub fn point(&self, x: DVec3) -> Point {
+        Point {
+            scene: x,
+            canonical: self.to_canonical(x),
+        }
+    }
+
+    /// [`Visibility::occluded`] for points prepared by [`Visibility::point`] (of this
+    /// `Visibility`, or of one it was [`Visibility::restricted`] from: the frame is the same).
+    /// Same answers, bit for bit, without transforming the points again.
+    pub fn occluded_points(&self, p: &Point, q: &Point, ignore: [u32; 2]) -> bool {
+        if !self.may_block(p.scene, q.scene) {
             return false;
         }
-        let Some(ray) = self.segment_ray(p, q) else {
+        let Some(ray) = self.canonical_segment_ray(p, q) else {
             return false;
         };
         let obvhs_ray = ray.obvhs_ray();
@@ -571,10 +594,15 @@ impl Visibility {
     /// The watertight ray for the open segment `p`–`q`, parametrised so that `t ∈ [0, 1]` spans
     /// the segment, or `None` if there is nothing to trace.
     fn segment_ray(&self, p: DVec3, q: DVec3) -> Option<WatertightRay> {
-        if self.tris.is_empty() || p == q {
+        self.canonical_segment_ray(&self.point(p), &self.point(q))
+    }
+
+    /// [`Visibility::segment_ray`] for prepared points.
+    fn canonical_segment_ray(&self, p: &Point, q: &Point) -> Option<WatertightRay> {
+        if self.tris.is_empty() || p.scene == q.scene {
             return None;
         }
-        let (pc, qc) = (self.to_canonical(p), self.to_canonical(q));
+        let (pc, qc) = (p.canonical, q.canonical);
         let d = qc - pc;
         let length = d.length();
         let margin = SEGMENT_EPS.max(self.min_distance / length);

@@ -546,6 +546,8 @@ fn pairwise(
         })
         .collect();
     let points: Vec<DVec3> = samples.iter().map(|s| s.0).collect();
+    // The same points prepared for the visibility queries (canonical frame computed once).
+    let prepared: Vec<crate::visibility::Point> = points.par_iter().map(|&x| vis.point(x)).collect();
     let point_normals: Vec<DVec3> = samples.iter().map(|s| s.1).collect();
     // Sample points buried in contact geometry (the floor under a block, the ceiling behind a
     // light) see nothing and are seen by nothing; see [`is_hidden`].
@@ -585,6 +587,16 @@ fn pairwise(
             .collect();
         stats.rays_cast += (n * lattice.len()) as u64;
     }
+    let old_t: Option<CsMatI<f32, u32>> = reuse.map(|r| r.matrix.transpose_view().to_csr());
+    // Each patch's geometry in one contiguous record: the inner loop streams through it.
+    let geometry: Vec<PatchGeometry> = (0..n)
+        .map(|i| PatchGeometry {
+            corners: patches.corners(i),
+            normal: patches.normal[i],
+            centroid: patches.centroid[i],
+            area: patches.area[i],
+        })
+        .collect();
     let rays = AtomicU64::new(0);
     let culled = AtomicU64::new(0);
     let skipped = AtomicU64::new(0);
@@ -603,10 +615,19 @@ fn pairwise(
             let mut local_culled = 0u64;
             let mut local_skipped = 0u64;
             let mut local_reused = 0u64;
+            // Row i of the earlier F and of its transpose (column i), walked in step with j.
+            let mut old_rows = reuse.and_then(|r| {
+                let oi = r.old_of_new[i];
+                (oi != crate::visibility::NONE).then(|| OldRows::new(r, old_t.as_ref().expect("with reuse"), oi))
+            });
             let pi = &points[i * ns..(i + 1) * ns];
             let mi = &point_normals[i * ns..(i + 1) * ns];
-            let ti = patches.corners(i);
-            let (ni, ci, ai) = (patches.normal[i], patches.centroid[i], patches.area[i]);
+            let PatchGeometry {
+                corners: ti,
+                normal: ni,
+                centroid: ci,
+                area: ai,
+            } = geometry[i];
             let scale_i = ai.sqrt();
             let mut vis_k = vec![false; ns];
             let mut valid_k = vec![false; ns];
@@ -616,34 +637,28 @@ fn pairwise(
                     local_skipped += 1;
                     continue;
                 }
-                if let Some(r) = reuse {
-                    let (oi, oj) = (r.old_of_new[i], r.old_of_new[j]);
-                    if oi != crate::visibility::NONE && oj != crate::visibility::NONE {
+                if let (Some(r), Some(rows)) = (reuse, old_rows.as_mut()) {
+                    let oj = r.old_of_new[j];
+                    if oj != crate::visibility::NONE {
                         // Both unchanged: the earlier entries, back to this function's
                         // unscaled form (rows are divided by the visible weight below).
-                        let old = |a: u32, b: u32| {
-                            let row = r.matrix.outer_view(a as usize).expect("row in range");
-                            let k = row.indices().binary_search(&b).ok();
-                            k.map_or(0.0, |k| row.data()[k] as f64)
-                        };
-                        if need_ij {
-                            let f = old(oi, oj) * quadrature_visible[i];
-                            if f > 0.0 {
-                                upper.push((j as u32, f as f32));
-                            }
+                        let (fij, fji) = rows.next(oj);
+                        if need_ij && fij > 0.0 {
+                            upper.push((j as u32, (fij * quadrature_visible[i]) as f32));
                         }
-                        if need_ji {
-                            let f = old(oj, oi) * quadrature_visible[j];
-                            if f > 0.0 {
-                                lower.push((j as u32, f as f32));
-                            }
+                        if need_ji && fji > 0.0 {
+                            lower.push((j as u32, (fji * quadrature_visible[j]) as f32));
                         }
                         local_reused += 1;
                         continue;
                     }
                 }
-                let tj = patches.corners(j);
-                let (nj, cj, aj) = (patches.normal[j], patches.centroid[j], patches.area[j]);
+                let PatchGeometry {
+                    corners: tj,
+                    normal: nj,
+                    centroid: cj,
+                    area: aj,
+                } = geometry[j];
                 // Cull: j entirely on or behind i's plane, or i behind j's: no exchange.
                 let tol = 1e-9 * (scale_i + aj.sqrt());
                 if settings.cull_behind
@@ -679,7 +694,11 @@ fn pairwise(
                         n_valid += 1;
                         vis_k[k] = convex || {
                             local_rays += 1;
-                            !blockers.occluded(x, y, [i as u32, j as u32])
+                            !blockers.occluded_points(
+                                &prepared[i * ns + k],
+                                &prepared[j * ns + ky],
+                                [i as u32, j as u32],
+                            )
                         };
                         n_visible += vis_k[k] as u32;
                     }
@@ -754,6 +773,58 @@ fn pairwise(
     // rest of the scene sees (hidden-area elimination).
     scale_rows(&mut matrix, &quadrature_visible);
     Ok(matrix)
+}
+
+/// A patch's geometry as the pair loop reads it.
+#[derive(Clone, Copy)]
+struct PatchGeometry {
+    corners: [DVec3; 3],
+    normal: DVec3,
+    centroid: DVec3,
+    area: f64,
+}
+
+/// Row `oi` of an earlier F and of its transpose, read at increasing old columns `oj`
+/// (unchanged patches keep their order through refinement, so a cursor moves forward; a step
+/// back, should one happen, restarts with a binary search).
+struct OldRows<'a> {
+    row: (&'a [u32], &'a [f32]),
+    col: (&'a [u32], &'a [f32]),
+    at: (usize, usize),
+}
+
+impl<'a> OldRows<'a> {
+    fn new(r: &'a Reuse, t: &'a CsMatI<f32, u32>, oi: u32) -> Self {
+        let a = r.matrix.outer_view(oi as usize).expect("row in range");
+        let b = t.outer_view(oi as usize).expect("row in range");
+        OldRows {
+            row: a.into_raw_storage(),
+            col: b.into_raw_storage(),
+            at: (0, 0),
+        }
+    }
+
+    /// (F_{oi,oj}, F_{oj,oi}) of the earlier F, 0 where absent.
+    fn next(&mut self, oj: u32) -> (f64, f64) {
+        fn seek(entries: (&[u32], &[f32]), at: &mut usize, oj: u32) -> f64 {
+            let idx = entries.0;
+            if *at > 0 && idx[*at - 1] >= oj {
+                *at = idx.partition_point(|&c| c < oj);
+            }
+            while *at < idx.len() && idx[*at] < oj {
+                *at += 1;
+            }
+            if *at < idx.len() && idx[*at] == oj {
+                entries.1[*at] as f64
+            } else {
+                0.0
+            }
+        }
+        (
+            seek(self.row, &mut self.at.0, oj),
+            seek(self.col, &mut self.at.1, oj),
+        )
+    }
 }
 
 /// What task i produces: (column j, F_ij) for j > i, and (row j, F_ji) for j > i.
