@@ -70,6 +70,7 @@ pub fn key(patches: &Patches, settings: &form_factor::Settings) -> String {
     h.word(settings.skip_hull as u64);
     h.word(settings.normalise_closed as u64);
     h.word(settings.exact_direct as u64);
+    h.word(settings.far_field as u64);
     h.hex()
 }
 

@@ -603,7 +603,7 @@ struct ChildResult {
     iterations: u32,
 }
 
-/// `estimator:max_edge:rays:refine`, e.g. `contour:60:0:2`.
+/// `estimator:max_edge:rays:refine[:threshold]`, e.g. `contour:60:0:2`.
 fn child(spec: &str) -> Result<()> {
     let parts: Vec<&str> = spec.split(':').collect();
     let estimator = match parts[0] {
@@ -614,6 +614,9 @@ fn child(spec: &str) -> Result<()> {
     s.form_factors.estimator = estimator;
     s.form_factors.rays = parts[2].parse::<u32>()?.max(1);
     s.refine_rounds = parts[3].parse()?;
+    if let Some(th) = parts.get(4) {
+        s.refine_threshold = th.parse()?;
+    }
     let scene = cornell()?;
     let (out, total) = run(&scene, &s)?;
     let r = &out.report;
@@ -805,8 +808,8 @@ fn scale(args: &Args) -> Result<String> {
     // The targets.
     let targets: Vec<ChildResult> = [
         "contour:60:0:2",
-        "contour:45:0:1",
-        "hemisphere:45:1024:2",
+        "contour:60:0:3:0.2",
+        "hemisphere:30:1024:0",
         if args.quick {
             "hemisphere:22:256:0"
         } else {
