@@ -216,6 +216,8 @@ fn settings(
 ) -> pipeline::Settings {
     pipeline::Settings {
         max_edge: Some(max_edge),
+        // Uniform meshes: the sweep studies resolution, so refinement must not move it.
+        refine_rounds: 0,
         // The whole F: several runs solve again on one run's F (`resolve`) with another
         // solver or reflectance, which may read entries a one-bounce solve would skip.
         form_factors: form_factor::Settings {
@@ -457,82 +459,65 @@ fn plates(plan: &Plan, results: &mut Results) -> Result<()> {
     Ok(())
 }
 
-/// Area-weighted mean radiance per group (material or source triangle) of the patches.
-fn group_means(out: &Outcome, group: impl Fn(usize) -> u32) -> BTreeMap<u32, [f64; 3]> {
-    let mut sums: BTreeMap<u32, ([f64; 3], f64)> = BTreeMap::new();
-    for i in 0..out.patches.len() {
-        let a = out.patches.area[i];
-        // Mean over the surface's whole area: the buried part of a patch (under a block,
-        // behind the light) is dark, and the patch's radiance is that of its visible part.
-        let v = out.form_factors.visible_fraction[i];
-        let e = sums.entry(group(i)).or_default();
-        for c in 0..3 {
-            e.0[c] += a * v * out.solution.radiance[i][c];
-        }
-        e.1 += a;
-    }
-    sums.into_iter()
-        .map(|(k, (s, a))| (k, [s[0] / a, s[1] / a, s[2] / a]))
-        .collect()
-}
-
-/// max over groups and channels of |m − m_ref| / m_ref (channels where m_ref = 0 skipped).
-fn max_group_error(got: &BTreeMap<u32, [f64; 3]>, reference: &BTreeMap<u32, [f64; 3]>) -> f64 {
-    let mut worst: f64 = 0.0;
-    for (k, r) in reference {
-        let Some(g) = got.get(k) else { continue };
-        for c in 0..3 {
-            if r[c] > 0.0 {
-                worst = worst.max((g[c] - r[c]).abs() / r[c]);
-            }
-        }
-    }
-    worst
-}
-
-/// Cornell box against a finer run (contour, default samples).
 fn cornell(plan: &Plan, results: &mut Results) -> Result<()> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
     let scene = Scene::load(&path)?;
     let solver = gauss_seidel(SWEEP_TOLERANCE);
-    let reference_ff = form_factor::Settings::default();
-    eprintln!(
-        "cornell_box reference: max-edge {} ({} samples)…",
+    let traced = common::cornell_reference();
+    if traced.is_none() {
+        eprintln!("warning: docs/bench/cornell_reference.csv missing: no path-traced errors");
+    }
+    // Self-convergence: a much finer run (default estimator, two refinement rounds).
+    let mut fine = settings(
         plan.cornell_reference_edge,
-        estimator_name(reference_ff.estimator)
+        form_factor::Settings::default(),
+        solver,
     );
-    let (out, mut r) = run(
-        &scene,
-        "cornell_box",
-        &settings(plan.cornell_reference_edge, reference_ff, solver),
-    )?;
-    let by_material = group_means(&out, |i| out.patches.material[i]);
-    let by_surface = group_means(&out, |i| out.patches.source_triangle[i]);
-    r.errors = vec![("reference".into(), f64::NAN)];
+    fine.refine_rounds = 2;
+    eprintln!(
+        "cornell_box self-convergence reference: max-edge {} + 2 refinement rounds…",
+        plan.cornell_reference_edge
+    );
+    let (out, mut r) = run(&scene, "cornell_box", &fine)?;
+    let finer = common::surface_means(&scene, &out);
+    r.estimator = format!("{} (refined)", r.estimator);
+    r.errors = match &traced {
+        Some(t) => vec![(
+            "max_surface_vs_path_traced".into(),
+            common::max_relative_difference(&finer, t),
+        )],
+        None => vec![],
+    };
     push(results, r);
     drop(out);
+    let mut measure = |s: &pipeline::Settings, label: &str| -> Result<()> {
+        let (out, mut r) = run(&scene, "cornell_box", s)?;
+        let means = common::surface_means(&scene, &out);
+        if !label.is_empty() {
+            r.estimator = format!("{} ({label})", r.estimator);
+        }
+        r.errors = vec![(
+            "max_surface_vs_finer".into(),
+            common::max_relative_difference(&means, &finer),
+        )];
+        if let Some(t) = &traced {
+            r.errors.push((
+                "max_surface_vs_path_traced".into(),
+                common::max_relative_difference(&means, t),
+            ));
+        }
+        push(results, r);
+        Ok(())
+    };
     for &edge in &plan.cornell_edges {
         for ff in estimator_settings() {
-            let (out, mut r) = run(&scene, "cornell_box", &settings(edge, ff, solver))?;
-            r.errors = vec![
-                (
-                    "max_material_rel".into(),
-                    max_group_error(
-                        &group_means(&out, |i| out.patches.material[i]),
-                        &by_material,
-                    ),
-                ),
-                (
-                    "max_surface_rel".into(),
-                    max_group_error(
-                        &group_means(&out, |i| out.patches.source_triangle[i]),
-                        &by_surface,
-                    ),
-                ),
-            ];
-            push(results, r);
+            measure(&settings(edge, ff, solver), "")?;
         }
     }
+    // The defaults: two adaptive refinement rounds from diagonal/16.
+    let mut defaults = settings(60.0, form_factor::Settings::default(), solver);
+    defaults.refine_rounds = pipeline::Settings::default().refine_rounds;
+    measure(&defaults, "defaults: refined")?;
     Ok(())
 }
 

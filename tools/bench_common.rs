@@ -9,6 +9,9 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context, Result};
 use plotters::prelude::*;
+use radiosity::montecarlo;
+use radiosity::pipeline::Outcome;
+use radiosity::scene::Scene;
 
 /// Fonts tried, in order, for chart text (Debian/Ubuntu, Fedora, Arch, macOS, Windows).
 pub const FONT_PATHS: &[&str] = &[
@@ -284,6 +287,55 @@ pub fn chart(
     }
     image::save_buffer(path, &buf, CHART.0, CHART.1, image::ExtendedColorType::Rgb8)
         .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Visible-area mean radiance per surface ([`montecarlo::surfaces`]) of a solved scene.
+pub fn surface_means(scene: &Scene, out: &Outcome) -> Vec<[f64; 3]> {
+    let (labels, count) = montecarlo::surfaces(scene);
+    let p = &out.patches;
+    let mut sums = vec![([0.0; 3], 0.0); count];
+    for i in 0..p.len() {
+        let k = labels[p.source_triangle[i] as usize] as usize;
+        let w = p.area[i] * out.form_factors.visible_fraction[i];
+        for c in 0..3 {
+            sums[k].0[c] += w * out.solution.radiance[i][c];
+        }
+        sums[k].1 += w;
+    }
+    sums.iter()
+        .map(|(s, a)| if *a > 0.0 { s.map(|x| x / a) } else { [0.0; 3] })
+        .collect()
+}
+
+/// The path-traced per-surface visible means of the Cornell box
+/// (docs/bench/cornell_reference.csv, made by `cargo run --release --example scale -- reference`).
+pub fn cornell_reference() -> Option<Vec<[f64; 3]>> {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/cornell_reference.csv"),
+    )
+    .ok()?;
+    text.lines()
+        .skip(1)
+        .map(|line| {
+            let f: Vec<&str> = line.split(',').collect();
+            Some([
+                f.get(10)?.parse().ok()?,
+                f.get(11)?.parse().ok()?,
+                f.get(12)?.parse().ok()?,
+            ])
+        })
+        .collect()
+}
+
+/// Largest relative difference over surfaces and channels (channels where `reference` is 0
+/// are skipped).
+pub fn max_relative_difference(got: &[[f64; 3]], reference: &[[f64; 3]]) -> f64 {
+    got.iter()
+        .zip(reference)
+        .flat_map(|(g, r)| (0..3).map(move |c| (g[c], r[c])))
+        .filter(|(_, r)| *r > 0.0)
+        .map(|(g, r)| (g - r).abs() / r)
+        .fold(0.0, f64::max)
 }
 
 #[cfg(test)]

@@ -40,7 +40,7 @@ use radiosity::solve::{self, Method};
 use radiosity::visibility::Visibility;
 use radiosity::{montecarlo, scenes};
 
-use common::{chart, fit_order, load_font, machine, utc_date, Curve};
+use common::{chart, fit_order, load_font, machine, surface_means, utc_date, Curve};
 
 struct Args {
     sections: Vec<String>,
@@ -641,60 +641,19 @@ fn child(spec: &str) -> Result<()> {
     Ok(())
 }
 
-/// Visible-area mean radiance per surface ([`montecarlo::surfaces`]) of a Cornell outcome.
-fn surface_means(scene: &Scene, out: &Outcome) -> Vec<[f64; 3]> {
-    let (labels, count) = montecarlo::surfaces(scene);
-    let p = &out.patches;
-    let mut sums = vec![([0.0; 3], 0.0); count];
-    for i in 0..p.len() {
-        let k = labels[p.source_triangle[i] as usize] as usize;
-        let w = p.area[i] * out.form_factors.visible_fraction[i];
-        for c in 0..3 {
-            sums[k].0[c] += w * out.solution.radiance[i][c];
-        }
-        sums[k].1 += w;
-    }
-    sums.iter()
-        .map(|(s, a)| if *a > 0.0 { s.map(|x| x / a) } else { [0.0; 3] })
-        .collect()
-}
-
 /// Largest relative difference of two outcomes' per-surface means.
 fn surface_difference(scene: &Scene, a: &Outcome, b: &Outcome) -> f64 {
-    let (ma, mb) = (surface_means(scene, a), surface_means(scene, b));
-    ma.iter()
-        .zip(&mb)
-        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs() / y[c].abs().max(1e-30)))
-        .filter(|d| d.is_finite())
-        .fold(0.0, f64::max)
+    common::max_relative_difference(&surface_means(scene, a), &surface_means(scene, b))
 }
 
 /// Largest relative difference, over surfaces and channels, of the visible-area mean radiance
 /// from the path-traced reference in docs/bench/cornell_reference.csv.
 fn surface_error(scene: &Scene, out: &Outcome) -> Option<f64> {
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/cornell_reference.csv"),
-    )
-    .ok()?;
-    let count = montecarlo::surfaces(scene).1;
-    let mut reference = vec![[0.0; 3]; count];
-    for line in text.lines().skip(1) {
-        let f: Vec<&str> = line.split(',').collect();
-        let k: usize = f[0].parse().ok()?;
-        for c in 0..3 {
-            reference[k][c] = f[10 + c].parse().ok()?;
-        }
-    }
-    let got = surface_means(scene, out);
-    let mut worst: f64 = 0.0;
-    for (r, g) in reference.iter().zip(&got) {
-        for (&want, &have) in r.iter().zip(g) {
-            if want > 0.0 {
-                worst = worst.max((have - want).abs() / want);
-            }
-        }
-    }
-    Some(worst)
+    let reference = common::cornell_reference()?;
+    Some(common::max_relative_difference(
+        &surface_means(scene, out),
+        &reference,
+    ))
 }
 
 fn spawn(spec: &str) -> Result<ChildResult> {
