@@ -278,26 +278,11 @@ impl Visibility {
             &mut Duration::default(),
         );
         // Reorder once so the primitive id a traversal reports indexes `tris` directly.
-        self.tris = bvh
-            .primitive_indices
-            .iter()
-            .map(|&k| tris[k as usize])
-            .collect();
-        self.ids = bvh
-            .primitive_indices
-            .iter()
-            .map(|&k| ids[k as usize])
-            .collect();
-        self.twins = bvh
-            .primitive_indices
-            .iter()
-            .map(|&k| twins[k as usize])
-            .collect();
-        self.twin_corners = bvh
-            .primitive_indices
-            .iter()
-            .map(|&k| twin_corners[k as usize])
-            .collect();
+        let order = &bvh.primitive_indices;
+        self.tris = permute(order, &tris);
+        self.ids = permute(order, &ids);
+        self.twins = permute(order, &twins);
+        self.twin_corners = permute(order, &twin_corners);
         debug_assert_eq!(
             self.tris.len(),
             tris.len(),
@@ -690,6 +675,11 @@ fn pair_twins(tris: &[[Vec3A; 3]]) -> Vec<Option<(usize, [u8; 3])>> {
         }
     }
     pairs
+}
+
+/// `v` in the order `order` (element k of the result is `v[order[k]]`).
+fn permute<T: Copy>(order: &[u32], v: &[T]) -> Vec<T> {
+    order.iter().map(|&k| v[k as usize]).collect()
 }
 
 /// Canonical coordinates are multiples of this (2⁻²⁰ canonical units): far below `f32`

@@ -761,21 +761,21 @@ fn pairwise(
                             // over the source as well by the same Gauss rule: a degree-2 rule
                             // on a smooth kernel, error O((h/r)⁴) relative (< 1e-3 beyond
                             // [`FAR_FIELD_FACTOR`]), at a third of the contour's cost.
-                            if !hx {
+                            // A_src Σ_q w_q G(p, m, y_q, n_src): the point's form factor to the
+                            // source by the Gauss rule.
+                            let gauss = |p, m, source: &[DVec3], n_src, a_src: f64| {
                                 let s: f64 = (0..ns)
                                     .map(|q| {
-                                        weights[q] * kernel::point_to_point(x, mi[k], pj[q], nj)
+                                        weights[q] * kernel::point_to_point(p, m, source[q], n_src)
                                     })
                                     .sum();
-                                fij += weights[k] * aj * s * v;
+                                a_src * s
+                            };
+                            if !hx {
+                                fij += weights[k] * gauss(x, mi[k], pj, nj, aj) * v;
                             }
                             if !hy {
-                                let s: f64 = (0..ns)
-                                    .map(|q| {
-                                        weights[q] * kernel::point_to_point(y, mj[ky], pi[q], ni)
-                                    })
-                                    .sum();
-                                fji += weights[ky] * ai * s * v;
+                                fji += weights[ky] * gauss(y, mj[ky], pi, ni, ai) * v;
                             }
                         }
                         _ => {
