@@ -78,10 +78,11 @@ pub struct Settings {
     pub samples: u32,
     /// Rays per patch (hemisphere); ≥ 1.
     pub rays: u32,
-    /// Enforce reciprocity afterwards: F_ij ← (A_i F_ij + A_j F_ji) / (2 A_i). This averages
-    /// the two independent estimates of each exchange A_i F_ij = A_j F_ji, halving their
-    /// variance, but a row then sums to 1 only on average (rows of small patches next to large
-    /// ones can exceed 1 by the estimators' error), so it is off by default.
+    /// Enforce reciprocity afterwards ([`symmetric_part`]): the two estimates of each exchange
+    /// A_i F_ij = A_j F_ji are averaged (halving their variance) and the result rescaled so
+    /// that every row keeps its sum. Off by default: the averaging moves light between
+    /// neighbouring patches by the estimators' reciprocity error (up to ~10 % on small patches
+    /// next to contact lines), which the unsymmetrised F does not.
     pub reciprocity: bool,
     /// Seed of every random choice; the same seed gives the same F for any thread count.
     pub seed: u64,
