@@ -189,19 +189,7 @@ impl Visibility {
             hi = hi.max(*v);
         }
         let extent = (hi - lo).max_element();
-        let mut vis = Visibility {
-            bvh: CwBvh::default(),
-            tris: Vec::new(),
-            ids: Vec::new(),
-            twins: Vec::new(),
-            twin_corners: Vec::new(),
-            twin_of: Vec::new(),
-            len: triangles.len(),
-            centre: DVec3::ZERO,
-            scale: 1.0,
-            min_distance: 0.0,
-            clusters: Vec::new(),
-        };
+        let mut vis = Visibility::untraced(triangles.len(), DVec3::ZERO, 1.0, 0.0);
         if !(extent.is_finite() && extent > 0.0) {
             // Empty, or every finite triangle collapses to one point: nothing can be hit.
             return vis;
@@ -223,6 +211,24 @@ impl Visibility {
         }
         vis.set_triangles(tris, ids);
         vis
+    }
+
+    /// A `Visibility` of `len` input triangles in the given frame with nothing traced yet
+    /// ([`Visibility::set_triangles`] fills it).
+    fn untraced(len: usize, centre: DVec3, scale: f64, min_distance: f64) -> Visibility {
+        Visibility {
+            bvh: CwBvh::default(),
+            tris: Vec::new(),
+            ids: Vec::new(),
+            twins: Vec::new(),
+            twin_corners: Vec::new(),
+            twin_of: Vec::new(),
+            len,
+            centre,
+            scale,
+            min_distance,
+            clusters: Vec::new(),
+        }
     }
 
     /// Build the BVH over canonical triangles `tris` (input ids `ids`) and store both in BVH
@@ -376,19 +382,7 @@ impl Visibility {
     /// If `keep.len()` differs from [`Visibility::len`].
     pub fn restricted(&self, keep: &[bool]) -> Visibility {
         assert_eq!(keep.len(), self.len, "one flag per triangle");
-        let mut out = Visibility {
-            bvh: CwBvh::default(),
-            tris: Vec::new(),
-            ids: Vec::new(),
-            twins: Vec::new(),
-            twin_corners: Vec::new(),
-            twin_of: Vec::new(),
-            len: self.len,
-            centre: self.centre,
-            scale: self.scale,
-            min_distance: self.min_distance,
-            clusters: Vec::new(),
-        };
+        let mut out = Visibility::untraced(self.len, self.centre, self.scale, self.min_distance);
         // Every kept triangle, a twin pair's back rebuilt from its corners, in input order so
         // that pairs form again exactly as in `build`.
         let mut kept: Vec<(u32, [Vec3A; 3])> = Vec::new();
