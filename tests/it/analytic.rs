@@ -189,3 +189,45 @@ fn integrating_sphere_converges_at_second_order_with_smooth_normals() {
     let flat = sphere_errors(3, 0.0).0;
     assert!(flat / fine >= 2.0, "flat {flat:.3e} vs smooth {fine:.3e}");
 }
+
+#[test]
+fn cornell_box_defaults_meet_the_accuracy_target_against_the_path_tracer() {
+    // Issue target: the mean radiance of every surface within 0.5 % of the converged value
+    // at the default settings. The converged value is the independent path-traced reference
+    // (docs/bench/cornell_reference.csv: 16M paths per surface, standard error ≤ 1.1e-3 on
+    // the dimmest surface, ≤ 3e-4 on most), compared over each surface's visible part, every
+    // RGB channel. Measured 4.7e-3 (adaptive refinement; 2.5e-2 on the uniform mesh).
+    use radiosity::{montecarlo, pipeline};
+    let scene =
+        radiosity::scene::Scene::load(&crate::support::meshes().join("cornell_box.obj")).unwrap();
+    let out = crate::support::run(&scene, &pipeline::Settings::default());
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/cornell_reference.csv"),
+    )
+    .unwrap();
+    let (labels, count) = montecarlo::surfaces(&scene);
+    let reference: Vec<[f64; 3]> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<f64> = l.split(',').skip(2).map(|x| x.parse().unwrap()).collect();
+            [f[8], f[9], f[10]]
+        })
+        .collect();
+    assert_eq!(reference.len(), count);
+    let p = &out.patches;
+    let mut sums = vec![([0.0; 3], 0.0); count];
+    for i in 0..p.len() {
+        let k = labels[p.source_triangle[i] as usize] as usize;
+        let w = p.area[i] * out.form_factors.visible_fraction[i];
+        for c in 0..3 {
+            sums[k].0[c] += w * out.solution.radiance[i][c];
+        }
+        sums[k].1 += w;
+    }
+    for (k, ((s, w), r)) in sums.iter().zip(&reference).enumerate() {
+        for c in 0..3 {
+            crate::support::assert_rel(&format!("surface {k} channel {c}"), s[c] / w, r[c], 5e-3);
+        }
+    }
+}
