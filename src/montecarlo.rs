@@ -88,6 +88,53 @@ pub fn surfaces(scene: &Scene) -> (Vec<u32>, usize) {
     (labels, planes.len())
 }
 
+/// The same per-surface visible-area means from a radiosity solution, for comparison with
+/// [`surface_means`]: Σ A_i v_i L_i / Σ A_i v_i over the patches of each surface (v_i the
+/// patch's visible fraction), RGB. Surfaces with no visible area get 0.
+pub fn solution_means(
+    scene: &Scene,
+    patches: &crate::patch::Patches,
+    radiance: &[Rgb],
+    visible_fraction: &[f64],
+) -> Vec<Rgb> {
+    let (labels, count) = surfaces(scene);
+    let mut sums = vec![([0.0; 3], 0.0); count];
+    for i in 0..patches.len() {
+        let k = labels[patches.source_triangle[i] as usize] as usize;
+        let w = patches.area[i] * visible_fraction[i];
+        for (s, l) in sums[k].0.iter_mut().zip(radiance[i]) {
+            *s += w * l;
+        }
+        sums[k].1 += w;
+    }
+    sums.iter()
+        .map(|(s, a)| if *a > 0.0 { s.map(|x| x / a) } else { [0.0; 3] })
+        .collect()
+}
+
+/// The visible means of a reference written by the scale harness
+/// (`cargo run --release --example scale -- reference`: columns surface, material, area,
+/// visible_fraction, mean ×3, standard error ×3, visible mean ×3). Errors name the file and
+/// line.
+pub fn read_reference(path: &std::path::Path) -> crate::Result<Vec<Rgb>> {
+    let text = std::fs::read_to_string(path).map_err(|e| crate::Error::io(path, e))?;
+    text.lines()
+        .enumerate()
+        .skip(1)
+        .map(|(n, line)| {
+            let f: Vec<&str> = line.split(',').collect();
+            let value = |k: usize| f.get(k).and_then(|x| x.parse::<f64>().ok());
+            match (value(10), value(11), value(12)) {
+                (Some(r), Some(g), Some(b)) => Ok([r, g, b]),
+                _ => Err(crate::Error::Input {
+                    path: path.to_path_buf(),
+                    message: format!("line {}: expected 13 comma-separated numbers", n + 1),
+                }),
+            }
+        })
+        .collect()
+}
+
 /// Paths per parallel task (the unit of the fixed-order reduction).
 const CHUNK: u32 = 1024;
 

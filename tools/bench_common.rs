@@ -289,42 +289,23 @@ pub fn chart(
         .with_context(|| format!("writing {}", path.display()))
 }
 
-/// Visible-area mean radiance per surface ([`montecarlo::surfaces`]) of a solved scene.
+/// Visible-area mean radiance per surface ([`montecarlo::solution_means`]) of a solved scene.
 pub fn surface_means(scene: &Scene, out: &Outcome) -> Vec<[f64; 3]> {
-    let (labels, count) = montecarlo::surfaces(scene);
-    let p = &out.patches;
-    let mut sums = vec![([0.0; 3], 0.0); count];
-    for i in 0..p.len() {
-        let k = labels[p.source_triangle[i] as usize] as usize;
-        let w = p.area[i] * out.form_factors.visible_fraction[i];
-        for c in 0..3 {
-            sums[k].0[c] += w * out.solution.radiance[i][c];
-        }
-        sums[k].1 += w;
-    }
-    sums.iter()
-        .map(|(s, a)| if *a > 0.0 { s.map(|x| x / a) } else { [0.0; 3] })
-        .collect()
+    montecarlo::solution_means(
+        scene,
+        &out.patches,
+        &out.solution.radiance,
+        &out.form_factors.visible_fraction,
+    )
 }
 
 /// The path-traced per-surface visible means of the Cornell box
 /// (docs/bench/cornell_reference.csv, made by `cargo run --release --example scale -- reference`).
 pub fn cornell_reference() -> Option<Vec<[f64; 3]>> {
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/cornell_reference.csv"),
+    montecarlo::read_reference(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/cornell_reference.csv"),
     )
-    .ok()?;
-    text.lines()
-        .skip(1)
-        .map(|line| {
-            let f: Vec<&str> = line.split(',').collect();
-            Some([
-                f.get(10)?.parse().ok()?,
-                f.get(11)?.parse().ok()?,
-                f.get(12)?.parse().ok()?,
-            ])
-        })
-        .collect()
+    .ok()
 }
 
 /// Largest relative difference over surfaces and channels (channels where `reference` is 0
