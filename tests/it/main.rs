@@ -6,6 +6,7 @@ mod analytic;
 mod camera;
 mod cli;
 mod form_factors;
+mod golden;
 mod properties;
 mod robust;
 mod solvers;
