@@ -8,14 +8,15 @@
 use std::time::Instant;
 
 use radiosity::form_factor::{self, Estimator, FormFactors};
-use radiosity::matrix::System;
+use radiosity::mesh;
+use radiosity::solve::System;
 use radiosity::solve::{self, Method, Solution};
+use radiosity::validation::{closed_forms, scenes};
 use radiosity::visibility::Visibility;
-use radiosity::{patch, reference, scenes};
 
 fn solve_all(rho: f64, max_edge: f64) -> radiosity::Result<Vec<(Method, Solution, f64, f64)>> {
     let scene = scenes::furnace_room(rho, 1.0)?;
-    let patches = patch::subdivide(&scene, max_edge, patch::DEFAULT_CREASE_DEGREES)?;
+    let patches = mesh::subdivide(&scene, max_edge, mesh::DEFAULT_CREASE_DEGREES)?;
     let tris: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
     // Hemisphere shooting: exact row sums in a closed room, so every solver's error is its own.
     let settings = form_factor::Settings {
@@ -34,7 +35,7 @@ fn solve_all(rho: f64, max_edge: f64) -> radiosity::Result<Vec<(Method, Solution
         reflectance: &patches.reflectance,
         emission: &patches.emission,
     };
-    let expected = reference::furnace_radiance(rho, 1.0);
+    let expected = closed_forms::furnace_radiance(rho, 1.0);
     let mut rows = Vec::new();
     for method in [
         Method::Jacobi,

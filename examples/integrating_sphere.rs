@@ -2,11 +2,11 @@
 //!
 //! `cargo run --release --example integrating_sphere`: a 1280-face sphere seen from inside
 //! with an emitting cap; one bounce must give ρ·mean(Le) on every wall, all bounces
-//! Le + ρ/(1 − ρ)·mean(Le) (see `radiosity::reference::sphere_wall_radiance`).
+//! Le + ρ/(1 − ρ)·mean(Le) (see `radiosity::validation::closed_forms::sphere_wall_radiance`).
 
 use radiosity::pipeline::{solve_scene, Settings};
 use radiosity::solve::Method;
-use radiosity::{reference, scenes};
+use radiosity::validation::{closed_forms, scenes};
 
 /// (expected, mean wall radiance, mean relative error over the wall patches).
 fn check(level: u32, bounces: Option<u32>) -> radiosity::Result<(f64, f64, f64)> {
@@ -26,7 +26,7 @@ fn check(level: u32, bounces: Option<u32>) -> radiosity::Result<(f64, f64, f64)>
         .map(|i| p.area[i] * p.emission[i][0])
         .sum::<f64>()
         / p.total_area();
-    let expected = reference::sphere_wall_radiance(rho, mean_le, bounces);
+    let expected = closed_forms::sphere_wall_radiance(rho, mean_le, bounces);
     let walls: Vec<usize> = (0..p.len()).filter(|&i| p.emission[i][0] == 0.0).collect();
     let area: f64 = walls.iter().map(|&i| p.area[i]).sum();
     let l = |i: usize| out.solution.radiance[i][0];

@@ -3,8 +3,8 @@
 //! `cargo run --release --example render_picture -- [OUTPUT.png]`: bakes the Cornell box and
 //! renders it from its published camera (278, 273, −800), looking +z, 39.3° field of view.
 
-use radiosity::export::png::{self, Camera, View};
 use radiosity::pipeline::{solve_scene, Settings};
+use radiosity::render::{self, Camera, View};
 use radiosity::scene::Scene;
 
 fn picture(max_edge: Option<f64>, size: u32) -> radiosity::Result<image::RgbImage> {
@@ -24,16 +24,16 @@ fn picture(max_edge: Option<f64>, size: u32) -> radiosity::Result<image::RgbImag
         spp: 2,
         flat: false,
         false_colour: false,
-        exposure: radiosity::export::auto_exposure(&out.baked),
+        exposure: out.baked.auto_exposure(),
     };
-    Ok(png::render(&out.baked, &view))
+    Ok(render::render(&out.baked, &view))
 }
 
 fn main() -> radiosity::Result<()> {
     let output = std::env::args()
         .nth(1)
         .unwrap_or_else(|| "cornell.png".into());
-    png::save(output.as_ref(), &picture(None, 512)?)?;
+    render::save(output.as_ref(), &picture(None, 512)?)?;
     println!("wrote {output}");
     Ok(())
 }

@@ -9,10 +9,15 @@
 //! the area-weighted mean radiance of its patches, L_v = Σ A_p L_p / Σ A_p. So the red wall does
 //! not bleed into the floor's corner vertices, and a sphere stays smooth.
 
-use crate::export::BakedMesh;
-use crate::matrix::Rgb;
-pub use crate::patch::DEFAULT_CREASE_DEGREES;
-use crate::patch::{groups, Patches, VertexFaces};
+//!
+//! It also owns the hand-off type [`BakedMesh`] (what the writers in [`crate::io`] and the
+//! rasteriser in [`crate::render`] read) with its [`BakedMesh::validate`], and the exposure
+//! the colours are taken at by default ([`BakedMesh::auto_exposure`]).
+
+use crate::color::{self, Rgb};
+use crate::mesh::{groups, Patches, VertexFaces};
+use crate::scene::Camera;
+use crate::{Error, Result};
 
 /// Bake patch radiance into a [`BakedMesh`] (see the module documentation for the rule).
 /// `radiance[i]` is patch i's radiance, W·sr⁻¹·m⁻² per channel.
@@ -74,4 +79,177 @@ pub fn bake(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> BakedMe
         }
     }
     mesh
+}
+
+/// A mesh ready to write: baked vertices (split at creases and material borders) and patch faces.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BakedMesh {
+    /// Vertex positions, scene units; finite and representable as `f32` (both formats store `f32`).
+    pub positions: Vec<[f64; 3]>,
+    /// Baked vertex radiance, linear, W·sr⁻¹·m⁻² per RGB channel; finite and >= 0.
+    /// One entry per position.
+    pub vertex_radiance: Vec<[f64; 3]>,
+    /// Triangles (indices into positions), counter-clockwise seen from the front side.
+    pub faces: Vec<[u32; 3]>,
+    /// Solved radiance of each face's patch, W·sr⁻¹·m⁻² per RGB channel; finite and >= 0.
+    /// One entry per face (PLY only: OBJ has nowhere to put it).
+    pub face_radiance: Vec<[f64; 3]>,
+    /// The scene file's camera, repeated in the output (`comment camera: …` in PLY, `# camera:
+    /// …` in OBJ) so a picture of the baked file uses it too; `None` if the scene had none.
+    pub camera: Option<Camera>,
+}
+
+impl BakedMesh {
+    /// The exposure the colours are taken at unless one is given: [`color::auto_exposure`]
+    /// over the vertex radiance (the 95th percentile of lit vertices' luminance maps to white).
+    pub fn auto_exposure(&self) -> f64 {
+        color::auto_exposure(&self.vertex_radiance)
+    }
+
+    /// Checks the invariants the writers rely on: per-vertex and per-face arrays have matching
+    /// lengths, every index is in range (and fits the PLY `int` index type), every value is
+    /// finite and fits in `f32`, and radiance is >= 0. A failure is an [`Error::Internal`]:
+    /// the bake stage is supposed to guarantee all of this.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |message: String| Err(Error::Internal(format!("baked mesh: {message}")));
+        if self.vertex_radiance.len() != self.positions.len() {
+            return bad(format!(
+                "{} vertex radiance values for {} vertices",
+                self.vertex_radiance.len(),
+                self.positions.len()
+            ));
+        }
+        if self.face_radiance.len() != self.faces.len() {
+            return bad(format!(
+                "{} face radiance values for {} faces",
+                self.face_radiance.len(),
+                self.faces.len()
+            ));
+        }
+        // PLY stores indices as `int`; every index must fit even though ours are u32.
+        if self.positions.len() > i32::MAX as usize + 1 {
+            return bad(format!(
+                "{} vertices exceed the PLY index range",
+                self.positions.len()
+            ));
+        }
+        let fits_f32 = |v: f64| v.is_finite() && v.abs() <= f32::MAX as f64;
+        for (i, p) in self.positions.iter().enumerate() {
+            if !p.iter().all(|&c| fits_f32(c)) {
+                return bad(format!("vertex {i} position {p:?} is not a finite f32"));
+            }
+        }
+        let radiance_ok = |r: &[f64; 3]| r.iter().all(|&c| fits_f32(c) && c >= 0.0);
+        for (i, r) in self.vertex_radiance.iter().enumerate() {
+            if !radiance_ok(r) {
+                return bad(format!(
+                    "vertex {i} radiance {r:?} is not finite and >= 0 (or exceeds f32)"
+                ));
+            }
+        }
+        for (i, f) in self.faces.iter().enumerate() {
+            if let Some(&v) = f.iter().find(|&&v| v as usize >= self.positions.len()) {
+                return bad(format!(
+                    "face {i} refers to vertex {v} but there are {} vertices",
+                    self.positions.len()
+                ));
+            }
+        }
+        for (i, r) in self.face_radiance.iter().enumerate() {
+            if !radiance_ok(r) {
+                return bad(format!(
+                    "face {i} radiance {r:?} is not finite and >= 0 (or exceeds f32)"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::sample_mesh;
+
+    #[test]
+    fn validate_rejects_each_broken_invariant() {
+        let good = sample_mesh(10, 6);
+        good.validate().unwrap();
+        let mut breakages: Vec<(BakedMesh, &str)> = Vec::new();
+        let mut m = good.clone();
+        m.vertex_radiance.pop();
+        breakages.push((m, "vertex radiance values"));
+        let mut m = good.clone();
+        m.face_radiance.push([0.0; 3]);
+        breakages.push((m, "face radiance values"));
+        let mut m = good.clone();
+        m.faces[3][1] = 10;
+        breakages.push((m, "face 3 refers to vertex 10"));
+        let mut m = good.clone();
+        m.positions[2][0] = f64::INFINITY;
+        breakages.push((m, "vertex 2 position"));
+        let mut m = good.clone();
+        m.positions[2][0] = 1e39;
+        breakages.push((m, "vertex 2 position"));
+        let mut m = good.clone();
+        m.vertex_radiance[4][2] = f64::NAN;
+        breakages.push((m, "vertex 4 radiance"));
+        let mut m = good.clone();
+        m.vertex_radiance[4][2] = -1e-9;
+        breakages.push((m, "vertex 4 radiance"));
+        let mut m = good.clone();
+        m.face_radiance[5][0] = f64::NAN;
+        breakages.push((m, "face 5 radiance"));
+        for (mesh, needle) in breakages {
+            let err = mesh.validate().unwrap_err();
+            assert!(matches!(err, Error::Internal(_)));
+            assert!(err.to_string().contains(needle), "{err} lacks {needle}");
+        }
+    }
+
+    #[test]
+    fn auto_exposure_uses_lit_vertices_95th_percentile() {
+        // 100 black vertices and grey vertices with Y = 1..=20 (times a scale), in scrambled
+        // order. Over the 20 lit vertices the nearest rank is ⌈0.95 · 20⌉ = 19, so the
+        // exposure is 1 / (19 · scale); counting the black ones would give rank 114 of 120,
+        // i.e. Y = 14.
+        let scale = 0.37;
+        let mut radiance = vec![[0.0; 3]; 100];
+        for k in 1..=20 {
+            let y = k as f64 * scale;
+            radiance.push([y, y, y]);
+        }
+        radiance.reverse();
+        radiance.swap(3, 110);
+        let mesh = BakedMesh {
+            positions: vec![[0.0; 3]; radiance.len()],
+            vertex_radiance: radiance,
+            ..BakedMesh::default()
+        };
+        let y19 = color::luminance([19.0 * scale; 3]);
+        assert_eq!(mesh.auto_exposure(), 1.0 / y19);
+        assert!((mesh.auto_exposure() * 19.0 * scale - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn auto_exposure_weights_channels_by_luminance() {
+        // Only blue: Y = 0.0722 · B; one lit vertex is its own 95th percentile.
+        let mesh = BakedMesh {
+            positions: vec![[0.0; 3]; 2],
+            vertex_radiance: vec![[0.0, 0.0, 2.0], [0.0; 3]],
+            ..BakedMesh::default()
+        };
+        assert_eq!(mesh.auto_exposure(), 1.0 / (0.0722 * 2.0));
+    }
+
+    #[test]
+    fn auto_exposure_of_black_mesh_is_one() {
+        let mesh = BakedMesh {
+            positions: vec![[0.0; 3]; 3],
+            vertex_radiance: vec![[0.0; 3]; 3],
+            ..BakedMesh::default()
+        };
+        assert_eq!(mesh.auto_exposure(), 1.0);
+        assert_eq!(BakedMesh::default().auto_exposure(), 1.0);
+    }
 }

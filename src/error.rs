@@ -1,6 +1,8 @@
-//! The library's one error type. Every error names what it is about: the file (and the line
-//! or item where there is one), the option, or the numerical condition, in plain words.
-//! The binary adds context with `anyhow` and maps [`Error::exit_code`] to the process status.
+//! The library's one error type. Every error names what it is about, in the library's own
+//! words: the file (and the line or item where there is one), the setting (by its name in
+//! the library: `max_edge`, `form_factors.samples`, …), or the numerical condition. A program
+//! built on the library maps setting names to its own option names (the `radiosity` binary
+//! says `--max-edge`) and [`Error::exit_code`] to its process status.
 
 use std::path::PathBuf;
 
@@ -24,9 +26,12 @@ pub enum Error {
     /// An input file is well formed but its content is unusable (item named in `message`).
     #[error("{path}: {message}")]
     Input { path: PathBuf, message: String },
-    /// A command-line option or configuration value is out of range.
-    #[error("invalid value for {option}: {message}")]
-    Usage { option: String, message: String },
+    /// A setting is out of range or malformed. `name` is the setting's name in the library:
+    /// a field of [`crate::pipeline::Settings`] (`max_edge`, `crease_degrees`,
+    /// `form_factors.samples`, `solver.tolerance`, …), of [`crate::render::View`]
+    /// (`view.spp`, …), or one of `exposure`, `output`, `camera`, `reflectance`, `emission`.
+    #[error("invalid {name}: {message}")]
+    Setting { name: String, message: String },
     /// The system cannot be solved as posed (e.g. ρ = 1 in a closed scene).
     #[error("{0}")]
     Numerical(String),
@@ -36,10 +41,10 @@ pub enum Error {
 }
 
 impl Error {
-    /// Process exit status for this error: 2 for bad input or usage, 1 for internal failures.
+    /// Process exit status for this error: 2 for bad input or settings, 1 for internal failures.
     pub fn exit_code(&self) -> i32 {
         match self {
-            Error::Parse { .. } | Error::Input { .. } | Error::Usage { .. } => 2,
+            Error::Parse { .. } | Error::Input { .. } | Error::Setting { .. } => 2,
             Error::Io { source, .. } => match source.kind() {
                 std::io::ErrorKind::NotFound
                 | std::io::ErrorKind::PermissionDenied
@@ -61,10 +66,10 @@ impl Error {
         }
     }
 
-    /// Shorthand for an [`Error::Usage`].
-    pub fn usage(option: &str, message: impl Into<String>) -> Self {
-        Error::Usage {
-            option: option.to_string(),
+    /// Shorthand for an [`Error::Setting`] about the setting `name`.
+    pub fn setting(name: &str, message: impl Into<String>) -> Self {
+        Error::Setting {
+            name: name.to_string(),
             message: message.into(),
         }
     }

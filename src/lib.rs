@@ -36,24 +36,23 @@
 //! For a file, [`pipeline::run`] does load → … → write in one call.
 
 pub mod bake;
-pub mod cache;
-pub mod camera;
+pub mod choice;
+pub mod color;
 pub mod error;
-pub mod export;
 pub mod form_factor;
-pub mod info;
-pub mod matrix;
-pub mod montecarlo;
-pub mod patch;
+pub mod io;
+pub mod mesh;
 pub mod pipeline;
 pub mod progress;
-pub mod reference;
-pub mod refine;
-pub mod report;
+pub mod render;
 pub mod scene;
-pub mod scenes;
 pub mod solve;
-pub mod verify;
+pub mod validation;
 pub mod visibility;
 
+#[cfg(test)]
+mod test_support;
+
+pub use choice::Choice;
+pub use color::Rgb;
 pub use error::{Error, Result};

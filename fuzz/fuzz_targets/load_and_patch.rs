@@ -1,6 +1,6 @@
 //! Fuzz target: arbitrary bytes as an OBJ file (with the Cornell box's MTL beside it, so
 //! `mtllib cornell_box.mtl` and its materials resolve) through `Scene::load` and
-//! `patch::subdivide`. Errors are fine; a panic, or a loaded scene or patch mesh that breaks
+//! `mesh::subdivide`. Errors are fine; a panic, or a loaded scene or patch mesh that breaks
 //! its documented invariants, is a crash. Run with `cargo +nightly fuzz run load_and_patch`
 //! from the repository root (see docs/robustness.md).
 #![no_main]
@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use libfuzzer_sys::fuzz_target;
-use radiosity::patch;
+use radiosity::mesh;
 use radiosity::scene::Scene;
 
 /// A per-process directory holding the MTL; the OBJ is rewritten for every input.
@@ -31,7 +31,7 @@ fuzz_target!(|data: &[u8]| {
         scene.validate().expect("a loaded scene is valid");
         let (lo, hi) = scene.bounds();
         // A coarse max-edge keeps each input fast; the patch-count guard covers the rest.
-        if let Ok(patches) = patch::subdivide(&scene, (hi - lo).length() / 4.0, patch::DEFAULT_CREASE_DEGREES) {
+        if let Ok(patches) = mesh::subdivide(&scene, (hi - lo).length() / 4.0, mesh::DEFAULT_CREASE_DEGREES) {
             patches.validate().expect("patches are valid");
         }
     }

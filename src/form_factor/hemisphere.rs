@@ -14,7 +14,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::sampling::Rng;
-use crate::patch::Patches;
+use crate::mesh::Patches;
 
 use crate::visibility::Visibility;
 

@@ -19,26 +19,25 @@
 //! appends, for every triangle, its *twin*: the same three vertices in reverse order with the
 //! same material, i.e. the back side as a face of its own with its own radiance. Twins are
 //! linked in [`Scene::twin`]; the patcher subdivides a twin exactly like its original
-//! ([`crate::patch::subdivide`]) and the ray caster traces a pair as one surface with two
+//! ([`crate::mesh::subdivide`]) and the ray caster traces a pair as one surface with two
 //! sides ([`crate::visibility`]). A face that already has a reversed face over the same
 //! corners in the file is paired with it instead of being doubled (each keeps its material).
 
+pub mod camera;
 pub mod checks;
-pub mod obj;
 pub mod overrides;
-pub mod ply;
 
+pub use camera::Camera;
 pub use overrides::{Override, Property};
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::DVec3;
 
-use crate::camera::Camera;
 use crate::{Error, Result};
 
-/// "No twin" in [`Scene::twin`] (and [`crate::patch::Patches::twin`]).
+/// "No twin" in [`Scene::twin`] (and [`crate::mesh::Patches::twin`]).
 pub const NO_TWIN: u32 = u32::MAX;
 
 /// Triangles whose doubled area |(b − a) × (c − a)| is at most this fraction of the squared
@@ -96,38 +95,11 @@ pub struct Scene {
     /// the same three vertex indices as its triangle in the opposite winding.
     pub twin: Vec<u32>,
     /// The camera the scene file carries (`# camera: …` in OBJ, `comment camera: …` in a PLY
-    /// header; see [`crate::camera`]); pictures use it unless `--camera` is given.
+    /// header; see [`crate::scene::camera`]); pictures use it unless `--camera` is given.
     pub camera: Option<Camera>,
 }
 
 impl Scene {
-    /// Loads a scene file, dispatching on the extension: `.obj` (any case) goes to
-    /// [`obj::load`], `.ply` to [`ply::load`]. A missing path is [`Error::Io`], a directory [`Error::Input`], any
-    /// other extension [`Error::Usage`]; all name the path.
-    pub fn load(path: &Path) -> Result<Scene> {
-        let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-        if meta.is_dir() {
-            return Err(Error::Input {
-                path: path.to_path_buf(),
-                message: "is a directory, expected a scene file (.obj or .ply)".into(),
-            });
-        }
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-        if ext.eq_ignore_ascii_case("obj") {
-            obj::load(path)
-        } else if ext.eq_ignore_ascii_case("ply") {
-            ply::load(path)
-        } else {
-            Err(Error::usage(
-                "input",
-                format!(
-                    "{}: unsupported scene format (expected a .obj or .ply file)",
-                    path.display()
-                ),
-            ))
-        }
-    }
-
     /// The material faces get when the OBJ file gives them none (no `usemtl` before them):
     /// named "default", ρ = 0.5 in every channel (a mid grey that neither absorbs nor
     /// reflects nearly everything), Le = 0.

@@ -1,8 +1,9 @@
 //! Material overrides: replace a material's reflectance ρ or emission Le in a loaded
 //! [`Scene`] without editing its files (`--reflectance MAT=r,g,b`, `--emission MAT=r,g,b`).
 //! This module owns parsing the `MATERIAL=VALUE` text, checking the values and applying
-//! them; it does not know which options exist (the binary passes the option name through
-//! [`Property::option`]) and does not touch geometry.
+//! them, with errors that name the property as the setting it is ([`Property::name`]:
+//! `reflectance`, `emission`; a command line maps that to its option); it does not touch
+//! geometry.
 //!
 //! Semantics: overrides apply in the order given, so a later one wins over an earlier one
 //! for the same material and property (`*=0.5` then `white=0.7` leaves white at 0.7; the
@@ -22,11 +23,11 @@ pub enum Property {
 }
 
 impl Property {
-    /// The command-line option that sets this property; errors name it.
-    pub fn option(self) -> &'static str {
+    /// The property's name as a setting (`reflectance`, `emission`); errors name it.
+    pub fn name(self) -> &'static str {
         match self {
-            Property::Reflectance => "--reflectance",
-            Property::Emission => "--emission",
+            Property::Reflectance => "reflectance",
+            Property::Emission => "emission",
         }
     }
 
@@ -59,9 +60,9 @@ pub struct Override {
 impl Override {
     /// Parses `MATERIAL=R,G,B` or `MATERIAL=X` (grey: X in every channel). The name is
     /// everything before the last `=`, so names containing `=` work. Errors are
-    /// [`Error::Usage`] naming [`Property::option`].
+    /// [`Error::Setting`] named by [`Property::name`].
     pub fn parse(property: Property, text: &str) -> Result<Override> {
-        let bad = |why: String| Error::usage(property.option(), format!("{text:?}: {why}"));
+        let bad = |why: String| Error::setting(property.name(), format!("{text:?}: {why}"));
         let (material, values) = text.rsplit_once('=').ok_or_else(|| {
             bad("expected MATERIAL=R,G,B or MATERIAL=X (MATERIAL may be *)".into())
         })?;
@@ -96,33 +97,28 @@ impl Override {
     }
 }
 
-/// The override as the command-line option that gives it: `--reflectance white=0.5,0.5,0.5`.
+/// The override as its property and its text: `reflectance white=0.5,0.5,0.5`.
 impl std::fmt::Display for Override {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let [r, g, b] = self.value;
-        write!(
-            f,
-            "{} {}={r},{g},{b}",
-            self.property.option(),
-            self.material
-        )
+        write!(f, "{} {}={r},{g},{b}", self.property.name(), self.material)
     }
 }
 
 impl Scene {
     /// Applies `overrides` in order (later ones win). Checks each first: a material name the
-    /// scene does not have is an [`Error::Usage`] naming the option and listing the scene's
-    /// materials; a value out of range (ρ ∉ [0, 1], Le < 0, NaN) is an [`Error::Usage`] too.
+    /// scene does not have is an [`Error::Setting`] named by the property, listing the scene's
+    /// materials; a value out of range (ρ ∉ [0, 1], Le < 0, NaN) is an [`Error::Setting`] too.
     /// Nothing is changed when any override fails.
     pub fn apply_overrides(&mut self, overrides: &[Override]) -> Result<()> {
         for o in overrides {
-            let option = o.property.option();
+            let option = o.property.name();
             o.property
                 .check(o.value)
-                .map_err(|why| Error::usage(option, format!("{}: {why}", o.material)))?;
+                .map_err(|why| Error::setting(option, format!("{}: {why}", o.material)))?;
             if o.material != "*" && !self.materials.iter().any(|m| m.name == o.material) {
                 let names: Vec<&str> = self.materials.iter().map(|m| m.name.as_str()).collect();
-                return Err(Error::usage(
+                return Err(Error::setting(
                     option,
                     format!(
                         "no material '{}' in {}; its materials are: {} (or * for all)",
@@ -202,8 +198,8 @@ mod tests {
         for (property, text, needle) in cases {
             let e = Override::parse(property, text).unwrap_err();
             let msg = e.to_string();
-            assert!(matches!(e, Error::Usage { .. }), "{text}: {e:?}");
-            assert!(msg.contains(property.option()), "{text}: {msg}");
+            assert!(matches!(e, Error::Setting { .. }), "{text}: {e:?}");
+            assert!(msg.contains(property.name()), "{text}: {msg}");
             assert!(msg.contains(needle), "{text}: {needle} not in {msg}");
         }
     }
@@ -239,8 +235,8 @@ mod tests {
         let unknown = Override::parse(Property::Emission, "nosuch=1").unwrap();
         let e = s.apply_overrides(&[ok.clone(), unknown]).unwrap_err();
         let msg = e.to_string();
-        assert!(matches!(e, Error::Usage { .. }), "{e:?}");
-        for needle in ["--emission", "'nosuch'", "lamp, wall"] {
+        assert!(matches!(e, Error::Setting { .. }), "{e:?}");
+        for needle in ["invalid emission", "'nosuch'", "lamp, wall"] {
             assert!(msg.contains(needle), "{needle} not in {msg}");
         }
         assert_eq!(s.materials, before);

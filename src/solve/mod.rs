@@ -33,14 +33,21 @@
 pub mod cg;
 pub mod southwell;
 pub mod stationary;
+pub mod system;
+
+use std::fmt;
+use std::str::FromStr;
 
 use serde::Serialize;
 
-use crate::matrix::{Rgb, System};
+pub use system::{norm, Problem, System};
+
+use crate::choice::Choice;
+use crate::color::Rgb;
 use crate::{Error, Result};
 
 /// The solution method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Jacobi iteration from L = E.
@@ -55,9 +62,16 @@ pub enum Method {
     Southwell,
 }
 
-impl Method {
-    /// The method's command-line name.
-    pub fn name(self) -> &'static str {
+impl Choice for Method {
+    const ALL: &'static [Method] = &[
+        Method::Jacobi,
+        Method::GaussSeidel,
+        Method::Neumann,
+        Method::Cg,
+        Method::Southwell,
+    ];
+
+    fn name(self) -> &'static str {
         match self {
             Method::Jacobi => "jacobi",
             Method::GaussSeidel => "gauss-seidel",
@@ -65,6 +79,46 @@ impl Method {
             Method::Cg => "cg",
             Method::Southwell => "southwell",
         }
+    }
+
+    fn description(self) -> &'static str {
+        match self {
+            Method::Jacobi => "Jacobi iteration from L = E",
+            Method::GaussSeidel => {
+                "Gauss–Seidel iteration (SOR with `omega`), in fixed parallel blocks"
+            }
+            Method::Neumann => "Truncated Neumann series E + KE + … + K^N E (N = `bounces`)",
+            Method::Cg => "Conjugate gradient on the symmetric (reciprocity-enforced) form",
+            Method::Southwell => {
+                "Southwell / progressive refinement: shoot the largest unshot power first"
+            }
+        }
+    }
+}
+
+impl Method {
+    /// The method's name ([`Choice::name`]), callable without importing the trait.
+    pub fn name(self) -> &'static str {
+        Choice::name(self)
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Method {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        Method::from_name(s).ok_or_else(|| {
+            Error::setting(
+                "solver.method",
+                format!("{s:?} is not one of {}", Method::names().join(", ")),
+            )
+        })
     }
 }
 
@@ -119,21 +173,26 @@ impl Default for Settings {
 }
 
 impl Settings {
-    /// Check ranges before any work.
+    /// Checks the ranges before any work: `tolerance` finite and > 0, `max_iterations` ≥ 1,
+    /// `omega` (when given) in (0, 2). Errors are [`Error::Setting`] named `solver.tolerance`,
+    /// `solver.max_iterations`, `solver.omega`.
     pub fn validate(&self) -> Result<()> {
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
-            return Err(Error::usage(
-                "--tolerance",
+            return Err(Error::setting(
+                "solver.tolerance",
                 format!("{} is not a positive number", self.tolerance),
             ));
         }
         if self.max_iterations == 0 {
-            return Err(Error::usage("--max-iterations", "must be at least 1"));
+            return Err(Error::setting(
+                "solver.max_iterations",
+                "must be at least 1",
+            ));
         }
         if let Some(w) = self.omega {
             if !(w > 0.0 && w < 2.0) {
-                return Err(Error::usage(
-                    "--omega",
+                return Err(Error::setting(
+                    "solver.omega",
                     format!("{w} is not in (0, 2): over-relaxation diverges outside"),
                 ));
             }
@@ -163,87 +222,13 @@ pub struct Solution {
     pub grey: bool,
     /// The over-relaxation Gauss–Seidel used (1 for the other methods).
     pub omega: f64,
-}
-
-/// A system in `C` channels: F shared, ρ and E per channel. The solvers are written once for
-/// any channel count; a grey scene runs them with C = 1.
-pub struct Problem<'a, const C: usize> {
-    /// Form factors and visible areas (through [`System`]).
-    pub system: &'a System<'a>,
-    /// ρ per patch and channel.
-    pub rho: Vec<[f64; C]>,
-    /// E = Le per patch and channel.
-    pub e: Vec<[f64; C]>,
-}
-
-impl<const C: usize> Problem<'_, C> {
-    /// Number of patches.
-    pub fn len(&self) -> usize {
-        self.e.len()
-    }
-
-    /// True when there are no patches.
-    pub fn is_empty(&self) -> bool {
-        self.e.is_empty()
-    }
-
-    /// Σ_j F_ij x_j for row i, all channels in one pass over the row.
-    #[inline]
-    pub fn gather(&self, i: usize, x: &[[f64; C]]) -> [f64; C] {
-        let (cols, vals) = self.system.row(i);
-        let mut acc = [0.0f64; C];
-        for (&j, &f) in cols.iter().zip(vals) {
-            let xj = &x[j as usize];
-            let f = f as f64;
-            for c in 0..C {
-                acc[c] += f * xj[c];
-            }
-        }
-        acc
-    }
-
-    /// ‖E‖₂ over all channels.
-    pub fn e_norm(&self) -> f64 {
-        norm(&self.e)
-    }
-
-    /// Relative residual ‖E − (I − K) L‖₂ / ‖E‖₂ over all channels, summed in a fixed order
-    /// (the stopping decision must not depend on the thread count).
-    pub fn relative_residual(&self, l: &[[f64; C]]) -> f64 {
-        use rayon::prelude::*;
-        let terms: Vec<f64> = (0..self.len())
-            .into_par_iter()
-            .map(|i| {
-                let g = self.gather(i, l);
-                (0..C)
-                    .map(|c| {
-                        let r = self.e[i][c] - l[i][c] + self.rho[i][c] * g[c];
-                        r * r
-                    })
-                    .sum::<f64>()
-            })
-            .collect();
-        let e = self.e_norm();
-        let r = terms.iter().sum::<f64>().sqrt();
-        if e == 0.0 {
-            r
-        } else {
-            r / e
-        }
-    }
+    /// The method that solved it.
+    pub method: Method,
 }
 
 /// Reports one sweep to the progress observer (a status line; no effect on the result).
 pub(crate) fn report_sweep(iteration: u32, residual: f64) {
     crate::progress::note_status(|| format!("sweep {iteration}: residual {residual:.2e}"));
-}
-
-/// Euclidean norm over all entries and channels.
-pub fn norm<const C: usize>(x: &[[f64; C]]) -> f64 {
-    x.iter()
-        .map(|v| v.iter().map(|a| a * a).sum::<f64>())
-        .sum::<f64>()
-        .sqrt()
 }
 
 /// What one method returns: the radiance in C channels and its bookkeeping.
@@ -268,6 +253,7 @@ pub fn solve(system: &System, settings: &Settings) -> Result<Solution> {
             converged: true,
             grey: false,
             omega: 1.0,
+            method: settings.method,
         });
     }
     if settings.method != Method::Neumann {
@@ -355,6 +341,7 @@ fn finish<const C: usize>(
         residual_history: run.residual_history,
         converged: run.converged,
         grey,
+        method: settings.method,
     }
 }
 

@@ -1,15 +1,17 @@
-//! Form-factor invariants (row sums, closed scenes, reciprocity) and the BVH's visibility
-//! against brute force on the patches of a real scene.
+//! Form factors (`radiosity::form_factor`) on whole scenes: the invariants every estimator
+//! must keep (row sums ≤ 1, = 1 in closed scenes, reciprocity), convergence to known values,
+//! and that every shortcut ([`radiosity::form_factor::Shortcuts`]) saves work without changing
+//! what it must not. What belongs here: properties of F; one pair's estimate is unit-tested
+//! in `src/form_factor/pair.rs`, the closed-form checks of the whole pipeline are in
+//! `closed_forms.rs`.
 
-use glam::DVec3;
-use radiosity::form_factor::sampling::Rng;
 use radiosity::form_factor::Estimator;
-use radiosity::patch;
+use radiosity::mesh;
 use radiosity::pipeline::Outcome;
 use radiosity::scene::Scene;
-use radiosity::scenes;
 use radiosity::solve::Method;
-use radiosity::visibility::{Hit, Visibility};
+use radiosity::validation::scenes;
+use radiosity::visibility::Visibility;
 
 use crate::support::{meshes, run, settings};
 
@@ -18,7 +20,7 @@ fn cornell(max_edge: f64, estimator: Estimator) -> Outcome {
     let mut s = settings(max_edge, estimator, 4, Method::Neumann, 1);
     // The whole F (a one-bounce solve needs only the light's columns), on the uniform mesh
     // (these tests are about the estimators, not about where refinement puts patches).
-    s.form_factors.skip_unneeded = false;
+    s.form_factors.shortcuts.skip_unneeded = false;
     s.refine_rounds = 0;
     run(&scene, &s)
 }
@@ -153,85 +155,6 @@ fn reciprocity_between_surfaces() {
 }
 
 #[test]
-fn bvh_visibility_equals_brute_force_on_cornell_patches() {
-    let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
-    let patches = patch::subdivide(&scene, 80.0, patch::DEFAULT_CREASE_DEGREES).unwrap();
-    let tris: Vec<[DVec3; 3]> = (0..patches.len()).map(|i| patches.corners(i)).collect();
-    let vis = Visibility::build(&tris);
-    let mut rng = Rng::new(&[2024]);
-    let point = |rng: &mut Rng| {
-        let i = rng.below(patches.len());
-        let [a, b, c] = patches.corners(i);
-        let (u, v) = (rng.next_f64(), rng.next_f64());
-        let (u, v) = if u + v > 1.0 {
-            (1.0 - u, 1.0 - v)
-        } else {
-            (u, v)
-        };
-        (i as u32, a + u * (b - a) + v * (c - a))
-    };
-    let mut blocked = 0;
-    for _ in 0..5000 {
-        let (i, p) = point(&mut rng);
-        let (j, q) = point(&mut rng);
-        // A segment lying in an endpoint's own plane (two points of one flat face) grazes
-        // that face along its length: ill-posed for any ray caster, and never asked by the
-        // form factors (such pairs are culled). Skip it.
-        let d = q - p;
-        let grazing = |k: u32| patches.normal[k as usize].dot(d).abs() <= 1e-9 * d.length();
-        if grazing(i) || grazing(j) {
-            continue;
-        }
-        let bvh = vis.occluded(p, q, [i, j]);
-        assert_eq!(
-            bvh,
-            vis.occluded_brute_force(p, q, [i, j]),
-            "segment {p} → {q}"
-        );
-        blocked += bvh as u32;
-    }
-    // Both outcomes are exercised (the blocks and the walls' backs block many segments).
-    assert!(blocked > 500 && blocked < 4500, "{blocked}");
-}
-
-#[test]
-fn closest_hits_along_axes_equal_brute_force() {
-    // Axis-aligned directions, with the −0.0 components that normals of axis-aligned faces
-    // carry (a floor's normal is (0, 1, −0)): obvhs mishandled −0.0 (a regression test for the
-    // buried-point test, which casts exactly these rays from under the Cornell box's blocks).
-    let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
-    let patches = patch::subdivide(&scene, 80.0, patch::DEFAULT_CREASE_DEGREES).unwrap();
-    let tris: Vec<[DVec3; 3]> = (0..patches.len()).map(|i| patches.corners(i)).collect();
-    let vis = Visibility::build(&tris);
-    let mut hits = 0;
-    for i in 0..patches.len() {
-        let [a, b, c] = patches.corners(i);
-        let x = (a + b + c) / 3.0;
-        for dir in [
-            patches.normal[i],
-            DVec3::new(0.0, 1.0, -0.0),
-            DVec3::new(-0.0, -0.0, 1.0),
-            DVec3::new(1.0, -0.0, 0.0),
-            DVec3::new(-0.0, -1.0, -0.0),
-        ] {
-            let got = vis.closest_hit(x, dir, f64::INFINITY, i as u32);
-            let want = vis.closest_hit_brute_force(x, dir, f64::INFINITY, i as u32);
-            // The same distance; the same triangle unless the ray meets a shared edge or
-            // corner exactly (the regular grid makes some do), where either is right.
-            assert_eq!(got.map(|h| h.t), want.map(|h| h.t), "patch {i}, {dir:?}");
-            if let (Some(g), Some(w)) = (got, want) {
-                let interior = |h: Hit| h.u > 0.0 && h.v > 0.0 && h.u + h.v < 1.0;
-                if interior(w) {
-                    assert_eq!(g, w, "patch {i}, {dir:?}");
-                }
-            }
-            hits += got.is_some() as u32;
-        }
-    }
-    assert!(hits > patches.len() as u32, "{hits}");
-}
-
-#[test]
 fn hemisphere_rows_sum_to_one_in_closed_scenes_and_never_exceed_it() {
     // Every ray lands on exactly one front face in a closed, consistently oriented scene, so a
     // row is (N hits)/N = 1 up to f32 storage of k/N (≤ 1e-7 per entry).
@@ -294,7 +217,7 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
     assert_eq!(skip.form_factors.stats.rays_cast, probes);
     assert!(skip.form_factors.stats.closed_scene);
     let mut s = settings(1.0, Estimator::Contour, 3, Method::Neumann, 1);
-    s.form_factors.skip_hull = false;
+    s.form_factors.shortcuts.skip_hull = false;
     let cast = run(&sphere, &s);
     assert!(cast.form_factors.stats.rays_cast > probes);
     // Nothing occludes inside a sphere: the rays change nothing, bit for bit.
@@ -303,7 +226,7 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
     // facets are no longer exactly coplanar with their neighbours' vertices) is still convex.
     let from_obj = Scene::load(&meshes().join("integrating_sphere.obj")).unwrap();
     let occluders = |scene: &Scene, max_edge: f64| {
-        let p = patch::subdivide(scene, max_edge, patch::DEFAULT_CREASE_DEGREES).unwrap();
+        let p = mesh::subdivide(scene, max_edge, mesh::DEFAULT_CREASE_DEGREES).unwrap();
         let mask = radiosity::form_factor::occluders(&p);
         (p, mask)
     };
@@ -336,7 +259,7 @@ fn hull_faces_leave_the_occlusion_tests_without_changing_any_form_factor() {
     let light = names.iter().filter(|&&n| n == "light").count();
     assert!(light > 0 && names.iter().all(|&n| n == "white" || n == "light"));
     let mut full = s;
-    full.form_factors.skip_hull = false;
+    full.form_factors.shortcuts.skip_hull = false;
     let traced = run(&cornell, &full);
     assert_eq!(traced.form_factors.stats.occluder_patches, p.len() as u64);
     assert!(skip.form_factors.stats.occluder_patches < p.len() as u64 / 3);
@@ -368,7 +291,7 @@ fn skipping_unneeded_entries_changes_no_radiance() {
         let mut s = settings(120.0, estimator, 3, method, bounces);
         s.form_factors.rays = 64;
         let skip = run(&scene, &s);
-        s.form_factors.skip_unneeded = false;
+        s.form_factors.shortcuts.skip_unneeded = false;
         let full = run(&scene, &s);
         let what = format!("{estimator:?} {method:?}");
         assert_eq!(skip.solution.radiance, full.solution.radiance, "{what}");
@@ -417,7 +340,7 @@ fn hemisphere_takes_direct_light_from_the_contour_estimator() {
     assert!(hemi.form_factors.stats.exact_direct);
     assert_eq!(hemi.solution.radiance, contour.solution.radiance);
     // Without it, the light's columns are hit counts: the same on average, not bit for bit.
-    s.form_factors.exact_direct = false;
+    s.form_factors.shortcuts.exact_direct = false;
     let shot = run(&scene, &s);
     assert!(!shot.form_factors.stats.exact_direct);
     assert_ne!(shot.solution.radiance, contour.solution.radiance);
@@ -434,12 +357,12 @@ fn refinement_reuses_the_form_factors_of_unchanged_pairs() {
     // round 0's F (to one f32 rounding) instead of being computed again.
     use radiosity::form_factor::{self, Needed, Reuse};
     let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
-    let p0 = patch::subdivide(&scene, 120.0, patch::DEFAULT_CREASE_DEGREES).unwrap();
+    let p0 = mesh::subdivide(&scene, 120.0, mesh::DEFAULT_CREASE_DEGREES).unwrap();
     let s = form_factor::Settings::default();
     let vis0 = Visibility::build(&(0..p0.len()).map(|i| p0.corners(i)).collect::<Vec<_>>());
     let f0 = form_factor::compute(&p0, &vis0, &s, &Needed::all(p0.len())).unwrap();
     let marked: Vec<bool> = (0..p0.len()).map(|i| i % 7 == 0).collect();
-    let p1 = patch::refine(&scene, &p0, &marked, patch::DEFAULT_CREASE_DEGREES).unwrap();
+    let p1 = mesh::refine(&scene, &p0, &marked, mesh::DEFAULT_CREASE_DEGREES).unwrap();
     let old: std::collections::HashMap<[u32; 3], u32> = p0
         .triangles
         .iter()
@@ -461,10 +384,7 @@ fn refinement_reuses_the_form_factors_of_unchanged_pairs() {
         p1.len()
     );
     let vis1 = Visibility::build(&(0..p1.len()).map(|i| p1.corners(i)).collect::<Vec<_>>());
-    let reuse = Reuse {
-        matrix: &f0.matrix,
-        old_of_new: old_of_new.clone(),
-    };
+    let reuse = Reuse::new(&f0.matrix, old_of_new.clone());
     let f1 =
         form_factor::compute_reusing(&p1, &vis1, &s, &Needed::all(p1.len()), Some(&reuse)).unwrap();
     assert!(f1.stats.pairs_reused as usize >= kept * (kept - 1) / 2);
@@ -496,9 +416,9 @@ fn far_pairs_integrated_by_the_gauss_rule_agree_with_the_contour_integral() {
     let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
     let mut s = settings(90.0, Estimator::Contour, 3, Method::Neumann, 1);
     s.refine_rounds = 0;
-    s.form_factors.skip_unneeded = false;
+    s.form_factors.shortcuts.skip_unneeded = false;
     let fast = run(&scene, &s);
-    s.form_factors.far_field = false;
+    s.form_factors.shortcuts.far_field = false;
     let exact = run(&scene, &s);
     let (a, b) = (&fast.form_factors.matrix, &exact.form_factors.matrix);
     // Entries above 1e-5 (grazing pairs near zero may appear in one and not the other).

@@ -1,16 +1,22 @@
-//! The integration test binary: analytic references first (the verify suite per solver and
-//! estimator), then the solvers against a dense LU oracle, form-factor invariants, visibility
-//! against brute force on a real scene, and the command line end to end.
+//! The library's integration test binary: whole scenes through the library's API, one file per
+//! subject. What belongs here: behaviour that needs a real scene or the whole pipeline; what
+//! one module does on constructed inputs is unit-tested beside it in src/, and what a user
+//! sees through the binary is tested in cli/tests.
+//!
+//! - `closed_forms`: the verify suite per estimator and solver, and the path-traced Cornell box;
+//! - `solvers`, `form_factors`, `visibility`, `mesh`: each stage on real scenes, against oracles
+//!   (dense LU, brute-force visibility) and invariants (row sums, reciprocity, conformity);
+//! - `loaders`: hostile bytes through the scene loaders;
+//! - `hostile_geometry`: the unit of length and pathological meshes;
+//! - `materials`, `two_sided`: overrides and two-sided surfaces through the pipeline.
 
-mod analytic;
-mod camera;
-mod cli;
+mod closed_forms;
 mod form_factors;
-mod golden;
-mod properties;
-mod robust;
+mod hostile_geometry;
+mod loaders;
+mod materials;
+mod mesh;
 mod solvers;
-mod stress;
 mod support;
 mod two_sided;
-mod ux;
+mod visibility;

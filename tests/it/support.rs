@@ -1,15 +1,14 @@
-//! Shared helpers of the integration tests: approximate assertions that print everything,
-//! scene runs with explicit settings, and dense reference solves.
+//! Shared helpers of the library's integration tests: approximate assertions that print
+//! everything, scene runs with explicit settings, dense reference solves, paths.
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
 
 use nalgebra::{DMatrix, DVector};
 use radiosity::form_factor::{self, Estimator};
-use radiosity::matrix::Rgb;
 use radiosity::pipeline::{self, Outcome};
 use radiosity::scene::Scene;
 use radiosity::solve::{self, Method};
+use radiosity::Rgb;
 
 /// Assert |got − expected| ≤ tol·|expected| and say all four numbers when not.
 #[track_caller]
@@ -97,19 +96,6 @@ pub fn temp_dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-/// Run the `radiosity` binary with `args` and collect its output.
-pub fn radiosity(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_radiosity"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-/// The process's stderr as text.
-pub fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// The shipped Cornell box OBJ.

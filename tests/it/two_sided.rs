@@ -1,17 +1,18 @@
-//! Issue 6, two-sided surfaces (`--two-sided`): closed forms first (Howell's parallel plates
-//! with a two-sided receiver or source, the furnace with two-sided walls), then the twin map
-//! through subdivision and the BVH, the checks that must not misfire, and the command line
-//! (determinism, both sides in the output, the refused render of a baked PLY).
+//! Two-sided surfaces (`Settings::two_sided`, `Scene::make_two_sided`): closed forms first
+//! (Howell's parallel plates with a two-sided receiver or source, the furnace with two-sided
+//! walls), then the twin map through subdivision and the BVH, and the checks that must not
+//! misfire. What belongs here: the physics and data structures of twins; `--two-sided` on the
+//! command line is tested in the cli package.
 
 use glam::DVec3;
 use radiosity::form_factor::Estimator;
 use radiosity::pipeline::{self, Outcome};
 use radiosity::scene::{Scene, SceneBuilder, NO_TWIN};
 use radiosity::solve::Method;
+use radiosity::validation::{closed_forms, scenes};
 use radiosity::visibility::Visibility;
-use radiosity::{reference, scenes};
 
-use crate::support::{assert_rel, cornell, radiosity, settings, stderr, temp_dir};
+use crate::support::{assert_rel, cornell, settings};
 
 /// Area-weighted mean red radiance over the patches `pick` selects.
 fn mean_radiance(out: &Outcome, pick: impl Fn(usize) -> bool) -> f64 {
@@ -48,7 +49,7 @@ fn two_sided_receiver_gets_rho_f_le_in_front_and_nothing_behind() {
     // Howell C-11: unit squares 1 apart. The source (Le = 1, ρ = 0) stays one-sided; the
     // receiver (ρ = 0.5) gets a back side, which faces away from everything: radiance 0. With
     // ρ = 0 at the source nothing comes back, so one bounce is the whole answer.
-    let f = reference::parallel_rectangles(1.0, 1.0, 1.0);
+    let f = closed_forms::parallel_rectangles(1.0, 1.0, 1.0);
     let mut scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
     assert_eq!(scene.make_two_sided_where(|m| m.name == "receiver"), 2);
     for estimator in [Estimator::Contour, Estimator::Area, Estimator::Hemisphere] {
@@ -127,7 +128,7 @@ fn two_sided_source_between_two_receivers_lights_both_alike() {
     // Each receiver sees one side of the source: both get ρ·F·Le (Howell C-11), and the
     // receivers cannot see each other past the source (a segment between them crosses it).
     let (a, b, c) = (1.0, 2.0, 0.7);
-    let f = reference::parallel_rectangles(a, b, c);
+    let f = closed_forms::parallel_rectangles(a, b, c);
     let scene = sandwich(a, b, c);
     for estimator in [Estimator::Contour, Estimator::Area, Estimator::Hemisphere] {
         let out = crate::support::run(&scene, &plate_settings(estimator));
@@ -157,7 +158,7 @@ fn furnace_with_two_sided_walls() {
     // faces) every row sums to 1: L = Le/(1 − ρ) = 2. The room's outer sides face away from
     // everything: they reflect nothing and carry exactly their own Le = 1.
     let rho = 0.5;
-    let expected = reference::furnace_radiance(rho, 1.0);
+    let expected = closed_forms::furnace_radiance(rho, 1.0);
     let mut scene = scenes::furnace_room(rho, 1.0).unwrap();
     let n = scene.triangles.len();
     assert_eq!(scene.make_two_sided(), n);
@@ -218,8 +219,8 @@ fn twins_subdivide_identically_and_the_bvh_finds_the_same_pairs() {
         assert_eq!(scene.twin[t] as usize, t + n);
         assert_eq!(scene.twin[t + n] as usize, t);
     }
-    let p = radiosity::patch::subdivide(&scene, 60.0, radiosity::patch::DEFAULT_CREASE_DEGREES)
-        .unwrap();
+    let p =
+        radiosity::mesh::subdivide(&scene, 60.0, radiosity::mesh::DEFAULT_CREASE_DEGREES).unwrap();
     p.validate().unwrap();
     let half = p.len() / 2;
     assert_eq!(p.len(), 2 * half);
@@ -256,7 +257,7 @@ fn twins_subdivide_identically_and_the_bvh_finds_the_same_pairs() {
     // The front sides are the one-sided scene's patches, in the same order.
     let one = Scene::load(cornell().as_ref()).unwrap();
     let q =
-        radiosity::patch::subdivide(&one, 60.0, radiosity::patch::DEFAULT_CREASE_DEGREES).unwrap();
+        radiosity::mesh::subdivide(&one, 60.0, radiosity::mesh::DEFAULT_CREASE_DEGREES).unwrap();
     assert_eq!(q.len(), half);
     assert_eq!(q.triangles.len(), half);
     for i in 0..half {
@@ -303,147 +304,9 @@ fn faces_modelled_with_both_sides_are_paired_not_doubled() {
     );
     assert_eq!(scene.make_two_sided(), 0, "idempotent");
     let out = crate::support::run(&scene, &plate_settings(Estimator::Contour));
-    let f = reference::parallel_rectangles(a, a, c);
+    let f = closed_forms::parallel_rectangles(a, a, c);
     let got = mean_radiance(&out, |i| out.patches.material[i] == front);
     assert_rel("front side", got, 0.5 * f, 1e-3);
     let got = mean_radiance(&out, |i| out.patches.material[i] == back);
     assert_eq!(got, 0.0);
-}
-
-#[test]
-fn two_sided_bake_writes_both_sides_deterministically() {
-    let dir = temp_dir("two-sided-bake");
-    let input = cornell();
-    let (a, b, obj) = (dir.join("a.ply"), dir.join("b.ply"), dir.join("c.obj"));
-    for (out, threads) in [(&a, "1"), (&b, "2"), (&obj, "2")] {
-        let o = radiosity(&[
-            "bake",
-            &input,
-            "-o",
-            out.to_str().unwrap(),
-            "--max-edge",
-            "110",
-            "--refine",
-            "0",
-            "--two-sided",
-            "--threads",
-            threads,
-        ]);
-        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-        assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
-    }
-    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
-    let two = radiosity::export::ply::read(&a).unwrap();
-    let one_path = dir.join("one.ply");
-    let o = radiosity(&[
-        "bake",
-        &input,
-        "-o",
-        one_path.to_str().unwrap(),
-        "--max-edge",
-        "110",
-        "--refine",
-        "0",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let one = radiosity::export::ply::read(&one_path).unwrap();
-    // Twice the faces; the second half is the first reversed over the same positions, at
-    // vertices of its own.
-    let half = one.faces.len();
-    assert_eq!(two.faces.len(), 2 * half);
-    let fr = two.face_radiance.as_ref().unwrap();
-    let mut outside_dark = 0;
-    for k in 0..half {
-        let (f, g) = (two.faces[k], two.faces[half + k]);
-        let pos = |v: u32| two.positions[v as usize];
-        assert_eq!([pos(f[0]), pos(f[2]), pos(f[1])], g.map(pos), "face {k}");
-        assert!(
-            f.iter().all(|v| !g.contains(v)),
-            "face {k} shares a vertex with its back"
-        );
-        outside_dark += usize::from(fr[half + k] == [0.0; 3]);
-    }
-    // The walls', floor's and ceiling's backs face the outside, which is empty: black.
-    assert!(
-        outside_dark > half / 2,
-        "{outside_dark} of {half} backs black"
-    );
-    let q = radiosity::export::obj::read(&obj).unwrap();
-    assert_eq!(q.faces, two.faces);
-    let _ = std::fs::remove_dir_all(dir);
-}
-
-#[test]
-fn two_sided_render_of_a_baked_ply_is_refused_and_info_describes_both_sides() {
-    let dir = temp_dir("two-sided-render");
-    let input = cornell();
-    let baked = dir.join("c.ply");
-    let o = radiosity(&[
-        "bake",
-        &input,
-        "-o",
-        baked.to_str().unwrap(),
-        "--max-edge",
-        "150",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let png = dir.join("v.png");
-    std::fs::write(&png, b"precious").unwrap();
-    let o = radiosity(&[
-        "render",
-        baked.to_str().unwrap(),
-        "-o",
-        png.to_str().unwrap(),
-        "--two-sided",
-        "--size",
-        "16",
-    ]);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("--two-sided") && err.contains("c.ply"),
-        "{err}"
-    );
-    assert!(
-        err.contains("bake the original scene with --two-sided"),
-        "{err}"
-    );
-    assert_eq!(std::fs::read(&png).unwrap(), b"precious");
-    // A scene is baked two-sided first and rendered.
-    let o = radiosity(&[
-        "render",
-        &input,
-        "-o",
-        png.to_str().unwrap(),
-        "--two-sided",
-        "--max-edge",
-        "150",
-        "--size",
-        "16",
-        "-q",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(image::open(&png).is_ok());
-
-    let o = radiosity(&["info", &input, "--two-sided"]);
-    let text = String::from_utf8_lossy(&o.stdout).into_owned();
-    assert!(o.status.success(), "{}", stderr(&o));
-    for needle in [
-        "triangles:    64",
-        "sides:        two: 32 faces",
-        "area:         3868691",
-    ] {
-        assert!(text.contains(needle), "{needle} not in:\n{text}");
-    }
-    let o = radiosity(&["info", &input, "--two-sided", "--json"]);
-    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(json["two_sided"], true);
-    assert_eq!(json["back_faces"], 32);
-    // Both sides of the light emit: twice the one-sided power.
-    let power = json["emitted_power"][0].as_f64().unwrap();
-    let expected = 2.0 * std::f64::consts::PI * 17.0 * 13650.0;
-    assert!((power - expected).abs() < 1e-3 * expected, "{power}");
-    let o = radiosity(&["info", &input]);
-    assert!(String::from_utf8_lossy(&o.stdout).contains("sides:        one"));
-    let _ = std::fs::remove_dir_all(dir);
 }

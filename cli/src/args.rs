@@ -1,0 +1,476 @@
+//! The command line's arguments (clap derive) and their conversion into the library's settings
+//! (ripgrep's two stages, LowArgs → HiArgs): this module only parses; every range is checked
+//! by the library's `validate()` before any work ([`radiosity::pipeline::Settings::validate`],
+//! [`radiosity::render::View::validate`]), and [`crate::failure`] maps the library's setting
+//! names back to these flags. Does no I/O and owns no physics.
+
+use std::path::PathBuf;
+
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use clap::{Args, Parser, Subcommand};
+
+use radiosity::bake::BakedMesh;
+use radiosity::form_factor::{self, Estimator};
+use radiosity::pipeline::{self, WriteOptions};
+use radiosity::render::{self, View};
+use radiosity::scene::{Camera, Override, Property};
+use radiosity::solve::{self, Method};
+use radiosity::{Choice, Result};
+
+use crate::failure::Failure;
+
+/// A clap parser for one of the library's enumerated settings: its names as the possible
+/// values, each with its description (shown by `--help`).
+fn choice<T: Choice + Send + Sync>() -> impl TypedValueParser<Value = T> {
+    PossibleValuesParser::new(
+        T::ALL
+            .iter()
+            .map(|c| PossibleValue::new(c.name()).help(c.description())),
+    )
+    .map(|name| T::from_name(&name).expect("clap accepts only the listed names"))
+}
+
+/// Radiosity: diffuse global illumination baked into mesh vertex colours.
+///
+/// Units: radiance L and emission Le (MTL `Ke`) in W·sr⁻¹·m⁻²; reflectance ρ (MTL `Kd`) in
+/// [0, 1] per RGB channel; lengths in the scene's own units.
+#[derive(Debug, Parser)]
+#[command(name = "radiosity", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, global = true, value_name = "N", allow_negative_numbers = true)]
+    pub threads: Option<usize>,
+    /// No summary and no progress bars on stderr (warnings and errors are still printed).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+    /// More detail on stderr: each solve's counts, refinement rounds, seconds per stage.
+    #[arg(long, short, global = true)]
+    pub verbose: bool,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Solve a scene and write it with baked vertex colours (PLY or OBJ, by extension).
+    Bake(BakeArgs),
+    /// Run the built-in analytic suite (integrating sphere, furnace, Howell form factors).
+    Verify(VerifyArgs),
+    /// Write one of the verification scenes as OBJ + MTL (to try the tool or other renderers).
+    Generate(GenerateArgs),
+    /// Render a picture (PNG) of a baked PLY, or of a scene (baked first with the options given).
+    Render(RenderArgs),
+    /// Describe a scene without solving it: counts, bounding box, materials, emitters and
+    /// their power, loader warnings, and the patch count the defaults would give.
+    Info(InfoArgs),
+}
+
+/// Options of `radiosity info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Input scene (OBJ with its MTL, or PLY).
+    pub input: PathBuf,
+    /// Print JSON instead of text (the same facts; field names in the README).
+    #[arg(long)]
+    pub json: bool,
+    /// Describe the scene as `--two-sided` makes it for bake and render: every face with a
+    /// back face of its own (counts, area and emitted power include the back faces).
+    #[arg(long)]
+    pub two_sided: bool,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
+}
+
+/// Options of `radiosity render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// A PLY written by `radiosity bake` (rendered as it is, unless material overrides are
+    /// given), or a scene OBJ or PLY (baked first).
+    pub input: PathBuf,
+    /// Output picture (.png).
+    #[arg(short, long, value_name = "FILE.png")]
+    pub output: PathBuf,
+    /// Radiance multiplier before the sRGB curve [default: automatic, as for bake].
+    #[arg(
+        long,
+        value_name = "X",
+        allow_negative_numbers = true,
+        help_heading = "Picture"
+    )]
+    pub exposure: Option<f64>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    #[command(flatten)]
+    pub solve: SolveArgs,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
+}
+
+/// Picture options shared by `render` and `bake --png`.
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// Camera as eye,target,up,fov: nine coordinates in scene units and the vertical field of
+    /// view in degrees, e.g. 278,273,-800,278,273,0,0,1,0,39.30765 [default: the scene file's
+    /// camera line (`# camera:` in OBJ, `comment camera:` in PLY), else frame the bounding box
+    /// from its −z side at 39.3°].
+    #[arg(
+        long,
+        value_name = "EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOV",
+        allow_hyphen_values = true,
+        help_heading = "Picture"
+    )]
+    pub camera: Option<String>,
+    /// Picture size in pixels, WIDTHxHEIGHT or one number for a square.
+    #[arg(
+        long,
+        default_value = "512",
+        value_name = "WxH",
+        help_heading = "Picture"
+    )]
+    pub size: String,
+    /// Samples per pixel along each axis (n² rays per pixel, for anti-aliasing).
+    #[arg(long, default_value_t = 2, value_name = "N", help_heading = "Picture")]
+    pub spp: u32,
+    /// Show each patch's own solved radiance (no interpolation).
+    #[arg(long, help_heading = "Picture")]
+    pub flat: bool,
+    /// Map luminance to a colour scale with a legend instead of sRGB colours.
+    #[arg(long, alias = "false-color", help_heading = "Picture")]
+    pub false_colour: bool,
+}
+
+/// The procedural scenes `radiosity generate` can write.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneKind {
+    /// Geodesic sphere (1280 faces, radius 1) seen from inside, 30° emitting cap (Le = 1), ρ = 0.5.
+    IntegratingSphere,
+    /// Closed unit room with two floating boxes, Le = 1 and ρ = 0.5 everywhere (L = 2).
+    Furnace,
+    /// Unit squares 1 apart, facing (Howell C-11: F = 0.19982).
+    ParallelPlates,
+    /// Unit squares at 90° sharing an edge (Howell C-14: F = 0.20004).
+    PerpendicularPlates,
+}
+
+/// Options of `radiosity generate`.
+#[derive(Debug, Args)]
+pub struct GenerateArgs {
+    /// Which scene.
+    #[arg(value_enum)]
+    pub scene: SceneKind,
+    /// Output OBJ (its MTL is written beside it with the same name).
+    #[arg(short, long, value_name = "FILE.obj")]
+    pub output: PathBuf,
+}
+
+/// Options of `radiosity bake`.
+#[derive(Debug, Args)]
+pub struct BakeArgs {
+    /// Input scene: OBJ with its MTL (Kd = reflectance, Ke = emitted radiance), or PLY
+    /// (optional reflectance_r/g/b and emission_r/g/b per face or vertex).
+    pub input: PathBuf,
+    /// Output mesh: .ply (binary; --ascii for text) or .obj (vertex colours `v x y z r g b`).
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+    /// Write the JSON report (counts, rays, row sums, iterations, seconds per stage) here.
+    #[arg(long, value_name = "FILE.json", help_heading = "Output")]
+    pub report: Option<PathBuf>,
+    /// Write ASCII PLY instead of binary.
+    #[arg(long, help_heading = "Output")]
+    pub ascii: bool,
+    /// Radiance multiplier before the sRGB curve [default: automatic — the 95th percentile
+    /// of vertex luminance maps to white].
+    #[arg(
+        long,
+        value_name = "X",
+        allow_negative_numbers = true,
+        help_heading = "Output"
+    )]
+    pub exposure: Option<f64>,
+    /// Also render a picture of the result (PNG); see the Picture options.
+    #[arg(long, value_name = "FILE.png", help_heading = "Output")]
+    pub png: Option<PathBuf>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    #[command(flatten)]
+    pub solve: SolveArgs,
+    #[command(flatten)]
+    pub materials: MaterialArgs,
+}
+
+/// Material overrides shared by `bake`, `render` and `info`: change ρ or Le of a material
+/// without editing the scene's files. Applied in order; a later one wins.
+#[derive(Debug, Args)]
+pub struct MaterialArgs {
+    /// Set the reflectance ρ of MATERIAL (`*` = every material): R,G,B in [0, 1], or one
+    /// value for grey. Repeatable; later ones win.
+    #[arg(
+        long,
+        value_name = "MATERIAL=R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Materials"
+    )]
+    pub reflectance: Vec<String>,
+    /// Set the emitted radiance Le of MATERIAL (`*` = every material), W·sr⁻¹·m⁻²: R,G,B ≥ 0,
+    /// or one value for grey. Repeatable; later ones win.
+    #[arg(
+        long,
+        value_name = "MATERIAL=R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Materials"
+    )]
+    pub emission: Vec<String>,
+}
+
+impl MaterialArgs {
+    /// The parsed overrides, reflectances first then emissions, each in command-line order
+    /// (the two never act on the same property, so their relative order does not matter).
+    pub fn overrides(&self) -> Result<Vec<Override>> {
+        let rho = self
+            .reflectance
+            .iter()
+            .map(|t| Override::parse(Property::Reflectance, t));
+        let le = self
+            .emission
+            .iter()
+            .map(|t| Override::parse(Property::Emission, t));
+        rho.chain(le).collect()
+    }
+}
+
+/// Discretisation, form-factor and solver options shared by `bake` and `verify`.
+#[derive(Debug, Args)]
+pub struct SolveArgs {
+    /// Longest patch edge, scene units [default: bounding-box diagonal / 16].
+    #[arg(
+        long,
+        value_name = "LEN",
+        allow_negative_numbers = true,
+        help_heading = "Discretisation"
+    )]
+    pub max_edge: Option<f64>,
+    /// Crease angle in degrees: where faces meet at smaller angles the mesh samples one smooth
+    /// surface (its interpolated normal enters the form factors; output vertices are shared);
+    /// sharper edges stay creases. 0 = every face flat.
+    #[arg(long, default_value_t = radiosity::mesh::DEFAULT_CREASE_DEGREES, value_name = "DEG", allow_negative_numbers = true, help_heading = "Discretisation")]
+    pub crease: f64,
+    /// Surfaces reflect and emit on both sides: every face gets a back face with the same
+    /// material (ρ, Le) and its own radiance, and the output has both (twice the patches).
+    #[arg(long, help_heading = "Discretisation")]
+    pub two_sided: bool,
+    /// Adaptive refinement rounds: after each solve, split the patches whose radiance differs
+    /// from a neighbour's (same surface) by more than --refine-threshold, and solve again.
+    #[arg(
+        long,
+        default_value_t = radiosity::pipeline::Settings::default().refine_rounds,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Discretisation"
+    )]
+    pub refine: u32,
+    /// Relative luminance jump between neighbouring patches that marks both for splitting.
+    #[arg(
+        long,
+        default_value_t = radiosity::mesh::refine::DEFAULT_THRESHOLD,
+        value_name = "X",
+        allow_negative_numbers = true,
+        help_heading = "Discretisation"
+    )]
+    pub refine_threshold: f64,
+    #[command(flatten)]
+    pub estimator: FormFactorArgs,
+    /// Form-factor cache directory: F (geometry only) is stored there and reused by later
+    /// runs with the same geometry and form-factor settings, whatever the materials.
+    #[arg(long, value_name = "DIR", help_heading = "Form factors")]
+    pub cache: Option<PathBuf>,
+    /// Solver of (I − K)L = E.
+    #[arg(long, value_parser = choice::<Method>(), default_value_t = solve::Settings::default().method, help_heading = "Solver")]
+    pub solver: Method,
+    /// Bounces N of the Neumann series E + KE + … + K^N E (solver neumann only).
+    #[arg(
+        long,
+        default_value_t = solve::Settings::default().bounces,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Solver"
+    )]
+    pub bounces: u32,
+    /// Stop when ‖E − (I − K)L‖ / ‖E‖ ≤ this (the iterative solvers: jacobi, gauss-seidel, cg,
+    /// southwell; cg measures it on the symmetric system it solves).
+    #[arg(
+        long,
+        default_value = "1e-6",
+        allow_negative_numbers = true,
+        help_heading = "Solver"
+    )]
+    pub tolerance: f64,
+    /// Give up (warning, exit status 3) after this many sweeps.
+    #[arg(
+        long,
+        default_value_t = solve::Settings::default().max_iterations,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Solver"
+    )]
+    pub max_iterations: u32,
+    /// Over-relaxation ω of Gauss–Seidel (SOR), in (0, 2); 1 = plain Gauss–Seidel
+    /// [default: automatic, Young's optimum for the scene's largest ρ·(row sum), at most 1.7].
+    #[arg(
+        long,
+        value_name = "W",
+        allow_negative_numbers = true,
+        help_heading = "Solver"
+    )]
+    pub omega: Option<f64>,
+}
+
+/// Form-factor estimation options shared by `bake` and `verify`.
+#[derive(Debug, Args)]
+pub struct FormFactorArgs {
+    /// Form-factor estimator.
+    #[arg(long, value_parser = choice::<Estimator>(), default_value_t = form_factor::Settings::default().estimator, help_heading = "Form factors")]
+    pub form_factors: Estimator,
+    /// Sample points per patch = visibility rays per patch pair.
+    #[arg(
+        long,
+        default_value_t = form_factor::Settings::default().samples,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Form factors"
+    )]
+    pub samples: u32,
+    /// Cosine-weighted rays per patch (hemisphere estimator).
+    #[arg(
+        long,
+        default_value_t = form_factor::Settings::default().rays,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Form factors"
+    )]
+    pub rays: u32,
+    /// Seed of all sampling (same seed ⇒ same result for any thread count).
+    #[arg(long, default_value_t = form_factor::Settings::default().seed, help_heading = "Form factors")]
+    pub seed: u64,
+    /// Enforce reciprocity A_i F_ij = A_j F_ji: the symmetric part of A·F, rescaled (Sinkhorn)
+    /// so that every row keeps its sum.
+    #[arg(long, help_heading = "Form factors")]
+    pub reciprocity: bool,
+}
+
+impl FormFactorArgs {
+    /// The form-factor settings these options give (checked by the library).
+    pub fn settings(&self) -> form_factor::Settings {
+        form_factor::Settings {
+            estimator: self.form_factors,
+            samples: self.samples,
+            rays: self.rays,
+            seed: self.seed,
+            reciprocity: self.reciprocity,
+            ..form_factor::Settings::default()
+        }
+    }
+}
+
+/// Options of `radiosity verify`.
+#[derive(Debug, Args)]
+pub struct VerifyArgs {
+    #[command(flatten)]
+    pub estimator: FormFactorArgs,
+    /// Solver for the all-bounce cases.
+    #[arg(long, value_parser = choice::<Method>(), default_value_t = solve::Settings::default().method)]
+    pub solver: Method,
+    /// Write the table as JSON here.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+}
+
+impl SolveArgs {
+    /// The pipeline settings these options give, checked by the library
+    /// ([`pipeline::Settings::validate`]) before any work.
+    pub fn settings(&self) -> Result<pipeline::Settings> {
+        let settings = pipeline::Settings {
+            max_edge: self.max_edge,
+            form_factors: self.estimator.settings(),
+            solver: solve::Settings {
+                method: self.solver,
+                tolerance: self.tolerance,
+                max_iterations: self.max_iterations,
+                bounces: self.bounces,
+                omega: self.omega,
+            },
+            crease_degrees: self.crease,
+            two_sided: self.two_sided,
+            refine_rounds: self.refine,
+            refine_threshold: self.refine_threshold,
+            cache: self.cache.clone(),
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+}
+
+/// `--output` of a command that writes one kind of file must end in `.ext` (any case), and
+/// its directory must exist; checked before any work.
+pub fn check_output(path: &std::path::Path, command: &str, ext: &str) -> Result<(), Failure> {
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case(ext))
+    {
+        return Err(Failure::usage(
+            "--output",
+            format!("{}: {command} writes .{ext} files", path.display()),
+        ));
+    }
+    Ok(radiosity::io::check_output_dir(path)?)
+}
+
+impl BakeArgs {
+    /// The output options (checked by the library).
+    pub fn write_options(&self) -> Result<WriteOptions> {
+        let options = WriteOptions {
+            ascii: self.ascii,
+            exposure: self.exposure,
+        };
+        options.validate()?;
+        Ok(options)
+    }
+}
+
+impl ViewArgs {
+    /// The picture of `mesh` these options ask for at `exposure`, checked by the library
+    /// ([`View::validate`]). The camera is [`render::camera_for`]'s: `--camera` if given, else
+    /// the one the scene file carries, else a framing of the mesh's bounding box.
+    pub fn view(&self, mesh: &BakedMesh, exposure: f64) -> Result<View, Failure> {
+        let (width, height) = parse_size(&self.size)?;
+        let given = self.camera.as_deref().map(Camera::parse).transpose()?;
+        let view = View {
+            camera: render::camera_for(mesh, given),
+            width,
+            height,
+            spp: self.spp,
+            flat: self.flat,
+            false_colour: self.false_colour,
+            exposure,
+        };
+        view.validate()?;
+        Ok(view)
+    }
+}
+
+/// `W`x`H` or `N` (square); the range is the library's ([`render::MAX_SIZE`]).
+fn parse_size(text: &str) -> Result<(u32, u32), Failure> {
+    let bad = || {
+        Failure::usage(
+            "--size",
+            format!(
+                "{text:?} is not WIDTHxHEIGHT or N (1..={})",
+                render::MAX_SIZE
+            ),
+        )
+    };
+    let parse = |s: &str| s.trim().parse::<u32>().ok();
+    match text.split_once(['x', 'X']) {
+        Some((w, h)) => Ok((parse(w).ok_or_else(bad)?, parse(h).ok_or_else(bad)?)),
+        None => parse(text).map(|n| (n, n)).ok_or_else(bad),
+    }
+}

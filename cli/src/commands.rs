@@ -1,0 +1,177 @@
+//! The five commands, each a short sequence of library calls: parse-level checks first (so a
+//! typo costs nothing), then the work, then what the user is told (warnings, the summary line,
+//! the exit status). Each returns the exit status of a run that completed.
+
+use radiosity::pipeline::{self, info::SceneInfo};
+use radiosity::scene::Scene;
+use radiosity::validation::{scenes, verify};
+use radiosity::{color, io, render, Error};
+
+use crate::args::{
+    check_output, BakeArgs, GenerateArgs, InfoArgs, RenderArgs, SceneKind, VerifyArgs,
+};
+use crate::failure::{Failure, EXIT_NOT_CONVERGED};
+
+/// `radiosity bake`: load → … → write, then the report and the picture if asked.
+pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
+    let settings = args.solve.settings()?;
+    let overrides = args.materials.overrides()?;
+    let options = args.write_options()?;
+    for path in args.report.iter().chain(&args.png) {
+        io::check_output_dir(path)?;
+    }
+    if args.png.is_some() {
+        // Check the picture options before the long work (the mesh is not needed for it).
+        args.view.view(&Default::default(), 1.0)?;
+    }
+    let outcome = pipeline::run_with(&args.input, &args.output, &settings, &options, &overrides)?;
+    let report = &outcome.report;
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
+    if let Some(path) = &args.report {
+        report.write_json(path)?;
+    }
+    if let Some(path) = &args.png {
+        let view = args.view.view(&outcome.baked, report.exposure)?;
+        render::save(path, &render::render(&outcome.baked, &view))?;
+    }
+    if !quiet {
+        eprintln!("{}: {}", args.output.display(), report.summary());
+    }
+    radiosity::progress::note(|| {
+        let s = &report.seconds;
+        format!(
+            "seconds: load {:.3}, patches {:.3}, bvh {:.3}, form factors {:.3}, solve {:.3}, \
+             bake {:.3}, write {:.3}",
+            s.load, s.patches, s.bvh, s.form_factors, s.solve, s.bake, s.write
+        )
+    });
+    if !report.converged {
+        eprintln!(
+            "warning: the {} solver stopped after {} sweeps at relative residual {:.3e}, \
+             above the tolerance {:.1e}: the result is not converged (raise --max-iterations, \
+             or check for ρ close to 1 in a closed scene)",
+            settings.solver.method.name(),
+            report.iterations,
+            report.residual,
+            settings.solver.tolerance
+        );
+        return Ok(EXIT_NOT_CONVERGED);
+    }
+    Ok(0)
+}
+
+/// `radiosity verify`: the analytic suite, a table on stdout; 1 if any case fails.
+pub fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Failure> {
+    let settings = verify::Settings {
+        form_factors: args.estimator.settings(),
+        solver: args.solver,
+    };
+    settings.form_factors.validate()?;
+    let cases = verify::run_all(&settings)?;
+    print!("{}", verify::table(&cases));
+    if let Some(path) = &args.report {
+        let text = serde_json::to_string_pretty(&cases)
+            .map_err(|e| Error::Internal(format!("report serialisation: {e}")))?;
+        io::write_atomic(path, text.as_bytes())?;
+    }
+    let failed = cases.iter().filter(|c| !c.pass).count();
+    if !quiet {
+        eprintln!(
+            "{} cases, {} passed, {} failed",
+            cases.len(),
+            cases.len() - failed,
+            failed
+        );
+    }
+    Ok(if failed > 0 { 1 } else { 0 })
+}
+
+/// `radiosity render`: a PLY written by `bake` is rendered as it is (unless material overrides
+/// ask for a new bake); any other input, including other PLY files, is a scene baked first.
+pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
+    check_output(&args.output, "render", "png")?;
+    if let Some(x) = args.exposure {
+        color::check_exposure(x)?;
+    }
+    let overrides = args.materials.overrides()?;
+    let is_ply = args
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+    let baked = (is_ply && overrides.is_empty())
+        .then(|| io::ply::read(&args.input).ok()?.into_baked())
+        .flatten();
+    if baked.is_some() && args.solve.two_sided {
+        // Its radiance is already solved: doubling its faces now would only add black backs.
+        return Err(Failure::usage(
+            "--two-sided",
+            format!(
+                "{} was written by `radiosity bake` and is rendered as it is (a bake made with \
+                 --two-sided already has both sides); bake the original scene with \
+                 --two-sided, or give material overrides to bake this mesh again as a scene",
+                args.input.display()
+            ),
+        ));
+    }
+    let mut code = 0;
+    let mesh = match baked {
+        Some(mesh) => mesh,
+        None => {
+            let settings = args.solve.settings()?;
+            let mut scene = Scene::load(&args.input)?;
+            scene.apply_overrides(&overrides)?;
+            let outcome = pipeline::solve_scene(&scene, &settings)?;
+            for w in &outcome.report.warnings {
+                eprintln!("warning: {w}");
+            }
+            if !outcome.report.converged {
+                eprintln!(
+                    "warning: the solver did not converge (residual {:.3e})",
+                    outcome.report.residual
+                );
+                code = EXIT_NOT_CONVERGED;
+            }
+            if !quiet {
+                eprintln!("{}: {}", args.input.display(), outcome.report.summary());
+            }
+            outcome.baked
+        }
+    };
+    mesh.validate()?;
+    let exposure = args.exposure.unwrap_or_else(|| mesh.auto_exposure());
+    let view = args.view.view(&mesh, exposure)?;
+    render::save(&args.output, &render::render(&mesh, &view))?;
+    Ok(code)
+}
+
+/// `radiosity info`: the scene described, as text or JSON.
+pub fn info(args: &InfoArgs) -> Result<u8, Failure> {
+    let overrides = args.materials.overrides()?;
+    let mut scene = Scene::load(&args.input)?;
+    scene.apply_overrides(&overrides)?;
+    if args.two_sided {
+        scene.make_two_sided();
+    }
+    let info = SceneInfo::of(&scene)?;
+    if args.json {
+        println!("{}", info.to_json());
+    } else {
+        print!("{}", info.text());
+    }
+    Ok(0)
+}
+
+/// `radiosity generate`: one of the verification scenes as OBJ + MTL.
+pub fn generate(args: &GenerateArgs) -> Result<u8, Failure> {
+    check_output(&args.output, "generate", "obj")?;
+    let scene = match args.scene {
+        SceneKind::IntegratingSphere => scenes::integrating_sphere(1.0, 3, 30.0, 0.5, [1.0; 3])?,
+        SceneKind::Furnace => scenes::furnace_room(0.5, 1.0)?,
+        SceneKind::ParallelPlates => scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+        SceneKind::PerpendicularPlates => scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+    };
+    io::obj::save(&scene, &args.output)?;
+    Ok(0)
+}

@@ -1,0 +1,136 @@
+//! Options that cut across commands, through the binary: material overrides
+//! (`--reflectance`, `--emission`) and their errors, progress and verbosity (`-q`, `-v`).
+
+use crate::support::{cornell, radiosity, stderr, temp_dir};
+
+#[test]
+fn cli_overrides_apply_and_unknown_materials_are_usage_errors() {
+    let dir = temp_dir("overrides");
+    let out = dir.join("c.ply");
+    let out_s = out.to_str().unwrap();
+    let input = cornell();
+    let bake = |extra: &[&str]| {
+        let mut args = vec!["bake", &input, "-o", out_s, "--max-edge", "110"];
+        args.extend_from_slice(extra);
+        radiosity(&args)
+    };
+
+    let o = bake(&["--emission", "light=0"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: no emitters"),
+        "{}",
+        stderr(&o)
+    );
+    let p = radiosity::io::ply::read(&out).unwrap();
+    assert!(p
+        .vertex_radiance
+        .unwrap()
+        .iter()
+        .flatten()
+        .all(|&l| l == 0.0));
+
+    // ρ = 0 everywhere, then the light's own Le raised: radiance is Le or 0, nothing between.
+    let report = dir.join("r.json");
+    let o = bake(&[
+        "--reflectance",
+        "*=0",
+        "--emission",
+        "light=2,3,4",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(
+        json["overrides"],
+        serde_json::json!(["--reflectance *=0,0,0", "--emission light=2,3,4"])
+    );
+    let p = radiosity::io::ply::read(&out).unwrap();
+    for r in p.face_radiance.unwrap() {
+        assert!(r == [0.0; 3] || r == [2.0, 3.0, 4.0], "{r:?}");
+    }
+
+    std::fs::write(&out, b"precious").unwrap();
+    let cases: [(&[&str], &[&str]); 4] = [
+        (
+            &["--reflectance", "nosuch=0.5"],
+            &["--reflectance", "'nosuch'", "white, red, green, light"],
+        ),
+        (&["--emission", "light=-1"], &["--emission", "≥ 0"]),
+        (
+            &["--reflectance", "white=1.5"],
+            &["--reflectance", "[0, 1]"],
+        ),
+        (&["--reflectance", "white"], &["MATERIAL=R,G,B"]),
+    ];
+    for (extra, needles) in cases {
+        let o = bake(extra);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {err}");
+        for n in needles {
+            assert!(err.contains(n), "{extra:?}: {n} not in {err}");
+        }
+        assert_eq!(std::fs::read(&out).unwrap(), b"precious", "{extra:?}");
+    }
+    // render takes the same options.
+    let png = dir.join("v.png");
+    let o = radiosity(&[
+        "render",
+        &input,
+        "-o",
+        png.to_str().unwrap(),
+        "--max-edge",
+        "110",
+        "--size",
+        "8",
+        "--emission",
+        "nosuch=1",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("'nosuch'"), "{}", stderr(&o));
+    assert!(!png.exists());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn progress_is_hidden_off_a_terminal_and_verbose_adds_detail() {
+    // Tests run with stderr piped: no bars, no escape codes, only the summary line. `-v` adds
+    // one line per solve, per refinement round and the seconds per stage; `-q` removes the
+    // summary but not what `-v` asked for.
+    let dir = temp_dir("progress");
+    let out = dir.join("c.ply");
+    let input = cornell();
+    let run = |extra: &[&str]| {
+        let mut a = vec![
+            "bake",
+            &input,
+            "-o",
+            out.to_str().unwrap(),
+            "--max-edge",
+            "150",
+        ];
+        a.extend_from_slice(extra);
+        let o = radiosity(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let plain = run(&[]);
+    assert!(
+        !plain.contains('\u{1b}') && !plain.contains("form factors ["),
+        "{plain}"
+    );
+    assert_eq!(plain.lines().count(), 1, "{plain}");
+    let verbose = run(&["-v"]);
+    assert!(verbose.contains("refinement round 1"), "{verbose}");
+    assert!(verbose.contains("seconds: load"), "{verbose}");
+    assert!(
+        verbose.contains("gauss-seidel") && verbose.contains("rays"),
+        "{verbose}"
+    );
+    assert!(!verbose.contains('\u{1b}'), "{verbose}");
+    let quiet = run(&["-q"]);
+    assert!(quiet.is_empty(), "{quiet}");
+    let _ = std::fs::remove_dir_all(dir);
+}

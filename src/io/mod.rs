@@ -1,0 +1,229 @@
+//! Files in and out: scene files read into a [`Scene`] ([`Scene::load`]: OBJ + MTL through
+//! [`obj`], PLY through [`ply`]), baked meshes written for MeshLab ([`write`]: PLY or OBJ by
+//! the output's extension, see [`Format`]) and read back ([`ReadBack`], for tests, `render` and
+//! later tools), procedural scenes saved as OBJ + MTL ([`obj::save`]), and the atomic
+//! replacement every writer goes through ([`atomic`]). Each format keeps its reader and its
+//! writer together: [`ply`] (one header layer shared by the scene reader and the read-back)
+//! and [`obj`] (one writer for scenes and baked meshes). It does not bake radiance into
+//! vertices ([`crate::bake`]) or draw pictures ([`crate::render`]).
+
+pub mod atomic;
+pub mod obj;
+pub mod ply;
+
+use std::path::Path;
+
+pub use atomic::{check_output_dir, write_atomic};
+
+use crate::bake::BakedMesh;
+use crate::scene::{Camera, Scene};
+use crate::{Error, Result};
+
+impl Scene {
+    /// Loads a scene file, dispatching on the extension: `.obj` (any case) goes to
+    /// [`obj::load`], `.ply` to [`ply::load`]. A missing path is [`Error::Io`], a directory or
+    /// any other extension [`Error::Input`]; all name the path. (Defined here, with the
+    /// readers, so that the scene model does not depend on the file formats.)
+    pub fn load(path: &Path) -> Result<Scene> {
+        let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+        if meta.is_dir() {
+            return Err(Error::Input {
+                path: path.to_path_buf(),
+                message: "is a directory, expected a scene file (.obj or .ply)".into(),
+            });
+        }
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if ext.eq_ignore_ascii_case("obj") {
+            obj::load(path)
+        } else if ext.eq_ignore_ascii_case("ply") {
+            ply::load(path)
+        } else {
+            Err(Error::Input {
+                path: path.to_path_buf(),
+                message: "unsupported scene format (expected a .obj or .ply file)".into(),
+            })
+        }
+    }
+}
+
+/// Output file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// PLY 1.0: `uchar` sRGB colours for MeshLab plus `float` radiance per vertex and per face;
+    /// `binary_little_endian` unless `ascii`.
+    Ply { ascii: bool },
+    /// Wavefront OBJ with `v x y z r g b` vertex colours (no radiance values).
+    Obj,
+}
+
+impl Format {
+    /// The format named by the output path's extension (`.ply` / `.obj`, case-insensitive);
+    /// `ascii` selects ASCII PLY and is ignored for OBJ. Any other extension is an
+    /// [`Error::Setting`] named `output`, naming the path and the supported extensions.
+    pub fn from_path(path: &Path, ascii: bool) -> Result<Format> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("ply") => Ok(Format::Ply { ascii }),
+            Some("obj") => Ok(Format::Obj),
+            _ => Err(Error::setting(
+                "output",
+                format!(
+                    "{}: unsupported output extension (supported: .ply, .obj)",
+                    path.display()
+                ),
+            )),
+        }
+    }
+}
+
+/// Writes `mesh` to `path` in `format`, with colours sRGB(radiance · `exposure`).
+///
+/// The write is atomic: the file is written through a buffer to a temporary file in the same
+/// directory (`.<name>.tmp-<pid>-<n>`), flushed and synced, then renamed over `path`. On any
+/// error the temporary file is removed and an existing file at `path` is left untouched.
+/// Errors: [`Error::Internal`] if [`BakedMesh::validate`] fails, [`Error::Setting`] named
+/// `exposure` if it is not finite and > 0, [`Error::Io`] naming `path` for any file-system failure
+/// (including a missing output directory).
+pub fn write(path: &Path, mesh: &BakedMesh, format: Format, exposure: f64) -> Result<()> {
+    mesh.validate()?;
+    crate::color::check_exposure(exposure)?;
+    atomic::write_atomically(path, |w| match format {
+        Format::Ply { ascii } => ply::write_to(w, mesh, exposure, ascii),
+        Format::Obj => obj::write_to(w, mesh, exposure),
+    })
+}
+
+/// What [`ply::read`] and [`obj::read`] give back from one of our files.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadBack {
+    /// Vertex positions as stored (`f32`), scene units.
+    pub positions: Vec<[f32; 3]>,
+    /// 8-bit sRGB vertex colours as MeshLab sees them (for OBJ, ⌊c · 255⌋ like MeshLab).
+    pub colours: Vec<[u8; 3]>,
+    /// Vertex radiance, W·sr⁻¹·m⁻² per RGB channel (PLY only; `None` for OBJ).
+    pub vertex_radiance: Option<Vec<[f32; 3]>>,
+    /// Triangles, 0-based indices into `positions`.
+    pub faces: Vec<[u32; 3]>,
+    /// Face radiance, W·sr⁻¹·m⁻² per RGB channel (PLY only; `None` for OBJ).
+    pub face_radiance: Option<Vec<[f32; 3]>>,
+    /// The camera line of the file (`comment camera: …` / `# camera: …`), if it has one.
+    pub camera: Option<Camera>,
+}
+
+impl ReadBack {
+    /// The baked mesh a PLY written by [`write`] holds (positions and radiance widened to
+    /// f64, with its camera); `None` for a file without radiance (an OBJ, or a PLY from
+    /// another tool read as ours).
+    pub fn into_baked(self) -> Option<BakedMesh> {
+        let (vertex_radiance, face_radiance) = (self.vertex_radiance?, self.face_radiance?);
+        let f64s = |v: Vec<[f32; 3]>| v.into_iter().map(|x| x.map(f64::from)).collect();
+        Some(BakedMesh {
+            positions: f64s(self.positions),
+            vertex_radiance: f64s(vertex_radiance),
+            faces: self.faces,
+            face_radiance: f64s(face_radiance),
+            camera: self.camera,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::{sample_mesh, TestDir};
+    use std::fs;
+    use std::io;
+
+    #[test]
+    fn format_from_extension_is_case_insensitive() {
+        assert_eq!(
+            Format::from_path(Path::new("out/Scene.PLY"), false).unwrap(),
+            Format::Ply { ascii: false }
+        );
+        assert_eq!(
+            Format::from_path(Path::new("scene.ply"), true).unwrap(),
+            Format::Ply { ascii: true }
+        );
+        assert_eq!(
+            Format::from_path(Path::new("scene.obj"), true).unwrap(),
+            Format::Obj
+        );
+        assert_eq!(
+            Format::from_path(Path::new("scene.Obj"), false).unwrap(),
+            Format::Obj
+        );
+    }
+
+    #[test]
+    fn format_from_unknown_extension_names_path_and_choices() {
+        for p in ["scene.stl", "scene", "ply"] {
+            let err = Format::from_path(Path::new(p), false).unwrap_err();
+            assert!(matches!(err, Error::Setting { .. }), "{err:?}");
+            let text = err.to_string();
+            assert!(text.contains(p) && text.contains(".ply") && text.contains(".obj"));
+        }
+    }
+
+    #[test]
+    fn failed_write_leaves_existing_file_untouched_and_no_temp_file() {
+        let dir = TestDir::new("atomic");
+        for format in [Format::Ply { ascii: false }, Format::Obj] {
+            let path = dir.path().join("out.ply");
+            fs::write(&path, b"old contents").unwrap();
+
+            let mut bad = sample_mesh(10, 4);
+            bad.vertex_radiance[7][1] = f64::NAN;
+            assert!(write(&path, &bad, format, 1.0).is_err());
+            let good = sample_mesh(10, 4);
+            let err = write(&path, &good, format, f64::NAN).unwrap_err();
+            assert!(matches!(err, Error::Setting { .. }), "{err:?}");
+
+            assert_eq!(fs::read(&path).unwrap(), b"old contents");
+            assert_eq!(dir.entries(), ["out.ply"]);
+        }
+    }
+
+    #[test]
+    fn failed_rename_removes_temp_file() {
+        // The target is a directory: the temporary file is written, then the rename fails.
+        let dir = TestDir::new("rename");
+        let path = dir.path().join("taken.ply");
+        fs::create_dir(&path).unwrap();
+        let err = write(&path, &sample_mesh(5, 2), Format::Ply { ascii: true }, 1.0).unwrap_err();
+        assert!(matches!(err, Error::Io { .. }), "{err:?}");
+        assert!(err.to_string().contains("taken.ply"));
+        assert_eq!(dir.entries(), ["taken.ply"]);
+        assert!(path.is_dir());
+    }
+
+    #[test]
+    fn successful_write_replaces_file_and_leaves_no_temp_file() {
+        let dir = TestDir::new("replace");
+        let path = dir.path().join("out.obj");
+        fs::write(&path, b"old contents").unwrap();
+        write(&path, &sample_mesh(5, 2), Format::Obj, 1.0).unwrap();
+        assert!(fs::read(&path).unwrap().starts_with(b"# radiosity"));
+        assert_eq!(dir.entries(), ["out.obj"]);
+    }
+
+    #[test]
+    fn missing_directory_is_io_error_naming_the_path() {
+        let dir = TestDir::new("missing");
+        let path = dir.path().join("no-such-dir").join("out.ply");
+        let err = write(&path, &sample_mesh(3, 1), Format::Ply { ascii: false }, 1.0).unwrap_err();
+        match &err {
+            Error::Io { path: p, source } => {
+                assert_eq!(p, &path);
+                assert_eq!(source.kind(), io::ErrorKind::NotFound);
+            }
+            other => panic!("expected Error::Io, got {other:?}"),
+        }
+        let text = err.to_string();
+        assert!(text.contains(&*path.to_string_lossy()), "{text}");
+        assert!(text.contains("does not exist"), "{text}");
+        assert_eq!(dir.entries(), Vec::<String>::new());
+    }
+}

@@ -1,0 +1,843 @@
+//! Wavefront OBJ + MTL loading through `tobj`, into a [`Scene`]. This module owns reading
+//! the files, reporting their mistakes with `path:line:`, and mapping `Kd` → ρ and `Ke` →
+//! Le; welding, zero-area clean-up and validation are shared with the builder
+//! (`scene::finish`).
+//!
+//! How a file is read:
+//! 1. We scan the OBJ text ourselves first, because `tobj` reports errors without a line
+//!    number and silently accepts some mistakes (faces with fewer than 3 vertices, NaN or
+//!    overflowing coordinates). The scan checks every line we use and hands `tobj` a
+//!    normalised copy with the same line numbering: `v x y z [w]` (vertex colours dropped),
+//!    `f` with absolute 1-based position indices only (texture and normal indices dropped:
+//!    radiosity uses neither), `o`/`g`/`usemtl`/`mtllib` with single spaces; every other
+//!    line (`vt`, `vn`, `l`, `p`, `s`, comments, unknown statements) becomes empty. Dropping
+//!    `l` matters: `tobj` would turn a polyline of 3+ points into triangles.
+//! 2. `tobj::load_obj_buf` (what `tobj::load_obj` calls after opening the file) parses that
+//!    copy with `LoadOptions { single_index: false, triangulate: true, ignore_points: true,
+//!    ignore_lines: true }`; polygons are fan-triangulated (convex polygons only).
+//! 3. Each `mtllib` is read by our own loader callback, relative to the OBJ's directory,
+//!    which scans the MTL text the same way (keeping `newmtl`, `Kd`, `Ke`; a single-value
+//!    `Kd r` means `r r r`, as the MTL spec says, and is expanded because `tobj` would panic
+//!    on it) and records any failure. `tobj` keeps only the last material error and drops
+//!    it when another library loaded; we report the first one.
+//!
+//! Decisions: faces before any `usemtl` get [`Scene::default_material`]; a `usemtl` whose
+//! material no earlier `mtllib` defines is an error at that line (`tobj` would silently
+//! leave those faces without a material); a missing MTL file is an error at the `mtllib`
+//! line naming the MTL path; a material without `Kd` gets ρ = 0.5 with a warning.
+//!
+//! A comment `# camera: EX EY EZ TX TY TZ UX UY UZ FOV` gives the scene its camera
+//! ([`crate::scene::camera`]; eye, target and up in scene units, vertical field of view in degrees).
+//! A malformed one, or a second one, is an error at its line; other comments are ignored.
+
+use std::cell::RefCell;
+use std::collections::HashSet;
+use std::io::Cursor;
+use std::path::Path;
+
+use glam::DVec3;
+
+use crate::scene::camera::{self, Camera};
+use crate::scene::{finish, Material, Scene, SceneTriangle};
+use crate::{Error, Result};
+
+/// The options the scene loader passes to `tobj`.
+const LOAD_OPTIONS: tobj::LoadOptions = tobj::LoadOptions {
+    single_index: false,
+    triangulate: true,
+    ignore_points: true,
+    ignore_lines: true,
+};
+
+/// Loads an OBJ file and the MTL files it references into a welded, cleaned and validated
+/// [`Scene`]. Errors name the file and, where there is one, the line (1-based).
+pub fn load(path: &Path) -> Result<Scene> {
+    let text = read_text(path)?;
+    let scan = scan_obj(path, &text)?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+
+    // One record per `mtllib` line, in order (tobj calls the loader once per line).
+    let libraries: RefCell<Vec<HashSet<String>>> = RefCell::new(Vec::new());
+    let first_error: RefCell<Option<Error>> = RefCell::new(None);
+    let loader = |name: &Path| -> tobj::MTLLoadResult {
+        let k = libraries.borrow().len();
+        let line = scan.mtllib_lines.get(k).copied().unwrap_or(0);
+        let mtl = dir.join(name);
+        let result = read_mtl(path, line, &mtl).and_then(|text| {
+            tobj::load_mtl_buf(&mut Cursor::new(text.as_bytes())).map_err(|e| tobj_failure(&mtl, e))
+        });
+        match result {
+            Ok((materials, map)) => {
+                libraries.borrow_mut().push(map.keys().cloned().collect());
+                Ok((materials, map))
+            }
+            Err(e) => {
+                libraries.borrow_mut().push(HashSet::new());
+                first_error.borrow_mut().get_or_insert(e);
+                Err(tobj::LoadError::GenericFailure)
+            }
+        }
+    };
+    let loaded = tobj::load_obj_buf(
+        &mut Cursor::new(scan.normalised.as_bytes()),
+        &LOAD_OPTIONS,
+        loader,
+    );
+    if let Some(e) = first_error.into_inner() {
+        return Err(e);
+    }
+    let (models, tobj_materials) = loaded.map_err(|e| tobj_failure(path, e))?;
+    let tobj_materials = tobj_materials.map_err(|e| tobj_failure(path, e))?;
+
+    // A `usemtl` must name a material of an `mtllib` that comes before it.
+    let libraries = libraries.into_inner();
+    for u in &scan.usemtl {
+        let known = libraries
+            .iter()
+            .take(u.libraries_before)
+            .any(|lib| lib.contains(&u.name));
+        if !known {
+            let hint = if u.libraries_before == 0 {
+                " (no mtllib before this line)"
+            } else {
+                ""
+            };
+            return Err(parse_error(
+                path,
+                u.line,
+                format!(
+                    "usemtl {}: material not defined by any mtllib before this line{hint}",
+                    u.name
+                ),
+            ));
+        }
+    }
+
+    let mut warnings = Vec::new();
+    let mut materials: Vec<Material> = tobj_materials
+        .iter()
+        .map(|m| convert_material(m, &mut warnings))
+        .collect();
+
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    let mut default_material = None;
+    for model in &models {
+        let mesh = &model.mesh;
+        let base = positions.len();
+        positions.extend(
+            mesh.positions
+                .chunks_exact(3)
+                .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))),
+        );
+        let material = match mesh.material_id {
+            Some(id) => id,
+            None => *default_material.get_or_insert_with(|| {
+                materials.push(Scene::default_material());
+                materials.len() - 1
+            }),
+        };
+        // Indices past u32::MAX saturate; `finish` rejects such a scene by its vertex count.
+        let to_u32 = |i: usize| u32::try_from(i).unwrap_or(u32::MAX);
+        for t in mesh.indices.chunks_exact(3) {
+            triangles.push(SceneTriangle {
+                vertices: [t[0], t[1], t[2]].map(|v| to_u32(base + v as usize)),
+                material: to_u32(material),
+            });
+        }
+    }
+    if triangles.is_empty() {
+        return Err(Error::Input {
+            path: path.to_path_buf(),
+            message: "the mesh is empty: no faces with 3 or more vertices".into(),
+        });
+    }
+    // tobj keeps faces in file order and fan-triangulates a face of n vertices into n − 2
+    // triangles, so triangle k comes from the k-th face line below (checked by the count).
+    let face_lines: Vec<usize> = scan
+        .faces
+        .iter()
+        .flat_map(|&(line, n)| std::iter::repeat_n(line, n - 2))
+        .collect();
+    let mut scene = finish(
+        Some(path.to_path_buf()),
+        positions,
+        triangles,
+        materials,
+        warnings,
+        Some(face_lines),
+    )?;
+    scene.camera = scan.camera;
+    Ok(scene)
+}
+
+/// Reads a text file; bytes that are not UTF-8 (a binary file, or a legacy encoding) are an
+/// [`Error::Parse`] at the line where the first one is.
+fn read_text(path: &Path) -> Result<String> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
+        parse_error(
+            path,
+            line,
+            "not UTF-8 text (a binary file, or a legacy encoding: save it as UTF-8)",
+        )
+    })
+}
+
+/// A `usemtl` statement: the name, its line, and how many `mtllib` lines precede it.
+struct UseMtl {
+    name: String,
+    line: usize,
+    libraries_before: usize,
+}
+
+/// What the OBJ scan found: the normalised text for `tobj` (same line numbering) and the
+/// statements resolved after `tobj` has loaded the materials.
+struct ObjScan {
+    normalised: String,
+    usemtl: Vec<UseMtl>,
+    mtllib_lines: Vec<usize>,
+    /// Every `f` statement: its line and its number of vertices (≥ 3).
+    faces: Vec<(usize, usize)>,
+    /// The `# camera: …` comment's camera (at most one such line).
+    camera: Option<Camera>,
+}
+
+fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
+    Error::Parse {
+        path: path.to_path_buf(),
+        line,
+        message: message.into(),
+    }
+}
+
+/// Parses a number the way `tobj` does (as f32, its default `Float`), so a value that
+/// overflows f32 is caught here as non-finite.
+fn parse_number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
+    s.parse::<f32>()
+        .map_err(|_| parse_error(path, line, format!("{what}: malformed number '{s}'")))
+}
+
+/// Checks every OBJ statement the loader uses and produces the normalised copy for `tobj`
+/// (see the module documentation). The first offending line is an [`Error::Parse`].
+fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
+    let mut out = String::with_capacity(text.len());
+    let mut usemtl = Vec::new();
+    let mut mtllib_lines = Vec::new();
+    let mut faces = Vec::new();
+    let mut camera = None;
+    let mut vertices = 0usize;
+    for (i, raw) in text.lines().enumerate() {
+        let ln = i + 1;
+        let line = raw.trim();
+        let mut words = line.split_whitespace();
+        let keyword = words.next().unwrap_or("");
+        let rest: Vec<&str> = words.collect();
+        match keyword {
+            "v" => {
+                if rest.len() < 3 {
+                    return Err(parse_error(
+                        path,
+                        ln,
+                        format!("vertex needs 3 coordinates x y z, found {}", rest.len()),
+                    ));
+                }
+                let mut xyz = [0.0; 3];
+                for (c, s) in xyz.iter_mut().zip(&rest) {
+                    *c = parse_number(path, ln, "vertex", s)?;
+                }
+                // `v x y z w` is homogeneous (tobj divides by w); 6 values are x y z r g b.
+                let keep = if rest.len() == 4 {
+                    let w = parse_number(path, ln, "vertex w", rest[3])?;
+                    if w == 0.0 {
+                        return Err(parse_error(path, ln, "vertex has w = 0"));
+                    }
+                    xyz = xyz.map(|c| c / w);
+                    4
+                } else {
+                    3
+                };
+                if xyz.iter().any(|c| !c.is_finite()) {
+                    return Err(parse_error(
+                        path,
+                        ln,
+                        format!(
+                            "vertex has a non-finite coordinate ({}, {}, {})",
+                            xyz[0], xyz[1], xyz[2]
+                        ),
+                    ));
+                }
+                out.push_str("v ");
+                out.push_str(&rest[..keep].join(" "));
+                vertices += 1;
+            }
+            "f" => {
+                if rest.len() < 3 {
+                    return Err(parse_error(
+                        path,
+                        ln,
+                        format!("face has {} vertices; at least 3 are needed", rest.len()),
+                    ));
+                }
+                out.push('f');
+                faces.push((ln, rest.len()));
+                for token in &rest {
+                    let index = token.split('/').next().unwrap_or("");
+                    let k: i64 = index.parse().map_err(|_| {
+                        parse_error(path, ln, format!("face: malformed vertex '{token}'"))
+                    })?;
+                    // Positive indices count from 1; negative ones back from the latest vertex.
+                    let absolute = if k < 0 { vertices as i64 + k + 1 } else { k };
+                    if k == 0 {
+                        return Err(parse_error(
+                            path,
+                            ln,
+                            "face: vertex index 0 (OBJ indices start at 1)",
+                        ));
+                    }
+                    if absolute < 1 || absolute > vertices as i64 {
+                        return Err(parse_error(
+                            path,
+                            ln,
+                            format!(
+                                "face: vertex index {k} out of range ({vertices} vertices defined before this line)"
+                            ),
+                        ));
+                    }
+                    out.push(' ');
+                    out.push_str(&absolute.to_string());
+                }
+            }
+            _ if keyword.starts_with('#') => {
+                if let Some(c) = camera::from_comment(&line[1..]) {
+                    let c = c.map_err(|why| parse_error(path, ln, why))?;
+                    if let Some((first, _)) = camera {
+                        return Err(parse_error(
+                            path,
+                            ln,
+                            format!("a second camera line (the first is line {first})"),
+                        ));
+                    }
+                    camera = Some((ln, c));
+                }
+            }
+            "o" | "g" => out.push_str(line),
+            "usemtl" | "mtllib" => {
+                // Names may contain spaces: everything after the keyword.
+                let name = line[keyword.len()..].trim();
+                if name.is_empty() {
+                    return Err(parse_error(path, ln, format!("{keyword} without a name")));
+                }
+                if keyword == "usemtl" {
+                    usemtl.push(UseMtl {
+                        name: name.to_string(),
+                        line: ln,
+                        libraries_before: mtllib_lines.len(),
+                    });
+                } else {
+                    mtllib_lines.push(ln);
+                }
+                out.push_str(keyword);
+                out.push(' ');
+                out.push_str(name);
+            }
+            _ => {}
+        }
+        out.push('\n');
+    }
+    Ok(ObjScan {
+        normalised: out,
+        usemtl,
+        mtllib_lines,
+        faces,
+        camera: camera.map(|(_, c)| c),
+    })
+}
+
+/// Reads the MTL file `mtl` named by the `mtllib` at `obj:line` and returns its normalised
+/// text for `tobj`.
+fn read_mtl(obj: &Path, line: usize, mtl: &Path) -> Result<String> {
+    let text = match std::fs::read(mtl) {
+        Ok(bytes) => String::from_utf8(bytes).map_err(|_| "not UTF-8 text".to_string()),
+        Err(e) => Err(e.to_string()),
+    }
+    .map_err(|why| {
+        parse_error(
+            obj,
+            line,
+            format!("cannot read material library {}: {why}", mtl.display()),
+        )
+    })?;
+    scan_mtl(mtl, &text)
+}
+
+/// A `tobj` error our own scan did not foresee: no line number to give.
+fn tobj_failure(path: &Path, e: tobj::LoadError) -> Error {
+    Error::Input {
+        path: path.to_path_buf(),
+        message: format!("tobj could not parse the file: {e} (no offending line found)"),
+    }
+}
+
+/// Checks `newmtl`, `Kd` and `Ke` (ρ in [0, 1], Le finite and ≥ 0, 3 numbers or 1 meaning
+/// grey) and returns the normalised copy for `tobj`: those statements only, same lines.
+fn scan_mtl(path: &Path, text: &str) -> Result<String> {
+    let mut out = String::with_capacity(text.len());
+    let mut current: Option<&str> = None;
+    for (i, raw) in text.lines().enumerate() {
+        let ln = i + 1;
+        let line = raw.trim();
+        let mut words = line.split_whitespace();
+        let keyword = words.next().unwrap_or("");
+        match keyword {
+            "newmtl" => {
+                let name = line[keyword.len()..].trim();
+                if name.is_empty() {
+                    return Err(parse_error(path, ln, "newmtl without a material name"));
+                }
+                current = Some(name);
+                out.push_str("newmtl ");
+                out.push_str(name);
+            }
+            "Kd" | "Ke" => {
+                // Outside a material tobj would drop the value too; ignore it likewise.
+                let Some(material) = current else {
+                    out.push('\n');
+                    continue;
+                };
+                let what = format!("material '{material}': {keyword}");
+                let tokens: Vec<&str> = words.collect();
+                let tokens = match tokens.len() {
+                    1 => vec![tokens[0]; 3],
+                    n if n >= 3 => tokens[..3].to_vec(),
+                    n => {
+                        let form = if tokens.first().is_some_and(|t| t.parse::<f64>().is_err()) {
+                            " (spectral and xyz forms are not supported)"
+                        } else {
+                            ""
+                        };
+                        return Err(parse_error(
+                            path,
+                            ln,
+                            format!("{what}: expected 3 numbers r g b, found {n}{form}"),
+                        ));
+                    }
+                };
+                let mut rgb = [0.0; 3];
+                for (c, s) in rgb.iter_mut().zip(&tokens) {
+                    *c = parse_number(path, ln, &what, s)?;
+                }
+                let bad = if keyword == "Kd" {
+                    rgb.iter()
+                        .any(|c| !(0.0..=1.0).contains(c))
+                        .then_some("reflectance must be in [0, 1]")
+                } else {
+                    rgb.iter()
+                        .any(|c| !c.is_finite() || *c < 0.0)
+                        .then_some("emission must be finite and ≥ 0")
+                };
+                if let Some(why) = bad {
+                    return Err(parse_error(
+                        path,
+                        ln,
+                        format!("{what} = {} {} {}: {why}", rgb[0], rgb[1], rgb[2]),
+                    ));
+                }
+                out.push_str(keyword);
+                for t in &tokens {
+                    out.push(' ');
+                    out.push_str(t);
+                }
+            }
+            _ => {}
+        }
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// `Kd` → ρ (0.5 grey with a warning when missing), `Ke` → Le (tobj ≥ 4.0.4 fills
+/// `emissive`; older versions left it in `unknown_param["Ke"]`), 0 when missing.
+fn convert_material(m: &tobj::Material, warnings: &mut Vec<String>) -> Material {
+    let reflectance = m.diffuse.map(|c| c.map(f64::from)).unwrap_or_else(|| {
+        warnings.push(format!("material '{}' has no Kd; using ρ = 0.5", m.name));
+        [0.5; 3]
+    });
+    let emission = m
+        .emissive
+        .map(|c| c.map(f64::from))
+        .or_else(|| {
+            let values: Vec<f64> = m
+                .unknown_param
+                .get("Ke")?
+                .split_whitespace()
+                .map(str::parse)
+                .collect::<std::result::Result<_, _>>()
+                .ok()?;
+            values.try_into().ok()
+        })
+        .unwrap_or([0.0; 3]);
+    Material {
+        name: m.name.clone(),
+        reflectance,
+        emission,
+    }
+}
+
+/// Write `scene` as an OBJ file at `path` plus its MTL beside it (same name, `.mtl`), both
+/// atomically: `Kd` = ρ, `Ke` = Le, faces in the scene's winding. Used by
+/// `radiosity generate` to hand the procedural verification scenes to users and other tools.
+pub fn save(scene: &Scene, path: &Path) -> Result<()> {
+    use std::fmt::Write as _;
+    let mtl_path = path.with_extension("mtl");
+    let mtl_name = mtl_path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut mtl = String::from(
+        "# written by radiosity: Kd = diffuse reflectance, Ke = emitted radiance (W sr^-1 m^-2)\n",
+    );
+    for m in &scene.materials {
+        let [r, g, b] = m.reflectance;
+        let [er, eg, eb] = m.emission;
+        let _ = writeln!(
+            mtl,
+            "\nnewmtl {}\nKd {r} {g} {b}\nKe {er} {eg} {eb}",
+            m.name
+        );
+    }
+    let mut obj = format!(
+        "# written by radiosity: {} vertices, {} triangles; fronts counter-clockwise\nmtllib {mtl_name}\n",
+        scene.positions.len(),
+        scene.triangles.len()
+    );
+    for p in &scene.positions {
+        let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
+    }
+    let mut current = u32::MAX;
+    for t in &scene.triangles {
+        if t.material != current {
+            current = t.material;
+            let _ = writeln!(obj, "usemtl {}", scene.materials[current as usize].name);
+        }
+        let [a, b, c] = t.vertices.map(|v| v + 1);
+        let _ = writeln!(obj, "f {a} {b} {c}");
+    }
+    crate::io::write_atomic(&mtl_path, mtl.as_bytes())?;
+    crate::io::write_atomic(path, obj.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use super::*;
+
+    /// A unique directory under the system temp dir, removed on drop.
+    struct TempDir(PathBuf);
+
+    impl TempDir {
+        fn new(tag: &str) -> Self {
+            static COUNTER: AtomicUsize = AtomicUsize::new(0);
+            let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+            let dir = std::env::temp_dir()
+                .join(format!("radiosity-scene-{}-{tag}-{n}", std::process::id()));
+            std::fs::create_dir_all(&dir).unwrap();
+            TempDir(dir)
+        }
+
+        fn write(&self, name: &str, text: &str) -> PathBuf {
+            let p = self.0.join(name);
+            std::fs::write(&p, text).unwrap();
+            p
+        }
+    }
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// Writes `obj` (and the MTL files given) into a fresh directory and loads `scene.obj`.
+    fn load_text(tag: &str, obj: &str, mtls: &[(&str, &str)]) -> Result<Scene> {
+        let dir = TempDir::new(tag);
+        for (name, text) in mtls {
+            dir.write(name, text);
+        }
+        Scene::load(&dir.write("scene.obj", obj))
+    }
+
+    /// Asserts `e` is an [`Error::Parse`] at `file:line` and its message says so and
+    /// contains every string in `words`.
+    fn assert_parse(e: &Error, file: &str, line: usize, words: &[&str]) {
+        let msg = e.to_string();
+        match e {
+            Error::Parse { path, line: l, .. } => {
+                assert!(path.ends_with(file), "path {path:?} is not {file}: {msg}");
+                assert_eq!(*l, line, "{msg}");
+            }
+            other => panic!("expected Error::Parse at {file}:{line}, got {other:?}"),
+        }
+        assert!(msg.contains(&format!("{file}:{line}: ")), "{msg}");
+        for w in words {
+            assert!(msg.contains(w), "'{w}' not in: {msg}");
+        }
+    }
+
+    const TRIANGLE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+
+    fn normal(s: &Scene, t: usize) -> DVec3 {
+        let [a, b, c] = s.triangles[t].vertices.map(|v| s.positions[v as usize]);
+        (b - a).cross(c - a).normalize()
+    }
+
+    #[test]
+    fn cornell_box_loads_with_inward_normals() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
+        let s = Scene::load(&path).unwrap();
+        assert_eq!(s.triangles.len(), 2 * 16);
+        assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+        let names: Vec<&str> = s.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["white", "red", "green", "light"]);
+        let light = &s.materials[3];
+        assert_eq!(light.emission, [17.0, 12.0, 4.0]);
+        assert!(light.reflectance.iter().all(|r| (r - 0.78).abs() < 1e-6));
+        let white = &s.materials[0];
+        assert!((white.reflectance[0] - 0.725).abs() < 1e-6 && white.emission == [0.0; 3]);
+        assert!(s.has_emitters());
+
+        let (lo, hi) = s.bounds();
+        assert!(lo.abs_diff_eq(DVec3::ZERO, 1e-4), "{lo}");
+        assert!(
+            hi.abs_diff_eq(DVec3::new(556.0, 548.8, 559.2), 1e-4),
+            "{hi}"
+        );
+        let total: f64 = (0..s.triangles.len()).map(|t| s.triangle_area(t)).sum();
+        assert!(total > 5.0 * 550.0 * 550.0 && total < 8.0 * 560.0 * 560.0);
+
+        // Every front side faces the inside of the room: walls inwards, blocks outwards.
+        let near = |x: f64, y: f64| (x - y).abs() < 1e-3;
+        let mut block_sides = 0;
+        for (t, tri) in s.triangles.iter().enumerate() {
+            let p = tri.vertices.map(|v| s.positions[v as usize]);
+            let all = |f: &dyn Fn(DVec3) -> bool| p.iter().all(|&q| f(q));
+            let n = normal(&s, t);
+            let expected = match s.materials[tri.material as usize].name.as_str() {
+                "light" => Some(-DVec3::Y),
+                "red" => Some(-DVec3::X),
+                "green" => Some(DVec3::X),
+                _ if all(&|q| q.y == 0.0) => Some(DVec3::Y),
+                _ if all(&|q| near(q.y, 548.8)) => Some(-DVec3::Y),
+                _ if all(&|q| near(q.z, 559.2)) => Some(-DVec3::Z),
+                _ if all(&|q| q.y == 165.0) || all(&|q| q.y == 330.0) => Some(DVec3::Y),
+                _ => None,
+            };
+            match expected {
+                Some(d) => assert!(n.dot(d) > 0.99, "triangle {t}: normal {n}, expected {d}"),
+                None => {
+                    let short = p.iter().all(|q| q.y <= 165.0);
+                    let axis = if short {
+                        DVec3::new(185.5, 0.0, 169.0)
+                    } else {
+                        DVec3::new(368.5, 0.0, 351.25)
+                    };
+                    let centroid = (p[0] + p[1] + p[2]) / 3.0;
+                    let out = (centroid - axis) * DVec3::new(1.0, 0.0, 1.0);
+                    assert!(n.y.abs() < 1e-9 && n.dot(out) > 0.0, "side {t}: {n}");
+                    block_sides += 1;
+                }
+            }
+        }
+        assert_eq!(block_sides, 16);
+    }
+
+    #[test]
+    fn duplicated_corners_are_welded_and_default_material_used() {
+        let obj = "o a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n\
+                   o b\nv 1 0 0\nv 2 0 0\nv 2 1 0\nv 1 1 0\nf 5 6 7 8\n";
+        let s = load_text("weld", obj, &[]).unwrap();
+        assert_eq!(s.triangles.len(), 4);
+        assert_eq!(s.positions.len(), 6);
+        // Quad b's corners 5 and 8 are quad a's corners 2 and 3.
+        assert_eq!(s.triangles[2].vertices[0], s.triangles[0].vertices[1]);
+        assert_eq!(s.triangles[3].vertices[2], s.triangles[0].vertices[2]);
+        assert_eq!(s.materials, [Scene::default_material()]);
+        assert!(s.triangles.iter().all(|t| t.material == 0));
+        assert_eq!(s.materials[0].reflectance, [0.5; 3]);
+        assert!(!s.has_emitters());
+        assert!((normal(&s, 0) - DVec3::Z).length() < 1e-12);
+    }
+
+    #[test]
+    fn accepts_common_obj_variants() {
+        // Uppercase extension, texture/normal indices, negative indices, a polyline `l`
+        // (which tobj alone would turn into a triangle), vertex colours, tabs.
+        let dir = TempDir::new("variants");
+        dir.write(
+            "m.mtl",
+            "newmtl grey\nKd 0.3\nNs 10\nillum 2\nnewmtl lamp\nKe 1 2 3\n",
+        );
+        let obj = "mtllib m.mtl\nv 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0 1 0 0\nv 0 0 2 2\n\
+                   vt 0 0\nvn 0 0 1\nusemtl\tgrey\nf 1/1/1 2/1/1 3/1/1\nl 1 2 4\n\
+                   usemtl lamp\nf -4//1 -3//1 -1//1\n";
+        let s = Scene::load(&dir.write("scene.OBJ", obj)).unwrap();
+        assert_eq!(s.triangles.len(), 2);
+        assert_eq!(s.positions.len(), 4);
+        assert!(
+            s.positions.contains(&DVec3::new(0.0, 0.0, 1.0)),
+            "w divides"
+        );
+        assert!(s.materials[0]
+            .reflectance
+            .iter()
+            .all(|r| (r - 0.3).abs() < 1e-6));
+        assert_eq!(s.materials[1].emission, [1.0, 2.0, 3.0]);
+        assert_eq!(s.materials[1].reflectance, [0.5; 3]);
+        // The two faces both run 1 → 2: a (true) winding warning, naming their lines.
+        assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
+        assert!(
+            s.warnings[0].contains("'lamp' has no Kd"),
+            "{:?}",
+            s.warnings
+        );
+        assert!(
+            s.warnings[1].contains("inconsistent winding")
+                && s.warnings[1].contains("scene.OBJ:9) and 1 (")
+                && s.warnings[1].contains("scene.OBJ:12)"),
+            "{:?}",
+            s.warnings
+        );
+        assert_eq!(s.triangles[1].material, 1);
+        assert!(s.has_emitters());
+    }
+
+    #[test]
+    fn zero_area_triangles_are_dropped_with_a_warning() {
+        let obj = format!("{TRIANGLE}v 2 0 0\nf 1 2 3\nf 1 2 4\nf 1 1 2\n");
+        let s = load_text("zero", &obj, &[]).unwrap();
+        assert_eq!(s.triangles.len(), 1);
+        assert_eq!(s.positions.len(), 3);
+        assert_eq!(s.warnings.len(), 1);
+        assert!(s.warnings[0].contains("skipped 2 zero-area triangles"));
+
+        let e = load_text("allzero", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", &[]).unwrap_err();
+        assert!(matches!(e, Error::Input { .. }), "{e:?}");
+        assert!(
+            e.to_string().contains("no triangles with non-zero area"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn file_level_errors_name_the_path() {
+        let dir = TempDir::new("files");
+        let missing = dir.0.join("missing.obj");
+        let e = Scene::load(&missing).unwrap_err();
+        assert!(
+            matches!(&e, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound)
+        );
+        assert!(e.to_string().contains("missing.obj"), "{e}");
+
+        let e = Scene::load(&dir.0).unwrap_err();
+        assert!(matches!(e, Error::Input { .. }), "{e:?}");
+        assert!(e.to_string().contains(&dir.0.display().to_string()), "{e}");
+        let sub = dir.0.join("dir.obj");
+        std::fs::create_dir(&sub).unwrap();
+        assert!(matches!(load(&sub).unwrap_err(), Error::Io { .. }));
+
+        let e = Scene::load(&dir.write("scene.stl", TRIANGLE)).unwrap_err();
+        assert!(matches!(e, Error::Input { .. }), "{e:?}");
+        assert!(e.to_string().contains("scene.stl"), "{e}");
+
+        let e = load_text("empty", TRIANGLE, &[]).unwrap_err();
+        assert!(matches!(e, Error::Input { .. }), "{e:?}");
+        assert!(e.to_string().contains("scene.obj") && e.to_string().contains("empty"));
+    }
+
+    #[test]
+    fn obj_syntax_errors_give_the_line() {
+        let cases: [(&str, usize, &str); 9] = [
+            ("v 0 0 0\nv 1 abc 0\n", 2, "malformed number 'abc'"),
+            ("v 0 0\n", 1, "3 coordinates"),
+            ("v 0 0 0\nv nan 0 0\n", 2, "non-finite"),
+            ("# big\nv 1e39 0 0\n", 2, "non-finite"),
+            ("v 0 0 0 0\n", 1, "w = 0"),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n",
+                5,
+                "vertex index 4 out of range",
+            ),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", 4, "index 0"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", 4, "at least 3"),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 x 3\n",
+                4,
+                "malformed vertex 'x'",
+            ),
+        ];
+        for (obj, line, words) in cases {
+            let e = load_text("syntax", obj, &[]).unwrap_err();
+            assert_parse(&e, "scene.obj", line, &[words]);
+        }
+        let e = load_text("neg", &format!("{TRIANGLE}f -1 -2 -4\n"), &[]).unwrap_err();
+        assert_parse(&e, "scene.obj", 4, &["vertex index -4 out of range"]);
+    }
+
+    #[test]
+    fn material_reference_errors_give_the_obj_line() {
+        let mtl = [("m.mtl", "newmtl grey\nKd 0.5 0.5 0.5\n")];
+        let obj = format!("mtllib m.mtl\n{TRIANGLE}usemtl nosuch\nf 1 2 3\n");
+        let e = load_text("undef", &obj, &mtl).unwrap_err();
+        assert_parse(&e, "scene.obj", 5, &["nosuch", "not defined"]);
+
+        let obj = format!("{TRIANGLE}usemtl grey\nf 1 2 3\nmtllib m.mtl\n");
+        let e = load_text("late", &obj, &mtl).unwrap_err();
+        assert_parse(&e, "scene.obj", 4, &["grey", "no mtllib before this line"]);
+
+        // A missing library is reported even when another one loaded (tobj drops it).
+        let obj = format!("mtllib m.mtl\nmtllib gone.mtl\n{TRIANGLE}usemtl grey\nf 1 2 3\n");
+        let e = load_text("missing", &obj, &mtl).unwrap_err();
+        assert_parse(
+            &e,
+            "scene.obj",
+            2,
+            &["gone.mtl", "cannot read material library"],
+        );
+
+        let e = load_text("nomtl", &format!("usemtl\n{TRIANGLE}"), &[]).unwrap_err();
+        assert_parse(&e, "scene.obj", 1, &["usemtl without a name"]);
+    }
+
+    #[test]
+    fn material_value_errors_give_the_mtl_line_and_material() {
+        let cases = [
+            (
+                "newmtl a\nKd 0.5 0.5 0.5\n\nnewmtl hot\nKd 1.5 0.5 0.5\n",
+                5,
+                "hot",
+                "[0, 1]",
+            ),
+            ("newmtl neg\nKd 0.5 0.5 0.5\nKe 1 -2 3\n", 3, "neg", "≥ 0"),
+            ("newmtl n\nKd NaN 0.5 0.5\n", 2, "n", "[0, 1]"),
+            ("newmtl big\nKe 1e39 0 0\n", 2, "big", "finite"),
+            ("newmtl two\nKd 0.5 0.5\n", 2, "two", "expected 3 numbers"),
+            ("newmtl sp\nKd spectral file.rfl\n", 2, "sp", "spectral"),
+            (
+                "newmtl bad\nKd 0.5 x 0.5\n",
+                2,
+                "bad",
+                "malformed number 'x'",
+            ),
+            ("newmtl\n", 1, "newmtl", "without a material name"),
+        ];
+        for (mtl, line, material, words) in cases {
+            let obj = format!("mtllib m.mtl\n{TRIANGLE}usemtl {material}\nf 1 2 3\n");
+            let e = load_text("mtlvalues", &obj, &[("m.mtl", mtl)]).unwrap_err();
+            assert_parse(&e, "m.mtl", line, &[material, words]);
+        }
+    }
+}

@@ -1,0 +1,560 @@
+//! PLY 1.0 output (binary little-endian or ASCII) and a reader for exactly our own files.
+//! Per vertex: `float x y z`, `uchar red green blue` (the 8-bit sRGB colours MeshLab shows)
+//! and `float radiance_r/g/b` (linear W·sr⁻¹·m⁻², which MeshLab drops but plyfile/trimesh
+//! keep); per face: `list uchar int vertex_indices` and `float radiance_r/g/b`. The header
+//! records the exposure in a comment, and the scene's camera (`comment camera: EX EY EZ TX TY
+//! TZ UX UY UZ FOV`, see [`crate::scene::camera`]) when it has one. This file owns the byte layout only; atomic file
+//! replacement is in `export`, the colour pipeline in `export::colour`. The reader is not a
+//! general PLY parser: it accepts our header (any comments) and nothing else.
+
+use std::io::{self, Write};
+use std::path::Path;
+
+use crate::bake::BakedMesh;
+use crate::color::radiance_to_srgb8;
+use crate::io::ReadBack;
+use crate::scene::camera::{self, Camera};
+use crate::{Error, Result};
+
+/// First header comment: what the numbers mean.
+const COMMENT_UNITS: &str =
+    "comment radiosity: baked radiance, W sr^-1 m^-2, linear; colours = sRGB(radiance * exposure)";
+
+/// Vertex properties, in order, exactly as written.
+const VERTEX_PROPERTIES: [&str; 9] = [
+    "property float x",
+    "property float y",
+    "property float z",
+    "property uchar red",
+    "property uchar green",
+    "property uchar blue",
+    "property float radiance_r",
+    "property float radiance_g",
+    "property float radiance_b",
+];
+
+/// Face properties, in order, exactly as written.
+const FACE_PROPERTIES: [&str; 4] = [
+    "property list uchar int vertex_indices",
+    "property float radiance_r",
+    "property float radiance_g",
+    "property float radiance_b",
+];
+
+/// Bytes per binary vertex record: 3 × f32 position, 3 × u8 colour, 3 × f32 radiance.
+const VERTEX_BYTES: usize = 12 + 3 + 12;
+/// Bytes per binary face record: u8 count (3), 3 × i32 index, 3 × f32 radiance.
+const FACE_BYTES: usize = 1 + 12 + 12;
+
+/// Writes `mesh` as PLY to `w` with colours sRGB(radiance · `exposure`). Positions and
+/// radiance are stored as `f32`; ASCII numbers use Rust's shortest round-trip decimal form
+/// (plain decimal, no exponent), so they read back to the same `f32`. Expects a validated mesh.
+pub fn write_to(
+    w: &mut impl Write,
+    mesh: &BakedMesh,
+    exposure: f64,
+    ascii: bool,
+) -> io::Result<()> {
+    let format = if ascii {
+        "ascii"
+    } else {
+        "binary_little_endian"
+    };
+    writeln!(w, "ply")?;
+    writeln!(w, "format {format} 1.0")?;
+    writeln!(w, "{COMMENT_UNITS}")?;
+    writeln!(w, "comment exposure {exposure}")?;
+    if let Some(camera) = &mesh.camera {
+        writeln!(w, "comment {} {}", camera::FILE_KEYWORD, camera.to_text())?;
+    }
+    writeln!(w, "element vertex {}", mesh.positions.len())?;
+    for p in VERTEX_PROPERTIES {
+        writeln!(w, "{p}")?;
+    }
+    writeln!(w, "element face {}", mesh.faces.len())?;
+    for p in FACE_PROPERTIES {
+        writeln!(w, "{p}")?;
+    }
+    writeln!(w, "end_header")?;
+
+    let vertices = mesh.positions.iter().zip(&mesh.vertex_radiance);
+    let faces = mesh.faces.iter().zip(&mesh.face_radiance);
+    if ascii {
+        for (p, r) in vertices {
+            let [x, y, z] = p.map(|c| c as f32);
+            let [red, green, blue] = radiance_to_srgb8(*r, exposure);
+            let [rr, rg, rb] = r.map(|c| c as f32);
+            writeln!(w, "{x} {y} {z} {red} {green} {blue} {rr} {rg} {rb}")?;
+        }
+        for (f, r) in faces {
+            let [rr, rg, rb] = r.map(|c| c as f32);
+            writeln!(w, "3 {} {} {} {rr} {rg} {rb}", f[0], f[1], f[2])?;
+        }
+    } else {
+        let mut record = [0u8; VERTEX_BYTES];
+        for (p, r) in vertices {
+            put_f32s(&mut record[0..12], p.map(|c| c as f32));
+            record[12..15].copy_from_slice(&radiance_to_srgb8(*r, exposure));
+            put_f32s(&mut record[15..27], r.map(|c| c as f32));
+            w.write_all(&record)?;
+        }
+        let mut record = [0u8; FACE_BYTES];
+        record[0] = 3;
+        for (f, r) in faces {
+            for (k, &v) in f.iter().enumerate() {
+                // validate() guarantees v <= i32::MAX.
+                record[1 + 4 * k..5 + 4 * k].copy_from_slice(&(v as i32).to_le_bytes());
+            }
+            put_f32s(&mut record[13..25], r.map(|c| c as f32));
+            w.write_all(&record)?;
+        }
+    }
+    Ok(())
+}
+
+fn put_f32s(out: &mut [u8], values: [f32; 3]) {
+    for (k, v) in values.iter().enumerate() {
+        out[4 * k..4 * k + 4].copy_from_slice(&v.to_le_bytes());
+    }
+}
+
+/// Reads a PLY file written by [`write_to`] (ASCII or binary little-endian, as its header
+/// says), with the camera of its `comment camera: …` line if it has one. Header and ASCII body problems are [`Error::Parse`] with the line; binary body
+/// problems are [`Error::Input`] naming the vertex or face.
+pub fn read(path: &Path) -> Result<ReadBack> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let header = parse_header(path, &bytes)?;
+    let body = &bytes[header.body_start..];
+    if header.ascii {
+        read_ascii_body(path, &header, body)
+    } else {
+        read_binary_body(path, &header, body)
+    }
+}
+
+/// What the header tells the body reader.
+struct Header {
+    ascii: bool,
+    vertices: usize,
+    faces: usize,
+    /// Byte offset of the first body byte.
+    body_start: usize,
+    /// Number of header lines (the body's first line is `lines + 1`).
+    lines: usize,
+    /// The `comment camera: …` line's camera.
+    camera: Option<Camera>,
+}
+
+fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
+    let parse_err = |line: usize, message: String| Error::Parse {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    // Non-comment header lines with their 1-based numbers, up to and including end_header.
+    let mut lines: Vec<(usize, String)> = Vec::new();
+    let mut camera = None;
+    let mut pos = 0;
+    let mut number = 0;
+    loop {
+        number += 1;
+        let Some(len) = bytes[pos..].iter().position(|&b| b == b'\n') else {
+            return Err(parse_err(number, "no end_header line".into()));
+        };
+        let raw = &bytes[pos..pos + len];
+        pos += len + 1;
+        let text = std::str::from_utf8(raw)
+            .ok()
+            .filter(|t| t.is_ascii())
+            .ok_or_else(|| parse_err(number, "header line is not ASCII text".into()))?;
+        // One space between words, no trailing carriage return.
+        let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        if number == 1 && text != "ply" {
+            return Err(parse_err(
+                1,
+                "not a PLY file (first line is not `ply`)".into(),
+            ));
+        }
+        if let Some(comment) = text.strip_prefix("comment ") {
+            if let Some(c) = camera::from_comment(comment) {
+                camera = Some(c.map_err(|why| parse_err(number, why))?);
+            }
+            continue;
+        }
+        if text == "comment" || text.starts_with("obj_info") {
+            continue;
+        }
+        let end = text == "end_header";
+        lines.push((number, text));
+        if end {
+            break;
+        }
+    }
+
+    let mut items = lines.into_iter().skip(1); // "ply"
+    let mut next = |what: &str| {
+        items
+            .next()
+            .ok_or_else(|| parse_err(number, format!("header ends before {what}")))
+    };
+    let (n, format) = next("the format line")?;
+    let ascii = match format.as_str() {
+        "format ascii 1.0" => true,
+        "format binary_little_endian 1.0" => false,
+        _ => {
+            return Err(parse_err(
+                n,
+                format!("unsupported `{format}` (expected ascii or binary_little_endian 1.0)"),
+            ))
+        }
+    };
+    let mut element = |name: &str, properties: &[&str]| -> Result<usize> {
+        let (n, line) = next(&format!("element {name}"))?;
+        let count = line
+            .strip_prefix(&format!("element {name} "))
+            .and_then(|c| c.parse::<usize>().ok())
+            .ok_or_else(|| {
+                parse_err(
+                    n,
+                    format!("expected `element {name} <count>`, found `{line}`"),
+                )
+            })?;
+        for &want in properties {
+            let (n, line) = next(want)?;
+            if line != want {
+                return Err(parse_err(n, format!("expected `{want}`, found `{line}`")));
+            }
+        }
+        Ok(count)
+    };
+    let vertices = element("vertex", &VERTEX_PROPERTIES)?;
+    let faces = element("face", &FACE_PROPERTIES)?;
+    let (n, line) = next("end_header")?;
+    if line != "end_header" {
+        return Err(parse_err(
+            n,
+            format!("expected `end_header`, found `{line}`"),
+        ));
+    }
+    Ok(Header {
+        ascii,
+        vertices,
+        faces,
+        body_start: pos,
+        lines: number,
+        camera,
+    })
+}
+
+fn read_ascii_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack> {
+    let parse_err = |line: usize, message: String| Error::Parse {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    let text = std::str::from_utf8(body).map_err(|_| Error::Input {
+        path: path.to_path_buf(),
+        message: "ASCII PLY body is not UTF-8 text".into(),
+    })?;
+    // (line number, tokens) of the non-blank body lines.
+    let mut rows = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (header.lines + 1 + i, l))
+        .filter(|(_, l)| !l.trim().is_empty());
+    let last_line = header.lines + text.lines().count();
+
+    // Untrusted counts: do not reserve more than the body could hold.
+    let cap = |n: usize| n.min(body.len() / 2);
+    let mut out = ReadBack {
+        positions: Vec::with_capacity(cap(header.vertices)),
+        colours: Vec::with_capacity(cap(header.vertices)),
+        vertex_radiance: None,
+        faces: Vec::with_capacity(cap(header.faces)),
+        face_radiance: None,
+        camera: header.camera,
+    };
+    let mut vertex_radiance = Vec::with_capacity(cap(header.vertices));
+    let mut face_radiance = Vec::with_capacity(cap(header.faces));
+
+    for i in 0..header.vertices {
+        let (n, line) = rows.next().ok_or_else(|| {
+            parse_err(
+                last_line,
+                format!("file ends after {i} of {} vertices", header.vertices),
+            )
+        })?;
+        let t: Vec<&str> = line.split_whitespace().collect();
+        if t.len() != 9 {
+            return Err(parse_err(
+                n,
+                format!("vertex {i}: expected 9 values, found {}", t.len()),
+            ));
+        }
+        let f = |k: usize| -> Result<f32> {
+            t[k].parse::<f32>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    parse_err(n, format!("vertex {i}: `{}` is not a finite number", t[k]))
+                })
+        };
+        let b = |k: usize| -> Result<u8> {
+            t[k].parse::<u8>()
+                .map_err(|_| parse_err(n, format!("vertex {i}: `{}` is not a colour byte", t[k])))
+        };
+        out.positions.push([f(0)?, f(1)?, f(2)?]);
+        out.colours.push([b(3)?, b(4)?, b(5)?]);
+        vertex_radiance.push([f(6)?, f(7)?, f(8)?]);
+    }
+    for i in 0..header.faces {
+        let (n, line) = rows.next().ok_or_else(|| {
+            parse_err(
+                last_line,
+                format!("file ends after {i} of {} faces", header.faces),
+            )
+        })?;
+        let t: Vec<&str> = line.split_whitespace().collect();
+        if t.len() != 7 || t[0] != "3" {
+            return Err(parse_err(n, format!("face {i}: expected `3 a b c r g b`")));
+        }
+        let idx = |k: usize| -> Result<u32> {
+            t[k].parse::<u32>()
+                .ok()
+                .filter(|&v| (v as usize) < header.vertices)
+                .ok_or_else(|| {
+                    parse_err(
+                        n,
+                        format!(
+                            "face {i}: `{}` is not a vertex index below {}",
+                            t[k], header.vertices
+                        ),
+                    )
+                })
+        };
+        let f = |k: usize| -> Result<f32> {
+            t[k].parse::<f32>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| parse_err(n, format!("face {i}: `{}` is not a finite number", t[k])))
+        };
+        out.faces.push([idx(1)?, idx(2)?, idx(3)?]);
+        face_radiance.push([f(4)?, f(5)?, f(6)?]);
+    }
+    if let Some((n, _)) = rows.next() {
+        return Err(parse_err(n, "unexpected data after the last face".into()));
+    }
+    out.vertex_radiance = Some(vertex_radiance);
+    out.face_radiance = Some(face_radiance);
+    Ok(out)
+}
+
+fn read_binary_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack> {
+    let input_err = |message: String| Error::Input {
+        path: path.to_path_buf(),
+        message,
+    };
+    let expected = header.vertices.checked_mul(VERTEX_BYTES).and_then(|v| {
+        header
+            .faces
+            .checked_mul(FACE_BYTES)
+            .and_then(|f| v.checked_add(f))
+    });
+    if expected != Some(body.len()) {
+        return Err(input_err(format!(
+            "binary body has {} bytes but the header's {} vertices and {} faces need {}",
+            body.len(),
+            header.vertices,
+            header.faces,
+            expected.map_or("more than fit in memory".to_string(), |e| e.to_string())
+        )));
+    }
+    let f32s = |b: &[u8]| -> [f32; 3] {
+        std::array::from_fn(|k| f32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap()))
+    };
+    let (vertex_bytes, face_bytes) = body.split_at(header.vertices * VERTEX_BYTES);
+
+    let mut positions = Vec::with_capacity(header.vertices);
+    let mut colours = Vec::with_capacity(header.vertices);
+    let mut vertex_radiance = Vec::with_capacity(header.vertices);
+    for (i, rec) in vertex_bytes.chunks_exact(VERTEX_BYTES).enumerate() {
+        let p = f32s(&rec[0..12]);
+        let r = f32s(&rec[15..27]);
+        if !p.iter().chain(&r).all(|v| v.is_finite()) {
+            return Err(input_err(format!(
+                "vertex {i}: non-finite position or radiance"
+            )));
+        }
+        positions.push(p);
+        colours.push([rec[12], rec[13], rec[14]]);
+        vertex_radiance.push(r);
+    }
+    let mut faces = Vec::with_capacity(header.faces);
+    let mut face_radiance = Vec::with_capacity(header.faces);
+    for (i, rec) in face_bytes.chunks_exact(FACE_BYTES).enumerate() {
+        if rec[0] != 3 {
+            return Err(input_err(format!(
+                "face {i}: {} vertices, expected 3",
+                rec[0]
+            )));
+        }
+        let mut face = [0u32; 3];
+        for (k, slot) in face.iter_mut().enumerate() {
+            let v = i32::from_le_bytes(rec[1 + 4 * k..5 + 4 * k].try_into().unwrap());
+            *slot = u32::try_from(v)
+                .ok()
+                .filter(|&v| (v as usize) < header.vertices)
+                .ok_or_else(|| {
+                    input_err(format!(
+                        "face {i}: vertex index {v} is outside 0..{}",
+                        header.vertices
+                    ))
+                })?;
+        }
+        let r = f32s(&rec[13..25]);
+        if !r.iter().all(|v| v.is_finite()) {
+            return Err(input_err(format!("face {i}: non-finite radiance")));
+        }
+        faces.push(face);
+        face_radiance.push(r);
+    }
+    Ok(ReadBack {
+        positions,
+        colours,
+        vertex_radiance: Some(vertex_radiance),
+        faces,
+        face_radiance: Some(face_radiance),
+        camera: header.camera,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::{write, Format};
+    use crate::test_support::{sample_mesh, TestDir};
+
+    fn f32s(v: &[[f64; 3]]) -> Vec<[f32; 3]> {
+        v.iter().map(|p| p.map(|c| c as f32)).collect()
+    }
+
+    fn round_trip(ascii: bool) {
+        let dir = TestDir::new("ply");
+        let path = dir.path().join("mesh.ply");
+        let mesh = sample_mesh(203, 157);
+        let exposure = mesh.auto_exposure();
+        write(&path, &mesh, Format::Ply { ascii }, exposure).unwrap();
+        let back = read(&path).unwrap();
+        assert_eq!(back.positions, f32s(&mesh.positions));
+        let colours: Vec<[u8; 3]> = mesh
+            .vertex_radiance
+            .iter()
+            .map(|&r| radiance_to_srgb8(r, exposure))
+            .collect();
+        assert_eq!(back.colours, colours);
+        // The sample exercises both ends of the curve.
+        assert!(colours.contains(&[0, 0, 0]) && colours.iter().any(|c| c.contains(&255)));
+        assert_eq!(back.vertex_radiance, Some(f32s(&mesh.vertex_radiance)));
+        assert_eq!(back.faces, mesh.faces);
+        assert_eq!(back.face_radiance, Some(f32s(&mesh.face_radiance)));
+    }
+
+    #[test]
+    fn binary_round_trip() {
+        round_trip(false);
+    }
+
+    #[test]
+    fn ascii_round_trip() {
+        round_trip(true);
+    }
+
+    #[test]
+    fn header_is_exactly_as_documented() {
+        let mesh = sample_mesh(2, 1);
+        let mut bytes = Vec::new();
+        write_to(&mut bytes, &mesh, 0.5, false).unwrap();
+        let expected = "ply\n\
+            format binary_little_endian 1.0\n\
+            comment radiosity: baked radiance, W sr^-1 m^-2, linear; colours = sRGB(radiance * exposure)\n\
+            comment exposure 0.5\n\
+            element vertex 2\n\
+            property float x\n\
+            property float y\n\
+            property float z\n\
+            property uchar red\n\
+            property uchar green\n\
+            property uchar blue\n\
+            property float radiance_r\n\
+            property float radiance_g\n\
+            property float radiance_b\n\
+            element face 1\n\
+            property list uchar int vertex_indices\n\
+            property float radiance_r\n\
+            property float radiance_g\n\
+            property float radiance_b\n\
+            end_header\n";
+        assert!(bytes.starts_with(expected.as_bytes()));
+        assert_eq!(bytes.len(), expected.len() + 2 * VERTEX_BYTES + FACE_BYTES);
+
+        let mut ascii = Vec::new();
+        write_to(&mut ascii, &mesh, 0.5, true).unwrap();
+        let ascii = String::from_utf8(ascii).unwrap();
+        assert!(ascii.starts_with(&expected.replace("binary_little_endian", "ascii")));
+        assert!(ascii.ends_with('\n'));
+    }
+
+    #[test]
+    fn empty_mesh_round_trips() {
+        let dir = TestDir::new("ply-empty");
+        for ascii in [false, true] {
+            let path = dir.path().join("empty.ply");
+            write(&path, &BakedMesh::default(), Format::Ply { ascii }, 1.0).unwrap();
+            let back = read(&path).unwrap();
+            assert!(back.positions.is_empty() && back.faces.is_empty());
+        }
+    }
+
+    #[test]
+    fn reader_errors_name_line_or_item() {
+        let dir = TestDir::new("ply-bad");
+        let mesh = sample_mesh(4, 2);
+        let path = dir.path().join("bad.ply");
+
+        // ASCII: a bad face index on the last line (header is 20 lines, 4 vertices, 2 faces).
+        let mut text = Vec::new();
+        write_to(&mut text, &mesh, 1.0, true).unwrap();
+        let mut text = String::from_utf8(text).unwrap();
+        let last = text.trim_end().rfind('\n').unwrap();
+        text.truncate(last + 1);
+        text.push_str("3 0 1 9 0 0 0\n");
+        std::fs::write(&path, &text).unwrap();
+        match read(&path).unwrap_err() {
+            Error::Parse { line, message, .. } => {
+                assert_eq!(line, 26);
+                assert!(message.contains("face 1"), "{message}");
+            }
+            other => panic!("{other:?}"),
+        }
+
+        // Header: a property we do not write.
+        std::fs::write(&path, text.replace("property float z", "property double z")).unwrap();
+        match read(&path).unwrap_err() {
+            Error::Parse { line, .. } => assert_eq!(line, 8),
+            other => panic!("{other:?}"),
+        }
+
+        // Binary: face index out of range, then a truncated body.
+        let mut bin = Vec::new();
+        write_to(&mut bin, &mesh, 1.0, false).unwrap();
+        let n = bin.len();
+        bin[n - FACE_BYTES + 1..n - FACE_BYTES + 5].copy_from_slice(&(-1i32).to_le_bytes());
+        std::fs::write(&path, &bin).unwrap();
+        match read(&path).unwrap_err() {
+            Error::Input { message, .. } => assert!(message.contains("face 1"), "{message}"),
+            other => panic!("{other:?}"),
+        }
+        std::fs::write(&path, &bin[..n - 1]).unwrap();
+        assert!(matches!(read(&path).unwrap_err(), Error::Input { .. }));
+    }
+}

@@ -1,0 +1,177 @@
+//! The run report: counts, counters and seconds per stage, written as JSON by `--report` and
+//! summarised in one line on stderr, and the verbose notes of each solve and refinement
+//! round. This module owns the report's shape and wording, not its numbers.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::Settings;
+use crate::form_factor;
+use crate::mesh::Patches;
+use crate::solve::Solution;
+use crate::{io, Result};
+
+/// Wall-clock seconds spent in each stage.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Seconds {
+    pub load: f64,
+    pub patches: f64,
+    pub bvh: f64,
+    pub form_factors: f64,
+    pub solve: f64,
+    pub bake: f64,
+    pub write: f64,
+}
+
+impl Seconds {
+    /// Sum of all stages.
+    pub fn total(&self) -> f64 {
+        self.load
+            + self.patches
+            + self.bvh
+            + self.form_factors
+            + self.solve
+            + self.bake
+            + self.write
+    }
+}
+
+/// Everything a run reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub version: &'static str,
+    pub input: Option<String>,
+    pub output: Option<String>,
+    /// Material overrides applied to the scene after loading, in order, as command-line
+    /// options (`--emission light=0,0,0`); empty when there were none.
+    pub overrides: Vec<String>,
+    /// Triangles in the input after triangulation and cleaning.
+    pub input_triangles: usize,
+    /// Longest patch edge used, scene units.
+    pub max_edge: f64,
+    /// Patches of the final solve (after refinement).
+    pub patches: usize,
+    /// Adaptive refinement rounds performed (each split patches and solved again).
+    pub refine_rounds: u32,
+    /// Vertices of the output mesh (after splitting at creases and material borders).
+    pub vertices: usize,
+    pub form_factor_settings: form_factor::Settings,
+    pub solver_settings: crate::solve::Settings,
+    /// Rays cast, non-zeros and row-sum statistics of F.
+    pub form_factors: form_factor::Stats,
+    pub iterations: u32,
+    /// Over-relaxation the Gauss–Seidel solve used (automatic unless `--omega`; 1 otherwise).
+    pub omega: f64,
+    /// Final relative residual ‖E − (I − K)L‖₂ / ‖E‖₂.
+    pub residual: f64,
+    pub converged: bool,
+    /// Exposure used for the 8-bit colours (radiance multiplier before sRGB).
+    pub exposure: f64,
+    pub seconds: Seconds,
+    /// Peak resident memory of the process so far, bytes (Linux: `VmHWM` of
+    /// /proc/self/status; `None` elsewhere).
+    pub peak_memory_bytes: Option<u64>,
+    /// What the form-factor cache did (`--cache`), if one was used.
+    pub cache: Option<crate::form_factor::cache::CacheReport>,
+    pub warnings: Vec<String>,
+}
+
+impl Report {
+    /// An empty report for a run with these settings.
+    pub fn new(settings: &Settings) -> Self {
+        Report {
+            version: env!("CARGO_PKG_VERSION"),
+            input: None,
+            output: None,
+            overrides: Vec::new(),
+            input_triangles: 0,
+            max_edge: 0.0,
+            patches: 0,
+            refine_rounds: 0,
+            vertices: 0,
+            form_factor_settings: settings.form_factors,
+            solver_settings: settings.solver,
+            form_factors: form_factor::Stats::default(),
+            iterations: 0,
+            omega: 1.0,
+            residual: 0.0,
+            converged: false,
+            exposure: 1.0,
+            seconds: Seconds::default(),
+            peak_memory_bytes: None,
+            cache: None,
+            warnings: Vec::new(),
+        }
+    }
+
+    /// The one-line summary printed to stderr.
+    pub fn summary(&self) -> String {
+        format!(
+            "{} patches, {} vertices, {:.3e} rays, {} non-zeros (row sums {:.4}..{:.4}), \
+             {} iterations, residual {:.2e}, {:.2} s",
+            self.patches,
+            self.vertices,
+            self.form_factors.rays_cast as f64,
+            self.form_factors.nnz,
+            self.form_factors.row_sum_min,
+            self.form_factors.row_sum_max,
+            self.iterations,
+            self.residual,
+            self.seconds.total()
+        )
+    }
+
+    /// Write the report as pretty JSON, atomically.
+    pub fn write_json(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string_pretty(self)
+            .map_err(|e| crate::Error::Internal(format!("report serialisation: {e}")))?;
+        io::write_atomic(path, text.as_bytes())
+    }
+}
+
+/// The verbose note of one solve: counts of the form-factor stage and of the solver.
+pub fn solve_note(patches: usize, s: &form_factor::Stats, solution: &Solution) -> String {
+    let method = solution.method.name();
+    format!(
+        "{patches} patches: {} pairs ({} culled, {} skipped), {:.3e} rays, {} non-zeros; \
+         {} {} iterations, residual {:.2e}{}",
+        s.pairs,
+        s.pairs_culled,
+        s.pairs_skipped,
+        s.rays_cast as f64,
+        s.nnz,
+        if solution.omega != 1.0 {
+            format!("{method} (ω = {:.2})", solution.omega)
+        } else {
+            method.to_string()
+        },
+        solution.iterations,
+        solution.residual,
+        if solution.grey {
+            " (grey: one channel)"
+        } else {
+            ""
+        }
+    )
+}
+
+/// The verbose note of a refinement round (`report` already counts it) that split the
+/// `marked` patches into `refined`.
+pub fn refine_note(report: &Report, marked: &[bool], refined: &Patches) -> String {
+    format!(
+        "refinement round {}: {} of {} patches marked, {} patches now",
+        report.refine_rounds,
+        marked.iter().filter(|&&m| m).count(),
+        marked.len(),
+        refined.len()
+    )
+}
+
+/// Peak resident memory of this process, bytes: `VmHWM` of /proc/self/status (Linux only).
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}

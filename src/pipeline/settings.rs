@@ -1,0 +1,145 @@
+//! Everything that controls a bake ([`Settings`]) and how its result is written
+//! ([`WriteOptions`]), with the one [`Settings::validate`] every entry point calls before any
+//! work: [`super::run`], [`super::solve_scene`], the command line and the benchmark tools.
+//! Errors name the setting in the library's own words ([`crate::Error::Setting`]).
+
+use std::path::PathBuf;
+
+use crate::color;
+use crate::mesh::{self, refine};
+use crate::{form_factor, solve, Error, Result};
+
+/// Everything that controls a bake.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    /// Longest patch edge, scene units, finite and > 0; `None` = [`mesh::default_max_edge`]
+    /// (the bounding-box diagonal / 16).
+    pub max_edge: Option<f64>,
+    /// Form-factor estimation.
+    pub form_factors: form_factor::Settings,
+    /// Linear solve.
+    pub solver: solve::Settings,
+    /// Crease angle, degrees, in [0, 180]: where faces meet at smaller angles the mesh samples
+    /// one smooth surface (interpolated normals, shared output vertices); 0 = every face flat.
+    pub crease_degrees: f64,
+    /// Give every face a back side with its material ([`crate::scene::Scene::make_two_sided`]).
+    pub two_sided: bool,
+    /// Adaptive refinement: rounds of splitting the patches whose radiance jumps against a
+    /// neighbour's by more than `refine_threshold` (relative), each followed by a new solve
+    /// ([`crate::mesh::refine`]); 0 = none.
+    pub refine_rounds: u32,
+    /// Relative luminance jump that marks two neighbours for splitting; finite and > 0.
+    pub refine_threshold: f64,
+    /// Form-factor cache directory: F is read from it when these patches and estimator
+    /// settings were computed before, and stored otherwise ([`crate::form_factor::cache`]).
+    pub cache: Option<PathBuf>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            max_edge: None,
+            form_factors: form_factor::Settings::default(),
+            solver: solve::Settings::default(),
+            crease_degrees: mesh::DEFAULT_CREASE_DEGREES,
+            two_sided: false,
+            refine_rounds: 2,
+            refine_threshold: refine::DEFAULT_THRESHOLD,
+            cache: None,
+        }
+    }
+}
+
+impl Settings {
+    /// Checks every range before any work: `max_edge` (when given) finite and > 0,
+    /// `crease_degrees` in [0, 180], `refine_threshold` finite and > 0, and the form-factor and
+    /// solver settings ([`form_factor::Settings::validate`], [`solve::Settings::validate`]).
+    /// The first failure is an [`Error::Setting`] naming the field (`max_edge`,
+    /// `crease_degrees`, `refine_threshold`, `form_factors.samples`, `solver.tolerance`, …).
+    pub fn validate(&self) -> Result<()> {
+        if let Some(e) = self.max_edge {
+            if !(e > 0.0 && e.is_finite()) {
+                return Err(Error::setting(
+                    "max_edge",
+                    format!("{e} is not a positive length"),
+                ));
+            }
+        }
+        if !(0.0..=180.0).contains(&self.crease_degrees) {
+            return Err(Error::setting(
+                "crease_degrees",
+                format!("{} is not in [0, 180] degrees", self.crease_degrees),
+            ));
+        }
+        if !(self.refine_threshold > 0.0 && self.refine_threshold.is_finite()) {
+            return Err(Error::setting(
+                "refine_threshold",
+                format!("{} is not a positive number", self.refine_threshold),
+            ));
+        }
+        self.form_factors.validate()?;
+        self.solver.validate()
+    }
+}
+
+/// Output options of [`super::run`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct WriteOptions {
+    /// ASCII instead of binary PLY.
+    pub ascii: bool,
+    /// Exposure (radiance multiplier before sRGB), finite and > 0; `None` =
+    /// [`crate::bake::BakedMesh::auto_exposure`].
+    pub exposure: Option<f64>,
+}
+
+impl WriteOptions {
+    /// Checks the exposure, when given: finite and > 0 (an [`Error::Setting`] named
+    /// `exposure`).
+    pub fn validate(&self) -> Result<()> {
+        self.exposure.map_or(Ok(()), color::check_exposure)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each bad value of each setting, and the name the error must give.
+    #[test]
+    fn validate_names_the_first_bad_setting() {
+        Settings::default().validate().unwrap();
+        type Breakage = (fn(&mut Settings), &'static str);
+        let cases: [Breakage; 11] = [
+            (|s| s.max_edge = Some(0.0), "max_edge"),
+            (|s| s.max_edge = Some(f64::NAN), "max_edge"),
+            (|s| s.max_edge = Some(-2.0), "max_edge"),
+            (|s| s.crease_degrees = -1.0, "crease_degrees"),
+            (|s| s.crease_degrees = 181.0, "crease_degrees"),
+            (|s| s.refine_threshold = 0.0, "refine_threshold"),
+            (|s| s.refine_threshold = f64::INFINITY, "refine_threshold"),
+            (|s| s.form_factors.samples = 0, "form_factors.samples"),
+            (|s| s.form_factors.rays = 0, "form_factors.rays"),
+            (|s| s.solver.tolerance = 0.0, "solver.tolerance"),
+            (|s| s.solver.omega = Some(2.0), "solver.omega"),
+        ];
+        for (breakage, name) in cases {
+            let mut s = Settings::default();
+            breakage(&mut s);
+            match s.validate() {
+                Err(Error::Setting { name: n, message }) => {
+                    assert_eq!(n, name, "{message}");
+                    assert!(!message.is_empty());
+                }
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+        for x in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let o = WriteOptions {
+                exposure: Some(x),
+                ..WriteOptions::default()
+            };
+            assert!(matches!(o.validate(), Err(Error::Setting { name, .. }) if name == "exposure"));
+        }
+        WriteOptions::default().validate().unwrap();
+    }
+}

@@ -1,0 +1,237 @@
+//! The pinhole camera a picture is taken with: its description (eye, target, up, vertical field
+//! of view), checking it, reading and writing it as text, and the automatic framing used when
+//! nothing else says where to look. This module owns the camera as data; scene files carry one
+//! (`# camera: …` in OBJ, `comment camera: …` in PLY headers, read by [`crate::scene`]), baked
+//! files repeat it ([`crate::io`]), and [`crate::render`] renders with it. It casts no
+//! rays.
+//!
+//! Which camera a picture uses: `--camera` if given, else the scene file's camera, else
+//! [`Camera::framing`] of the bounding box.
+//!
+//! Text form: ten numbers `EX EY EZ TX TY TZ UX UY UZ FOV` (eye, target and up in scene units,
+//! the vertical field of view in degrees), separated by commas and/or whitespace. Written with
+//! Rust's shortest round-trip decimals ([`Camera::to_text`]), so reading a written camera gives
+//! back exactly the same `f64`s.
+
+use std::fmt;
+
+use glam::DVec3;
+
+use crate::{Error, Result};
+
+/// The vertical field of view of the Cornell box's published camera, degrees: a 35 mm lens on
+/// a 25 mm film, 2·atan(12.5/35) ≈ 39.30765°.
+pub fn cornell_vfov_degrees() -> f64 {
+    2.0 * (12.5f64 / 35.0).atan().to_degrees()
+}
+
+/// The marker that starts a camera line in a scene file: `# camera: …` (OBJ) and
+/// `comment camera: …` (PLY header).
+pub const FILE_KEYWORD: &str = "camera:";
+
+/// A pinhole camera.
+///
+/// Invariants of a camera from [`Camera::new`] or [`Camera::parse`] (what every constructor in
+/// this crate guarantees): all coordinates finite, `eye ≠ target`, `up` not zero and not
+/// parallel to the view direction `target − eye`, `0 < vfov_degrees < 180`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Eye position, scene units.
+    pub eye: DVec3,
+    /// Point looked at, scene units.
+    pub target: DVec3,
+    /// Up direction (need not be unit or orthogonal to the view direction; only its component
+    /// across the view direction matters).
+    pub up: DVec3,
+    /// Vertical field of view, degrees, in (0, 180).
+    pub vfov_degrees: f64,
+}
+
+impl Camera {
+    /// A camera from its ten numbers, checked against the invariants. The error says which one
+    /// fails, in words; callers wrap it with the option or the file and line.
+    pub fn new(
+        eye: DVec3,
+        target: DVec3,
+        up: DVec3,
+        vfov_degrees: f64,
+    ) -> std::result::Result<Camera, String> {
+        let camera = Camera {
+            eye,
+            target,
+            up,
+            vfov_degrees,
+        };
+        if ![eye, target, up].iter().all(|v| v.is_finite()) || !vfov_degrees.is_finite() {
+            return Err("numbers must be finite".into());
+        }
+        let forward = target - eye;
+        if forward.length() == 0.0 {
+            return Err("eye and target coincide".into());
+        }
+        if forward.cross(up).length() <= 1e-12 * forward.length() * up.length() {
+            return Err("up is zero or parallel to the view direction".into());
+        }
+        if !(vfov_degrees > 0.0 && vfov_degrees < 180.0) {
+            return Err("the field of view must be in (0, 180) degrees".into());
+        }
+        Ok(camera)
+    }
+
+    /// Parses the text form (ten numbers separated by commas and/or whitespace; see the module
+    /// documentation). The error says what is wrong, in words.
+    pub fn from_text(text: &str) -> std::result::Result<Camera, String> {
+        let v: Vec<f64> = text
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|s| !s.is_empty())
+            .map(|s| {
+                s.parse::<f64>()
+                    .map_err(|_| format!("{s:?} is not a number"))
+            })
+            .collect::<std::result::Result<_, _>>()?;
+        if v.len() != 10 {
+            return Err(format!(
+                "expected 10 numbers (eye x y z, target x y z, up x y z, vertical field of view \
+                 in degrees), got {}",
+                v.len()
+            ));
+        }
+        Camera::new(
+            DVec3::new(v[0], v[1], v[2]),
+            DVec3::new(v[3], v[4], v[5]),
+            DVec3::new(v[6], v[7], v[8]),
+            v[9],
+        )
+    }
+
+    /// Parses `--camera EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOV` ([`Camera::from_text`]); errors are
+    /// [`Error::Setting`] named `camera` and quoting the text.
+    pub fn parse(text: &str) -> Result<Camera> {
+        Camera::from_text(text).map_err(|m| Error::setting("camera", format!("{text:?}: {m}")))
+    }
+
+    /// The ten numbers separated by single spaces, in Rust's shortest round-trip form, as
+    /// scene files and baked files carry them after [`FILE_KEYWORD`].
+    pub fn to_text(&self) -> String {
+        let n = [
+            self.eye.x,
+            self.eye.y,
+            self.eye.z,
+            self.target.x,
+            self.target.y,
+            self.target.z,
+            self.up.x,
+            self.up.y,
+            self.up.z,
+            self.vfov_degrees,
+        ];
+        n.map(|x| x.to_string()).join(" ")
+    }
+
+    /// The default view: looking along +z at the centre of the bounding box [lo, hi] from in
+    /// front of it (its −z side), up +y, with the Cornell box's published lens
+    /// ([`cornell_vfov_degrees`]), far enough back that the box's front face fills the picture
+    /// height. For the Cornell box this puts the eye at about (278, 274, −770), close to the
+    /// published (278, 273, −800).
+    pub fn framing(lo: DVec3, hi: DVec3) -> Camera {
+        let vfov_degrees = cornell_vfov_degrees();
+        let centre = 0.5 * (lo + hi);
+        let half = 0.5 * (hi - lo);
+        let half_extent = half.x.max(half.y);
+        let distance = half_extent / (0.5 * vfov_degrees.to_radians()).tan() + half.z;
+        Camera {
+            eye: centre - DVec3::Z * distance,
+            target: centre,
+            up: DVec3::Y,
+            vfov_degrees,
+        }
+    }
+}
+
+impl fmt::Display for Camera {
+    /// `eye (x y z), target (x y z), up (x y z), vertical field of view F°`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = |p: DVec3| format!("{} {} {}", p.x, p.y, p.z);
+        write!(
+            f,
+            "eye ({}), target ({}), up ({}), vertical field of view {}°",
+            v(self.eye),
+            v(self.target),
+            v(self.up),
+            self.vfov_degrees
+        )
+    }
+}
+
+/// Reads the camera of a scene-file comment, if the comment is a camera line.
+///
+/// `comment` is the text after the comment marker (`#` in OBJ, `comment` in PLY). If its first
+/// word is [`FILE_KEYWORD`] the rest must be a valid camera ([`Camera::from_text`]): `Some(Ok)`
+/// or `Some(Err(why))`; any other comment is `None`.
+pub fn from_comment(comment: &str) -> Option<std::result::Result<Camera, String>> {
+    let rest = comment.trim_start().strip_prefix(FILE_KEYWORD)?;
+    Some(Camera::from_text(rest).map_err(|why| {
+        format!("malformed camera line ({FILE_KEYWORD} EX EY EZ TX TY TZ UX UY UZ FOV): {why}")
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_and_validate() {
+        let c = Camera::parse("278,273,-800,278,273,0,0,1,0,39.3").unwrap();
+        assert_eq!(c.eye, DVec3::new(278.0, 273.0, -800.0));
+        assert_eq!(c.vfov_degrees, 39.3);
+        // Whitespace works as well as commas.
+        assert_eq!(
+            Camera::from_text(" 278 273 -800  278 273 0\t0 1 0 39.3 ").unwrap(),
+            c
+        );
+        for bad in [
+            "1,2,3",
+            "0,0,0,0,0,0,0,1,0,40",
+            "0,0,0,0,0,1,0,0,1,40",
+            "0,0,0,0,0,1,0,1,0,0",
+            "0,0,0,0,0,1,0,1,0,180",
+            "a,0,0,0,0,1,0,1,0,40",
+            "0,0,0,0,0,1,0,1,0,nan",
+            "0,0,0,0,0,inf,0,1,0,40",
+            "",
+        ] {
+            assert!(
+                matches!(Camera::parse(bad), Err(Error::Setting { .. })),
+                "{bad}"
+            );
+        }
+    }
+
+    #[test]
+    fn text_form_round_trips_exactly() {
+        let c = Camera::new(
+            DVec3::new(278.0, 273.0, -800.0),
+            DVec3::new(0.1, 1.0 / 3.0, -0.0),
+            DVec3::new(1e-300, 1.0, 2e10),
+            cornell_vfov_degrees(),
+        )
+        .unwrap();
+        assert_eq!(Camera::from_text(&c.to_text()).unwrap(), c);
+        assert_eq!(
+            from_comment(&format!(" camera: {}", c.to_text())),
+            Some(Ok(c))
+        );
+        assert_eq!(from_comment(" a camera: is mentioned"), None);
+        assert_eq!(from_comment("cameras: 1 2 3"), None);
+        let err = from_comment("camera: 1 2 3").unwrap().unwrap_err();
+        assert!(err.contains("expected 10 numbers"), "{err}");
+    }
+
+    #[test]
+    fn framing_is_close_to_the_published_cornell_camera() {
+        let c = Camera::framing(DVec3::ZERO, DVec3::new(556.0, 548.8, 559.2));
+        let published = DVec3::new(278.0, 273.0, -800.0);
+        assert!(c.eye.distance(published) < 30.0, "{}", c.eye);
+        assert!((cornell_vfov_degrees() - 39.30765).abs() < 1e-5);
+    }
+}

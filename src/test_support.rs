@@ -1,0 +1,91 @@
+//! Helpers shared by the library's unit tests: scratch directories and a small baked mesh
+//! with awkward values.
+
+use crate::bake::BakedMesh;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A fresh directory under the system temp dir, removed on drop.
+pub struct TestDir(PathBuf);
+
+impl TestDir {
+    pub fn new(tag: &str) -> TestDir {
+        static N: AtomicU64 = AtomicU64::new(0);
+        let dir = std::env::temp_dir().join(format!(
+            "radiosity-export-{tag}-{}-{}",
+            std::process::id(),
+            N.fetch_add(1, Ordering::Relaxed)
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TestDir(dir)
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.0
+    }
+
+    /// Names of the directory's entries, sorted.
+    pub fn entries(&self) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(&self.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A small seeded pseudo-random mesh with awkward values: tiny, huge, negative positions,
+/// zero and saturating radiance.
+pub fn sample_mesh(vertices: usize, faces: usize) -> BakedMesh {
+    // SplitMix64, fixed seed.
+    let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+    let mut next = move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
+    let mut unit = move || (next() >> 11) as f64 / (1u64 << 53) as f64;
+    let mut positions = Vec::new();
+    let mut vertex_radiance = Vec::new();
+    for i in 0..vertices {
+        let scale = [1e-6, 1.0, 1e3, 1e12][i % 4];
+        positions.push([
+            (unit() - 0.5) * scale,
+            (unit() - 0.5) * scale,
+            (unit() - 0.5) * scale,
+        ]);
+        let r = match i % 5 {
+            0 => [0.0, 0.0, 0.0],
+            1 => [3.0 * unit(), 20.0, 0.5],
+            _ => [unit(), unit() * 0.01, unit() * 2.0],
+        };
+        vertex_radiance.push(r);
+    }
+    let mut face_list = Vec::new();
+    let mut face_radiance = Vec::new();
+    for _ in 0..faces {
+        face_list.push([
+            (unit() * vertices as f64) as u32,
+            (unit() * vertices as f64) as u32,
+            (unit() * vertices as f64) as u32,
+        ]);
+        face_radiance.push([unit() * 5.0, 0.0, unit() * 1e-3]);
+    }
+    BakedMesh {
+        positions,
+        vertex_radiance,
+        faces: face_list,
+        face_radiance,
+        camera: None,
+    }
+}

@@ -1,0 +1,252 @@
+//! Procedural scenes with known answers: the integrating sphere, the furnace room, and plate
+//! pairs from Howell's catalog. Used by `radiosity verify`, the tests, the benchmarks and
+//! `radiosity generate` (which writes them as OBJ for other tools). Geometry only; the
+//! expected answers live in [`crate::validation::closed_forms`].
+
+use glam::DVec3;
+
+use crate::scene::{Scene, SceneBuilder};
+use crate::Result;
+
+/// A geodesic sphere of radius `radius` centred at the origin, seen from inside (every face's
+/// front side — counter-clockwise winding — faces the centre). Made by subdividing an
+/// icosahedron `level` times (20·4^level faces) and projecting onto the sphere. Faces whose
+/// centroid lies in the cap z > radius·cos(cap_half_angle) emit `le`; all have reflectance `rho`.
+pub fn integrating_sphere(
+    radius: f64,
+    level: u32,
+    cap_half_angle_degrees: f64,
+    rho: f64,
+    le: [f64; 3],
+) -> Result<Scene> {
+    let (positions, faces) = icosphere(level);
+    let mut b = SceneBuilder::new();
+    let wall = b.material("wall", [rho; 3], [0.0; 3]);
+    let cap = b.material("cap", [rho; 3], le);
+    let ids: Vec<u32> = positions.iter().map(|p| b.vertex(*p * radius)).collect();
+    let z_cap = radius * cap_half_angle_degrees.to_radians().cos();
+    for f in faces {
+        let centroid = (positions[f[0]] + positions[f[1]] + positions[f[2]]) * (radius / 3.0);
+        let m = if centroid.z > z_cap * (1.0 - 1e-12) && cap_half_angle_degrees > 0.0 {
+            cap
+        } else {
+            wall
+        };
+        // icosphere() winds outward; reverse for the inside.
+        b.triangle([ids[f[0]], ids[f[2]], ids[f[1]]], m);
+    }
+    b.build()
+}
+
+/// Unit icosphere: vertices on the unit sphere, faces counter-clockwise seen from outside.
+fn icosphere(level: u32) -> (Vec<DVec3>, Vec<[usize; 3]>) {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut v: Vec<DVec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[usize; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..level {
+        let mut mid = std::collections::HashMap::new();
+        let mut midpoint = |a: usize, b: usize, v: &mut Vec<DVec3>| {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                v.push((v[a] + v[b]).normalize());
+                v.len() - 1
+            })
+        };
+        let mut next = Vec::with_capacity(f.len() * 4);
+        for [a, b, c] in f {
+            let ab = midpoint(a, b, &mut v);
+            let bc = midpoint(b, c, &mut v);
+            let ca = midpoint(c, a, &mut v);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    (v, f)
+}
+
+/// The six faces of the axis-aligned box [lo, hi], each counter-clockwise seen from outside,
+/// in the order −x, +x, −y, +y, −z, +z.
+pub fn box_faces(lo: DVec3, hi: DVec3) -> [[DVec3; 4]; 6] {
+    let c = |x: bool, y: bool, z: bool| {
+        DVec3::new(
+            if x { hi.x } else { lo.x },
+            if y { hi.y } else { lo.y },
+            if z { hi.z } else { lo.z },
+        )
+    };
+    let (f, t) = (false, true);
+    [
+        [c(f, f, f), c(f, f, t), c(f, t, t), c(f, t, f)],
+        [c(t, f, f), c(t, t, f), c(t, t, t), c(t, f, t)],
+        [c(f, f, f), c(t, f, f), c(t, f, t), c(f, f, t)],
+        [c(f, t, f), c(f, t, t), c(t, t, t), c(t, t, f)],
+        [c(f, f, f), c(f, t, f), c(t, t, f), c(t, f, f)],
+        [c(f, f, t), c(t, f, t), c(t, t, t), c(f, t, t)],
+    ]
+}
+
+/// Add an axis-aligned box [lo, hi] made of six quads, fronts facing inward (`inward`) or
+/// outward.
+pub fn add_box(b: &mut SceneBuilder, lo: DVec3, hi: DVec3, inward: bool, material: u32) {
+    for mut q in box_faces(lo, hi) {
+        if inward {
+            q.reverse();
+        }
+        b.quad(q, material);
+    }
+}
+
+/// The furnace: a closed, non-convex enclosure — a unit room (seen from inside) holding two
+/// floating boxes (seen from outside), which shadow each other and the walls — with one material of reflectance `rho` and emission `le` everywhere.
+/// Expected: L = Le / (1 − ρ) on every patch ([`crate::validation::closed_forms::furnace_radiance`]).
+pub fn furnace_room(rho: f64, le: f64) -> Result<Scene> {
+    let mut b = SceneBuilder::new();
+    let m = b.material("furnace", [rho; 3], [le; 3]);
+    add_box(&mut b, DVec3::ZERO, DVec3::ONE, true, m);
+    add_box(
+        &mut b,
+        DVec3::new(0.25, 0.3, 0.2),
+        DVec3::new(0.55, 0.6, 0.5),
+        false,
+        m,
+    );
+    // A second, flat box near the floor (not touching it: a touching box would hide floor
+    // patches from everything, leaving them outside the enclosure).
+    add_box(
+        &mut b,
+        DVec3::new(0.6, 0.05, 0.55),
+        DVec3::new(0.85, 0.4, 0.8),
+        false,
+        m,
+    );
+    b.build()
+}
+
+/// Two identical parallel, directly opposed rectangles a × b at distance c (Howell C-11):
+/// "source" at z = 0 facing +z, "receiver" at z = c facing −z. The receiver has reflectance
+/// `rho`, the source emits `le`.
+pub fn parallel_plates(a: f64, b_: f64, c: f64, rho: f64, le: f64) -> Result<Scene> {
+    let mut b = SceneBuilder::new();
+    let src = b.material("source", [0.0; 3], [le; 3]);
+    let rcv = b.material("receiver", [rho; 3], [0.0; 3]);
+    b.quad(
+        [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(a, 0.0, 0.0),
+            DVec3::new(a, b_, 0.0),
+            DVec3::new(0.0, b_, 0.0),
+        ],
+        src,
+    );
+    b.quad(
+        [
+            DVec3::new(0.0, 0.0, c),
+            DVec3::new(0.0, b_, c),
+            DVec3::new(a, b_, c),
+            DVec3::new(a, 0.0, c),
+        ],
+        rcv,
+    );
+    b.build()
+}
+
+/// Two rectangles at 90° sharing the edge x ∈ [0, l] (Howell C-14): "receiver" (width w, in
+/// the plane z = 0 facing +z, y ∈ [0, w]) and "source" (width h, in the plane y = 0 facing +y,
+/// z ∈ [0, h]). Receiver reflectance `rho`, source emission `le`.
+pub fn perpendicular_plates(l: f64, w: f64, h: f64, rho: f64, le: f64) -> Result<Scene> {
+    let mut b = SceneBuilder::new();
+    let src = b.material("source", [0.0; 3], [le; 3]);
+    let rcv = b.material("receiver", [rho; 3], [0.0; 3]);
+    b.quad(
+        [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(l, 0.0, 0.0),
+            DVec3::new(l, w, 0.0),
+            DVec3::new(0.0, w, 0.0),
+        ],
+        rcv,
+    );
+    b.quad(
+        [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(0.0, 0.0, h),
+            DVec3::new(l, 0.0, h),
+            DVec3::new(l, 0.0, 0.0),
+        ],
+        src,
+    );
+    b.build()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_faces_point_inward_and_cap_emits() {
+        let s = integrating_sphere(2.0, 2, 30.0, 0.5, [1.0; 3]).unwrap();
+        assert_eq!(s.triangles.len(), 320);
+        let mut emitting = 0;
+        for (t, tri) in s.triangles.iter().enumerate() {
+            let [a, b, c] = tri.vertices.map(|v| s.positions[v as usize]);
+            let n = (b - a).cross(c - a);
+            let centroid = (a + b + c) / 3.0;
+            assert!(n.dot(centroid) < 0.0, "triangle {t} faces outward");
+            emitting += (s.materials[tri.material as usize].emission[0] > 0.0) as usize;
+        }
+        // The 30° cap covers (1 − cos 30°)/2 ≈ 6.7 % of the sphere: about 21 of 320 faces.
+        assert!((15..=30).contains(&emitting), "{emitting}");
+    }
+
+    #[test]
+    fn furnace_room_is_closed() {
+        // Closed ⇔ every directed edge has its reverse partner (each surface closed, consistently
+        // wound).
+        let s = furnace_room(0.5, 1.0).unwrap();
+        let mut uses = std::collections::HashMap::new();
+        for t in &s.triangles {
+            for k in 0..3 {
+                let (a, b) = (t.vertices[k], t.vertices[(k + 1) % 3]);
+                *uses.entry((a, b)).or_insert(0) += 1;
+            }
+        }
+        assert_eq!(s.triangles.len(), 36);
+        assert!(uses.keys().all(|&(a, b)| uses.get(&(b, a)) == Some(&1)));
+    }
+}
