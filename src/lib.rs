@@ -1,20 +1,38 @@
 //! # radiosity
 //!
 //! A radiosity (finite-element) solver for the diffuse rendering equation. It reads an OBJ/MTL
-//! scene (`Kd` = diffuse reflectance ρ, `Ke` = emitted radiance Le in W·sr⁻¹·m⁻²), cuts it into
-//! patches, estimates the form factors F_ij by ray casting, solves (I − K)L = E with
+//! or PLY scene (`Kd` = diffuse reflectance ρ, `Ke` = emitted radiance Le in W·sr⁻¹·m⁻²), cuts
+//! it into patches, estimates the form factors F_ij by ray casting, solves (I − K)L = E with
 //! K = diag(ρ)·F, and bakes the patch radiance into vertex colours written as PLY or OBJ.
+//! This crate is the library; the `radiosity` command line is the `radiosity-cli` package,
+//! built on it (the library pulls in no argument parser, progress bars or anyhow).
 //!
-//! The data flow is one function, [`pipeline::run`]:
-//! load ([`scene`]) → patches ([`patch`]) → BVH ([`visibility`]) → form factors
-//! ([`form_factor`]) → matrix ([`matrix`]) → solve ([`solve`]) → bake ([`bake`]) → write
-//! ([`export`]), with a [`report::Report`] of counts and timings.
+//! The data flow is one function, [`pipeline::run`] (start reading there), one folder per
+//! stage:
+//!
+//! | stage | module | what it owns |
+//! |---|---|---|
+//! | load | [`io`] | scene files in (OBJ + MTL, PLY), baked meshes out (PLY, OBJ), atomic writes |
+//! | scene | [`scene`] | triangles, materials, the file's camera, overrides, two-sided twins |
+//! | patches | [`mesh`] | conforming subdivision, smooth normals, adaptive refinement |
+//! | BVH | [`visibility`] | watertight ray queries in a canonical frame |
+//! | form factors | [`form_factor`] | the estimators, their loop, shortcuts, the cache |
+//! | matrix, solve | [`solve`] | (I − K)L = E and five methods to solve it |
+//! | bake | [`bake`] | patch radiance → output vertices; the [`bake::BakedMesh`] |
+//! | write, picture | [`io`], [`render`] | files for MeshLab; PNG pictures of a bake |
+//! | checks | [`validation`] | closed forms, procedural scenes, a path tracer, `verify` |
+//!
+//! Around them: [`pipeline`] (the sequencer, its [`pipeline::Settings`] with the one
+//! `validate()`, the [`pipeline::Report`]), [`color`] (RGB, luminance, sRGB, exposure),
+//! [`progress`] (stage counters a program may draw), [`Error`] (one error type, in the
+//! library's own words).
 //!
 //! Load, bake, write in a few lines (here a procedural scene; [`scene::Scene::load`] reads
-//! an OBJ):
+//! a file):
 //!
 //! ```
-//! use radiosity::{export, pipeline, scenes};
+//! use radiosity::validation::scenes;
+//! use radiosity::{io, pipeline};
 //!
 //! // Two facing unit squares 1 apart: a source with Le = 1 and a receiver with ρ = 0.5.
 //! let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?;
@@ -28,7 +46,7 @@
 //! assert!((mean - 0.5 * 0.199825).abs() < 1e-4);
 //!
 //! let path = std::env::temp_dir().join("radiosity-doc-plates.ply");
-//! export::write(&path, &outcome.baked, export::Format::Ply { ascii: false }, 1.0)?;
+//! io::write(&path, &outcome.baked, io::Format::Ply { ascii: false }, 1.0)?;
 //! # std::fs::remove_file(&path).ok();
 //! # Ok::<(), radiosity::Error>(())
 //! ```

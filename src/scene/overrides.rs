@@ -177,7 +177,7 @@ mod tests {
         assert_eq!((o.material.as_str(), o.value), ("*", [1.0, 2.0, 3.0]));
         let o = Override::parse(Property::Emission, "a=b=4").unwrap();
         assert_eq!((o.material.as_str(), o.value), ("a=b", [4.0; 3]));
-        assert_eq!(o.to_string(), "--emission a=b=4,4,4");
+        assert_eq!(o.to_string(), "emission a=b=4,4,4");
         let back = Override::parse(Property::Emission, "a=b=4,4,4").unwrap();
         assert_eq!(back, o, "the display form parses back");
     }
@@ -248,7 +248,7 @@ mod tests {
             value: [0.5, 1.01, 0.5],
         };
         let e = s.apply_overrides(&[ok, hot]).unwrap_err();
-        assert!(e.to_string().contains("--reflectance"), "{e}");
+        assert!(e.to_string().contains("invalid reflectance"), "{e}");
         assert_eq!(s.materials, before);
     }
 }

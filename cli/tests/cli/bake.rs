@@ -140,7 +140,7 @@ fn bad_input_is_a_clear_error_and_loses_nothing() {
                 "-o".into(),
                 out.display().to_string(),
             ],
-            "radiosity-test",
+            "radiosity-cli",
         ),
         (
             vec![

@@ -45,7 +45,7 @@ fn cli_overrides_apply_and_unknown_materials_are_usage_errors() {
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(
         json["overrides"],
-        serde_json::json!(["--reflectance *=0,0,0", "--emission light=2,3,4"])
+        serde_json::json!(["reflectance *=0,0,0", "emission light=2,3,4"])
     );
     let p = radiosity::io::ply::read(&out).unwrap();
     for r in p.face_radiance.unwrap() {
