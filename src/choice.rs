@@ -2,10 +2,15 @@
 //! each value's name (what a command line or a report spells) and a one-line description, so
 //! that a program built on the library can offer the choices without repeating them.
 
+use crate::{Error, Result};
+
 /// An enumerated setting: every value, its name and its description.
 pub trait Choice: Copy + Eq + 'static {
     /// Every value, in the order they are listed.
     const ALL: &'static [Self];
+
+    /// The setting's name in the library (`form_factors.estimator`), for errors.
+    const SETTING: &'static str;
 
     /// The value's name: lower case, words joined by `-` (`gauss-seidel`).
     fn name(self) -> &'static str;
@@ -22,6 +27,16 @@ pub trait Choice: Copy + Eq + 'static {
     fn names() -> Vec<&'static str> {
         Self::ALL.iter().map(|c| c.name()).collect()
     }
+
+    /// The value called `name`, or an [`Error::Setting`] listing the names.
+    fn parse(name: &str) -> Result<Self> {
+        Self::from_name(name).ok_or_else(|| {
+            Error::setting(
+                Self::SETTING,
+                format!("{name:?} is not one of {}", Self::names().join(", ")),
+            )
+        })
+    }
 }
 
 #[cfg(test)]
@@ -30,7 +45,7 @@ mod tests {
     use crate::form_factor::Estimator;
     use crate::solve::Method;
 
-    fn round_trip<T: Choice + std::fmt::Debug + std::fmt::Display + std::str::FromStr>() {
+    fn round_trip<T: Choice + std::fmt::Debug + std::fmt::Display>() {
         let names = T::names();
         for &c in T::ALL {
             assert_eq!(T::from_name(c.name()), Some(c));
@@ -42,7 +57,8 @@ mod tests {
         unique.dedup();
         assert_eq!(unique.len(), names.len(), "names are distinct: {names:?}");
         assert_eq!(T::from_name("no-such-value"), None);
-        assert!("No-Such".parse::<T>().is_err());
+        let e = T::parse("No-Such").unwrap_err().to_string();
+        assert!(e.contains(T::SETTING) && e.contains(names[0]), "{e}");
     }
 
     #[test]

@@ -45,16 +45,8 @@ impl Drop for TestDir {
 /// A small seeded pseudo-random mesh with awkward values: tiny, huge, negative positions,
 /// zero and saturating radiance.
 pub fn sample_mesh(vertices: usize, faces: usize) -> BakedMesh {
-    // SplitMix64, fixed seed.
-    let mut state = 0x9E37_79B9_7F4A_7C15_u64;
-    let mut next = move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
-    let mut unit = move || (next() >> 11) as f64 / (1u64 << 53) as f64;
+    let mut rng = crate::form_factor::sampling::Rng::new(&[0x5EED]);
+    let mut unit = move || rng.next_f64();
     let mut positions = Vec::new();
     let mut vertex_radiance = Vec::new();
     for i in 0..vertices {
@@ -88,4 +80,12 @@ pub fn sample_mesh(vertices: usize, faces: usize) -> BakedMesh {
         face_radiance,
         camera: None,
     }
+}
+
+/// The 8-bit sRGB colours the writers give `mesh`'s vertices at `exposure`.
+pub fn srgb_colours(mesh: &BakedMesh, exposure: f64) -> Vec<[u8; 3]> {
+    mesh.vertex_radiance
+        .iter()
+        .map(|&r| crate::color::radiance_to_srgb8(r, exposure))
+        .collect()
 }

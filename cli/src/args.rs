@@ -99,6 +99,14 @@ pub struct RenderArgs {
     )]
     pub exposure: Option<f64>,
     #[command(flatten)]
+    pub scene: SceneArgs,
+}
+
+/// What every command that bakes a scene takes (`bake`, and `render` of a scene): the picture,
+/// the discretisation, form-factor and solver options, and material overrides.
+#[derive(Debug, Args)]
+pub struct SceneArgs {
+    #[command(flatten)]
     pub view: ViewArgs,
     #[command(flatten)]
     pub solve: SolveArgs,
@@ -191,11 +199,7 @@ pub struct BakeArgs {
     #[arg(long, value_name = "FILE.png", help_heading = "Output")]
     pub png: Option<PathBuf>,
     #[command(flatten)]
-    pub view: ViewArgs,
-    #[command(flatten)]
-    pub solve: SolveArgs,
-    #[command(flatten)]
-    pub materials: MaterialArgs,
+    pub scene: SceneArgs,
 }
 
 /// Material overrides shared by `bake`, `render` and `info`: change ρ or Le of a material

@@ -14,15 +14,15 @@ use crate::failure::{Failure, EXIT_NOT_CONVERGED};
 
 /// `radiosity bake`: load → … → write, then the report and the picture if asked.
 pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
-    let settings = args.solve.settings()?;
-    let overrides = args.materials.overrides()?;
+    let settings = args.scene.solve.settings()?;
+    let overrides = args.scene.materials.overrides()?;
     let options = args.write_options()?;
     for path in args.report.iter().chain(&args.png) {
         io::check_output_dir(path)?;
     }
     if args.png.is_some() {
         // Check the picture options before the long work (the mesh is not needed for it).
-        args.view.view(&Default::default(), 1.0)?;
+        args.scene.view.view(&Default::default(), 1.0)?;
     }
     let outcome = pipeline::run_with(&args.input, &args.output, &settings, &options, &overrides)?;
     let report = &outcome.report;
@@ -33,7 +33,7 @@ pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
         report.write_json(path)?;
     }
     if let Some(path) = &args.png {
-        let view = args.view.view(&outcome.baked, report.exposure)?;
+        let view = args.scene.view.view(&outcome.baked, report.exposure)?;
         render::save(path, &render::render(&outcome.baked, &view))?;
     }
     if !quiet {
@@ -95,7 +95,7 @@ pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
     if let Some(x) = args.exposure {
         color::check_exposure(x)?;
     }
-    let overrides = args.materials.overrides()?;
+    let overrides = args.scene.materials.overrides()?;
     let is_ply = args
         .input
         .extension()
@@ -103,7 +103,7 @@ pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
     let baked = (is_ply && overrides.is_empty())
         .then(|| io::ply::read(&args.input).ok()?.into_baked())
         .flatten();
-    if baked.is_some() && args.solve.two_sided {
+    if baked.is_some() && args.scene.solve.two_sided {
         // Its radiance is already solved: doubling its faces now would only add black backs.
         return Err(Failure::usage(
             "--two-sided",
@@ -119,7 +119,7 @@ pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
     let mesh = match baked {
         Some(mesh) => mesh,
         None => {
-            let settings = args.solve.settings()?;
+            let settings = args.scene.solve.settings()?;
             let mut scene = Scene::load(&args.input)?;
             scene.apply_overrides(&overrides)?;
             let outcome = pipeline::solve_scene(&scene, &settings)?;
@@ -141,7 +141,7 @@ pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
     };
     mesh.validate()?;
     let exposure = args.exposure.unwrap_or_else(|| mesh.auto_exposure());
-    let view = args.view.view(&mesh, exposure)?;
+    let view = args.scene.view.view(&mesh, exposure)?;
     render::save(&args.output, &render::render(&mesh, &view))?;
     Ok(code)
 }

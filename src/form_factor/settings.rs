@@ -3,7 +3,6 @@
 //! can be turned off to measure what it saves. [`Settings::validate`] checks the ranges.
 
 use std::fmt;
-use std::str::FromStr;
 
 use serde::Serialize;
 
@@ -23,6 +22,7 @@ pub enum Estimator {
 }
 
 impl Choice for Estimator {
+    const SETTING: &'static str = "form_factors.estimator";
     const ALL: &'static [Estimator] = &[Estimator::Area, Estimator::Contour, Estimator::Hemisphere];
 
     fn name(self) -> &'static str {
@@ -47,19 +47,6 @@ impl Choice for Estimator {
 impl fmt::Display for Estimator {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
-    }
-}
-
-impl FromStr for Estimator {
-    type Err = Error;
-
-    fn from_str(s: &str) -> Result<Self> {
-        Estimator::from_name(s).ok_or_else(|| {
-            Error::setting(
-                "form_factors.estimator",
-                format!("{s:?} is not one of {}", Estimator::names().join(", ")),
-            )
-        })
     }
 }
 
@@ -205,10 +192,10 @@ mod tests {
             }
         }
         assert_eq!(
-            "hemisphere".parse::<Estimator>().unwrap(),
+            Estimator::parse("hemisphere").unwrap(),
             Estimator::Hemisphere
         );
-        let e = "sphere".parse::<Estimator>().unwrap_err().to_string();
+        let e = Estimator::parse("sphere").unwrap_err().to_string();
         assert!(e.contains("area, contour, hemisphere"), "{e}");
     }
 }

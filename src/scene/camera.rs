@@ -175,6 +175,37 @@ pub fn from_comment(comment: &str) -> Option<std::result::Result<Camera, String>
     }))
 }
 
+/// The camera lines of one file, read comment by comment: at most one is allowed. Every
+/// reader of a file that may carry a camera (the OBJ and PLY scene loaders, the read-back of
+/// baked files) goes through it, so they all apply the same rule.
+#[derive(Debug, Default)]
+pub struct CameraLine {
+    /// The camera found, with its line.
+    found: Option<(usize, Camera)>,
+}
+
+impl CameraLine {
+    /// Reads the comment at `line` (the text after the comment marker): a camera line is
+    /// parsed and kept; a malformed one, or a second one, is an error message for that line.
+    /// Any other comment is ignored.
+    pub fn read(&mut self, comment: &str, line: usize) -> std::result::Result<(), String> {
+        let Some(camera) = from_comment(comment) else {
+            return Ok(());
+        };
+        let camera = camera?;
+        if let Some((first, _)) = self.found {
+            return Err(format!("a second camera line (the first is line {first})"));
+        }
+        self.found = Some((line, camera));
+        Ok(())
+    }
+
+    /// The camera the file carries, if any.
+    pub fn camera(&self) -> Option<Camera> {
+        self.found.map(|(_, c)| c)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,8 +1,10 @@
 //! The scene: triangles, their vertex positions and their Lambertian materials, as handed
 //! from the loaders to the patcher. This module owns the types, the shared clean-up every
-//! scene goes through (vertex welding, dropping zero-area triangles, [`Scene::validate`]),
-//! and [`SceneBuilder`] for procedural scenes; file formats live in submodules ([`obj`],
-//! [`ply`]); material overrides in [`overrides`].
+//! scene goes through (`build`: vertex welding, dropping zero-area triangles,
+//! [`Scene::validate`], the [`checks`] for likely mistakes) and [`SceneBuilder`] for
+//! procedural scenes, material overrides ([`overrides`]), two-sided twins (`two_sided`) and
+//! the file's [`camera`]. Reading and writing files is [`crate::io`]'s ([`Scene::load`] is
+//! defined there, so this model does not depend on the formats).
 //! It does not subdivide, compute normals for shading, or know about radiometry beyond
 //! checking that reflectances and emissions are physically meaningful.
 //!
@@ -23,14 +25,18 @@
 //! sides ([`crate::visibility`]). A face that already has a reversed face over the same
 //! corners in the file is paired with it instead of being doubled (each keeps its material).
 
+mod build;
 pub mod camera;
 pub mod checks;
 pub mod overrides;
+mod two_sided;
 
+pub(crate) use build::finish;
+pub use build::{SceneBuilder, MAX_LISTED_PAIRS};
 pub use camera::Camera;
 pub use overrides::{Override, Property};
+pub use two_sided::winding_key;
 
-use std::collections::HashMap;
 use std::path::PathBuf;
 
 use glam::DVec3;
@@ -184,101 +190,6 @@ impl Scene {
         Ok(())
     }
 
-    /// True if some triangle has a twin (a back side of its own; see [`Scene::make_two_sided`]).
-    pub fn is_two_sided(&self) -> bool {
-        self.twin.iter().any(|&u| u != NO_TWIN)
-    }
-
-    /// A copy with every face two-sided ([`Scene::make_two_sided`]).
-    pub fn to_two_sided(&self) -> Scene {
-        let mut scene = self.clone();
-        scene.make_two_sided();
-        scene
-    }
-
-    /// Makes every face two-sided (`--two-sided`; see the module documentation) and returns
-    /// the number of back faces added: [`Scene::make_two_sided_where`] for every material.
-    pub fn make_two_sided(&mut self) -> usize {
-        self.make_two_sided_where(|_| true)
-    }
-
-    /// Gives each triangle whose material `pick` accepts a back side of its own, and returns
-    /// the number of back faces added. In triangle order, a picked triangle without a twin is
-    /// paired with the first unpaired triangle over the same three vertices in the opposite
-    /// winding, if the scene has one (a back face modelled in the file: it keeps its own
-    /// material; the pairs found are counted in a warning), and otherwise gets a new twin
-    /// appended at the end: its vertices reversed, `[v0, v2, v1]`, with the same material (ρ
-    /// and Le are the same on both sides). Positions, materials and the order of the existing
-    /// triangles are unchanged, and calling it again adds nothing.
-    ///
-    /// The loader's checks are not run again: twins lie in the same plane facing opposite
-    /// ways, which the overlap check already accepts, and every shared edge is now used in
-    /// both directions on purpose.
-    pub fn make_two_sided_where(&mut self, mut pick: impl FnMut(&Material) -> bool) -> usize {
-        let n = self.triangles.len();
-        if self.twin.is_empty() {
-            self.twin = vec![NO_TWIN; n];
-        }
-        // Triangles over the same vertex set, by sorted indices and winding parity.
-        let key = |v: [u32; 3]| {
-            let mut s = v;
-            let mut odd = false;
-            for (a, b) in [(0, 1), (1, 2), (0, 1)] {
-                if s[a] > s[b] {
-                    s.swap(a, b);
-                    odd = !odd;
-                }
-            }
-            (s, odd)
-        };
-        let mut unpaired: HashMap<([u32; 3], bool), Vec<usize>> = HashMap::new();
-        for t in 0..n {
-            if self.twin[t] == NO_TWIN {
-                unpaired
-                    .entry(key(self.triangles[t].vertices))
-                    .or_default()
-                    .push(t);
-            }
-        }
-        let mut paired_in_file = 0;
-        let mut added = 0;
-        for t in 0..n {
-            let tri = self.triangles[t];
-            if self.twin[t] != NO_TWIN || !pick(&self.materials[tri.material as usize]) {
-                continue;
-            }
-            let (sorted, odd) = key(tri.vertices);
-            let partner = unpaired
-                .get_mut(&(sorted, !odd))
-                .and_then(|list| (!list.is_empty()).then(|| list.remove(0)));
-            if let Some(u) = partner {
-                self.twin[t] = u as u32;
-                self.twin[u] = t as u32;
-                if let Some(list) = unpaired.get_mut(&(sorted, odd)) {
-                    list.retain(|&x| x != t);
-                }
-                paired_in_file += 1;
-                continue;
-            }
-            let [a, b, c] = tri.vertices;
-            self.triangles.push(SceneTriangle {
-                vertices: [a, c, b],
-                material: tri.material,
-            });
-            let u = self.triangles.len() - 1;
-            self.twin.push(t as u32);
-            self.twin[t] = u as u32;
-            added += 1;
-        }
-        if paired_in_file > 0 {
-            self.warnings.push(format!(
-                "two-sided: {paired_in_file} face{} already had a reversed face over the same                  corners; each such pair is taken as the two sides of one surface (each side                  keeps its own material) instead of being doubled",
-                if paired_in_file == 1 { "" } else { "s" }
-            ));
-        }
-        added
-    }
-
     /// Axis-aligned bounding box of all positions as (min, max). An empty scene gives the
     /// empty box (+∞, −∞).
     pub fn bounds(&self) -> (DVec3, DVec3) {
@@ -316,267 +227,10 @@ impl Scene {
 }
 
 /// The path errors about a scene name: its file, or `<procedural scene>`.
-fn source_path(source: &Option<PathBuf>) -> PathBuf {
+pub(crate) fn source_path(source: &Option<PathBuf>) -> PathBuf {
     source
         .clone()
         .unwrap_or_else(|| PathBuf::from("<procedural scene>"))
-}
-
-/// Finishes a scene from raw loader or builder output, in order:
-/// 1. [`Scene::validate`] the raw data (so the steps below can index freely);
-/// 2. weld positions that are bitwise identical (−0.0 counted as +0.0), first occurrence
-///    wins, so the result does not depend on hashing;
-/// 3. drop triangles with |(b − a) × (c − a)| ≤ [`ZERO_AREA_RELATIVE`] · d², d the
-///    bounding-box diagonal of the used positions, with one counted warning;
-/// 4. drop positions no triangle uses (keeping their order) and validate again;
-/// 5. warn (keeping every face) about coincident overlapping faces and inconsistent winding
-///    between neighbours ([`checks`]), naming the triangles and, when `face_lines` gives the
-///    source line of every raw triangle, the file and line of their faces.
-pub(crate) fn finish(
-    source: Option<PathBuf>,
-    positions: Vec<DVec3>,
-    triangles: Vec<SceneTriangle>,
-    materials: Vec<Material>,
-    mut warnings: Vec<String>,
-    face_lines: Option<Vec<usize>>,
-) -> Result<Scene> {
-    let face_lines = face_lines.filter(|l| l.len() == triangles.len());
-    if positions.len() > u32::MAX as usize {
-        return Err(Error::Input {
-            path: source_path(&source),
-            message: format!(
-                "{} vertices: more than the supported {}",
-                positions.len(),
-                u32::MAX
-            ),
-        });
-    }
-    if triangles.is_empty() {
-        return Err(Error::Input {
-            path: source_path(&source),
-            message: "the mesh is empty: no triangles".into(),
-        });
-    }
-    let raw = Scene {
-        source,
-        positions,
-        triangles,
-        materials,
-        warnings: Vec::new(),
-        twin: Vec::new(),
-        camera: None,
-    };
-    raw.validate()?;
-    let Scene {
-        source,
-        positions,
-        triangles,
-        materials,
-        ..
-    } = raw;
-
-    // 2. Weld: `canon[i]` is the first index holding the same position as `i`.
-    let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
-    let canon: Vec<u32> = positions
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            // Adding +0.0 turns −0.0 into +0.0 and leaves every other value unchanged.
-            let key = (*p + DVec3::ZERO).to_array().map(f64::to_bits);
-            *first.entry(key).or_insert(i as u32)
-        })
-        .collect();
-    let triangles: Vec<SceneTriangle> = triangles
-        .into_iter()
-        .map(|t| SceneTriangle {
-            vertices: t.vertices.map(|v| canon[v as usize]),
-            material: t.material,
-        })
-        .collect();
-
-    // 3. Drop zero-area triangles, relative to the scale of the used geometry.
-    let (lo, hi) = triangles
-        .iter()
-        .flat_map(|t| t.vertices)
-        .map(|v| positions[v as usize])
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p), hi.max(p))
-        });
-    let threshold = ZERO_AREA_RELATIVE * (hi - lo).length_squared();
-    let total = triangles.len();
-    let keep: Vec<bool> = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.vertices.map(|v| positions[v as usize]);
-            (b - a).cross(c - a).length() > threshold
-        })
-        .collect();
-    let triangles: Vec<SceneTriangle> = triangles
-        .into_iter()
-        .zip(&keep)
-        .filter_map(|(t, &k)| k.then_some(t))
-        .collect();
-    let face_lines: Option<Vec<usize>> = face_lines.map(|lines| {
-        lines
-            .into_iter()
-            .zip(&keep)
-            .filter_map(|(l, &k)| k.then_some(l))
-            .collect()
-    });
-    let dropped = total - triangles.len();
-    if triangles.is_empty() {
-        return Err(Error::Input {
-            path: source_path(&source),
-            message: format!("no triangles with non-zero area (all {total} are degenerate)"),
-        });
-    }
-    if dropped > 0 {
-        warnings.push(format!(
-            "skipped {dropped} zero-area triangle{} (|e1 × e2| ≤ {ZERO_AREA_RELATIVE:e} × bounding-box diagonal²)",
-            if dropped == 1 { "" } else { "s" }
-        ));
-    }
-
-    // 4. Compact: keep used positions in their original order.
-    let mut new_index = vec![u32::MAX; positions.len()];
-    for t in &triangles {
-        for &v in &t.vertices {
-            new_index[v as usize] = 0;
-        }
-    }
-    let mut kept = Vec::new();
-    for (i, p) in positions.iter().enumerate() {
-        if new_index[i] == 0 {
-            new_index[i] = kept.len() as u32;
-            kept.push(*p);
-        }
-    }
-    let triangles = triangles
-        .into_iter()
-        .map(|t| SceneTriangle {
-            vertices: t.vertices.map(|v| new_index[v as usize]),
-            material: t.material,
-        })
-        .collect();
-
-    let mut scene = Scene {
-        source,
-        positions: kept,
-        triangles,
-        materials,
-        warnings,
-        twin: Vec::new(),
-        camera: None,
-    };
-    scene.validate()?;
-
-    // 5. Likely modelling mistakes: warn, keep every face.
-    let diagonal = (hi - lo).length();
-    let name = |t: usize| match (&face_lines, &scene.source) {
-        (Some(lines), Some(path)) => format!("{t} ({}:{})", path.display(), lines[t]),
-        _ => t.to_string(),
-    };
-    let list = |pairs: &[(usize, usize)]| {
-        let mut shown: Vec<String> = pairs
-            .iter()
-            .take(MAX_LISTED_PAIRS)
-            .map(|&(i, j)| format!("triangles {} and {}", name(i), name(j)))
-            .collect();
-        if pairs.len() > MAX_LISTED_PAIRS {
-            shown.push(format!("… {} more", pairs.len() - MAX_LISTED_PAIRS));
-        }
-        shown.join("; ")
-    };
-    let coincident = checks::coincident_faces(&scene.positions, &scene.triangles, diagonal);
-    if !coincident.is_empty() {
-        let n = coincident.len();
-        scene.warnings.push(format!(
-            "{n} pair{} of coincident overlapping faces (same plane, same facing: z-fighting): \
-             {}. Both faces of each pair are kept, so light exchanged with the overlap is \
-             counted for both; move one face off the plane or cut a hole for it",
-            if n == 1 { "" } else { "s" },
-            list(&coincident)
-        ));
-    }
-    let flipped = checks::inconsistent_winding(&scene.triangles);
-    if !flipped.is_empty() {
-        let n = flipped.len();
-        scene.warnings.push(format!(
-            "{n} pair{} of neighbouring faces with inconsistent winding (a shared edge runs \
-             the same way in both, so one of them faces the wrong way): {}. Faces emit and \
-             reflect on their counter-clockwise side only",
-            if n == 1 { "" } else { "s" },
-            list(&flipped)
-        ));
-    }
-    Ok(scene)
-}
-
-/// Warnings about pairs of faces list at most this many pairs (and count the rest).
-pub const MAX_LISTED_PAIRS: usize = 5;
-
-/// Builder for procedural scenes used by the verification suite and tests.
-///
-/// Indices returned by [`SceneBuilder::vertex`] and [`SceneBuilder::material`] are not
-/// checked until [`SceneBuilder::build`], which runs the same welding, zero-area clean-up
-/// and validation as loading a file.
-#[derive(Debug, Default, Clone)]
-pub struct SceneBuilder {
-    positions: Vec<DVec3>,
-    triangles: Vec<SceneTriangle>,
-    materials: Vec<Material>,
-}
-
-impl SceneBuilder {
-    /// An empty builder.
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Adds a material (ρ per RGB channel in [0, 1], Le in W·sr⁻¹·m⁻² per channel, ≥ 0)
-    /// and returns its index. Values are checked by [`SceneBuilder::build`].
-    pub fn material(&mut self, name: &str, reflectance: [f64; 3], emission: [f64; 3]) -> u32 {
-        self.materials.push(Material {
-            name: name.to_string(),
-            reflectance,
-            emission,
-        });
-        (self.materials.len() - 1) as u32
-    }
-
-    /// Adds a vertex and returns its index.
-    pub fn vertex(&mut self, p: DVec3) -> u32 {
-        self.positions.push(p);
-        (self.positions.len() - 1) as u32
-    }
-
-    /// Adds a triangle with vertices counter-clockwise seen from its front side.
-    pub fn triangle(&mut self, v: [u32; 3], material: u32) {
-        self.triangles.push(SceneTriangle {
-            vertices: v,
-            material,
-        });
-    }
-
-    /// Planar quad a, b, c, d counter-clockwise seen from the front, as 2 triangles
-    /// (a, b, c), (a, c, d), sharing vertices.
-    pub fn quad(&mut self, corners: [DVec3; 4], material: u32) {
-        let [a, b, c, d] = corners.map(|p| self.vertex(p));
-        self.triangle([a, b, c], material);
-        self.triangle([a, c, d], material);
-    }
-
-    /// Welds, drops zero-area triangles (with a warning) and validates; see the module docs.
-    pub fn build(self) -> Result<Scene> {
-        finish(
-            None,
-            self.positions,
-            self.triangles,
-            self.materials,
-            Vec::new(),
-            None,
-        )
-    }
 }
 
 #[cfg(test)]

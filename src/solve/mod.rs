@@ -36,7 +36,6 @@ pub mod stationary;
 pub mod system;
 
 use std::fmt;
-use std::str::FromStr;
 
 use serde::Serialize;
 
@@ -63,6 +62,7 @@ pub enum Method {
 }
 
 impl Choice for Method {
+    const SETTING: &'static str = "solver.method";
     const ALL: &'static [Method] = &[
         Method::Jacobi,
         Method::GaussSeidel,
@@ -106,19 +106,6 @@ impl Method {
 impl fmt::Display for Method {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
-    }
-}
-
-impl FromStr for Method {
-    type Err = Error;
-
-    fn from_str(s: &str) -> Result<Self> {
-        Method::from_name(s).ok_or_else(|| {
-            Error::setting(
-                "solver.method",
-                format!("{s:?} is not one of {}", Method::names().join(", ")),
-            )
-        })
     }
 }
 

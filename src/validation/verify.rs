@@ -244,18 +244,7 @@ pub fn surface_form_factor(out: &Outcome, from: u32, to: u32) -> f64 {
 /// and the area estimator's far-field kernel adds O(A/r²) (measured 6.8e-4). 5e-3 covers every
 /// estimator and sample count; a wrong cosine or π is ≥ 20 %.
 pub fn plates(settings: &Settings) -> Result<Vec<Case>> {
-    let cases = [
-        (
-            "form factor, parallel unit squares 1 apart (Howell C-11)",
-            scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
-            closed_forms::parallel_rectangles(1.0, 1.0, 1.0),
-        ),
-        (
-            "form factor, perpendicular unit squares, common edge (Howell C-14)",
-            scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
-            closed_forms::perpendicular_rectangles(1.0, 1.0, 1.0),
-        ),
-    ];
+    let cases = plate_cases()?;
     cases
         .into_iter()
         .map(|(name, scene, expected)| {
@@ -267,6 +256,24 @@ pub fn plates(settings: &Settings) -> Result<Vec<Case>> {
             Ok(case(name, expected, got, err, 5e-3 + noise, t))
         })
         .collect()
+}
+
+/// Howell's two plate configurations, each as (name, scene, F from the receiver, material 1, to
+/// the source, material 0): unit squares parallel 1 apart (C-11) and perpendicular with a
+/// common edge (C-14). The benchmark harness sweeps the same two.
+pub fn plate_cases() -> Result<[(&'static str, Scene, f64); 2]> {
+    Ok([
+        (
+            "form factor, parallel unit squares 1 apart (Howell C-11)",
+            scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+            closed_forms::parallel_rectangles(1.0, 1.0, 1.0),
+        ),
+        (
+            "form factor, perpendicular unit squares, common edge (Howell C-14)",
+            scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+            closed_forms::perpendicular_rectangles(1.0, 1.0, 1.0),
+        ),
+    ])
 }
 
 /// Relative standard deviation of a hemisphere-shooting estimate of a form factor of size `f`

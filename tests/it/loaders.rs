@@ -4,27 +4,11 @@
 //! here: loader robustness that needs no hand-written expectation (the exact messages of bad
 //! input are checked by the loaders' unit tests and the command-line tests).
 
+use radiosity::form_factor::sampling::Rng;
 use radiosity::mesh;
 use radiosity::scene::Scene;
 
 use crate::support::{meshes, temp_dir};
-
-/// A tiny deterministic generator (SplitMix64) for the mutations.
-struct Mix(u64);
-
-impl Mix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
 
 /// Tokens a mutation may insert: numbers at the edges of what parses, keywords, separators.
 const TOKENS: &[&str] = &[
@@ -117,14 +101,14 @@ fn fuzz_lite_mutated_ply_never_panics() {
 /// Asserts no panic (saving the crashing input beside `path`), that loaded scenes and their
 /// patches validate, and that both loads and rejections occur.
 fn mutate_and_load(original: &[u8], path: &std::path::Path, cases: usize, seed: u64) {
-    let mut rng = Mix(seed);
+    let mut rng = Rng::new(&[seed]);
     let (mut loaded, mut rejected) = (0, 0);
     for case in 0..cases {
         let mut bytes = original.to_vec();
         for _ in 0..1 + rng.below(4) {
             let at = rng.below(bytes.len());
             match rng.below(5) {
-                0 => bytes[at] = rng.next() as u8,
+                0 => bytes[at] = rng.next_u64() as u8,
                 1 => {
                     let end = (at + rng.below(40)).min(bytes.len());
                     bytes.drain(at..end);

@@ -94,6 +94,12 @@ fn two_sided_receiver_gets_rho_f_le_in_front_and_nothing_behind() {
     assert_eq!(source_back, 1.0);
 }
 
+/// The a × b plate at z = 0 with corner at the origin, facing +z, of `material`.
+fn source_plate(builder: &mut SceneBuilder, a: f64, b: f64, material: u32) {
+    let corners = [(0.0, 0.0), (a, 0.0), (a, b), (0.0, b)].map(|(x, y)| DVec3::new(x, y, 0.0));
+    builder.quad(corners, material);
+}
+
 /// A two-sided source plate (Le = 1, ρ = 0) at z = 0 between two receivers (ρ = 0.5) at
 /// z = ±c facing it, all a × b and directly opposed.
 fn sandwich(a: f64, b: f64, c: f64) -> Scene {
@@ -101,15 +107,7 @@ fn sandwich(a: f64, b: f64, c: f64) -> Scene {
     let src = builder.material("source", [0.0; 3], [1.0; 3]);
     let rcv = builder.material("receiver", [0.5; 3], [0.0; 3]);
     let q = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-    builder.quad(
-        [
-            q(0.0, 0.0, 0.0),
-            q(a, 0.0, 0.0),
-            q(a, b, 0.0),
-            q(0.0, b, 0.0),
-        ],
-        src,
-    );
+    source_plate(&mut builder, a, b, src);
     builder.quad(
         [q(0.0, 0.0, c), q(0.0, b, c), q(a, b, c), q(a, 0.0, c)],
         rcv,
@@ -277,15 +275,7 @@ fn faces_modelled_with_both_sides_are_paired_not_doubled() {
     let front = b.material("front", [0.5; 3], [0.0; 3]);
     let back = b.material("back", [0.3; 3], [0.0; 3]);
     let q = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-    b.quad(
-        [
-            q(0.0, 0.0, 0.0),
-            q(a, 0.0, 0.0),
-            q(a, a, 0.0),
-            q(0.0, a, 0.0),
-        ],
-        src,
-    );
+    source_plate(&mut b, a, a, src);
     let rcv = [q(0.0, 0.0, c), q(0.0, a, c), q(a, a, c), q(a, 0.0, c)];
     b.quad(rcv, front);
     // Reversed with the same diagonal, so its triangles are exactly the front's reversed

@@ -1,4 +1,4 @@
-//! The run-time-vs-error harness: `cargo run --release --example bench -- [--quick] [--out DIR]`.
+//! The run-time-vs-error harness: `cargo bench -p radiosity-tools --bench accuracy -- [--quick] [--out DIR]`.
 //!
 //! Sweeps the analytic scenes of [`radiosity::validation::scenes`] and the Cornell box over resolution,
 //! estimator and sample count, measures each run's error the way `radiosity verify` does
@@ -25,10 +25,10 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use radiosity::form_factor::{self, Estimator};
 use radiosity::pipeline::{self, Outcome};
 use radiosity::scene::Scene;
@@ -36,39 +36,26 @@ use radiosity::solve::System;
 use radiosity::solve::{self, Method, Solution};
 use radiosity::validation::{closed_forms, scenes, verify};
 
-use radiosity_tools::{chart, fit_order, load_font, machine, utc_date, Curve};
+use radiosity_tools::{
+    chart, fit_order, harness_args, load_font, machine, unknown_argument, utc_date, Curve,
+    HarnessArgs,
+};
 
 /// Tolerance of the sweeps' Gauss–Seidel solves: far below every discretisation error measured.
 const SWEEP_TOLERANCE: f64 = 1e-8;
 
-/// What the command line asks for.
-struct Args {
-    quick: bool,
-    out: PathBuf,
-}
-
-fn parse_args() -> Result<Args> {
-    let mut args = Args {
-        quick: false,
-        out: PathBuf::from("target/bench"),
-    };
-    let mut it = std::env::args().skip(1);
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--quick" => args.quick = true,
-            "--out" => args.out = it.next().context("--out needs a directory")?.into(),
-            "-h" | "--help" => {
-                println!(
-                    "cargo run --release --example bench -- [--quick] [--out DIR]\n\n\
-                     --quick    smaller sweep (~2 min on 2 cores) instead of the full one\n\
-                     --out DIR  output directory [default: target/bench]"
-                );
-                std::process::exit(0);
-            }
-            other => bail!("unknown argument {other:?} (try --help)"),
-        }
+/// The command line: `--quick` and `--out DIR` only.
+fn parse_args() -> Result<HarnessArgs> {
+    let args = harness_args(
+        "target/bench",
+        "cargo bench -p radiosity-tools --bench accuracy -- [--quick] [--out DIR]\n\n\
+         --quick    smaller sweep (~2 min on 2 cores) instead of the full one\n\
+         --out DIR  output directory [default: target/bench]",
+    )?;
+    match args.other.first() {
+        Some(word) => Err(unknown_argument(word)),
+        None => Ok(args),
     }
-    Ok(args)
 }
 
 /// The sweep's sizes; `--quick` shrinks them.
@@ -431,17 +418,11 @@ fn furnace(plan: &Plan, results: &mut Results) -> Result<()> {
 /// Unit plates, parallel 1 apart (Howell C-11) and perpendicular with a common edge (C-14):
 /// relative error of the receiver → source form factor.
 fn plates(plan: &Plan, results: &mut Results) -> Result<()> {
+    // The verify suite's two cases, named as the CSV and the charts name them.
+    let [(_, parallel, f_parallel), (_, perpendicular, f_perpendicular)] = verify::plate_cases()?;
     let cases = [
-        (
-            "parallel_plates",
-            scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
-            closed_forms::parallel_rectangles(1.0, 1.0, 1.0),
-        ),
-        (
-            "perpendicular_plates",
-            scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
-            closed_forms::perpendicular_rectangles(1.0, 1.0, 1.0),
-        ),
+        ("parallel_plates", parallel, f_parallel),
+        ("perpendicular_plates", perpendicular, f_perpendicular),
     ];
     for (name, scene, expected) in &cases {
         for &edge in &plan.plate_edges {
@@ -692,12 +673,12 @@ fn write_orders_csv(path: &Path, orders: &[Order]) -> Result<()> {
 }
 
 /// Markdown tables: per scene one row per run, then the solver study and the fitted orders.
-fn summary(args: &Args, results: &Results, orders: &[Order], seconds: f64) -> String {
+fn summary(args: &HarnessArgs, results: &Results, orders: &[Order], seconds: f64) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "## Run time against error\n");
     let _ = writeln!(
         s,
-        "`cargo run --release --example bench{}` ({:.0} s). Measured {}; {}.\n",
+        "`cargo bench -p radiosity-tools --bench accuracy --{}` ({:.0} s). Measured {}; {}.\n",
         if args.quick { " -- --quick" } else { "" },
         seconds,
         utc_date(),

@@ -1,4 +1,4 @@
-//! The speed-and-scale harness: `cargo run --release --example scale -- [SECTION…] [--quick]
+//! The speed-and-scale harness: `cargo bench -p radiosity-tools --bench scale -- [SECTION…] [--quick]
 //! [--out DIR]`, sections `skips`, `solvers`, `scale`, `rays`, `matvec`, `reference` (all but
 //! `reference` when none is named). Writes to DIR (default `target/scale`):
 //!
@@ -37,8 +37,13 @@ use radiosity::solve::{self, Method};
 use radiosity::validation::{path_tracer, scenes};
 use radiosity::visibility::Visibility;
 
-use radiosity_tools::{chart, fit_order, load_font, machine, surface_means, utc_date, Curve};
+use radiosity_tools::{
+    chart, fit_order, harness_args, load_font, machine, surface_means, unknown_argument, utc_date,
+    Curve,
+};
 
+/// The command line: sections to run (all but `reference` by default), `--quick`, `--out
+/// DIR`, and the internal `--child SPEC` (one Cornell run in this process, JSON on stdout).
 struct Args {
     sections: Vec<String>,
     quick: bool,
@@ -46,39 +51,34 @@ struct Args {
 }
 
 fn parse_args() -> Result<Args> {
-    let mut a = Args {
-        sections: Vec::new(),
-        quick: false,
-        out: PathBuf::from("target/scale"),
-    };
-    let mut it = std::env::args().skip(1);
+    let h = harness_args(
+        "target/scale",
+        "cargo bench -p radiosity-tools --bench scale -- \
+         [skips|solvers|scale|rays|matvec|reference]… [--quick] [--out DIR]",
+    )?;
+    let mut sections = Vec::new();
+    let mut it = h.other.into_iter();
     while let Some(x) = it.next() {
         match x.as_str() {
-            "--quick" => a.quick = true,
-            "--out" => a.out = it.next().context("--out needs a directory")?.into(),
             "--child" => {
-                // Internal: one Cornell run in this process, JSON on stdout.
                 let spec = it.next().context("--child needs a run spec")?;
                 child(&spec)?;
                 std::process::exit(0);
             }
-            "skips" | "solvers" | "scale" | "rays" | "matvec" | "reference" => a.sections.push(x),
-            "-h" | "--help" => {
-                println!(
-                    "cargo run --release --example scale -- [skips|solvers|scale|rays|matvec|reference]… \
-                     [--quick] [--out DIR]"
-                );
-                std::process::exit(0);
-            }
-            other => bail!("unknown argument {other:?} (try --help)"),
+            "skips" | "solvers" | "scale" | "rays" | "matvec" | "reference" => sections.push(x),
+            other => return Err(unknown_argument(other)),
         }
     }
-    if a.sections.is_empty() {
-        a.sections = ["skips", "solvers", "scale", "rays", "matvec"]
+    if sections.is_empty() {
+        sections = ["skips", "solvers", "scale", "rays", "matvec"]
             .map(String::from)
             .to_vec();
     }
-    Ok(a)
+    Ok(Args {
+        sections,
+        quick: h.quick,
+        out: h.out,
+    })
 }
 
 fn main() -> Result<()> {

@@ -5,7 +5,7 @@
 //! the path-traced reference, and the harnesses' command-line reading. Results go to
 //! BENCHMARKS.md; the harnesses run with `cargo bench -p radiosity-tools --bench NAME`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context, Result};
@@ -13,6 +13,43 @@ use plotters::prelude::*;
 use radiosity::pipeline::Outcome;
 use radiosity::scene::Scene;
 use radiosity::validation::path_tracer;
+
+/// What every harness's command line has: `--quick` (a smaller sweep), `--out DIR` (where the
+/// results go) and `--help`; `cargo bench` adds `--bench`, which is ignored. Every other word is
+/// kept, in order, in `other` for the harness to read (sections, internal options).
+pub struct HarnessArgs {
+    pub quick: bool,
+    pub out: PathBuf,
+    pub other: Vec<String>,
+}
+
+/// Reads the process's arguments (see [`HarnessArgs`]); `--help` prints `usage` and exits.
+pub fn harness_args(default_out: &str, usage: &str) -> Result<HarnessArgs> {
+    let mut args = HarnessArgs {
+        quick: false,
+        out: PathBuf::from(default_out),
+        other: Vec::new(),
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--quick" => args.quick = true,
+            "--out" => args.out = it.next().context("--out needs a directory")?.into(),
+            "--bench" => {}
+            "-h" | "--help" => {
+                println!("{usage}");
+                std::process::exit(0);
+            }
+            _ => args.other.push(a),
+        }
+    }
+    Ok(args)
+}
+
+/// The error for a word a harness does not know.
+pub fn unknown_argument(word: &str) -> anyhow::Error {
+    anyhow::anyhow!("unknown argument {word:?} (try --help)")
+}
 
 /// Fonts tried, in order, for chart text (Debian/Ubuntu, Fedora, Arch, macOS, Windows).
 pub const FONT_PATHS: &[&str] = &[
@@ -301,7 +338,7 @@ pub fn surface_means(scene: &Scene, out: &Outcome) -> Vec<[f64; 3]> {
 }
 
 /// The path-traced per-surface visible means of the Cornell box
-/// (docs/bench/cornell_reference.csv, made by `cargo run --release --example scale -- reference`).
+/// (docs/bench/cornell_reference.csv, made by `cargo bench -p radiosity-tools --bench scale -- reference`).
 pub fn cornell_reference() -> Option<Vec<[f64; 3]>> {
     path_tracer::read_reference(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/cornell_reference.csv"),

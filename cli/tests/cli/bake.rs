@@ -2,27 +2,9 @@
 //! any thread count; the usage errors of bake's options lose nothing; non-convergence exits 3;
 //! a generated scene bakes to its closed form; the form-factor cache.
 
-use std::path::Path;
-use std::process::Output;
-
 use radiosity::io::{obj, ply};
 
-use crate::support::{cornell, radiosity, stderr, temp_dir};
-
-/// Bake the Cornell box coarsely (max-edge 110 mm: a few hundred patches, fast) to `out`.
-fn bake(out: &Path, extra: &[&str]) -> Output {
-    let input = cornell();
-    let mut args = vec![
-        "bake",
-        &input,
-        "-o",
-        out.to_str().unwrap(),
-        "--max-edge",
-        "110",
-    ];
-    args.extend_from_slice(extra);
-    radiosity(&args)
-}
+use crate::support::{bake_cornell as bake, cornell, radiosity, stderr, temp_dir};
 
 #[test]
 fn bake_cornell_to_ply_and_obj_and_read_back() {

@@ -1,26 +1,13 @@
 //! `radiosity render` (and `bake --png`): a baked PLY rendered as it is, a scene baked first,
 //! the picture options and their errors.
 
-use crate::support::{cornell, radiosity, stderr, temp_dir};
-
-/// Bake the Cornell box coarsely (max-edge 110 mm: a few hundred patches, fast) to `out`.
-fn bake(out: &std::path::Path) -> std::process::Output {
-    let input = cornell();
-    radiosity(&[
-        "bake",
-        &input,
-        "-o",
-        out.to_str().unwrap(),
-        "--max-edge",
-        "110",
-    ])
-}
+use crate::support::{bake_cornell, cornell, radiosity, stderr, temp_dir};
 
 #[test]
 fn render_a_baked_ply_and_a_scene() {
     let dir = temp_dir("render");
     let ply_path = dir.join("c.ply");
-    assert!(bake(&ply_path).status.success());
+    assert!(bake_cornell(&ply_path, &[]).status.success());
     let png_path = dir.join("view.png");
     for extra in [
         &[][..],

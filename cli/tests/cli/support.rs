@@ -1,7 +1,7 @@
 //! Shared helpers of the command-line tests: the repository's paths, scratch directories, and
 //! running the `radiosity` binary.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// The repository's root (the workspace, one level above this package).
@@ -36,6 +36,22 @@ pub fn radiosity(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("the binary runs")
+}
+
+/// Bake the Cornell box coarsely (max-edge 110 mm: a few hundred patches, fast) to `out`, with
+/// `extra` options.
+pub fn bake_cornell(out: &Path, extra: &[&str]) -> Output {
+    let input = cornell();
+    let mut args = vec![
+        "bake",
+        &input,
+        "-o",
+        out.to_str().unwrap(),
+        "--max-edge",
+        "110",
+    ];
+    args.extend_from_slice(extra);
+    radiosity(&args)
 }
 
 /// The process's stderr as text.

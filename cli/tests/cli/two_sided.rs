@@ -1,43 +1,21 @@
 //! `--two-sided` through the binary: both sides in the output, deterministically for any
 //! thread count; a baked PLY is not made two-sided again; `info --two-sided`.
 
-use crate::support::{cornell, radiosity, stderr, temp_dir};
+use crate::support::{bake_cornell, cornell, radiosity, stderr, temp_dir};
 
 #[test]
 fn two_sided_bake_writes_both_sides_deterministically() {
     let dir = temp_dir("two-sided-bake");
-    let input = cornell();
     let (a, b, obj) = (dir.join("a.ply"), dir.join("b.ply"), dir.join("c.obj"));
     for (out, threads) in [(&a, "1"), (&b, "2"), (&obj, "2")] {
-        let o = radiosity(&[
-            "bake",
-            &input,
-            "-o",
-            out.to_str().unwrap(),
-            "--max-edge",
-            "110",
-            "--refine",
-            "0",
-            "--two-sided",
-            "--threads",
-            threads,
-        ]);
+        let o = bake_cornell(out, &["--refine", "0", "--two-sided", "--threads", threads]);
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
     }
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
     let two = radiosity::io::ply::read(&a).unwrap();
     let one_path = dir.join("one.ply");
-    let o = radiosity(&[
-        "bake",
-        &input,
-        "-o",
-        one_path.to_str().unwrap(),
-        "--max-edge",
-        "110",
-        "--refine",
-        "0",
-    ]);
+    let o = bake_cornell(&one_path, &["--refine", "0"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let one = radiosity::io::ply::read(&one_path).unwrap();
     // Twice the faces; the second half is the first reversed over the same positions, at

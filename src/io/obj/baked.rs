@@ -11,7 +11,7 @@ use std::path::Path;
 use crate::bake::BakedMesh;
 use crate::color::radiance_to_srgb8;
 use crate::io::ReadBack;
-use crate::scene::camera;
+use crate::scene::camera::{self, CameraLine};
 use crate::{Error, Result};
 
 /// The OBJ colour component written for 8-bit code `k`.
@@ -38,36 +38,39 @@ pub fn component_to_u8(c: f64) -> u8 {
 /// (units, exposure, the scene's camera as `# camera: …` when it has one, counts), `v x y z r g b` per vertex (positions as `f32` in Rust's
 /// shortest round-trip plain decimal form), then `f a b c` per face with 1-based indices.
 /// Expects a validated mesh.
-pub fn write_to(w: &mut impl Write, mesh: &BakedMesh, exposure: f64) -> io::Result<()> {
-    writeln!(w, "# radiosity: baked radiance as vertex colours")?;
-    writeln!(w, "# positions in scene units")?;
-    writeln!(
-        w,
-        "# colours = sRGB(radiance * exposure), radiance linear in W sr^-1 m^-2"
-    )?;
-    writeln!(w, "# exposure {exposure}")?;
+pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64) -> io::Result<()> {
+    let mut comments = vec![
+        "radiosity: baked radiance as vertex colours".to_string(),
+        "positions in scene units".into(),
+        "colours = sRGB(radiance * exposure), radiance linear in W sr^-1 m^-2".into(),
+        format!("exposure {exposure}"),
+    ];
     if let Some(camera) = &mesh.camera {
-        writeln!(w, "# {} {}", camera::FILE_KEYWORD, camera.to_text())?;
+        comments.push(format!("{} {}", camera::FILE_KEYWORD, camera.to_text()));
     }
-    writeln!(
-        w,
-        "# colour byte k is written as (k + 0.5)/255 (1 for 255) so that floor(c * 255) = k"
-    )?;
-    writeln!(
-        w,
-        "# {} vertices, {} faces",
+    comments.push(
+        "colour byte k is written as (k + 0.5)/255 (1 for 255) so that floor(c * 255) = k".into(),
+    );
+    comments.push(format!(
+        "{} vertices, {} faces",
         mesh.positions.len(),
         mesh.faces.len()
-    )?;
-    for (p, r) in mesh.positions.iter().zip(&mesh.vertex_radiance) {
-        let [x, y, z] = p.map(|c| c as f32);
-        let [red, green, blue] = radiance_to_srgb8(*r, exposure).map(colour_component);
-        writeln!(w, "v {x} {y} {z} {red:.6} {green:.6} {blue:.6}")?;
-    }
-    for f in &mesh.faces {
-        writeln!(w, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1)?;
-    }
-    Ok(())
+    ));
+    let vertex = |w: &mut W, i: usize| {
+        let [x, y, z] = mesh.positions[i].map(|c| c as f32);
+        let [red, green, blue] =
+            radiance_to_srgb8(mesh.vertex_radiance[i], exposure).map(colour_component);
+        write!(w, "{x} {y} {z} {red:.6} {green:.6} {blue:.6}")
+    };
+    super::write_obj(
+        w,
+        &comments,
+        None,
+        mesh.positions.len(),
+        vertex,
+        &mesh.faces,
+        None,
+    )
 }
 
 /// Reads an OBJ file written by [`write_to`]: `#` comments, blank lines, `v x y z r g b` and
@@ -97,6 +100,7 @@ pub fn read(path: &Path) -> Result<ReadBack> {
         face_radiance: None,
         camera: None,
     };
+    let mut camera = CameraLine::default();
     // Faces with the line they came from, checked against the vertex count at the end.
     let mut face_lines = Vec::new();
     for (i, line) in text.lines().enumerate() {
@@ -105,9 +109,9 @@ pub fn read(path: &Path) -> Result<ReadBack> {
         match t.first() {
             None => {}
             Some(s) if s.starts_with('#') => {
-                if let Some(c) = camera::from_comment(line.trim_start()[1..].trim_start()) {
-                    out.camera = Some(c.map_err(|why| parse_err(n, why))?);
-                }
+                camera
+                    .read(&line.trim_start()[1..], n)
+                    .map_err(|why| parse_err(n, why))?;
             }
             Some(&"v") => {
                 if t.len() != 7 {
@@ -173,6 +177,7 @@ pub fn read(path: &Path) -> Result<ReadBack> {
             ));
         }
     }
+    out.camera = camera.camera();
     Ok(out)
 }
 
@@ -180,7 +185,7 @@ pub fn read(path: &Path) -> Result<ReadBack> {
 mod tests {
     use super::*;
     use crate::io::{write, Format};
-    use crate::test_support::{sample_mesh, TestDir};
+    use crate::test_support::{sample_mesh, srgb_colours, TestDir};
 
     #[test]
     fn every_byte_survives_meshlab_truncation() {
@@ -205,11 +210,7 @@ mod tests {
         let back = read(&path).unwrap();
         let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
         assert_eq!(back.positions, positions);
-        let colours: Vec<[u8; 3]> = mesh
-            .vertex_radiance
-            .iter()
-            .map(|&r| radiance_to_srgb8(r, exposure))
-            .collect();
+        let colours = srgb_colours(&mesh, exposure);
         assert_eq!(back.colours, colours);
         assert_eq!(back.faces, mesh.faces);
         assert_eq!(back.vertex_radiance, None);

@@ -1,10 +1,60 @@
 //! Wavefront OBJ + MTL, both ways: scene files read into a [`crate::scene::Scene`] ([`load`],
-//! through `tobj`, with our own line-numbered checks), and one writer ([`write_obj`]) behind
+//! through `tobj`, with our own line-numbered checks), and one writer (`write_obj`) behind
 //! both outputs: procedural scenes saved as OBJ + MTL ([`save`]) and baked meshes with vertex
-//! colours for MeshLab ([`write_to`], read back exactly by [`read`]).
+//! colours for MeshLab ([`write_to`], read back exactly by [`read`], a strict reader of that
+//! one layout for tests and tools).
 
 mod baked;
+mod mtl;
+mod save;
 mod scene;
 
 pub use baked::{colour_component, component_to_u8, read, write_to};
-pub use scene::{load, save};
+pub use save::save;
+pub use scene::load;
+
+use std::io::{self, Write};
+
+/// Materials of an OBJ's triangles: each triangle's index into the names.
+pub(super) struct Groups<'a> {
+    pub of_triangle: &'a [u32],
+    pub names: &'a [&'a str],
+}
+
+/// The one OBJ writer behind [`save`] and [`write_to`]: each of `comments` as a `# ` line,
+/// `mtllib` when given, `vertices` `v` lines (`vertex(w, i)` writes what follows `v `), then
+/// one `f a b c` per triangle with 1-based indices, preceded by `usemtl NAME` wherever the
+/// triangle's material differs from the one before (when `groups` is given).
+pub(super) fn write_obj<W: Write>(
+    w: &mut W,
+    comments: &[String],
+    mtllib: Option<&str>,
+    vertices: usize,
+    mut vertex: impl FnMut(&mut W, usize) -> io::Result<()>,
+    triangles: &[[u32; 3]],
+    groups: Option<Groups>,
+) -> io::Result<()> {
+    for c in comments {
+        writeln!(w, "# {c}")?;
+    }
+    if let Some(name) = mtllib {
+        writeln!(w, "mtllib {name}")?;
+    }
+    for i in 0..vertices {
+        w.write_all(b"v ")?;
+        vertex(w, i)?;
+        w.write_all(b"\n")?;
+    }
+    let mut current = u32::MAX;
+    for (k, t) in triangles.iter().enumerate() {
+        if let Some(g) = &groups {
+            let m = g.of_triangle[k];
+            if m != current {
+                current = m;
+                writeln!(w, "usemtl {}", g.names[m as usize])?;
+            }
+        }
+        writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+    }
+    Ok(())
+}

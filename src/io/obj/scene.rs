@@ -37,7 +37,8 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use crate::scene::camera::{self, Camera};
+use super::mtl::{convert_material, read_mtl, tobj_failure};
+use crate::scene::camera::{Camera, CameraLine};
 use crate::scene::{finish, Material, Scene, SceneTriangle};
 use crate::{Error, Result};
 
@@ -205,7 +206,7 @@ struct ObjScan {
     camera: Option<Camera>,
 }
 
-fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
+pub(super) fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
     Error::Parse {
         path: path.to_path_buf(),
         line,
@@ -215,7 +216,7 @@ fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
 
 /// Parses a number the way `tobj` does (as f32, its default `Float`), so a value that
 /// overflows f32 is caught here as non-finite.
-fn parse_number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
+pub(super) fn parse_number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
     s.parse::<f32>()
         .map_err(|_| parse_error(path, line, format!("{what}: malformed number '{s}'")))
 }
@@ -227,7 +228,7 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
     let mut usemtl = Vec::new();
     let mut mtllib_lines = Vec::new();
     let mut faces = Vec::new();
-    let mut camera = None;
+    let mut camera = CameraLine::default();
     let mut vertices = 0usize;
     for (i, raw) in text.lines().enumerate() {
         let ln = i + 1;
@@ -311,17 +312,9 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
                 }
             }
             _ if keyword.starts_with('#') => {
-                if let Some(c) = camera::from_comment(&line[1..]) {
-                    let c = c.map_err(|why| parse_error(path, ln, why))?;
-                    if let Some((first, _)) = camera {
-                        return Err(parse_error(
-                            path,
-                            ln,
-                            format!("a second camera line (the first is line {first})"),
-                        ));
-                    }
-                    camera = Some((ln, c));
-                }
+                camera
+                    .read(&line[1..], ln)
+                    .map_err(|why| parse_error(path, ln, why))?;
             }
             "o" | "g" => out.push_str(line),
             "usemtl" | "mtllib" => {
@@ -352,181 +345,8 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
         usemtl,
         mtllib_lines,
         faces,
-        camera: camera.map(|(_, c)| c),
+        camera: camera.camera(),
     })
-}
-
-/// Reads the MTL file `mtl` named by the `mtllib` at `obj:line` and returns its normalised
-/// text for `tobj`.
-fn read_mtl(obj: &Path, line: usize, mtl: &Path) -> Result<String> {
-    let text = match std::fs::read(mtl) {
-        Ok(bytes) => String::from_utf8(bytes).map_err(|_| "not UTF-8 text".to_string()),
-        Err(e) => Err(e.to_string()),
-    }
-    .map_err(|why| {
-        parse_error(
-            obj,
-            line,
-            format!("cannot read material library {}: {why}", mtl.display()),
-        )
-    })?;
-    scan_mtl(mtl, &text)
-}
-
-/// A `tobj` error our own scan did not foresee: no line number to give.
-fn tobj_failure(path: &Path, e: tobj::LoadError) -> Error {
-    Error::Input {
-        path: path.to_path_buf(),
-        message: format!("tobj could not parse the file: {e} (no offending line found)"),
-    }
-}
-
-/// Checks `newmtl`, `Kd` and `Ke` (ρ in [0, 1], Le finite and ≥ 0, 3 numbers or 1 meaning
-/// grey) and returns the normalised copy for `tobj`: those statements only, same lines.
-fn scan_mtl(path: &Path, text: &str) -> Result<String> {
-    let mut out = String::with_capacity(text.len());
-    let mut current: Option<&str> = None;
-    for (i, raw) in text.lines().enumerate() {
-        let ln = i + 1;
-        let line = raw.trim();
-        let mut words = line.split_whitespace();
-        let keyword = words.next().unwrap_or("");
-        match keyword {
-            "newmtl" => {
-                let name = line[keyword.len()..].trim();
-                if name.is_empty() {
-                    return Err(parse_error(path, ln, "newmtl without a material name"));
-                }
-                current = Some(name);
-                out.push_str("newmtl ");
-                out.push_str(name);
-            }
-            "Kd" | "Ke" => {
-                // Outside a material tobj would drop the value too; ignore it likewise.
-                let Some(material) = current else {
-                    out.push('\n');
-                    continue;
-                };
-                let what = format!("material '{material}': {keyword}");
-                let tokens: Vec<&str> = words.collect();
-                let tokens = match tokens.len() {
-                    1 => vec![tokens[0]; 3],
-                    n if n >= 3 => tokens[..3].to_vec(),
-                    n => {
-                        let form = if tokens.first().is_some_and(|t| t.parse::<f64>().is_err()) {
-                            " (spectral and xyz forms are not supported)"
-                        } else {
-                            ""
-                        };
-                        return Err(parse_error(
-                            path,
-                            ln,
-                            format!("{what}: expected 3 numbers r g b, found {n}{form}"),
-                        ));
-                    }
-                };
-                let mut rgb = [0.0; 3];
-                for (c, s) in rgb.iter_mut().zip(&tokens) {
-                    *c = parse_number(path, ln, &what, s)?;
-                }
-                let bad = if keyword == "Kd" {
-                    rgb.iter()
-                        .any(|c| !(0.0..=1.0).contains(c))
-                        .then_some("reflectance must be in [0, 1]")
-                } else {
-                    rgb.iter()
-                        .any(|c| !c.is_finite() || *c < 0.0)
-                        .then_some("emission must be finite and ≥ 0")
-                };
-                if let Some(why) = bad {
-                    return Err(parse_error(
-                        path,
-                        ln,
-                        format!("{what} = {} {} {}: {why}", rgb[0], rgb[1], rgb[2]),
-                    ));
-                }
-                out.push_str(keyword);
-                for t in &tokens {
-                    out.push(' ');
-                    out.push_str(t);
-                }
-            }
-            _ => {}
-        }
-        out.push('\n');
-    }
-    Ok(out)
-}
-
-/// `Kd` → ρ (0.5 grey with a warning when missing), `Ke` → Le (tobj ≥ 4.0.4 fills
-/// `emissive`; older versions left it in `unknown_param["Ke"]`), 0 when missing.
-fn convert_material(m: &tobj::Material, warnings: &mut Vec<String>) -> Material {
-    let reflectance = m.diffuse.map(|c| c.map(f64::from)).unwrap_or_else(|| {
-        warnings.push(format!("material '{}' has no Kd; using ρ = 0.5", m.name));
-        [0.5; 3]
-    });
-    let emission = m
-        .emissive
-        .map(|c| c.map(f64::from))
-        .or_else(|| {
-            let values: Vec<f64> = m
-                .unknown_param
-                .get("Ke")?
-                .split_whitespace()
-                .map(str::parse)
-                .collect::<std::result::Result<_, _>>()
-                .ok()?;
-            values.try_into().ok()
-        })
-        .unwrap_or([0.0; 3]);
-    Material {
-        name: m.name.clone(),
-        reflectance,
-        emission,
-    }
-}
-
-/// Write `scene` as an OBJ file at `path` plus its MTL beside it (same name, `.mtl`), both
-/// atomically: `Kd` = ρ, `Ke` = Le, faces in the scene's winding. Used by
-/// `radiosity generate` to hand the procedural verification scenes to users and other tools.
-pub fn save(scene: &Scene, path: &Path) -> Result<()> {
-    use std::fmt::Write as _;
-    let mtl_path = path.with_extension("mtl");
-    let mtl_name = mtl_path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut mtl = String::from(
-        "# written by radiosity: Kd = diffuse reflectance, Ke = emitted radiance (W sr^-1 m^-2)\n",
-    );
-    for m in &scene.materials {
-        let [r, g, b] = m.reflectance;
-        let [er, eg, eb] = m.emission;
-        let _ = writeln!(
-            mtl,
-            "\nnewmtl {}\nKd {r} {g} {b}\nKe {er} {eg} {eb}",
-            m.name
-        );
-    }
-    let mut obj = format!(
-        "# written by radiosity: {} vertices, {} triangles; fronts counter-clockwise\nmtllib {mtl_name}\n",
-        scene.positions.len(),
-        scene.triangles.len()
-    );
-    for p in &scene.positions {
-        let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
-    }
-    let mut current = u32::MAX;
-    for t in &scene.triangles {
-        if t.material != current {
-            current = t.material;
-            let _ = writeln!(obj, "usemtl {}", scene.materials[current as usize].name);
-        }
-        let [a, b, c] = t.vertices.map(|v| v + 1);
-        let _ = writeln!(obj, "f {a} {b} {c}");
-    }
-    crate::io::write_atomic(&mtl_path, mtl.as_bytes())?;
-    crate::io::write_atomic(path, obj.as_bytes())
 }
 
 #[cfg(test)]

@@ -3,17 +3,19 @@
 //! and `float radiance_r/g/b` (linear W·sr⁻¹·m⁻², which MeshLab drops but plyfile/trimesh
 //! keep); per face: `list uchar int vertex_indices` and `float radiance_r/g/b`. The header
 //! records the exposure in a comment, and the scene's camera (`comment camera: EX EY EZ TX TY
-//! TZ UX UY UZ FOV`, see [`crate::scene::camera`]) when it has one. This file owns the byte layout only; atomic file
-//! replacement is in `export`, the colour pipeline in `export::colour`. The reader is not a
-//! general PLY parser: it accepts our header (any comments) and nothing else.
+//! TZ UX UY UZ FOV`, see [`crate::scene::camera`]) when it has one. This file owns the byte
+//! layout only; atomic file replacement is in [`crate::io::atomic`], the colour pipeline in
+//! [`crate::color`], the header's syntax in [`super::header`]. The reader accepts our layout
+//! (any comments) and nothing else; any other PLY is a scene ([`super::load`]).
 
 use std::io::{self, Write};
 use std::path::Path;
 
+use super::header::{parse_error, Header};
 use crate::bake::BakedMesh;
 use crate::color::radiance_to_srgb8;
 use crate::io::ReadBack;
-use crate::scene::camera::{self, Camera};
+use crate::scene::camera;
 use crate::{Error, Result};
 
 /// First header comment: what the numbers mean.
@@ -119,134 +121,90 @@ fn put_f32s(out: &mut [u8], values: [f32; 3]) {
 }
 
 /// Reads a PLY file written by [`write_to`] (ASCII or binary little-endian, as its header
-/// says), with the camera of its `comment camera: …` line if it has one. Header and ASCII body problems are [`Error::Parse`] with the line; binary body
-/// problems are [`Error::Input`] naming the vertex or face.
+/// says), with the camera of its `comment camera: …` line if it has one. The header goes
+/// through the shared header layer ([`Header::parse`]) and must then declare exactly our
+/// elements and properties. Header and ASCII body problems are [`Error::Parse`] with the
+/// line; binary body problems are [`Error::Input`] naming the vertex or face.
 pub fn read(path: &Path) -> Result<ReadBack> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let header = parse_header(path, &bytes)?;
+    let header = Header::parse(path, &bytes)?;
+    let layout = Layout::of(path, &header)?;
     let body = &bytes[header.body_start..];
     if header.ascii {
-        read_ascii_body(path, &header, body)
+        read_ascii_body(path, &header, &layout, body)
     } else {
-        read_binary_body(path, &header, body)
+        read_binary_body(path, &header, &layout, body)
     }
 }
 
-/// What the header tells the body reader.
-struct Header {
-    ascii: bool,
+/// What a header declaring exactly our layout promises: the record counts.
+struct Layout {
     vertices: usize,
     faces: usize,
-    /// Byte offset of the first body byte.
-    body_start: usize,
-    /// Number of header lines (the body's first line is `lines + 1`).
-    lines: usize,
-    /// The `comment camera: …` line's camera.
-    camera: Option<Camera>,
 }
 
-fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
-    let parse_err = |line: usize, message: String| Error::Parse {
-        path: path.to_path_buf(),
-        line,
-        message,
-    };
-    // Non-comment header lines with their 1-based numbers, up to and including end_header.
-    let mut lines: Vec<(usize, String)> = Vec::new();
-    let mut camera = None;
-    let mut pos = 0;
-    let mut number = 0;
-    loop {
-        number += 1;
-        let Some(len) = bytes[pos..].iter().position(|&b| b == b'\n') else {
-            return Err(parse_err(number, "no end_header line".into()));
-        };
-        let raw = &bytes[pos..pos + len];
-        pos += len + 1;
-        let text = std::str::from_utf8(raw)
-            .ok()
-            .filter(|t| t.is_ascii())
-            .ok_or_else(|| parse_err(number, "header line is not ASCII text".into()))?;
-        // One space between words, no trailing carriage return.
-        let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
-        if number == 1 && text != "ply" {
-            return Err(parse_err(
-                1,
-                "not a PLY file (first line is not `ply`)".into(),
+impl Layout {
+    /// Checks that `header` declares our two elements with our properties, in order; the
+    /// first difference is an error at its header line.
+    fn of(path: &Path, header: &Header) -> Result<Layout> {
+        let ours: [(&str, &[&str]); 2] =
+            [("vertex", &VERTEX_PROPERTIES), ("face", &FACE_PROPERTIES)];
+        let mut counts = [0; 2];
+        for (k, (name, properties)) in ours.iter().enumerate() {
+            let Some(element) = header.elements.get(k) else {
+                return Err(parse_error(
+                    path,
+                    header.lines,
+                    format!("header ends before `element {name}`"),
+                ));
+            };
+            if element.name != *name {
+                return Err(parse_error(
+                    path,
+                    element.line,
+                    format!(
+                        "expected `element {name} <count>`, found `element {}`",
+                        element.name
+                    ),
+                ));
+            }
+            for (want, found) in properties.iter().zip(&element.properties) {
+                if found.declaration() != *want {
+                    return Err(parse_error(
+                        path,
+                        found.line,
+                        format!("expected `{want}`, found `{}`", found.declaration()),
+                    ));
+                }
+            }
+            if element.properties.len() != properties.len() {
+                return Err(parse_error(
+                    path,
+                    element.line,
+                    format!(
+                        "element {name} has {} properties; a baked file's has {}",
+                        element.properties.len(),
+                        properties.len()
+                    ),
+                ));
+            }
+            counts[k] = element.count;
+        }
+        if let Some(extra) = header.elements.get(2) {
+            return Err(parse_error(
+                path,
+                extra.line,
+                format!("unexpected `element {}` after the faces", extra.name),
             ));
         }
-        if let Some(comment) = text.strip_prefix("comment ") {
-            if let Some(c) = camera::from_comment(comment) {
-                camera = Some(c.map_err(|why| parse_err(number, why))?);
-            }
-            continue;
-        }
-        if text == "comment" || text.starts_with("obj_info") {
-            continue;
-        }
-        let end = text == "end_header";
-        lines.push((number, text));
-        if end {
-            break;
-        }
+        Ok(Layout {
+            vertices: counts[0],
+            faces: counts[1],
+        })
     }
-
-    let mut items = lines.into_iter().skip(1); // "ply"
-    let mut next = |what: &str| {
-        items
-            .next()
-            .ok_or_else(|| parse_err(number, format!("header ends before {what}")))
-    };
-    let (n, format) = next("the format line")?;
-    let ascii = match format.as_str() {
-        "format ascii 1.0" => true,
-        "format binary_little_endian 1.0" => false,
-        _ => {
-            return Err(parse_err(
-                n,
-                format!("unsupported `{format}` (expected ascii or binary_little_endian 1.0)"),
-            ))
-        }
-    };
-    let mut element = |name: &str, properties: &[&str]| -> Result<usize> {
-        let (n, line) = next(&format!("element {name}"))?;
-        let count = line
-            .strip_prefix(&format!("element {name} "))
-            .and_then(|c| c.parse::<usize>().ok())
-            .ok_or_else(|| {
-                parse_err(
-                    n,
-                    format!("expected `element {name} <count>`, found `{line}`"),
-                )
-            })?;
-        for &want in properties {
-            let (n, line) = next(want)?;
-            if line != want {
-                return Err(parse_err(n, format!("expected `{want}`, found `{line}`")));
-            }
-        }
-        Ok(count)
-    };
-    let vertices = element("vertex", &VERTEX_PROPERTIES)?;
-    let faces = element("face", &FACE_PROPERTIES)?;
-    let (n, line) = next("end_header")?;
-    if line != "end_header" {
-        return Err(parse_err(
-            n,
-            format!("expected `end_header`, found `{line}`"),
-        ));
-    }
-    Ok(Header {
-        ascii,
-        vertices,
-        faces,
-        body_start: pos,
-        lines: number,
-        camera,
-    })
 }
 
-fn read_ascii_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack> {
+fn read_ascii_body(path: &Path, header: &Header, layout: &Layout, body: &[u8]) -> Result<ReadBack> {
     let parse_err = |line: usize, message: String| Error::Parse {
         path: path.to_path_buf(),
         line,
@@ -267,21 +225,21 @@ fn read_ascii_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack
     // Untrusted counts: do not reserve more than the body could hold.
     let cap = |n: usize| n.min(body.len() / 2);
     let mut out = ReadBack {
-        positions: Vec::with_capacity(cap(header.vertices)),
-        colours: Vec::with_capacity(cap(header.vertices)),
+        positions: Vec::with_capacity(cap(layout.vertices)),
+        colours: Vec::with_capacity(cap(layout.vertices)),
         vertex_radiance: None,
-        faces: Vec::with_capacity(cap(header.faces)),
+        faces: Vec::with_capacity(cap(layout.faces)),
         face_radiance: None,
         camera: header.camera,
     };
-    let mut vertex_radiance = Vec::with_capacity(cap(header.vertices));
-    let mut face_radiance = Vec::with_capacity(cap(header.faces));
+    let mut vertex_radiance = Vec::with_capacity(cap(layout.vertices));
+    let mut face_radiance = Vec::with_capacity(cap(layout.faces));
 
-    for i in 0..header.vertices {
+    for i in 0..layout.vertices {
         let (n, line) = rows.next().ok_or_else(|| {
             parse_err(
                 last_line,
-                format!("file ends after {i} of {} vertices", header.vertices),
+                format!("file ends after {i} of {} vertices", layout.vertices),
             )
         })?;
         let t: Vec<&str> = line.split_whitespace().collect();
@@ -307,11 +265,11 @@ fn read_ascii_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack
         out.colours.push([b(3)?, b(4)?, b(5)?]);
         vertex_radiance.push([f(6)?, f(7)?, f(8)?]);
     }
-    for i in 0..header.faces {
+    for i in 0..layout.faces {
         let (n, line) = rows.next().ok_or_else(|| {
             parse_err(
                 last_line,
-                format!("file ends after {i} of {} faces", header.faces),
+                format!("file ends after {i} of {} faces", layout.faces),
             )
         })?;
         let t: Vec<&str> = line.split_whitespace().collect();
@@ -321,13 +279,13 @@ fn read_ascii_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack
         let idx = |k: usize| -> Result<u32> {
             t[k].parse::<u32>()
                 .ok()
-                .filter(|&v| (v as usize) < header.vertices)
+                .filter(|&v| (v as usize) < layout.vertices)
                 .ok_or_else(|| {
                     parse_err(
                         n,
                         format!(
                             "face {i}: `{}` is not a vertex index below {}",
-                            t[k], header.vertices
+                            t[k], layout.vertices
                         ),
                     )
                 })
@@ -349,13 +307,18 @@ fn read_ascii_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack
     Ok(out)
 }
 
-fn read_binary_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBack> {
+fn read_binary_body(
+    path: &Path,
+    header: &Header,
+    layout: &Layout,
+    body: &[u8],
+) -> Result<ReadBack> {
     let input_err = |message: String| Error::Input {
         path: path.to_path_buf(),
         message,
     };
-    let expected = header.vertices.checked_mul(VERTEX_BYTES).and_then(|v| {
-        header
+    let expected = layout.vertices.checked_mul(VERTEX_BYTES).and_then(|v| {
+        layout
             .faces
             .checked_mul(FACE_BYTES)
             .and_then(|f| v.checked_add(f))
@@ -364,19 +327,19 @@ fn read_binary_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBac
         return Err(input_err(format!(
             "binary body has {} bytes but the header's {} vertices and {} faces need {}",
             body.len(),
-            header.vertices,
-            header.faces,
+            layout.vertices,
+            layout.faces,
             expected.map_or("more than fit in memory".to_string(), |e| e.to_string())
         )));
     }
     let f32s = |b: &[u8]| -> [f32; 3] {
         std::array::from_fn(|k| f32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap()))
     };
-    let (vertex_bytes, face_bytes) = body.split_at(header.vertices * VERTEX_BYTES);
+    let (vertex_bytes, face_bytes) = body.split_at(layout.vertices * VERTEX_BYTES);
 
-    let mut positions = Vec::with_capacity(header.vertices);
-    let mut colours = Vec::with_capacity(header.vertices);
-    let mut vertex_radiance = Vec::with_capacity(header.vertices);
+    let mut positions = Vec::with_capacity(layout.vertices);
+    let mut colours = Vec::with_capacity(layout.vertices);
+    let mut vertex_radiance = Vec::with_capacity(layout.vertices);
     for (i, rec) in vertex_bytes.chunks_exact(VERTEX_BYTES).enumerate() {
         let p = f32s(&rec[0..12]);
         let r = f32s(&rec[15..27]);
@@ -389,8 +352,8 @@ fn read_binary_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBac
         colours.push([rec[12], rec[13], rec[14]]);
         vertex_radiance.push(r);
     }
-    let mut faces = Vec::with_capacity(header.faces);
-    let mut face_radiance = Vec::with_capacity(header.faces);
+    let mut faces = Vec::with_capacity(layout.faces);
+    let mut face_radiance = Vec::with_capacity(layout.faces);
     for (i, rec) in face_bytes.chunks_exact(FACE_BYTES).enumerate() {
         if rec[0] != 3 {
             return Err(input_err(format!(
@@ -403,11 +366,11 @@ fn read_binary_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBac
             let v = i32::from_le_bytes(rec[1 + 4 * k..5 + 4 * k].try_into().unwrap());
             *slot = u32::try_from(v)
                 .ok()
-                .filter(|&v| (v as usize) < header.vertices)
+                .filter(|&v| (v as usize) < layout.vertices)
                 .ok_or_else(|| {
                     input_err(format!(
                         "face {i}: vertex index {v} is outside 0..{}",
-                        header.vertices
+                        layout.vertices
                     ))
                 })?;
         }
@@ -432,7 +395,7 @@ fn read_binary_body(path: &Path, header: &Header, body: &[u8]) -> Result<ReadBac
 mod tests {
     use super::*;
     use crate::io::{write, Format};
-    use crate::test_support::{sample_mesh, TestDir};
+    use crate::test_support::{sample_mesh, srgb_colours, TestDir};
 
     fn f32s(v: &[[f64; 3]]) -> Vec<[f32; 3]> {
         v.iter().map(|p| p.map(|c| c as f32)).collect()
@@ -446,11 +409,7 @@ mod tests {
         write(&path, &mesh, Format::Ply { ascii }, exposure).unwrap();
         let back = read(&path).unwrap();
         assert_eq!(back.positions, f32s(&mesh.positions));
-        let colours: Vec<[u8; 3]> = mesh
-            .vertex_radiance
-            .iter()
-            .map(|&r| radiance_to_srgb8(r, exposure))
-            .collect();
+        let colours = srgb_colours(&mesh, exposure);
         assert_eq!(back.colours, colours);
         // The sample exercises both ends of the curve.
         assert!(colours.contains(&[0, 0, 0]) && colours.iter().any(|c| c.contains(&255)));

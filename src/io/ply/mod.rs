@@ -11,3 +11,56 @@ mod scene;
 
 pub use baked::{read, write_to};
 pub use scene::load;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::{sample_mesh, TestDir};
+    use crate::Error;
+
+    /// The two readers share one header layer: a baked file with a second camera comment is
+    /// refused by both at the same line, and a good one gives both the same camera.
+    #[test]
+    fn both_readers_apply_the_same_header_rules() {
+        let dir = TestDir::new("ply-header");
+        let path = dir.path().join("baked.ply");
+        let mut mesh = sample_mesh(4, 2);
+        mesh.positions = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+        ];
+        mesh.faces = vec![[0, 1, 2], [1, 3, 2]];
+        mesh.camera = Some(crate::scene::Camera::parse("0,0,5,0,0,0,0,1,0,40").unwrap());
+        let mut bytes = Vec::new();
+        write_to(&mut bytes, &mesh, 1.0, true).unwrap();
+        std::fs::write(&path, &bytes).unwrap();
+        assert_eq!(read(&path).unwrap().camera, mesh.camera);
+        assert_eq!(load(&path).unwrap().camera, mesh.camera);
+
+        let text = String::from_utf8(bytes).unwrap();
+        let line = text
+            .lines()
+            .position(|l| l.starts_with("comment camera"))
+            .unwrap()
+            + 1;
+        let twice = text.replacen(
+            "comment camera",
+            "comment camera: 1 1 1 0 0 0 0 1 0 30\ncomment camera",
+            1,
+        );
+        std::fs::write(&path, twice).unwrap();
+        for e in [read(&path).unwrap_err(), load(&path).unwrap_err()] {
+            match e {
+                Error::Parse {
+                    line: l, message, ..
+                } => {
+                    assert_eq!(l, line + 1, "{message}");
+                    assert!(message.contains("second camera"), "{message}");
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+}

@@ -1,0 +1,142 @@
+//! The watertight ray–triangle test (Woop, Benthin & Wald, "Watertight Ray/Triangle
+//! Intersection", JCGT 2(1), 2013) on rays prepared once in the canonical frame, and the grids
+//! the frame snaps coordinates and directions to (see the module documentation of
+//! [`super`]).
+
+use glam::{DVec3, Mat3A, Vec3A};
+use obvhs::ray::Ray;
+
+use super::Hit;
+
+/// Distance, in units of the ray's direction vector, by which ray origins are moved back along
+/// the ray. Must exceed obvhs's box-test clamp `t ≥ 1e-4` with margin.
+const ORIGIN_SHIFT: f64 = 1.0 / 1024.0;
+
+/// Canonical coordinates are multiples of this (2⁻²⁰ canonical units): far below `f32`
+/// resolution at the frame's size (≈ 6e-5 at 1024), far above f64 rounding (≈ 1e-13).
+pub(super) const CANONICAL_GRID: f64 = 1.0 / (1u64 << 20) as f64;
+
+/// Unit ray directions are snapped to multiples of 2⁻⁴⁰.
+pub(super) const DIRECTION_GRID: f64 = 1.0 / (1u64 << 40) as f64;
+
+/// `x` rounded to the nearest multiple of `grid` in each coordinate.
+pub(super) fn snap(x: DVec3, grid: f64) -> DVec3 {
+    (x / grid).round() * grid
+}
+
+/// A ray prepared once for the watertight test of Woop, Benthin & Wald (JCGT 2013), in the
+/// canonical frame: `x(t) = origin + t·dir` with the origin moved back by `ORIGIN_SHIFT`
+/// (so internal parameters are `t + ORIGIN_SHIFT`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct WatertightRay {
+    /// Shifted origin, canonical `f32`.
+    pub origin: Vec3A,
+    /// Direction, canonical `f32`.
+    pub dir: Vec3A,
+    /// Permutation and shear to ray space: for `a = vertex − origin`, `shear · a =
+    /// (a[kx] − Sx·a[kz], a[ky] − Sy·a[kz], Sz·a[kz])`.
+    shear: Mat3A,
+    /// Query interval in internal (shifted) parameters, inclusive.
+    pub t_lo: f32,
+    pub t_hi: f32,
+}
+
+impl WatertightRay {
+    /// Ray from `origin` along `dir` (canonical, `f64`), counting hits with
+    /// `t ∈ [t_lo, t_hi]`. `None` if it cannot be represented in `f32`.
+    pub fn new(origin: DVec3, dir: DVec3, t_lo: f64, t_hi: f64) -> Option<WatertightRay> {
+        // `+ 0.0` turns −0.0 components into +0.0: obvhs picks a box's near plane by
+        // `dir < 0.0` (false for −0.0) but inverts −0.0 to −1/ε, so a direction such as a floor's
+        // normal (0, 1, −0) would miss every box it should enter.
+        let dir32 = dir.as_vec3a() + Vec3A::ZERO;
+        let origin32 = (origin - ORIGIN_SHIFT * dir).as_vec3a();
+        if !(origin32.is_finite() && dir32.is_finite()) || dir32 == Vec3A::ZERO {
+            return None;
+        }
+        // Step 1 (paper §3): kz is the dimension where the direction is largest in magnitude;
+        // kx, ky follow cyclically and swap when dir[kz] < 0 to keep the triangles' winding.
+        let kz = dir32.abs().max_position();
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if dir32[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        // Step 2: shear constants that map the ray onto the +z axis of ray space.
+        let sz = 1.0 / dir32[kz];
+        let sx = dir32[kx] * sz;
+        let sy = dir32[ky] * sz;
+        let mut cols = [Vec3A::ZERO; 3];
+        cols[kx] = Vec3A::X;
+        cols[ky] = Vec3A::Y;
+        cols[kz] = Vec3A::new(-sx, -sy, sz);
+        Some(WatertightRay {
+            origin: origin32,
+            dir: dir32,
+            shear: Mat3A::from_cols(cols[0], cols[1], cols[2]),
+            t_lo: (t_lo + ORIGIN_SHIFT) as f32,
+            t_hi: (t_hi + ORIGIN_SHIFT) as f32,
+        })
+    }
+
+    /// The obvhs ray for traversal; its `tmax` bounds the box tests.
+    pub fn obvhs_ray(&self) -> Ray {
+        Ray::new(self.origin, self.dir, self.t_lo, self.t_hi)
+    }
+
+    /// Watertight intersection with `tri` for internal parameters in `[t_lo, t_hi]`; returns
+    /// `(t, u, v)` with `u`, `v` the barycentric weights of `tri[1]`, `tri[2]`. Both sides hit.
+    ///
+    /// Watertightness rests on each vertex being transformed to ray space independently of the
+    /// triangle (so a shared edge gives exactly opposite edge functions in its two triangles)
+    /// and on edge functions that are exactly 0 being recomputed in `f64`, where the products of
+    /// `f32` values are exact and the sign of the difference is therefore exact.
+    #[inline(always)]
+    pub fn intersect(&self, tri: &[Vec3A; 3], t_lo: f32, t_hi: f32) -> Option<(f32, f32, f32)> {
+        // Step 3: vertices relative to the origin, permuted and sheared to ray space.
+        let a = self.shear * (tri[0] - self.origin);
+        let b = self.shear * (tri[1] - self.origin);
+        let c = self.shear * (tri[2] - self.origin);
+        // Step 4: scaled barycentric coordinates (2D edge functions at the ray's (0, 0)).
+        let mut e0 = c.x * b.y - c.y * b.x;
+        let mut e1 = a.x * c.y - a.y * c.x;
+        let mut e2 = b.x * a.y - b.y * a.x;
+        // Step 5: fall back to f64 on the edge (exactly 0) for a consistent decision.
+        if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
+            let edge = |p: f32, q: f32, r: f32, s: f32| {
+                (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
+            };
+            e0 = edge(c.x, b.y, c.y, b.x);
+            e1 = edge(a.x, c.y, a.y, c.x);
+            e2 = edge(b.x, a.y, b.y, a.x);
+        }
+        // Step 6: inside if all edge functions share a sign (0 counts as either: the tie rule
+        // that makes both triangles of a shared edge report the hit). No backface culling.
+        if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+            return None;
+        }
+        let det = e0 + e1 + e2;
+        if det == 0.0 {
+            return None;
+        }
+        // Step 7: scaled hit distance, compared with the interval without dividing.
+        let t_scaled = e0 * a.z + e1 * b.z + e2 * c.z;
+        let sign = det.to_bits() & 0x8000_0000;
+        let t_signed = f32::from_bits(t_scaled.to_bits() ^ sign);
+        let det_abs = det.abs();
+        if t_signed < t_lo * det_abs || t_signed > t_hi * det_abs {
+            return None;
+        }
+        let rcp = 1.0 / det;
+        Some((t_scaled * rcp, e1 * rcp, e2 * rcp))
+    }
+
+    /// Converts an internal `(t, id, u, v)` to a [`Hit`] for a direction scaled by `m`.
+    pub fn hit(&self, (t, triangle, u, v): (f32, u32, f32, f32), m: f64) -> Hit {
+        Hit {
+            triangle,
+            t: (f64::from(t) - ORIGIN_SHIFT) / m,
+            u: f64::from(u),
+            v: f64::from(v),
+        }
+    }
+}

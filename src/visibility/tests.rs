@@ -1,0 +1,606 @@
+//! Unit tests of the visibility queries: the BVH against brute force on random scenes, closed
+//! meshes watertight, open segments between touching and facing surfaces, scale and position
+//! invariance, degenerate input, twins.
+
+use super::*;
+use crate::form_factor::sampling;
+use glam::dvec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// SplitMix64 (Steele, Lea & Flood 2014): small, seedable, good enough for test inputs.
+struct Rng(sampling::Rng);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0.next_u64()
+    }
+    /// Uniform in [0, 1).
+    fn f64(&mut self) -> f64 {
+        self.0.next_f64()
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.f64()
+    }
+    fn vec(&mut self, lo: f64, hi: f64) -> DVec3 {
+        dvec3(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+    }
+    fn index(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+    /// Uniform point on a triangle.
+    fn on_triangle(&mut self, t: &[DVec3; 3]) -> DVec3 {
+        let (mut a, mut b) = (self.f64(), self.f64());
+        if a + b > 1.0 {
+            (a, b) = (1.0 - a, 1.0 - b);
+        }
+        t[0] + a * (t[1] - t[0]) + b * (t[2] - t[0])
+    }
+    /// Uniform direction.
+    fn direction(&mut self) -> DVec3 {
+        loop {
+            let d = self.vec(-1.0, 1.0);
+            let l = d.length();
+            if l > 0.1 && l <= 1.0 {
+                return d / l;
+            }
+        }
+    }
+}
+
+/// Closed axis-aligned box `[lo, hi]`, each face an `n × n` grid of squares split into two
+/// triangles; vertices are shared exactly between faces and triangles. Outward winding.
+fn grid_box(lo: DVec3, hi: DVec3, n: usize) -> Vec<[DVec3; 3]> {
+    let mut tris = Vec::new();
+    for axis in 0..3 {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [false, true] {
+            let point = |i: usize, j: usize| {
+                let mut p = DVec3::ZERO;
+                p[axis] = if side { hi[axis] } else { lo[axis] };
+                p[u] = lo[u] + (hi[u] - lo[u]) * i as f64 / n as f64;
+                p[v] = lo[v] + (hi[v] - lo[v]) * j as f64 / n as f64;
+                p
+            };
+            for i in 0..n {
+                for j in 0..n {
+                    let (a, b, c, d) = (
+                        point(i, j),
+                        point(i + 1, j),
+                        point(i + 1, j + 1),
+                        point(i, j + 1),
+                    );
+                    // Alternate the diagonal so vertices have 4 or 8 incident triangles.
+                    let quads = if (i + j) % 2 == 0 {
+                        [[a, b, c], [a, c, d]]
+                    } else {
+                        [[a, b, d], [b, c, d]]
+                    };
+                    for t in quads {
+                        tris.push(if side { t } else { [t[0], t[2], t[1]] });
+                    }
+                }
+            }
+        }
+    }
+    tris
+}
+
+/// Random triangles of size ~1–3 in [0, 10]³ plus a closed 12-triangle box.
+fn random_scene(rng: &mut Rng, n: usize) -> Vec<[DVec3; 3]> {
+    let mut tris: Vec<[DVec3; 3]> = (0..n)
+        .map(|_| {
+            let c = rng.vec(0.0, 10.0);
+            [
+                c + rng.vec(-1.5, 1.5),
+                c + rng.vec(-1.5, 1.5),
+                c + rng.vec(-1.5, 1.5),
+            ]
+        })
+        .collect();
+    tris.extend(grid_box(dvec3(3.0, 3.5, 4.0), dvec3(5.0, 6.0, 5.5), 1));
+    tris
+}
+
+/// Segments of three kinds: free endpoints, surface to surface (ignoring both triangles),
+/// surface to free point (ignoring the start triangle).
+fn random_segments(rng: &mut Rng, tris: &[[DVec3; 3]], n: usize) -> Vec<(DVec3, DVec3, [u32; 2])> {
+    (0..n)
+        .map(|k| match k % 3 {
+            0 => (rng.vec(-1.0, 11.0), rng.vec(-1.0, 11.0), [NONE, NONE]),
+            1 => {
+                let (i, j) = (rng.index(tris.len()), rng.index(tris.len()));
+                let (p, q) = (rng.on_triangle(&tris[i]), rng.on_triangle(&tris[j]));
+                (p, q, [i as u32, j as u32])
+            }
+            _ => {
+                let i = rng.index(tris.len());
+                (
+                    rng.on_triangle(&tris[i]),
+                    rng.vec(-1.0, 11.0),
+                    [i as u32, NONE],
+                )
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn bvh_matches_brute_force() {
+    let mut rng = Rng(sampling::Rng::new(&[1]));
+    let tris = random_scene(&mut rng, 300);
+    let vis = Visibility::build(&tris);
+    assert_eq!(vis.len(), 312);
+    let segments = random_segments(&mut rng, &tris, 6000);
+    let mut blocked = 0;
+    for (k, &(p, q, ignore)) in segments.iter().enumerate() {
+        let fast = vis.occluded(p, q, ignore);
+        assert_eq!(
+            fast,
+            vis.occluded_brute_force(p, q, ignore),
+            "segment {k}: {p} -> {q}, ignore {ignore:?}"
+        );
+        blocked += fast as usize;
+    }
+    // Both answers must be common, or the comparison proves little.
+    assert!(
+        blocked > 1000 && blocked < 5000,
+        "{blocked} of 6000 blocked"
+    );
+
+    let mut hits = 0;
+    for k in 0..3000 {
+        let origin = rng.vec(-1.0, 11.0);
+        let dir = rng.direction() * rng.range(0.1, 10.0);
+        let t_max = if k % 2 == 0 {
+            f64::INFINITY
+        } else {
+            rng.range(0.1, 3.0)
+        };
+        let ignore = if k % 3 == 0 {
+            NONE
+        } else {
+            rng.index(tris.len()) as u32
+        };
+        let fast = vis.closest_hit(origin, dir, t_max, ignore);
+        let slow = vis.closest_hit_brute_force(origin, dir, t_max, ignore);
+        assert_eq!(fast, slow, "ray {k}: {origin} + t {dir}, t_max {t_max}");
+        if let Some(h) = fast {
+            hits += 1;
+            assert!(h.t > 0.0 && h.t <= t_max && h.triangle != ignore);
+            // The reported (t, u, v) describe the same point.
+            let t = &tris[h.triangle as usize];
+            let on_tri = (1.0 - h.u - h.v) * t[0] + h.u * t[1] + h.v * t[2];
+            let on_ray = origin + h.t * dir;
+            assert!((on_tri - on_ray).length() < 1e-4, "{on_tri} vs {on_ray}");
+        }
+    }
+    assert!(hits > 500 && hits < 2900, "{hits} of 3000 rays hit");
+}
+
+/// Segments from interior points through each target to beyond it (scaled by 2 from the
+/// interior point), all of which must be blocked by the closed `tris`.
+fn assert_all_blocked(vis: &Visibility, inside: &[DVec3], targets: &[DVec3]) {
+    let mut leaks = Vec::new();
+    for &p in inside {
+        for &x in targets {
+            let q = p + 2.0 * (x - p);
+            if !vis.occluded(p, q, [NONE, NONE]) {
+                leaks.push((p, x));
+            }
+        }
+    }
+    assert!(
+        leaks.is_empty(),
+        "{} of {} segments leaked, first: {:?}",
+        leaks.len(),
+        inside.len() * targets.len(),
+        leaks.first()
+    );
+}
+
+/// Vertices, edge midpoints and face centres of a triangle list, deduplicated.
+fn edge_and_vertex_targets(tris: &[[DVec3; 3]]) -> Vec<DVec3> {
+    let mut v: Vec<DVec3> = tris
+        .iter()
+        .flat_map(|t| {
+            [
+                t[0],
+                t[1],
+                t[2],
+                0.5 * (t[0] + t[1]),
+                0.5 * (t[1] + t[2]),
+                0.5 * (t[2] + t[0]),
+            ]
+        })
+        .collect();
+    v.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).unwrap());
+    v.dedup();
+    v
+}
+
+#[test]
+fn closed_meshes_are_watertight() {
+    // Dyadic coordinates: the canonical frame (scale 512) and the rays are exact, so the rays
+    // pass exactly through the shared vertices and edges and the f64 fallback is exercised.
+    let inside = [
+        dvec3(0.0, 0.0, 0.0),
+        dvec3(0.25, -0.125, 0.375),
+        dvec3(-0.5, 0.5, -0.25),
+        dvec3(0.75, 0.0, -0.5),
+    ];
+    for n in [1, 16] {
+        let tris = grid_box(DVec3::splat(-1.0), DVec3::splat(1.0), n);
+        let vis = Visibility::build(&tris);
+        let targets = edge_and_vertex_targets(&tris);
+        assert!(targets.len() >= if n == 1 { 26 } else { 3000 });
+        assert_all_blocked(&vis, &inside, &targets);
+        // Non-dyadic interior points and random directions.
+        let mut rng = Rng(sampling::Rng::new(&[2]));
+        let random_inside: Vec<DVec3> = (0..64).map(|_| rng.vec(-0.99, 0.99)).collect();
+        let random_outside: Vec<DVec3> = (0..64).map(|_| 3.0 * rng.direction()).collect();
+        assert_all_blocked(&vis, &random_inside, &random_outside);
+        // The test can fail: segments inside the box, or outside and clear of it, are free.
+        assert!(!vis.occluded(inside[0], inside[1], [NONE, NONE]));
+        assert!(!vis.occluded(dvec3(2.0, 2.0, 2.0), dvec3(2.0, -2.0, 2.0), [NONE, NONE]));
+    }
+
+    // The same grid with every vertex displaced (shared vertices identically): edges in
+    // general position, coordinates not exactly representable.
+    let mut rng = Rng(sampling::Rng::new(&[3]));
+    let mut jitter = std::collections::HashMap::new();
+    let tris: Vec<[DVec3; 3]> = grid_box(DVec3::splat(-1.0), DVec3::splat(1.0), 16)
+        .iter()
+        .map(|t| {
+            t.map(|v| {
+                let key = v.to_array().map(f64::to_bits);
+                v + *jitter.entry(key).or_insert_with(|| rng.vec(-0.03, 0.03))
+            })
+        })
+        .collect();
+    let vis = Visibility::build(&tris);
+    let targets = edge_and_vertex_targets(&tris);
+    assert_all_blocked(&vis, &inside, &targets);
+    let inside: Vec<DVec3> = (0..50).map(|_| rng.vec(-0.9, 0.9)).collect();
+    let outside: Vec<DVec3> = (0..100).map(|_| 3.0 * rng.direction()).collect();
+    assert_all_blocked(&vis, &inside, &outside);
+}
+
+#[test]
+fn open_segment_between_touching_and_facing_surfaces() {
+    // Floor z = 0 and wall x = 0 over [0, 1]², 4 × 4 grids, meeting along the y axis.
+    let floor_and_wall: Vec<[DVec3; 3]> = grid_box(DVec3::ZERO, DVec3::ONE, 4)
+        .into_iter()
+        .filter(|t| t.iter().all(|v| v.z == 0.0) || t.iter().all(|v| v.x == 0.0))
+        .collect();
+    assert_eq!(floor_and_wall.len(), 64);
+    let vis = Visibility::build(&floor_and_wall);
+    let find = |p: DVec3| {
+        let i = floor_and_wall
+            .iter()
+            .position(|t| {
+                let n = (t[1] - t[0]).cross(t[2] - t[0]);
+                let inside = (0..3).all(|k| (t[(k + 1) % 3] - t[k]).cross(p - t[k]).dot(n) > 0.0);
+                inside && n.dot(p - t[0]).abs() < 1e-12
+            })
+            .expect("point on a triangle");
+        i as u32
+    };
+    let mut rng = Rng(sampling::Rng::new(&[4]));
+    let mut checked = 0;
+    for k in 0..500 {
+        // Half of the pairs close to each other near the shared edge (the corner, where the
+        // form-factor kernel is largest), half anywhere.
+        let (p, q) = if k % 2 == 0 {
+            let r = 0.02;
+            let p = dvec3(rng.range(0.0, r), rng.range(r, 1.0 - r), 0.0);
+            (p, dvec3(0.0, p.y + rng.range(-r, r), rng.range(0.0, r)))
+        } else {
+            (
+                dvec3(rng.f64(), rng.f64(), 0.0),
+                dvec3(0.0, rng.f64(), rng.f64()),
+            )
+        };
+        let (i, j) = (find(p), find(q));
+        assert!(!vis.occluded(p, q, [i, j]), "{p} -> {q}");
+        // Without `ignore`, the endpoints' own triangles count too, which rounding can only
+        // resolve away from grazing angles (see `MIN_DISTANCE_REL`).
+        let d = (q - p).normalize();
+        if d.z.abs() > 0.05 && d.x.abs() > 0.05 {
+            assert!(
+                !vis.occluded(p, q, [NONE, NONE]),
+                "{p} -> {q} without ignore"
+            );
+            checked += 1;
+        }
+        assert!(vis.closest_hit(p, q - p, 1.0 - 1e-3, i).is_none());
+    }
+    assert!(
+        checked > 250,
+        "{checked} of 500 pairs checked without ignore"
+    );
+
+    // Facing squares at z = 0 and z = 2 with a blocker at z = 1.
+    let square = |z: f64, lo: f64, hi: f64| {
+        let (a, b) = (dvec3(lo, lo, z), dvec3(hi, lo, z));
+        let (c, d) = (dvec3(hi, hi, z), dvec3(lo, hi, z));
+        [[a, b, c], [a, c, d]]
+    };
+    let mut tris = Vec::new();
+    tris.extend(square(0.0, 0.0, 1.0)); // 0, 1
+    tris.extend(square(2.0, 0.0, 1.0)); // 2, 3
+    tris.extend(square(1.0, -1.0, 2.0)); // 4, 5: the blocker
+    let vis = Visibility::build(&tris);
+    for _ in 0..200 {
+        let (i, j) = (rng.index(2), 2 + rng.index(2));
+        let (p, q) = (rng.on_triangle(&tris[i]), rng.on_triangle(&tris[j]));
+        let (i, j) = (i as u32, j as u32);
+        assert!(vis.occluded(p, q, [i, j]));
+        assert!(vis.occluded(p, q, [NONE, NONE]));
+        assert!(vis.occluded(p, q, [4, NONE]) || vis.occluded(p, q, [5, NONE]));
+        assert!(!vis.occluded(p, q, [4, 5]), "blocker ignored");
+        let hit = vis.closest_hit(p, q - p, 1.0, i).expect("blocker hit");
+        assert!(hit.triangle == 4 || hit.triangle == 5);
+        assert!((hit.t - 0.5).abs() < 1e-6, "t = {}", hit.t);
+    }
+}
+
+#[test]
+fn answers_do_not_depend_on_scale_or_position() {
+    let mut rng = Rng(sampling::Rng::new(&[5]));
+    let tris = random_scene(&mut rng, 200);
+    let segments = random_segments(&mut rng, &tris, 3000);
+    let rays: Vec<(DVec3, DVec3)> = (0..1000)
+        .map(|_| (rng.vec(-1.0, 11.0), rng.direction()))
+        .collect();
+    let answers = |scale: f64, offset: DVec3| {
+        let map = |x: DVec3| x * scale + offset;
+        let vis = Visibility::build(&tris.iter().map(|t| t.map(map)).collect::<Vec<_>>());
+        let occluded: Vec<bool> = segments
+            .iter()
+            .map(|&(p, q, ignore)| vis.occluded(map(p), map(q), ignore))
+            .collect();
+        let hits: Vec<Option<(u32, f64)>> = rays
+            .iter()
+            .map(|&(o, d)| vis.closest_hit(map(o), d, f64::INFINITY, NONE))
+            .map(|h| h.map(|h| (h.triangle, h.t / scale)))
+            .collect();
+        (occluded, hits)
+    };
+    let (occluded, hits) = answers(1.0, DVec3::ZERO);
+    let blocked = occluded.iter().filter(|&&b| b).count();
+    assert!(blocked > 500 && blocked < 2500, "{blocked} of 3000 blocked");
+    for (scale, offset) in [
+        (1e-3, DVec3::ZERO),
+        (1e3, DVec3::ZERO),
+        (1e-3, DVec3::splat(1e4)),
+        (1e3, DVec3::splat(1e4)),
+        (1.0, dvec3(1e4, -1e4, 1e4)),
+    ] {
+        let (o, h) = answers(scale, offset);
+        assert_eq!(o, occluded, "scale {scale}, offset {offset}");
+        for (k, (a, b)) in hits.iter().zip(&h).enumerate() {
+            match (a, b) {
+                (None, None) => {}
+                (Some(a), Some(b)) => {
+                    assert_eq!(a.0, b.0, "ray {k}, scale {scale}, offset {offset}");
+                    assert!((a.1 - b.1).abs() <= 1e-5 * a.1.max(1.0), "{a:?} vs {b:?}");
+                }
+                _ => panic!("ray {k}, scale {scale}, offset {offset}: {a:?} vs {b:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn empty_and_degenerate_inputs() {
+    let vis = Visibility::build(&[]);
+    assert!(vis.is_empty());
+    assert_eq!(vis.len(), 0);
+    let (p, q) = (DVec3::ZERO, DVec3::ONE);
+    assert!(!vis.occluded(p, q, [NONE, NONE]));
+    assert!(!vis.occluded_brute_force(p, q, [NONE, NONE]));
+    assert_eq!(vis.closest_hit(p, q, f64::INFINITY, NONE), None);
+
+    let point = [DVec3::ONE; 3];
+    let segment = [DVec3::ZERO, DVec3::ONE, DVec3::splat(2.0)];
+    let nan = [DVec3::ZERO, DVec3::X, DVec3::NAN];
+    let real = [
+        dvec3(-1.0, -1.0, 0.5),
+        dvec3(3.0, -1.0, 0.5),
+        dvec3(-1.0, 3.0, 0.5),
+    ];
+
+    // Only degenerate triangles: never occludes, never hits.
+    let vis = Visibility::build(&[point, segment, nan]);
+    assert_eq!(vis.len(), 3);
+    assert!(!vis.is_empty());
+    assert!(!vis.occluded(dvec3(1.0, 1.0, 0.0), dvec3(1.0, 1.0, 2.0), [NONE, NONE]));
+    assert!(!vis.occluded(DVec3::ZERO, DVec3::splat(2.0), [NONE, NONE]));
+    assert_eq!(vis.closest_hit(DVec3::ZERO, DVec3::ONE, 10.0, NONE), None);
+
+    // Degenerate triangles around a real one: ids still refer to the input list.
+    let vis = Visibility::build(&[point, segment, real, nan]);
+    assert_eq!(vis.len(), 4);
+    let (p, q) = (dvec3(0.5, 0.5, 0.0), dvec3(0.5, 0.5, 1.0));
+    assert!(vis.occluded(p, q, [NONE, NONE]));
+    assert!(vis.occluded(p, q, [0, 1]));
+    assert!(!vis.occluded(p, q, [2, NONE]));
+    assert!(!vis.occluded(p, p, [NONE, NONE]), "degenerate segment");
+    let hit = vis.closest_hit(p, q - p, f64::INFINITY, NONE).expect("hit");
+    assert_eq!(hit.triangle, 2);
+    assert!((hit.t - 0.5).abs() < 1e-6);
+    assert!(
+        (hit.u - 0.375).abs() < 1e-6 && (hit.v - 0.375).abs() < 1e-6,
+        "{hit:?}"
+    );
+    assert_eq!(
+        vis.closest_hit(p, DVec3::ZERO, 1.0, NONE),
+        None,
+        "zero direction"
+    );
+    assert_eq!(vis.closest_hit(p, -DVec3::Z, f64::INFINITY, NONE), None);
+}
+
+/// `tris` followed by the reverse of each (corners rotated differently per triangle, so every
+/// corner correspondence occurs), then one same-facing duplicate of triangle 0.
+fn with_twins(tris: &[[DVec3; 3]]) -> Vec<[DVec3; 3]> {
+    let mut all = tris.to_vec();
+    for (k, &[a, b, c]) in tris.iter().enumerate() {
+        all.push([[a, c, b], [c, b, a], [b, a, c]][k % 3]);
+    }
+    all.push(tris[0]);
+    all
+}
+
+#[test]
+fn twins_are_paired_deterministically() {
+    let mut rng = Rng(sampling::Rng::new(&[7]));
+    let tris = random_scene(&mut rng, 100);
+    let n = tris.len() as u32;
+    let all = with_twins(&tris);
+    let vis = Visibility::build(&all);
+    assert_eq!(vis.twin_pairs(), tris.len());
+    for i in 0..n {
+        assert_eq!(vis.twin(i), i + n, "{i}");
+        assert_eq!(vis.twin(i + n), i, "{i}");
+    }
+    // The third copy (same winding as triangle 0) stays a separate triangle.
+    assert_eq!(vis.twin(2 * n), NONE);
+    assert_eq!(vis.twin(u32::MAX - 1), NONE);
+    // One-sided scenes have no twins; a coincident same-facing pair is not one.
+    let one = Visibility::build(&tris);
+    assert_eq!((one.twin_pairs(), one.twin(0)), (0, NONE));
+    assert_eq!(Visibility::build(&[tris[0], tris[0]]).twin_pairs(), 0);
+    // −0.0 and +0.0 are the same corner.
+    let t = [
+        dvec3(-0.0, 0.0, 0.0),
+        dvec3(1.0, 0.0, 0.0),
+        dvec3(0.0, 1.0, 0.0),
+    ];
+    let r = [
+        dvec3(0.0, 0.0, 0.0),
+        dvec3(0.0, 1.0, 0.0),
+        dvec3(1.0, 0.0, 0.0),
+    ];
+    assert_eq!(Visibility::build(&[t, r]).twin(0), 1);
+}
+
+#[test]
+fn twins_block_like_one_surface_and_report_the_side_facing_the_ray() {
+    let mut rng = Rng(sampling::Rng::new(&[8]));
+    let tris = random_scene(&mut rng, 150);
+    let n = tris.len() as u32;
+    let one = Visibility::build(&tris);
+    let two = Visibility::build(&with_twins(&tris));
+    // Occlusion: the two-sided scene blocks exactly what the one-sided scene blocks, and
+    // ignoring a triangle ignores its twin (either index names the surface).
+    let twin = |i: u32| if i == NONE { NONE } else { i + n };
+    for (k, (p, q, ignore)) in random_segments(&mut rng, &tris, 3000)
+        .into_iter()
+        .enumerate()
+    {
+        let expected = one.occluded(p, q, ignore);
+        assert_eq!(two.occluded(p, q, ignore), expected, "segment {k}");
+        assert_eq!(
+            two.occluded(p, q, ignore.map(twin)),
+            expected,
+            "segment {k}"
+        );
+        assert_eq!(
+            two.occluded_brute_force(p, q, ignore),
+            expected,
+            "segment {k}"
+        );
+    }
+    // Closest hit: the same surface at the same distance, reported as the side whose front
+    // faces the ray, with barycentrics of that side's own corners.
+    let all = with_twins(&tris);
+    let mut fronts = [0, 0];
+    for k in 0..3000 {
+        let (origin, dir) = (rng.vec(-1.0, 11.0), rng.direction());
+        let ignore = if k % 2 == 0 {
+            NONE
+        } else {
+            rng.index(tris.len()) as u32
+        };
+        let a = one.closest_hit(origin, dir, f64::INFINITY, ignore);
+        let b = two.closest_hit(origin, dir, f64::INFINITY, twin(ignore));
+        assert_eq!(
+            b,
+            two.closest_hit_brute_force(origin, dir, f64::INFINITY, ignore)
+        );
+        assert_eq!(b, two.closest_hit(origin, dir, f64::INFINITY, ignore));
+        let (Some(a), Some(b)) = (a, b) else {
+            assert_eq!(a.is_none(), b.is_none(), "ray {k}");
+            continue;
+        };
+        assert_eq!(b.triangle % n, a.triangle, "ray {k}");
+        assert_eq!(b.t, a.t, "ray {k}");
+        let t = &all[b.triangle as usize];
+        let normal = (t[1] - t[0]).cross(t[2] - t[0]);
+        assert!(normal.dot(dir) < 0.0, "ray {k}: reported a back face");
+        let on_tri = (1.0 - b.u - b.v) * t[0] + b.u * t[1] + b.v * t[2];
+        assert!((on_tri - (origin + b.t * dir)).length() < 1e-4, "ray {k}");
+        fronts[(b.triangle >= n) as usize] += 1;
+    }
+    assert!(fronts[0] > 300 && fronts[1] > 300, "{fronts:?}");
+}
+
+/// `cargo test --release -- --ignored --nocapture throughput`
+#[test]
+#[ignore]
+fn throughput() {
+    // A closed room of 26 × 26 squares per face with ten subdivided boxes inside.
+    let mut tris = grid_box(DVec3::ZERO, DVec3::splat(10.0), 26);
+    let mut rng = Rng(sampling::Rng::new(&[6]));
+    for _ in 0..10 {
+        let lo = rng.vec(0.5, 8.0);
+        tris.extend(grid_box(lo, lo + rng.vec(0.5, 1.5), 4));
+    }
+    let start = Instant::now();
+    let vis = Visibility::build(&tris);
+    println!("{} triangles, build {:.1?}", tris.len(), start.elapsed());
+    let segments: Vec<(DVec3, DVec3, [u32; 2])> = (0..1_000_000)
+        .map(|_| {
+            let (i, j) = (rng.index(tris.len()), rng.index(tris.len()));
+            let (p, q) = (rng.on_triangle(&tris[i]), rng.on_triangle(&tris[j]));
+            (p, q, [i as u32, j as u32])
+        })
+        .collect();
+    let start = Instant::now();
+    let blocked = segments
+        .iter()
+        .filter(|s| vis.occluded(s.0, s.1, s.2))
+        .count();
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "occluded, 1 thread: {:.2} M rays/s ({blocked} blocked)",
+        segments.len() as f64 / secs / 1e6
+    );
+    let start = Instant::now();
+    let blocked_par = segments
+        .par_iter()
+        .filter(|s| vis.occluded(s.0, s.1, s.2))
+        .count();
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "occluded, rayon ({} threads): {:.2} M rays/s",
+        rayon::current_num_threads(),
+        segments.len() as f64 / secs / 1e6
+    );
+    assert_eq!(blocked, blocked_par);
+    let start = Instant::now();
+    let hits = segments
+        .iter()
+        .filter(|s| {
+            vis.closest_hit(s.0, s.1 - s.0, f64::INFINITY, s.2[0])
+                .is_some()
+        })
+        .count();
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "closest_hit, 1 thread: {:.2} M rays/s ({hits} hits)",
+        segments.len() as f64 / secs / 1e6
+    );
+}
