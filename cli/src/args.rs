@@ -304,6 +304,7 @@ pub struct SolveArgs {
     #[arg(
         long,
         default_value = "1e-6",
+        value_name = "T",
         allow_negative_numbers = true,
         help_heading = "Solver"
     )]
@@ -353,7 +354,7 @@ pub struct FormFactorArgs {
     )]
     pub rays: u32,
     /// Seed of all sampling (same seed ⇒ same result for any thread count).
-    #[arg(long, default_value_t = form_factor::Settings::default().seed, help_heading = "Form factors")]
+    #[arg(long, default_value_t = form_factor::Settings::default().seed, value_name = "S", help_heading = "Form factors")]
     pub seed: u64,
     /// Enforce reciprocity A_i F_ij = A_j F_ji: the symmetric part of A·F, rescaled (Sinkhorn)
     /// so that every row keeps its sum.
@@ -476,5 +477,201 @@ fn parse_size(text: &str) -> Result<(u32, u32), Failure> {
     match text.split_once(['x', 'X']) {
         Some((w, h)) => Ok((parse(w).ok_or_else(bad)?, parse(h).ok_or_else(bad)?)),
         None => parse(text).map(|n| (n, n)).ok_or_else(bad),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use clap::{CommandFactory, Parser};
+
+    use super::*;
+
+    /// Parses `radiosity bake in.obj -o out.ply EXTRA…` into its arguments.
+    fn bake(extra: &[&str]) -> BakeArgs {
+        let mut args = vec!["radiosity", "bake", "in.obj", "-o", "out.ply"];
+        args.extend_from_slice(extra);
+        match Cli::try_parse_from(args).unwrap().command {
+            Command::Bake(b) => b,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_defaults_are_the_library_s() {
+        let parsed = bake(&[]).scene.solve.settings().unwrap();
+        // Settings has no PartialEq (it holds a path); its Debug form shows every field.
+        assert_eq!(
+            format!("{parsed:?}"),
+            format!("{:?}", pipeline::Settings::default())
+        );
+    }
+
+    #[test]
+    fn every_option_reaches_its_setting() {
+        let b = bake(&[
+            "--max-edge",
+            "7",
+            "--crease",
+            "12",
+            "--two-sided",
+            "--refine",
+            "4",
+            "--refine-threshold",
+            "0.2",
+            "--form-factors",
+            "area",
+            "--samples",
+            "6",
+            "--rays",
+            "99",
+            "--seed",
+            "5",
+            "--reciprocity",
+            "--cache",
+            "ff",
+            "--solver",
+            "jacobi",
+            "--bounces",
+            "3",
+            "--tolerance",
+            "1e-9",
+            "--max-iterations",
+            "77",
+            "--omega",
+            "1.3",
+            "--exposure",
+            "0.5",
+            "--ascii",
+        ]);
+        let s = b.scene.solve.settings().unwrap();
+        assert_eq!(s.max_edge, Some(7.0));
+        assert_eq!((s.crease_degrees, s.two_sided), (12.0, true));
+        assert_eq!((s.refine_rounds, s.refine_threshold), (4, 0.2));
+        let f = s.form_factors;
+        assert_eq!((f.estimator, f.samples, f.rays), (Estimator::Area, 6, 99));
+        assert_eq!((f.seed, f.reciprocity), (5, true));
+        assert_eq!(s.cache, Some(PathBuf::from("ff")));
+        let v = s.solver;
+        assert_eq!(
+            (v.method, v.bounces, v.tolerance),
+            (Method::Jacobi, 3, 1e-9)
+        );
+        assert_eq!((v.max_iterations, v.omega), (77, Some(1.3)));
+        let w = b.write_options().unwrap();
+        assert_eq!((w.ascii, w.exposure), (true, Some(0.5)));
+        // Ranges are the library's: its error, named as the flag by crate::failure.
+        let e = bake(&["--samples", "0"])
+            .scene
+            .solve
+            .settings()
+            .unwrap_err();
+        assert_eq!(
+            Failure::from(e).to_string(),
+            "invalid value for --samples: must be at least 1"
+        );
+    }
+
+    /// The option table under the README heading that starts with `heading`: each row's
+    /// long flag, with the value name shown after it and the default column.
+    fn readme_table(heading: &str) -> BTreeMap<String, (Option<String>, String)> {
+        let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md"))
+            .expect("README.md beside cli/");
+        let section = readme
+            .split("\n## ")
+            .find(|s| s.starts_with(heading))
+            .unwrap_or_else(|| panic!("README has no section {heading:?}"));
+        let mut rows = BTreeMap::new();
+        for line in section.lines().filter(|l| l.starts_with("| `-")) {
+            let cells: Vec<&str> = line.split(" | ").collect();
+            let option = cells[0].trim_start_matches("| ").trim_matches('`');
+            let long = option.split(", ").last().expect("a long flag in every row");
+            let (flag, value) = match long.split_once(' ') {
+                Some((f, v)) => (f, Some(v.replace("\\|", "|"))),
+                None => (long, None),
+            };
+            rows.insert(flag.to_string(), (value, cells[1].to_string()));
+        }
+        assert!(!rows.is_empty(), "no option rows under {heading:?}");
+        rows
+    }
+
+    /// Every `--flag` of `command` (with the global ones) and its clap definition.
+    fn flags(command: &str) -> BTreeMap<String, clap::Arg> {
+        let cli = Cli::command();
+        let sub = cli.find_subcommand(command).unwrap().clone();
+        sub.get_arguments()
+            .chain(cli.get_arguments())
+            .filter_map(|a| Some((format!("--{}", a.get_long()?), a.clone())))
+            .filter(|(f, _)| f != "--help" && f != "--version")
+            .collect()
+    }
+
+    /// The README's option tables and `--help` cannot drift apart: the same flags, the same
+    /// value names (or, for a choice, the same values) and the same defaults.
+    #[test]
+    fn help_agrees_with_the_readme_tables() {
+        let bake_table = readme_table("`radiosity bake");
+        let render_table = readme_table("`radiosity render");
+        let picture = |a: &clap::Arg| a.get_help_heading() == Some("Picture");
+        let bake_flags = flags("bake");
+        let render_flags = flags("render");
+        // bake's table lists every bake option but the picture ones, which render's lists
+        // (bake --png takes "the options of render").
+        let expect: Vec<&String> = bake_flags
+            .iter()
+            .filter(|(_, a)| !picture(a))
+            .map(|(f, _)| f)
+            .collect();
+        assert_eq!(
+            bake_table.keys().collect::<Vec<_>>(),
+            expect,
+            "bake table vs --help"
+        );
+        let expect: Vec<&String> = render_flags
+            .iter()
+            .filter(|(_, a)| picture(a))
+            .map(|(f, _)| f)
+            .collect();
+        assert_eq!(
+            render_table.keys().collect::<Vec<_>>(),
+            expect,
+            "render table vs --help"
+        );
+
+        for (flag, (value, default)) in bake_table.iter().chain(&render_table) {
+            let arg = &bake_flags.get(flag).or(render_flags.get(flag)).unwrap();
+            let choices: Vec<String> = arg
+                .get_possible_values()
+                .iter()
+                .map(|v| v.get_name().to_string())
+                .collect();
+            let shown = if arg.get_action().takes_values() {
+                Some(if choices.is_empty() {
+                    arg.get_value_names().unwrap_or_default().join(" ")
+                } else {
+                    choices.join("|")
+                })
+            } else {
+                None
+            };
+            assert_eq!(value, &shown, "{flag}: README value vs --help");
+            for d in arg.get_default_values() {
+                let d = d.to_string_lossy();
+                // Numbers compare as numbers (1e-6 = 0.000001), words as the README quotes them.
+                let same = match d.parse::<f64>() {
+                    Ok(x) => default
+                        .trim_matches('`')
+                        .parse::<f64>()
+                        .is_ok_and(|y| y == x),
+                    Err(_) => default.trim_matches('`') == d,
+                };
+                assert!(
+                    same,
+                    "{flag}: README default {default:?}, --help default {d:?}"
+                );
+            }
+        }
     }
 }

@@ -28,6 +28,7 @@ use crate::visibility::Visibility;
 use crate::Result;
 
 /// What [`solve_scene`] produces: every intermediate a caller may want to inspect.
+#[derive(Debug)]
 pub struct Outcome {
     /// The patches of the last solve (after refinement).
     pub patches: Patches,
@@ -234,4 +235,163 @@ fn form_factors(
         }
     }
     Ok(ff)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::TestDir;
+    use crate::validation::scenes;
+    use crate::Error;
+
+    /// The name of a setting error, or a panic.
+    fn setting_name(e: Error) -> String {
+        match e {
+            Error::Setting { name, .. } => name,
+            other => panic!("expected a setting error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn settings_and_output_are_checked_before_any_work() {
+        let dir = TestDir::new("pipeline-checks");
+        // The input does not exist: any error but a setting's would mean it was read first.
+        let missing = dir.path().join("missing.obj");
+        let out = dir.path().join("out.ply");
+        let options = WriteOptions::default();
+        let bad = Settings {
+            max_edge: Some(-1.0),
+            ..Settings::default()
+        };
+        let e = run(&missing, &out, &bad, &options).unwrap_err();
+        assert_eq!(setting_name(e), "max_edge");
+        let dark = WriteOptions {
+            exposure: Some(0.0),
+            ..options
+        };
+        let e = run(&missing, &out, &Settings::default(), &dark).unwrap_err();
+        assert_eq!(setting_name(e), "exposure");
+        let stl = dir.path().join("out.stl");
+        let e = run(&missing, &stl, &Settings::default(), &options).unwrap_err();
+        assert_eq!(setting_name(e), "output");
+        // And only then the input.
+        let e = run(&missing, &out, &Settings::default(), &options).unwrap_err();
+        assert!(matches!(e, Error::Io { .. }), "{e:?}");
+        assert!(
+            dir.entries().is_empty(),
+            "nothing written: {:?}",
+            dir.entries()
+        );
+        // solve_scene checks the same settings.
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let e = solve_scene(
+            &scene,
+            &Settings {
+                crease_degrees: 200.0,
+                ..Settings::default()
+            },
+        );
+        assert_eq!(setting_name(e.err().unwrap()), "crease_degrees");
+    }
+
+    #[test]
+    fn the_report_counts_what_the_stages_made() {
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let settings = Settings {
+            max_edge: Some(0.25),
+            refine_rounds: 1,
+            refine_threshold: 0.05,
+            ..Settings::default()
+        };
+        let uniform = mesh::subdivide(&scene, 0.25, settings.crease_degrees).unwrap();
+        let out = solve_scene(&scene, &settings).unwrap();
+        let r = &out.report;
+        assert_eq!(r.input_triangles, scene.triangles.len());
+        assert_eq!(r.max_edge, 0.25);
+        // The receiver's radiance falls off towards its edges by far more than 5 %: one round
+        // of refinement splits patches, and the report describes the refined mesh.
+        assert_eq!(r.refine_rounds, 1);
+        assert!(out.patches.len() > uniform.len());
+        assert_eq!(r.patches, out.patches.len());
+        assert_eq!(r.vertices, out.baked.positions.len());
+        assert_eq!(out.baked.faces.len(), out.patches.len());
+        assert_eq!(r.form_factors.nnz, out.form_factors.matrix.nnz() as u64);
+        assert_eq!(r.iterations, out.solution.iterations);
+        assert_eq!((r.residual, r.converged), (out.solution.residual, true));
+        assert!(
+            r.form_factors.pairs_reused > 0,
+            "unchanged pairs kept their entries"
+        );
+        let s = &r.seconds;
+        assert!([s.patches, s.bvh, s.form_factors, s.solve, s.bake]
+            .iter()
+            .all(|&x| x >= 0.0));
+        assert!(r
+            .summary()
+            .starts_with(&format!("{} patches, {} vertices", r.patches, r.vertices)));
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+
+    #[test]
+    fn a_scene_without_emitters_is_black_with_one_warning() {
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 0.0).unwrap();
+        let out = solve_scene(
+            &scene,
+            &Settings {
+                max_edge: Some(0.5),
+                ..Settings::default()
+            },
+        )
+        .unwrap();
+        assert!(out.solution.radiance.iter().flatten().all(|&l| l == 0.0));
+        assert_eq!(out.report.warnings.len(), 1, "{:?}", out.report.warnings);
+        assert!(out.report.warnings[0].contains("no emitters"));
+        assert_eq!(
+            out.report.form_factors.rays_cast, 0,
+            "no form factors computed"
+        );
+    }
+
+    #[test]
+    fn run_writes_the_bake_and_fills_the_report() {
+        let dir = TestDir::new("pipeline-run");
+        let input = dir.path().join("plates.obj");
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        io::obj::save(&scene, &input).unwrap();
+        let output = dir.path().join("lit.ply");
+        let settings = Settings {
+            max_edge: Some(0.5),
+            ..Settings::default()
+        };
+        let overrides = [Override::parse(crate::scene::Property::Emission, "source=2").unwrap()];
+        let out = run_with(
+            &input,
+            &output,
+            &settings,
+            &WriteOptions::default(),
+            &overrides,
+        )
+        .unwrap();
+        let r = &out.report;
+        assert_eq!(
+            r.input.as_deref(),
+            Some(input.display().to_string().as_str())
+        );
+        assert_eq!(
+            r.output.as_deref(),
+            Some(output.display().to_string().as_str())
+        );
+        assert_eq!(r.overrides, ["emission source=2,2,2"]);
+        assert_eq!(r.exposure, out.baked.auto_exposure());
+        let back = io::ply::read(&output).unwrap();
+        assert_eq!(back.faces.len(), r.patches);
+        // The override doubled the source's Le.
+        let le = out
+            .patches
+            .emission
+            .iter()
+            .map(|e| e[0])
+            .fold(0.0, f64::max);
+        assert_eq!(le, 2.0);
+    }
 }

@@ -382,3 +382,6 @@ pub fn check_not_singular(system: &System) -> Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests;
