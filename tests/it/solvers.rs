@@ -373,7 +373,7 @@ fn reflectance_one_in_a_closed_scene_is_a_numerical_error() {
     // error; the closed enclosure is still recognised (rows ≥ 1 − 0.1 that see only each other).
     for estimator in [Estimator::Contour, Estimator::Area] {
         let s = settings(0.25, estimator, 3, Method::GaussSeidel, 1);
-        let e = pipeline::solve_scene(&scene, &s).err().expect("singular");
+        let e = pipeline::solve_scene(&scene, &s).expect_err("singular");
         assert!(e.to_string().contains("singular"), "{estimator:?}: {e}");
     }
     // ρ = 1 only in green: the error names the channel.
@@ -381,8 +381,7 @@ fn reflectance_one_in_a_closed_scene_is_a_numerical_error() {
     let m = b.material("green mirror-ish", [0.5, 1.0, 0.5], [1.0; 3]);
     scenes::add_box(&mut b, DVec3::ZERO, DVec3::ONE, true, m);
     let e = pipeline::solve_scene(&b.build().unwrap(), &hemisphere_settings(1e-6))
-        .err()
-        .expect("singular in green");
+        .expect_err("singular in green");
     assert!(e.to_string().contains("green channel"), "{e}");
     // ρ = 1 in an open scene (one face of the room missing) is fine: light escapes.
     let mut b = SceneBuilder::new();
