@@ -2,7 +2,7 @@
 //! each value's name (what a command line or a report spells) and a one-line description, so
 //! that a program built on the library can offer the choices without repeating them.
 
-use crate::{Error, Result};
+use crate::error::{Error, Result};
 
 /// An enumerated setting: every value, its name and its description.
 pub trait Choice: Copy + Eq + 'static {

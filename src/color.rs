@@ -5,7 +5,7 @@
 //! `round(255 · srgb_encode(clamp(radiance · exposure, 0, 1)))`. It does not know about files
 //! or formats ([`crate::io`]) or pictures ([`crate::render`]).
 
-use crate::{Error, Result};
+use crate::error::{Error, Result};
 
 /// An RGB triple (radiance in W·sr⁻¹·m⁻², or a dimensionless per-channel factor such as ρ).
 pub type Rgb = [f64; 3];

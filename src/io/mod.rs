@@ -19,6 +19,15 @@ use crate::bake::BakedMesh;
 use crate::scene::{Camera, Scene};
 use crate::{Error, Result};
 
+/// An [`Error::Parse`]: `message` about line `line` (1-based) of `path`.
+pub(crate) fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
+    Error::Parse {
+        path: path.to_path_buf(),
+        line,
+        message: message.into(),
+    }
+}
+
 impl Scene {
     /// Loads a scene file, dispatching on the extension: `.obj` (any case) goes to
     /// [`obj::load`], `.ply` to [`ply::load`]. A missing path is [`Error::Io`], a directory or

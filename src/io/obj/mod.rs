@@ -14,6 +14,17 @@ pub use save::save;
 pub use scene::load;
 
 use std::io::{self, Write};
+use std::path::Path;
+
+use crate::io::parse_error;
+use crate::Result;
+
+/// Parses a number the way `tobj` does (as f32, its default `Float`), so a value that
+/// overflows f32 is caught as non-finite by the caller; a malformed one is an error at `line`.
+pub(super) fn parse_number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
+    s.parse::<f32>()
+        .map_err(|_| parse_error(path, line, format!("{what}: malformed number '{s}'")))
+}
 
 /// Materials of an OBJ's triangles: each triangle's index into the names.
 pub(super) struct Groups<'a> {

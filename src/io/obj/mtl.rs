@@ -4,7 +4,8 @@
 
 use std::path::Path;
 
-use super::scene::{parse_error, parse_number};
+use super::parse_number;
+use crate::io::parse_error;
 use crate::scene::Material;
 use crate::{Error, Result};
 

@@ -38,6 +38,8 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::mtl::{convert_material, read_mtl, tobj_failure};
+use super::parse_number;
+use crate::io::parse_error;
 use crate::scene::camera::{Camera, CameraLine};
 use crate::scene::{finish, Material, Scene, SceneTriangle};
 use crate::{Error, Result};
@@ -204,21 +206,6 @@ struct ObjScan {
     faces: Vec<(usize, usize)>,
     /// The `# camera: …` comment's camera (at most one such line).
     camera: Option<Camera>,
-}
-
-pub(super) fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
-    Error::Parse {
-        path: path.to_path_buf(),
-        line,
-        message: message.into(),
-    }
-}
-
-/// Parses a number the way `tobj` does (as f32, its default `Float`), so a value that
-/// overflows f32 is caught here as non-finite.
-pub(super) fn parse_number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
-    s.parse::<f32>()
-        .map_err(|_| parse_error(path, line, format!("{what}: malformed number '{s}'")))
 }
 
 /// Checks every OBJ statement the loader uses and produces the normalised copy for `tobj`

@@ -9,7 +9,8 @@
 use std::path::Path;
 
 use crate::scene::camera::{Camera, CameraLine};
-use crate::{Error, Result};
+pub(super) use crate::io::parse_error;
+use crate::Result;
 
 /// A PLY scalar type (`char`…`double`, or the sized aliases `int8`…`float64`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -148,14 +149,6 @@ impl Element {
                 ),
             )),
         }
-    }
-}
-
-pub(super) fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
-    Error::Parse {
-        path: path.to_path_buf(),
-        line,
-        message: message.into(),
     }
 }
 
