@@ -5,7 +5,7 @@
 use radiosity::pipeline::{self, info::SceneInfo};
 use radiosity::scene::Scene;
 use radiosity::validation::{scenes, verify};
-use radiosity::{color, io, render, Error};
+use radiosity::{io, render, Error};
 
 use crate::args::{
     check_output, BakeArgs, GenerateArgs, InfoArgs, RenderArgs, SceneKind, VerifyArgs,
@@ -92,9 +92,10 @@ pub fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Failure> {
 /// ask for a new bake); any other input, including other PLY files, is a scene baked first.
 pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
     check_output(&args.output, "render", "png")?;
-    if let Some(x) = args.exposure {
-        color::check_exposure(x)?;
-    }
+    // The picture options, checked before any bake (the mesh is not needed for it).
+    args.scene
+        .view
+        .view(&Default::default(), args.exposure.unwrap_or(1.0))?;
     let overrides = args.scene.materials.overrides()?;
     let is_ply = args
         .input

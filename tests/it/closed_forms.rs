@@ -1,5 +1,9 @@
-//! Every `radiosity verify` case, per solver and per estimator. The tolerances are those of
-//! the verify suite itself (each justified where the case is defined in src/verify.rs).
+//! Answers known without the solver, through the whole pipeline: every `radiosity verify` case
+//! per solver and per estimator, Howell's plates, closed scenes, the integrating sphere's
+//! order of convergence, and the Cornell box against the independent path tracer. What
+//! belongs here: comparisons with closed forms and independent references. Tolerances are the
+//! verify suite's (each justified where the case is defined in src/validation/verify.rs) or
+//! justified at the test.
 
 use radiosity::form_factor::{self, Estimator};
 use radiosity::solve::Method;

@@ -1,7 +1,8 @@
 //! The command line's test binary: the `radiosity` binary run end to end, one file per command
 //! or concern. What belongs here: anything a user sees through the binary (files written,
-//! messages, exit statuses, `--help`); library behaviour is tested in the root package's
-//! tests/ and unit tests.
+//! messages, exit statuses); library behaviour is tested in the root package's tests/ and unit
+//! tests, and `--help` against the README's option tables in the binary's own unit tests
+//! (`cli/src/args.rs`).
 //!
 //! - `bake`, `render`, `info`: each command end to end;
 //! - `options`: options shared by the commands (material overrides, progress, verbosity);

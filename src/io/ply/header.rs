@@ -8,8 +8,8 @@
 
 use std::path::Path;
 
-use crate::scene::camera::{Camera, CameraLine};
 pub(super) use crate::io::parse_error;
+use crate::scene::camera::{Camera, CameraLine};
 use crate::Result;
 
 /// A PLY scalar type (`char`…`double`, or the sized aliases `int8`…`float64`).
