@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Embree's side of the ray-throughput comparison (`cargo run --release --example scale -- rays`).
+"""Embree's side of the ray-throughput comparison (`cargo bench -p radiosity-tools --bench scale -- rays`).
 
 Reads the triangles and segments the harness wrote (rays.bin: u64 triangle count, u64 segment
 count, then f32 triangles (9 each) and f32 segments (p, q: 6 each), little-endian), traces the
