@@ -4,7 +4,7 @@ use crate::mesh::Patches;
 
 /// Which entries F_ij the solve will read: row i when patch i reflects (ρ_i > 0 in some
 /// channel: a black patch's radiance is its Le whatever F says), column j when patch j's
-/// radiance is gathered at all (with one bounce, only emitters' is). [`compute`] skips every
+/// radiance is gathered at all (with one bounce, only emitters' is). [`super::compute`] skips every
 /// pair that needs neither F_ij nor F_ji — no rays, no integrals — and leaves unneeded
 /// entries out of F. Rows are all computed when they are rescaled to 1 in a closed scene or
 /// symmetrised (`reciprocity`), which need the whole row.

@@ -13,7 +13,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::{Error, Result};
 
-/// Writes `bytes` to `path` atomically (see [`write_atomically`]); used for reports.
+/// Writes `bytes` to `path` atomically (temporary file in the same directory, flushed and
+/// synced, then renamed over `path`); used for reports, pictures, the cache and scenes.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomically(path, |w| w.write_all(bytes))
 }

@@ -1,5 +1,5 @@
 //! Files in and out: scene files read into a [`Scene`] ([`Scene::load`]: OBJ + MTL through
-//! [`obj`], PLY through [`ply`]), baked meshes written for MeshLab ([`write`]: PLY or OBJ by
+//! [`obj`], PLY through [`ply`]), baked meshes written for MeshLab ([`write()`]: PLY or OBJ by
 //! the output's extension, see [`Format`]) and read back ([`ReadBack`], for tests, `render` and
 //! later tools), procedural scenes saved as OBJ + MTL ([`obj::save`]), and the atomic
 //! replacement every writer goes through ([`atomic`]). Each format keeps its reader and its
@@ -123,7 +123,7 @@ pub struct ReadBack {
 }
 
 impl ReadBack {
-    /// The baked mesh a PLY written by [`write`] holds (positions and radiance widened to
+    /// The baked mesh a PLY written by [`write()`] holds (positions and radiance widened to
     /// f64, with its camera); `None` for a file without radiance (an OBJ, or a PLY from
     /// another tool read as ours).
     pub fn into_baked(self) -> Option<BakedMesh> {

@@ -2,7 +2,7 @@
 //! a first-order approximation; where the solved radiance changes fast (shadow and penumbra
 //! edges, the dark strip along a contact line, the neighbourhood of a light) neighbouring
 //! patches differ most, and that is where a finer mesh pays. This module owns the rule that
-//! marks patches; [`crate::mesh::refine`] splits them and the pipeline solves again
+//! marks patches; [`crate::mesh::refine()`] splits them and the pipeline solves again
 //! (Cohen & Wallace, *Radiosity and Realistic Image Synthesis*, ch. 8, "adaptive subdivision"
 //! driven by radiosity differences between neighbouring elements).
 //!

@@ -84,7 +84,7 @@ pub struct SceneInfo {
     pub warnings: Vec<String>,
     /// [`mesh::default_max_edge`], scene units.
     pub default_max_edge: f64,
-    /// Number of patches [`patch::subdivide`] gives with [`SceneInfo::default_max_edge`].
+    /// Number of patches [`crate::mesh::subdivide`] gives with [`SceneInfo::default_max_edge`].
     pub default_patches: usize,
 }
 

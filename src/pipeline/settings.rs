@@ -26,7 +26,7 @@ pub struct Settings {
     pub two_sided: bool,
     /// Adaptive refinement: rounds of splitting the patches whose radiance jumps against a
     /// neighbour's by more than `refine_threshold` (relative), each followed by a new solve
-    /// ([`crate::mesh::refine`]); 0 = none.
+    /// ([`mod@crate::mesh::refine`]); 0 = none.
     pub refine_rounds: u32,
     /// Relative luminance jump that marks two neighbours for splitting; finite and > 0.
     pub refine_threshold: f64,

@@ -122,7 +122,7 @@ fn put_f32s(out: &mut [u8], values: [f32; 3]) {
 
 /// Reads a PLY file written by [`write_to`] (ASCII or binary little-endian, as its header
 /// says), with the camera of its `comment camera: …` line if it has one. The header goes
-/// through the shared header layer ([`Header::parse`]) and must then declare exactly our
+/// through the shared header layer (`Header::parse`) and must then declare exactly our
 /// elements and properties. Header and ASCII body problems are [`Error::Parse`] with the
 /// line; binary body problems are [`Error::Input`] naming the vertex or face.
 pub fn read(path: &Path) -> Result<ReadBack> {
