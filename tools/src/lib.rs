@@ -14,6 +14,12 @@ use radiosity::pipeline::Outcome;
 use radiosity::scene::Scene;
 use radiosity::validation::path_tracer;
 
+/// The repository's root (this package is its `tools/`): where the shipped meshes and
+/// `docs/bench/` are.
+pub fn root() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+}
+
 /// What every harness's command line has: `--quick` (a smaller sweep), `--out DIR` (where the
 /// results go) and `--help`; `cargo bench` adds `--bench`, which is ignored. Every other word is
 /// kept, in order, in `other` for the harness to read (sections, internal options).
@@ -24,7 +30,11 @@ pub struct HarnessArgs {
 }
 
 /// Reads the process's arguments (see [`HarnessArgs`]); `--help` prints `usage` and exits.
+/// Works from the repository's root (`cargo bench` starts a harness in `tools/`), so the
+/// shipped meshes, `docs/bench/` and every relative path (`--out`) are the root's.
 pub fn harness_args(default_out: &str, usage: &str) -> Result<HarnessArgs> {
+    std::env::set_current_dir(root())
+        .with_context(|| format!("cannot work from {}", root().display()))?;
     let mut args = HarnessArgs {
         quick: false,
         out: PathBuf::from(default_out),
@@ -341,7 +351,7 @@ pub fn surface_means(scene: &Scene, out: &Outcome) -> Vec<[f64; 3]> {
 /// (docs/bench/cornell_reference.csv, made by `cargo bench -p radiosity-tools --bench scale -- reference`).
 pub fn cornell_reference() -> Option<Vec<[f64; 3]>> {
     path_tracer::read_reference(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/cornell_reference.csv"),
+        &root().join("docs/bench/cornell_reference.csv"),
     )
     .ok()
 }

@@ -105,7 +105,7 @@ pub(super) fn plates(plan: &Plan, results: &mut Results) -> Result<()> {
 }
 
 pub(super) fn cornell(plan: &Plan, results: &mut Results) -> Result<()> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
+    let path = radiosity_tools::root().join("meshes/cornell_box.obj");
     let scene = Scene::load(&path)?;
     let solver = gauss_seidel(SWEEP_TOLERANCE);
     let traced = radiosity_tools::cornell_reference();

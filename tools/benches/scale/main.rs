@@ -24,7 +24,7 @@
 //! Everything is timed on the machine it runs on; the date and machine head every file.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
@@ -118,7 +118,7 @@ fn main() -> Result<()> {
 
 fn cornell() -> Result<Scene> {
     Ok(Scene::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj"),
+        &radiosity_tools::root().join("meshes/cornell_box.obj"),
     )?)
 }
 

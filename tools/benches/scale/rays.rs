@@ -84,7 +84,7 @@ pub(super) fn rays(args: &Args) -> Result<String> {
         }
     }
     std::fs::write(&bin, bytes)?;
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/embree_rays.py");
+    let script = radiosity_tools::root().join("tools/embree_rays.py");
     let o = Command::new("python3").arg(&script).arg(&bin).output()?;
     let text = String::from_utf8_lossy(&o.stdout).to_string();
     let mut md = format!(

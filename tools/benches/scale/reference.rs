@@ -42,7 +42,7 @@ pub(super) fn reference(args: &Args) -> Result<String> {
             m.visible_mean[2]
         )?;
     }
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/cornell_reference.csv");
+    let path = radiosity_tools::root().join("docs/bench/cornell_reference.csv");
     std::fs::write(&path, csv)?;
     Ok(format!(
         "Path-traced reference of the Cornell box: {count} surfaces, {paths} paths each, seed 1, \
