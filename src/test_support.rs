@@ -25,6 +25,13 @@ impl TestDir {
         &self.0
     }
 
+    /// Writes `bytes` as the file `name` in the directory and returns its path.
+    pub fn write(&self, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+        let path = self.0.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+
     /// Names of the directory's entries, sorted.
     pub fn entries(&self) -> Vec<String> {
         let mut names: Vec<String> = std::fs::read_dir(&self.0)

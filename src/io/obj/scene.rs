@@ -338,40 +338,12 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
 
 #[cfg(test)]
 mod tests {
-    use std::path::PathBuf;
-    use std::sync::atomic::{AtomicUsize, Ordering};
-
     use super::*;
-
-    /// A unique directory under the system temp dir, removed on drop.
-    struct TempDir(PathBuf);
-
-    impl TempDir {
-        fn new(tag: &str) -> Self {
-            static COUNTER: AtomicUsize = AtomicUsize::new(0);
-            let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-            let dir = std::env::temp_dir()
-                .join(format!("radiosity-scene-{}-{tag}-{n}", std::process::id()));
-            std::fs::create_dir_all(&dir).unwrap();
-            TempDir(dir)
-        }
-
-        fn write(&self, name: &str, text: &str) -> PathBuf {
-            let p = self.0.join(name);
-            std::fs::write(&p, text).unwrap();
-            p
-        }
-    }
-
-    impl Drop for TempDir {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
+    use crate::test_support::TestDir;
 
     /// Writes `obj` (and the MTL files given) into a fresh directory and loads `scene.obj`.
     fn load_text(tag: &str, obj: &str, mtls: &[(&str, &str)]) -> Result<Scene> {
-        let dir = TempDir::new(tag);
+        let dir = TestDir::new(tag);
         for (name, text) in mtls {
             dir.write(name, text);
         }
@@ -483,7 +455,7 @@ mod tests {
     fn accepts_common_obj_variants() {
         // Uppercase extension, texture/normal indices, negative indices, a polyline `l`
         // (which tobj alone would turn into a triangle), vertex colours, tabs.
-        let dir = TempDir::new("variants");
+        let dir = TestDir::new("variants");
         dir.write(
             "m.mtl",
             "newmtl grey\nKd 0.3\nNs 10\nillum 2\nnewmtl lamp\nKe 1 2 3\n",
@@ -541,18 +513,21 @@ mod tests {
 
     #[test]
     fn file_level_errors_name_the_path() {
-        let dir = TempDir::new("files");
-        let missing = dir.0.join("missing.obj");
+        let dir = TestDir::new("files");
+        let missing = dir.path().join("missing.obj");
         let e = Scene::load(&missing).unwrap_err();
         assert!(
             matches!(&e, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound)
         );
         assert!(e.to_string().contains("missing.obj"), "{e}");
 
-        let e = Scene::load(&dir.0).unwrap_err();
+        let e = Scene::load(dir.path()).unwrap_err();
         assert!(matches!(e, Error::Input { .. }), "{e:?}");
-        assert!(e.to_string().contains(&dir.0.display().to_string()), "{e}");
-        let sub = dir.0.join("dir.obj");
+        assert!(
+            e.to_string().contains(&dir.path().display().to_string()),
+            "{e}"
+        );
+        let sub = dir.path().join("dir.obj");
         std::fs::create_dir(&sub).unwrap();
         assert!(matches!(load(&sub).unwrap_err(), Error::Io { .. }));
 

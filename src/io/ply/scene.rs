@@ -431,20 +431,12 @@ pub fn load(path: &Path) -> Result<Scene> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::TestDir;
 
     /// Writes `bytes` as `name` in a fresh temporary directory (unique per call, tests run
     /// in parallel) and loads it.
     fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
-        use std::sync::atomic::{AtomicUsize, Ordering};
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir = std::env::temp_dir().join(format!("radiosity-ply-{}-{n}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join(name);
-        std::fs::write(&path, bytes).unwrap();
-        let scene = load(&path);
-        let _ = std::fs::remove_dir_all(&dir);
-        scene
+        load(&TestDir::new("ply").write(name, bytes))
     }
 
     /// A unit floor quad (z = 0, facing +z) and an emitting triangle above it facing down.
@@ -526,13 +518,10 @@ mod tests {
         let b = load_bytes("binary.PLY", &binary()).unwrap();
         check_lit_floor(&b, 0.2);
         // Through Scene::load's dispatch too.
-        let dir =
-            std::env::temp_dir().join(format!("radiosity-ply-{}-dispatch", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("s.ply"), ASCII).unwrap();
-        let s = Scene::load(&dir.join("s.ply")).unwrap();
-        assert_eq!(s.source.as_deref(), Some(dir.join("s.ply").as_path()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = TestDir::new("ply-dispatch");
+        let path = dir.write("s.ply", ASCII);
+        let s = Scene::load(&path).unwrap();
+        assert_eq!(s.source.as_deref(), Some(path.as_path()));
     }
 
     #[test]
