@@ -10,9 +10,9 @@ use std::path::Path;
 
 use crate::bake::BakedMesh;
 use crate::color::radiance_to_srgb8;
-use crate::io::ReadBack;
+use crate::io::{parse_error, ReadBack};
 use crate::scene::camera::{self, CameraLine};
-use crate::{Error, Result};
+use crate::Result;
 
 /// The OBJ colour component written for 8-bit code `k`.
 ///
@@ -78,19 +78,8 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64) -> io::Res
 /// ([`component_to_u8`]); radiance is `None`; a `# camera: …` comment gives
 /// [`ReadBack::camera`]. Problems are [`Error::Parse`] with the line.
 pub fn read(path: &Path) -> Result<ReadBack> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let parse_err = |line: usize, message: String| Error::Parse {
-        path: path.to_path_buf(),
-        line,
-        message,
-    };
-    let text = std::str::from_utf8(&bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count();
-        parse_err(line, "not UTF-8 text".into())
-    })?;
+    let text = super::read_text(path)?;
+    let parse_err = |line: usize, message: String| parse_error(path, line, message);
 
     let mut out = ReadBack {
         positions: Vec::new(),
@@ -186,6 +175,7 @@ mod tests {
     use super::*;
     use crate::io::{write, Format};
     use crate::test_support::{sample_mesh, srgb_colours, TestDir};
+    use crate::Error;
 
     #[test]
     fn every_byte_survives_meshlab_truncation() {

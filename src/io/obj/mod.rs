@@ -17,7 +17,22 @@ use std::io::{self, Write};
 use std::path::Path;
 
 use crate::io::parse_error;
-use crate::Result;
+use crate::{Error, Result};
+
+/// Reads a text file; bytes that are not UTF-8 (a binary file, or a legacy encoding) are an
+/// [`Error::Parse`] at the line where the first one is.
+pub(super) fn read_text(path: &Path) -> Result<String> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
+        parse_error(
+            path,
+            line,
+            "not UTF-8 text (a binary file, or a legacy encoding: save it as UTF-8)",
+        )
+    })
+}
 
 /// Parses a number the way `tobj` does (as f32, its default `Float`), so a value that
 /// overflows f32 is caught as non-finite by the caller; a malformed one is an error at `line`.

@@ -38,7 +38,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::mtl::{convert_material, read_mtl, tobj_failure};
-use super::parse_number;
+use super::{parse_number, read_text};
 use crate::io::parse_error;
 use crate::scene::camera::{Camera, CameraLine};
 use crate::scene::{finish, Material, Scene, SceneTriangle};
@@ -172,21 +172,6 @@ pub fn load(path: &Path) -> Result<Scene> {
     )?;
     scene.camera = scan.camera;
     Ok(scene)
-}
-
-/// Reads a text file; bytes that are not UTF-8 (a binary file, or a legacy encoding) are an
-/// [`Error::Parse`] at the line where the first one is.
-fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    String::from_utf8(bytes).map_err(|e| {
-        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-        let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
-        parse_error(
-            path,
-            line,
-            "not UTF-8 text (a binary file, or a legacy encoding: save it as UTF-8)",
-        )
-    })
 }
 
 /// A `usemtl` statement: the name, its line, and how many `mtllib` lines precede it.

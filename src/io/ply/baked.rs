@@ -205,11 +205,7 @@ impl Layout {
 }
 
 fn read_ascii_body(path: &Path, header: &Header, layout: &Layout, body: &[u8]) -> Result<ReadBack> {
-    let parse_err = |line: usize, message: String| Error::Parse {
-        path: path.to_path_buf(),
-        line,
-        message,
-    };
+    let parse_err = |line: usize, message: String| parse_error(path, line, message);
     let text = std::str::from_utf8(body).map_err(|_| Error::Input {
         path: path.to_path_buf(),
         message: "ASCII PLY body is not UTF-8 text".into(),
