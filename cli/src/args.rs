@@ -462,6 +462,14 @@ impl ViewArgs {
     }
 }
 
+impl ViewArgs {
+    /// Checks these options before the long work: everything [`ViewArgs::view`] checks, on an
+    /// empty mesh (its camera, never used, does not need one).
+    pub fn check(&self, exposure: f64) -> Result<(), Failure> {
+        self.view(&BakedMesh::default(), exposure).map(drop)
+    }
+}
+
 /// `W`x`H` or `N` (square); the range is the library's ([`render::MAX_SIZE`]).
 fn parse_size(text: &str) -> Result<(u32, u32), Failure> {
     let bad = || {

@@ -21,8 +21,7 @@ pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
         io::check_output_dir(path)?;
     }
     if args.png.is_some() {
-        // Check the picture options before the long work (the mesh is not needed for it).
-        args.scene.view.view(&Default::default(), 1.0)?;
+        args.scene.view.check(1.0)?;
     }
     let outcome = pipeline::run_with(&args.input, &args.output, &settings, &options, &overrides)?;
     let report = &outcome.report;
@@ -92,10 +91,7 @@ pub fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Failure> {
 /// ask for a new bake); any other input, including other PLY files, is a scene baked first.
 pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
     check_output(&args.output, "render", "png")?;
-    // The picture options, checked before any bake (the mesh is not needed for it).
-    args.scene
-        .view
-        .view(&Default::default(), args.exposure.unwrap_or(1.0))?;
+    args.scene.view.check(args.exposure.unwrap_or(1.0))?;
     let overrides = args.scene.materials.overrides()?;
     let is_ply = args
         .input

@@ -128,7 +128,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
         }
         let refined = mesh::refine(scene, &patches, &marked, settings.crease_degrees)?;
         report.refine_rounds += 1;
-        crate::progress::note(|| report::refine_note(&report, &marked, &refined));
+        crate::progress::note(|| report::refine_note(report.refine_rounds, &marked, &refined));
         report.seconds.patches += t.elapsed().as_secs_f64();
         let reuse = Reuse::between(&form_factors, &settings.form_factors, &patches, &refined);
         (form_factors, solution) =

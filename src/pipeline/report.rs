@@ -156,12 +156,11 @@ pub fn solve_note(patches: usize, s: &form_factor::Stats, solution: &Solution) -
     )
 }
 
-/// The verbose note of a refinement round (`report` already counts it) that split the
-/// `marked` patches into `refined`.
-pub fn refine_note(report: &Report, marked: &[bool], refined: &Patches) -> String {
+/// The verbose note of refinement round `round` (from 1), which split the `marked` patches
+/// into `refined`.
+pub fn refine_note(round: u32, marked: &[bool], refined: &Patches) -> String {
     format!(
-        "refinement round {}: {} of {} patches marked, {} patches now",
-        report.refine_rounds,
+        "refinement round {round}: {} of {} patches marked, {} patches now",
         marked.iter().filter(|&&m| m).count(),
         marked.len(),
         refined.len()
