@@ -52,7 +52,7 @@ mod tests {
     #[test]
     fn walls_match_the_closed_form() {
         // 320 facets: the flat-faceted sphere deviates by ~1 % per patch on average (see
-        // src/verify.rs); 3 % catches any physics error (≥ 25 %).
+        // src/validation/verify.rs); 3 % catches any physics error (≥ 25 %).
         for bounces in [Some(1), None] {
             let (expected, mean, err) = super::check(2, bounces).unwrap();
             assert!(err < 0.03, "{bounces:?}: {err}");

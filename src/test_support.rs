@@ -12,7 +12,7 @@ impl TestDir {
     pub fn new(tag: &str) -> TestDir {
         static N: AtomicU64 = AtomicU64::new(0);
         let dir = std::env::temp_dir().join(format!(
-            "radiosity-export-{tag}-{}-{}",
+            "radiosity-unit-{tag}-{}-{}",
             std::process::id(),
             N.fetch_add(1, Ordering::Relaxed)
         ));

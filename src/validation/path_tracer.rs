@@ -113,7 +113,7 @@ pub fn solution_means(
 }
 
 /// The visible means of a reference written by the scale harness
-/// (`cargo run --release --example scale -- reference`: columns surface, material, area,
+/// (`cargo bench -p radiosity-tools --bench scale -- reference`: columns surface, material, area,
 /// visible_fraction, mean ×3, standard error ×3, visible mean ×3). Errors name the file and
 /// line.
 pub fn read_reference(path: &std::path::Path) -> crate::Result<Vec<Rgb>> {

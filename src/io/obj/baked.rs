@@ -1,9 +1,10 @@
 //! Wavefront OBJ output with per-vertex colours (`v x y z r g b`, the extension MeshLab
 //! reads) and a reader for exactly our own files. OBJ has no place for radiance values, so
 //! only the 8-bit sRGB colours survive (face radiance is dropped); use PLY to keep radiance.
-//! The scene's camera, if any, is kept as a `# camera: …` comment (see [`crate::scene::camera`]), so
-//! loading the baked OBJ as a scene keeps it. This file owns the text layout only; atomic file replacement is in `export`, the colour
-//! pipeline in `export::colour`.
+//! The scene's camera, if any, is kept as a `# camera: …` comment (see
+//! [`crate::scene::camera`]), so loading the baked OBJ as a scene keeps it. This file owns the
+//! text layout only; atomic file replacement is in [`crate::io::atomic`], the colour pipeline
+//! in [`crate::color`].
 
 use std::io::{self, Write};
 use std::path::Path;
@@ -76,7 +77,7 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64) -> io::Res
 /// Reads an OBJ file written by [`write_to`]: `#` comments, blank lines, `v x y z r g b` and
 /// `f a b c` (positive 1-based indices) only. Colours come back as MeshLab sees them
 /// ([`component_to_u8`]); radiance is `None`; a `# camera: …` comment gives
-/// [`ReadBack::camera`]. Problems are [`Error::Parse`] with the line.
+/// [`ReadBack::camera`]. Problems are [`crate::Error::Parse`] with the line.
 pub fn read(path: &Path) -> Result<ReadBack> {
     let text = super::read_text(path)?;
     let parse_err = |line: usize, message: String| parse_error(path, line, message);

@@ -21,7 +21,7 @@
 //! built in): `$BENCH_FONT` if set, else the first of [`FONT_PATHS`] that exists. Without one
 //! the charts are still drawn, with no title, tick labels or legend, and a warning says so.
 //! This module owns the sweep, the error measures' bookkeeping and the output files; the
-//! error measures themselves follow `src/verify.rs`.
+//! error measures themselves follow `src/validation/verify.rs`.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
