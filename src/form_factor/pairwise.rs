@@ -57,10 +57,10 @@ pub(super) fn pairwise(
     };
     // The sample points of every patch, and which of them contact geometry buries.
     let samples = SamplePoints::place(patches, vis, settings);
-    let burial = Burial::find(patches, vis, &samples, convex);
+    let mut burial = Burial::find(patches, vis, &samples, convex);
     stats.rays_cast += burial.rays;
-    if let Some(fraction) = &burial.visible_fraction {
-        visible_fraction.clone_from(fraction);
+    if let Some(fraction) = burial.visible_fraction.take() {
+        *visible_fraction = fraction;
     }
     let geometry = PatchGeometry::of_all(patches);
     let estimator = PairEstimator {
