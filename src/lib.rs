@@ -58,6 +58,7 @@ pub mod choice;
 pub mod color;
 pub mod error;
 pub mod form_factor;
+pub mod hierarchical;
 pub mod io;
 pub mod mesh;
 pub mod pipeline;

@@ -11,6 +11,7 @@ use clap::{Args, Parser, Subcommand};
 
 use radiosity::bake::BakedMesh;
 use radiosity::form_factor::{self, Estimator};
+use radiosity::hierarchical;
 use radiosity::pipeline::{self, WriteOptions};
 use radiosity::render::{self, View};
 use radiosity::scene::{Camera, Override, Property};
@@ -242,9 +243,43 @@ impl MaterialArgs {
     }
 }
 
+/// The method and the hierarchical solver's options, shared by `bake` and `verify`.
+#[derive(Debug, Args)]
+pub struct MethodArgs {
+    /// Light-transport method: `matrix` (form factors between every pair of patches, cost ∝
+    /// n²) or `hierarchical` (links between elements and clusters at the level --epsilon
+    /// allows, cost ∝ n).
+    #[arg(long, value_parser = choice::<pipeline::Method>(), default_value_t = pipeline::Settings::default().method, help_heading = "Method")]
+    pub method: pipeline::Method,
+    /// Hierarchical: the most power one link may carry, as a fraction of the power the scene
+    /// emits; smaller = finer elements and more links.
+    #[arg(long, default_value_t = hierarchical::Settings::default().epsilon, value_name = "X", allow_negative_numbers = true, help_heading = "Method")]
+    pub epsilon: f64,
+    /// Hierarchical: smallest element area, as a fraction of the scene's total area.
+    #[arg(long, default_value_t = hierarchical::Settings::default().min_area, value_name = "X", allow_negative_numbers = true, help_heading = "Method")]
+    pub min_area: f64,
+    /// Hierarchical: visibility rays (and receiving points) per link.
+    #[arg(long, default_value_t = hierarchical::Settings::default().rays, value_name = "N", allow_negative_numbers = true, help_heading = "Method")]
+    pub link_rays: u32,
+}
+
+impl MethodArgs {
+    /// The hierarchical settings these options give (checked by the library).
+    pub fn hierarchical(&self) -> hierarchical::Settings {
+        hierarchical::Settings {
+            epsilon: self.epsilon,
+            min_area: self.min_area,
+            rays: self.link_rays,
+            ..hierarchical::Settings::default()
+        }
+    }
+}
+
 /// Discretisation, form-factor and solver options shared by `bake` and `verify`.
 #[derive(Debug, Args)]
 pub struct SolveArgs {
+    #[command(flatten)]
+    pub method: MethodArgs,
     /// Longest patch edge, scene units [default: bounding-box diagonal / 16].
     #[arg(
         long,
@@ -380,6 +415,8 @@ impl FormFactorArgs {
 #[derive(Debug, Args)]
 pub struct VerifyArgs {
     #[command(flatten)]
+    pub method: MethodArgs,
+    #[command(flatten)]
     pub estimator: FormFactorArgs,
     /// Solver for the all-bounce cases.
     #[arg(long, value_parser = choice::<Method>(), default_value_t = solve::Settings::default().method)]
@@ -394,6 +431,8 @@ impl SolveArgs {
     /// ([`pipeline::Settings::validate`]) before any work.
     pub fn settings(&self) -> Result<pipeline::Settings> {
         let settings = pipeline::Settings {
+            method: self.method.method,
+            hierarchical: self.method.hierarchical(),
             max_edge: self.max_edge,
             form_factors: self.estimator.settings(),
             solver: solve::Settings {

@@ -64,10 +64,13 @@ pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
 /// `radiosity verify`: the analytic suite, a table on stdout; 1 if any case fails.
 pub fn verify(args: &VerifyArgs, quiet: bool) -> Result<u8, Failure> {
     let settings = verify::Settings {
+        method: args.method.method,
+        hierarchical: args.method.hierarchical(),
         form_factors: args.estimator.settings(),
         solver: args.solver,
     };
     settings.form_factors.validate()?;
+    settings.hierarchical.validate()?;
     let cases = verify::run_all(&settings)?;
     print!("{}", verify::table(&cases));
     if let Some(path) = &args.report {

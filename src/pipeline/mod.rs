@@ -13,13 +13,14 @@ pub mod report;
 pub mod settings;
 
 pub use report::{Report, Seconds};
-pub use settings::{Settings, WriteOptions};
+pub use settings::{Method, Settings, WriteOptions};
 
 use std::path::Path;
 use std::time::Instant;
 
 use crate::bake::{self, BakedMesh};
 use crate::form_factor::{self, cache, FormFactors, Needed, Reuse};
+use crate::hierarchical;
 use crate::io::{self, Format};
 use crate::mesh::{self, refine, Patches};
 use crate::scene::{Override, Scene};
@@ -32,8 +33,9 @@ use crate::Result;
 pub struct Outcome {
     /// The patches of the last solve (after refinement).
     pub patches: Patches,
-    /// Their form factors.
-    pub form_factors: FormFactors,
+    /// Their form factors (`method = matrix`; the hierarchical solver has links instead,
+    /// counted in [`Report::hierarchical`]).
+    pub form_factors: Option<FormFactors>,
     /// Their radiance.
     pub solution: Solution,
     /// The radiance baked to the output mesh's vertices.
@@ -101,6 +103,10 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     report.warnings.extend(scene.warnings.iter().cloned());
     report.input_triangles = scene.triangles.len();
 
+    if settings.method == Method::Hierarchical {
+        return hierarchical_scene(scene, settings, report);
+    }
+
     // Patches.
     let t = Instant::now();
     report.max_edge = settings
@@ -145,8 +151,56 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     report.seconds.bake = t.elapsed().as_secs_f64();
     Ok(Outcome {
         patches,
-        form_factors,
+        form_factors: Some(form_factors),
         solution,
+        baked,
+        report,
+    })
+}
+
+/// patches → hierarchies → links ⇄ solve → leaves → bake: [`solve_scene`] for
+/// `method = hierarchical`. The root patches are the scene's triangles, split to `max_edge`
+/// only when one is given.
+fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) -> Result<Outcome> {
+    let t = Instant::now();
+    report.max_edge = settings.max_edge.unwrap_or_else(|| {
+        let (lo, hi) = scene.bounds();
+        (hi - lo).length()
+    });
+    let roots = mesh::subdivide(scene, report.max_edge, settings.crease_degrees)?;
+    report.seconds.patches = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let h = hierarchical::solve(
+        &roots,
+        &settings.hierarchical,
+        &settings.solver,
+        settings.form_factors.seed,
+    )?;
+    if !scene.has_emitters() {
+        report
+            .warnings
+            .push("no emitters in the scene (no material has Ke > 0): the result is black".into());
+    }
+    report.warnings.extend(h.warnings);
+    report.seconds.solve = t.elapsed().as_secs_f64();
+    report.patches = h.patches.len();
+    report.iterations = h.solution.iterations;
+    report.residual = h.solution.residual;
+    report.converged = h.solution.converged;
+    report.form_factors.rays_cast = h.stats.rays_cast;
+    crate::progress::note(|| report::hierarchical_note(&h.stats, &h.solution));
+    report.hierarchical = Some(h.stats);
+
+    let t = Instant::now();
+    let mut baked = bake::bake(&h.patches, &h.radiance, settings.crease_degrees);
+    baked.camera = scene.camera;
+    report.vertices = baked.positions.len();
+    report.seconds.bake = t.elapsed().as_secs_f64();
+    Ok(Outcome {
+        patches: h.patches,
+        form_factors: None,
+        solution: h.solution,
         baked,
         report,
     })
@@ -315,7 +369,7 @@ mod tests {
         assert_eq!(r.patches, out.patches.len());
         assert_eq!(r.vertices, out.baked.positions.len());
         assert_eq!(out.baked.faces.len(), out.patches.len());
-        assert_eq!(r.form_factors.nnz, out.form_factors.matrix.nnz() as u64);
+        assert_eq!(r.form_factors.nnz, out.form_factors.as_ref().unwrap().matrix.nnz() as u64);
         assert_eq!(r.iterations, out.solution.iterations);
         assert_eq!((r.residual, r.converged), (out.solution.residual, true));
         assert!(

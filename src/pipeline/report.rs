@@ -56,6 +56,12 @@ pub struct Report {
     pub refine_rounds: u32,
     /// Vertices of the output mesh (after splitting at creases and material borders).
     pub vertices: usize,
+    /// Matrix or hierarchical.
+    pub method: super::Method,
+    /// The hierarchical solver's settings (`method = hierarchical`).
+    pub hierarchical_settings: Option<crate::hierarchical::Settings>,
+    /// Its counts: roots, clusters, elements, leaves, links, rays, passes, sweeps.
+    pub hierarchical: Option<crate::hierarchical::Stats>,
     pub form_factor_settings: form_factor::Settings,
     pub solver_settings: crate::solve::Settings,
     /// Rays cast, non-zeros and row-sum statistics of F.
@@ -90,6 +96,10 @@ impl Report {
             patches: 0,
             refine_rounds: 0,
             vertices: 0,
+            method: settings.method,
+            hierarchical_settings: (settings.method == super::Method::Hierarchical)
+                .then_some(settings.hierarchical),
+            hierarchical: None,
             form_factor_settings: settings.form_factors,
             solver_settings: settings.solver,
             form_factors: form_factor::Stats::default(),
@@ -107,6 +117,21 @@ impl Report {
 
     /// The one-line summary printed to stderr.
     pub fn summary(&self) -> String {
+        if let Some(h) = &self.hierarchical {
+            return format!(
+                "{} patches, {} vertices, {:.3e} rays, {} links ({} elements, {} clusters), \
+                 {} sweeps, residual {:.2e}, {:.2} s",
+                self.patches,
+                self.vertices,
+                h.rays_cast as f64,
+                h.links,
+                h.elements,
+                h.clusters,
+                self.iterations,
+                self.residual,
+                self.seconds.total()
+            );
+        }
         format!(
             "{} patches, {} vertices, {:.3e} rays, {} non-zeros (row sums {:.4}..{:.4}), \
              {} iterations, residual {:.2e}, {:.2} s",
@@ -128,6 +153,26 @@ impl Report {
             .map_err(|e| crate::Error::Internal(format!("report serialisation: {e}")))?;
         io::write_atomic(path, text.as_bytes())
     }
+}
+
+/// The verbose note of a hierarchical solve: the hierarchies, the links and the sweeps.
+pub fn hierarchical_note(s: &crate::hierarchical::Stats, solution: &Solution) -> String {
+    format!(
+        "hierarchical: {} roots, {} clusters, {} elements ({} leaves), {} links ({} with a \
+         cluster, {} B each), {:.3e} rays, {} passes, {} sweeps, residual {:.2e}{}",
+        s.roots,
+        s.clusters,
+        s.elements,
+        s.leaves,
+        s.links,
+        s.cluster_links,
+        s.bytes_per_link,
+        s.rays_cast as f64,
+        s.passes,
+        solution.iterations,
+        solution.residual,
+        if s.closed_scene { ", closed scene" } else { "" }
+    )
 }
 
 /// The verbose note of one solve: counts of the form-factor stage and of the solver.

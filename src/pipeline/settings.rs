@@ -5,13 +5,61 @@
 
 use std::path::PathBuf;
 
+use std::fmt;
+
+use serde::Serialize;
+
+use crate::choice::Choice;
 use crate::color;
 use crate::mesh::{self, refine};
-use crate::{form_factor, solve, Error, Result};
+use crate::{form_factor, hierarchical, solve, Error, Result};
+
+/// How the light transport is discretised and solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Every pair of patches gets a form factor (a sparse n × n matrix), solved by
+    /// `solver`, with adaptive refinement rounds between solves. Cost ∝ n².
+    Matrix,
+    /// Hierarchical radiosity with clustering ([`crate::hierarchical`]): links between
+    /// elements and clusters at the level the error bound ε allows. Cost ∝ n.
+    Hierarchical,
+}
+
+impl Choice for Method {
+    const SETTING: &'static str = "method";
+    const ALL: &'static [Method] = &[Method::Matrix, Method::Hierarchical];
+
+    fn name(self) -> &'static str {
+        match self {
+            Method::Matrix => "matrix",
+            Method::Hierarchical => "hierarchical",
+        }
+    }
+
+    fn description(self) -> &'static str {
+        match self {
+            Method::Matrix => "form factors between every pair of patches, a sparse matrix: cost ∝ n²",
+            Method::Hierarchical => {
+                "hierarchical radiosity with clustering: links at the level ε allows, cost ∝ n"
+            }
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 /// Everything that controls a bake.
 #[derive(Debug, Clone)]
 pub struct Settings {
+    /// Matrix or hierarchical.
+    pub method: Method,
+    /// Settings of the hierarchical solver (`method = hierarchical` only).
+    pub hierarchical: hierarchical::Settings,
     /// Longest patch edge, scene units, finite and > 0; `None` = [`mesh::default_max_edge`]
     /// (the bounding-box diagonal / 16).
     pub max_edge: Option<f64>,
@@ -38,6 +86,8 @@ pub struct Settings {
 impl Default for Settings {
     fn default() -> Self {
         Settings {
+            method: Method::Matrix,
+            hierarchical: hierarchical::Settings::default(),
             max_edge: None,
             form_factors: form_factor::Settings::default(),
             solver: solve::Settings::default(),
@@ -78,7 +128,17 @@ impl Settings {
             ));
         }
         self.form_factors.validate()?;
-        self.solver.validate()
+        self.solver.validate()?;
+        if self.method == Method::Hierarchical {
+            self.hierarchical.validate()?;
+            if self.cache.is_some() {
+                return Err(Error::setting(
+                    "cache",
+                    "the form-factor cache stores a matrix: it applies to method matrix only",
+                ));
+            }
+        }
+        Ok(())
     }
 }
 

@@ -30,13 +30,15 @@ fn cornell(max_edge: f64, estimator: Estimator) -> Outcome {
 fn exchange(out: &Outcome, a: u32, b: u32) -> f64 {
     let p = &out.patches;
     out.form_factors
+        .as_ref()
+        .unwrap()
         .matrix
         .outer_iterator()
         .enumerate()
         .filter(|(i, _)| p.material[*i] == a)
         .map(|(i, row)| {
             p.area[i]
-                * out.form_factors.visible_fraction[i]
+                * out.form_factors.as_ref().unwrap().visible_fraction[i]
                 * row
                     .iter()
                     .filter(|(j, _)| p.material[*j] == b)
@@ -60,9 +62,9 @@ fn row_sums_never_exceed_one() {
         } else {
             1e-2
         };
-        out.form_factors.validate(tol).unwrap();
+        out.form_factors.as_ref().unwrap().validate(tol).unwrap();
         // The Cornell box is closed except its open front: rows < 1 on average.
-        assert!(out.form_factors.stats.row_sum_mean < 1.0);
+        assert!(out.form_factors.as_ref().unwrap().stats.row_sum_mean < 1.0);
     }
 }
 
@@ -76,7 +78,7 @@ fn closed_convex_scene_rows_sum_to_one() {
         &scene,
         &settings(1.0, Estimator::Contour, 4, Method::Neumann, 1),
     );
-    for (i, s) in out.form_factors.row_sums().iter().enumerate() {
+    for (i, s) in out.form_factors.as_ref().unwrap().row_sums().iter().enumerate() {
         assert!((s - 1.0).abs() < 1e-5, "row {i} sums to {s}");
     }
 }
@@ -95,7 +97,7 @@ fn sphere_form_factors_converge_to_area_fractions() {
         );
         let total = out.patches.total_area();
         let (mut num, mut den) = (0.0, 0.0);
-        for (i, row) in out.form_factors.matrix.outer_iterator().enumerate() {
+        for (i, row) in out.form_factors.as_ref().unwrap().matrix.outer_iterator().enumerate() {
             for (j, &f) in row.iter() {
                 let expected = out.patches.area[j] / total;
                 let w = out.patches.area[i] * expected;
@@ -124,7 +126,7 @@ fn closed_occluded_scene_rows_sum_to_one_within_visibility_error() {
         &scene,
         &settings(0.2, Estimator::Contour, 16, Method::Neumann, 1),
     );
-    let sums = out.form_factors.row_sums();
+    let sums = out.form_factors.as_ref().unwrap().row_sums();
     let mean_dev = sums.iter().map(|s| (s - 1.0).abs()).sum::<f64>() / sums.len() as f64;
     let worst = sums.iter().map(|s| (s - 1.0).abs()).fold(0.0, f64::max);
     assert!(mean_dev < 0.01, "mean |1 − row sum| = {mean_dev}");
@@ -162,16 +164,16 @@ fn hemisphere_rows_sum_to_one_in_closed_scenes_and_never_exceed_it() {
     let mut s = settings(0.2, Estimator::Hemisphere, 1, Method::Neumann, 1);
     s.form_factors.rays = 256;
     let out = run(&scene, &s);
-    assert!(!out.form_factors.stats.convex_enclosure);
-    for (i, sum) in out.form_factors.row_sums().iter().enumerate() {
+    assert!(!out.form_factors.as_ref().unwrap().stats.convex_enclosure);
+    for (i, sum) in out.form_factors.as_ref().unwrap().row_sums().iter().enumerate() {
         assert!((sum - 1.0).abs() < 1e-5, "row {i} sums to {sum}");
     }
     // In the open Cornell box rows are ≤ 1 (rays escape through the front).
     let cornell = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
     s.max_edge = Some(100.0);
     let out = run(&cornell, &s);
-    out.form_factors.validate(1e-5).unwrap();
-    assert!(out.form_factors.stats.row_sum_mean < 0.99);
+    out.form_factors.as_ref().unwrap().validate(1e-5).unwrap();
+    assert!(out.form_factors.as_ref().unwrap().stats.row_sum_mean < 0.99);
 }
 
 #[test]
@@ -181,7 +183,7 @@ fn reciprocity_enforcement_is_exact_and_keeps_the_answer() {
     s.form_factors.rays = 512;
     s.form_factors.reciprocity = true;
     let out = run(&scene, &s);
-    let f = &out.form_factors.matrix;
+    let f = &out.form_factors.as_ref().unwrap().matrix;
     let a = &out.patches.area;
     for (i, row) in f.outer_iterator().enumerate() {
         for (j, &fij) in row.iter() {
@@ -195,7 +197,7 @@ fn reciprocity_enforcement_is_exact_and_keeps_the_answer() {
         }
     }
     // Rows still sum to 1 on average (the average of two estimates that each sum to 1).
-    let sums = out.form_factors.row_sums();
+    let sums = out.form_factors.as_ref().unwrap().row_sums();
     let mean = sums.iter().zip(a).map(|(s, a)| s * a).sum::<f64>() / a.iter().sum::<f64>();
     assert!(
         (mean - 1.0).abs() < 1e-6,
@@ -210,18 +212,18 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
         &sphere,
         &settings(1.0, Estimator::Contour, 3, Method::Neumann, 1),
     );
-    assert!(skip.form_factors.stats.convex_enclosure);
-    assert_eq!(skip.form_factors.stats.occluder_patches, 0);
+    assert!(skip.form_factors.as_ref().unwrap().stats.convex_enclosure);
+    assert_eq!(skip.form_factors.as_ref().unwrap().stats.occluder_patches, 0);
     // No visibility ray: only the closure probes (64 per patch) that find the sphere closed.
     let probes = skip.patches.len() as u64 * radiosity::form_factor::CLOSURE_PROBES as u64;
-    assert_eq!(skip.form_factors.stats.rays_cast, probes);
-    assert!(skip.form_factors.stats.closed_scene);
+    assert_eq!(skip.form_factors.as_ref().unwrap().stats.rays_cast, probes);
+    assert!(skip.form_factors.as_ref().unwrap().stats.closed_scene);
     let mut s = settings(1.0, Estimator::Contour, 3, Method::Neumann, 1);
     s.form_factors.shortcuts.skip_hull = false;
     let cast = run(&sphere, &s);
-    assert!(cast.form_factors.stats.rays_cast > probes);
+    assert!(cast.form_factors.as_ref().unwrap().stats.rays_cast > probes);
     // Nothing occludes inside a sphere: the rays change nothing, bit for bit.
-    assert_eq!(skip.form_factors.matrix, cast.form_factors.matrix);
+    assert_eq!(skip.form_factors.as_ref().unwrap().matrix, cast.form_factors.as_ref().unwrap().matrix);
     // The same sphere read back from OBJ (tobj parses f32: vertices move by ~1e-7 relative, so
     // facets are no longer exactly coplanar with their neighbours' vertices) is still convex.
     let from_obj = Scene::load(&meshes().join("integrating_sphere.obj")).unwrap();
@@ -261,13 +263,13 @@ fn hull_faces_leave_the_occlusion_tests_without_changing_any_form_factor() {
     let mut full = s;
     full.form_factors.shortcuts.skip_hull = false;
     let traced = run(&cornell, &full);
-    assert_eq!(traced.form_factors.stats.occluder_patches, p.len() as u64);
-    assert!(skip.form_factors.stats.occluder_patches < p.len() as u64 / 3);
+    assert_eq!(traced.form_factors.as_ref().unwrap().stats.occluder_patches, p.len() as u64);
+    assert!(skip.form_factors.as_ref().unwrap().stats.occluder_patches < p.len() as u64 / 3);
     assert_eq!(
-        skip.form_factors.stats.rays_cast,
-        traced.form_factors.stats.rays_cast
+        skip.form_factors.as_ref().unwrap().stats.rays_cast,
+        traced.form_factors.as_ref().unwrap().stats.rays_cast
     );
-    assert_eq!(skip.form_factors.matrix, traced.form_factors.matrix);
+    assert_eq!(skip.form_factors.as_ref().unwrap().matrix, traced.form_factors.as_ref().unwrap().matrix);
 }
 
 #[test]
@@ -295,7 +297,7 @@ fn skipping_unneeded_entries_changes_no_radiance() {
         let full = run(&scene, &s);
         let what = format!("{estimator:?} {method:?}");
         assert_eq!(skip.solution.radiance, full.solution.radiance, "{what}");
-        let stats = &skip.form_factors.stats;
+        let stats = &skip.form_factors.as_ref().unwrap().stats;
         let green_rows = skip
             .patches
             .material
@@ -303,18 +305,18 @@ fn skipping_unneeded_entries_changes_no_radiance() {
             .filter(|&&m| m as usize == green);
         assert_eq!(stats.rows_skipped, green_rows.count() as u64, "{what}");
         assert!(
-            skip.form_factors.matrix.nnz() < full.form_factors.matrix.nnz(),
+            skip.form_factors.as_ref().unwrap().matrix.nnz() < full.form_factors.as_ref().unwrap().matrix.nnz(),
             "{what}"
         );
         // A pair of a green patch with another still needs its rays for the other's row;
         // pairs within the (flat) green wall were culled anyway.
         assert!(
-            stats.rays_cast <= full.form_factors.stats.rays_cast,
+            stats.rays_cast <= full.form_factors.as_ref().unwrap().stats.rays_cast,
             "{what}"
         );
         if method == Method::Neumann || estimator == Estimator::Hemisphere {
             assert!(
-                stats.rays_cast < full.form_factors.stats.rays_cast,
+                stats.rays_cast < full.form_factors.as_ref().unwrap().stats.rays_cast,
                 "{what}"
             );
         }
@@ -337,18 +339,18 @@ fn hemisphere_takes_direct_light_from_the_contour_estimator() {
     s.form_factors.estimator = Estimator::Hemisphere;
     s.form_factors.rays = 64;
     let hemi = run(&scene, &s);
-    assert!(hemi.form_factors.stats.exact_direct);
+    assert!(hemi.form_factors.as_ref().unwrap().stats.exact_direct);
     assert_eq!(hemi.solution.radiance, contour.solution.radiance);
     // Without it, the light's columns are hit counts: the same on average, not bit for bit.
     s.form_factors.shortcuts.exact_direct = false;
     let shot = run(&scene, &s);
-    assert!(!shot.form_factors.stats.exact_direct);
+    assert!(!shot.form_factors.as_ref().unwrap().stats.exact_direct);
     assert_ne!(shot.solution.radiance, contour.solution.radiance);
     // A furnace emits everywhere: nothing to single out, plain shooting.
     let furnace = scenes::furnace_room(0.5, 1.0).unwrap();
     let mut f = settings(0.5, Estimator::Hemisphere, 1, Method::GaussSeidel, 1);
     f.form_factors.rays = 64;
-    assert!(!run(&furnace, &f).form_factors.stats.exact_direct);
+    assert!(!run(&furnace, &f).form_factors.as_ref().unwrap().stats.exact_direct);
 }
 
 #[test]
@@ -420,7 +422,7 @@ fn far_pairs_integrated_by_the_gauss_rule_agree_with_the_contour_integral() {
     let fast = run(&scene, &s);
     s.form_factors.shortcuts.far_field = false;
     let exact = run(&scene, &s);
-    let (a, b) = (&fast.form_factors.matrix, &exact.form_factors.matrix);
+    let (a, b) = (&fast.form_factors.as_ref().unwrap().matrix, &exact.form_factors.as_ref().unwrap().matrix);
     // Entries above 1e-5 (grazing pairs near zero may appear in one and not the other).
     let mut worst: f64 = 0.0;
     for (i, row) in b.outer_iterator().enumerate() {
@@ -434,9 +436,11 @@ fn far_pairs_integrated_by_the_gauss_rule_agree_with_the_contour_integral() {
     assert!(worst < 5e-3, "worst entry {worst:.2e}");
     for (ra, rb) in fast
         .form_factors
+        .as_ref()
+        .unwrap()
         .row_sums()
         .iter()
-        .zip(exact.form_factors.row_sums())
+        .zip(exact.form_factors.as_ref().unwrap().row_sums())
     {
         assert!((ra - rb).abs() < 1e-4, "{ra} vs {rb}");
     }

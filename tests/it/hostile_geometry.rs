@@ -111,7 +111,7 @@ fn assert_sane(name: &str, scene: &Scene, max_edge: f64) {
         } else {
             1e-5
         };
-        if let Err(e) = out.form_factors.validate(tol) {
+        if let Err(e) = out.form_factors.as_ref().unwrap().validate(tol) {
             panic!("{name} {estimator:?}: {e}");
         }
         for (i, l) in out.solution.radiance.iter().enumerate() {

@@ -303,7 +303,7 @@ fn resolve(
     solver: &solve::Settings,
 ) -> Result<(Solution, Run)> {
     let system = System {
-        form_factors: &out.form_factors,
+        form_factors: out.form_factors.as_ref().expect("matrix method"),
         reflectance,
         emission: &out.patches.emission,
     };

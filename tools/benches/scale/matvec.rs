@@ -12,13 +12,13 @@ pub(super) fn matvec(args: &Args) -> Result<String> {
     s.solver.bounces = 0;
     s.form_factors.shortcuts.skip_unneeded = false;
     let (out, _) = run(&scene, &s)?;
-    let m = &out.form_factors.matrix;
+    let m = &out.form_factors.as_ref().expect("matrix method").matrix;
     let (n, nnz) = (m.rows(), m.nnz());
     let x: Vec<[f64; 3]> = (0..n).map(|i| [i as f64, 1.0, 0.5]).collect();
     let mut y = vec![[0.0f64; 3]; n];
     let reps = 20;
     let sys = System {
-        form_factors: &out.form_factors,
+        form_factors: out.form_factors.as_ref().expect("matrix method"),
         reflectance: &out.patches.reflectance,
         emission: &out.patches.emission,
     };

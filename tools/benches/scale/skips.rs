@@ -53,7 +53,7 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "occluder_patches {} of {}",
-            on.form_factors.stats.occluder_patches,
+            on.form_factors.as_ref().expect("matrix method").stats.occluder_patches,
             on.patches.len()
         ),
         same: same_radiance(&on, &off),
@@ -72,9 +72,9 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "convex_enclosure {}, rays {:.2e} → {:.2e}",
-            on.form_factors.stats.convex_enclosure,
-            off.form_factors.stats.rays_cast as f64,
-            on.form_factors.stats.rays_cast as f64
+            on.form_factors.as_ref().expect("matrix method").stats.convex_enclosure,
+            off.form_factors.as_ref().expect("matrix method").stats.rays_cast as f64,
+            on.form_factors.as_ref().expect("matrix method").stats.rays_cast as f64
         ),
         same: same_radiance(&on, &off),
     });
@@ -88,7 +88,7 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "pairs_culled {} of {}",
-            on.form_factors.stats.pairs_culled, on.form_factors.stats.pairs
+            on.form_factors.as_ref().expect("matrix method").stats.pairs_culled, on.form_factors.as_ref().expect("matrix method").stats.pairs
         ),
         same: same_radiance(&on, &off),
     });
@@ -106,7 +106,7 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         scene: "Cornell box, red and green walls black",
         before: t_off,
         after: t_on,
-        counter: format!("rows_skipped {}", on.form_factors.stats.rows_skipped),
+        counter: format!("rows_skipped {}", on.form_factors.as_ref().expect("matrix method").stats.rows_skipped),
         same: same_radiance(&on, &off),
     });
     // 5. One bounce: only the emitters' columns.
@@ -122,7 +122,7 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "pairs_skipped {} of {}",
-            on.form_factors.stats.pairs_skipped, on.form_factors.stats.pairs
+            on.form_factors.as_ref().expect("matrix method").stats.pairs_skipped, on.form_factors.as_ref().expect("matrix method").stats.pairs
         ),
         same: same_radiance(&on, &off),
     });
@@ -151,7 +151,7 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "pairs_reused {} (last round)",
-            on.form_factors.stats.pairs_reused
+            on.form_factors.as_ref().expect("matrix method").stats.pairs_reused
         ),
         same: format!(
             "per-surface means within {:.1e} of each other (other sample pairings, so other \
@@ -203,7 +203,7 @@ pub(super) fn skips(args: &Args) -> Result<String> {
     let (grey, _) = run(&furnace, &fs)?;
     let system = |out: &Outcome, rho: &[[f64; 3]]| -> Result<(f64, solve::Solution)> {
         let sys = System {
-            form_factors: &out.form_factors,
+            form_factors: out.form_factors.as_ref().expect("matrix method"),
             reflectance: rho,
             emission: &out.patches.emission,
         };
@@ -238,7 +238,7 @@ pub(super) fn skips(args: &Args) -> Result<String> {
     fixed.tolerance = 1e-300;
     fixed.max_iterations = 200;
     let sys = System {
-        form_factors: &grey.form_factors,
+        form_factors: grey.form_factors.as_ref().expect("matrix method"),
         reflectance: &grey.patches.reflectance,
         emission: &grey.patches.emission,
     };

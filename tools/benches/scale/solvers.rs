@@ -15,7 +15,7 @@ pub(super) fn solvers(args: &Args) -> Result<String> {
     s.form_factors.shortcuts.skip_unneeded = false;
     let (out, _) = run(&scene, &s)?;
     let n = out.patches.len();
-    let max_row = out.form_factors.row_sums().into_iter().fold(0.0, f64::max);
+    let max_row = out.form_factors.as_ref().expect("matrix method").row_sums().into_iter().fold(0.0, f64::max);
     // Only the room's ceiling emits: with uniform emission the furnace's answer is a multiple
     // of Le, which conjugate gradient finds in one step; a lit ceiling exercises the spectrum.
     let emission: Vec<[f64; 3]> = out
@@ -28,7 +28,7 @@ pub(super) fn solvers(args: &Args) -> Result<String> {
     let solve_with = |rho: f64, method: Method, omega: f64| -> Result<(solve::Solution, f64)> {
         let reflectance = vec![[rho; 3]; n];
         let sys = System {
-            form_factors: &out.form_factors,
+            form_factors: out.form_factors.as_ref().expect("matrix method"),
             reflectance: &reflectance,
             emission: &emission,
         };

@@ -1,0 +1,643 @@
+//! Hierarchical radiosity with clustering: the cost of a bake grows like the number of
+//! elements, not its square. This module owns the hierarchical solve, from root patches to
+//! leaf radiance; [`crate::pipeline`] calls it for `method = hierarchical`.
+//!
+//! The method (Hanrahan, Salzman & Aupperle, "A rapid hierarchical radiosity algorithm",
+//! SIGGRAPH 1991; with the clusters of Smits, Arvo & Greenberg, SIGGRAPH 1994, and Sillion,
+//! IEEE TVCG 1995):
+//!
+//! 1. **Hierarchies** ([`tree`]): every root patch (a scene triangle, split to `--max-edge`
+//!    only when one is given) is the root of an element quadtree; a BVH over the root patches
+//!    groups them into clusters, so the whole scene is one root node.
+//! 2. **Links** ([`links`]): the light exchange starts as the root's self-link. A refinement
+//!    pass asks the BF oracle of every link whether it may carry more than ε of the emitted
+//!    power (with the form factor's unoccluded bound when its visibility rays disagreed); if
+//!    so the larger end is split (elements 1 → 4 down to the minimum area, clusters into their
+//!    children) and the link replaced by links to the children, each estimated afresh with a
+//!    few rays. So links stay high in the hierarchies where transfers are weak or far, and
+//!    O(n) links serve n elements at a fixed ε (HSA91 §5).
+//! 3. **Solve** ([`Hierarchy::sweep`]): a Jacobi sweep gathers, at every node, Σ F·L over its
+//!    links (from the previous sweep's radiance, in parallel), then *push-pull*: what a node
+//!    gathered is pushed down to every leaf below it (irradiance is intensive: the same on
+//!    every part), leaves take L = Le + ρ·G, and radiance is pulled up as area-weighted means.
+//!    Refinement is interleaved with the solve (refine against the current radiance, sweep,
+//!    refine again: the multigridding of HSA91 §4.3), until a converged solution asks for no
+//!    more links.
+//! 4. **Output** ([`output`]): the leaves, triangulated conformingly (a leaf with a split
+//!    neighbour is fanned through the neighbour's edge vertices), are the output patches.
+//!
+//! Energy: in a closed scene (every probe ray from every root lands on the front of a surface,
+//! as for the matrix estimators) each leaf's gathered light is divided by its effective row
+//! sum Σ F over the links it and its ancestors gather through, which is 1 exactly when the
+//! estimates are (Cohen & Wallace §4.11's row normalisation): the furnace is then exact
+//! whatever the cluster approximations.
+
+pub mod links;
+pub mod output;
+pub mod tree;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::color::Rgb;
+use crate::form_factor::{hemisphere, occluders, CLOSURE_PROBES};
+use crate::mesh::Patches;
+use crate::solve;
+use crate::visibility::Visibility;
+use crate::{Error, Result};
+
+pub use links::{Action, Link};
+pub use tree::{Node, Tree};
+
+/// Settings of the hierarchical solver.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Settings {
+    /// Refinement threshold ε: a link may carry at most this fraction of the scene's emitted
+    /// power (ρ_r · L_s · F_rs · A_r / Σ Le·A, largest channels); in (0, 1).
+    pub epsilon: f64,
+    /// Smallest element area, as a fraction of the scene's total area; in (0, 1).
+    pub min_area: f64,
+    /// Visibility rays (and receiver points) per link; ≥ 1.
+    pub rays: u32,
+    /// Refinement passes at most (each splits one level; a guard, not a tuning knob).
+    pub max_passes: u32,
+    /// Links at most: refinement stops with a warning beyond this (memory guard: a link takes
+    /// about 20 bytes).
+    pub max_links: u64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            epsilon: 1e-4,
+            min_area: 1e-5,
+            rays: 4,
+            max_passes: 100,
+            max_links: 100_000_000,
+        }
+    }
+}
+
+impl Settings {
+    /// Checks the ranges documented on the fields ([`Error::Setting`] names
+    /// `hierarchical.epsilon`, …).
+    pub fn validate(&self) -> Result<()> {
+        let fraction = |name: &str, x: f64| {
+            if x > 0.0 && x < 1.0 {
+                Ok(())
+            } else {
+                Err(Error::setting(name, format!("{x} is not in (0, 1)")))
+            }
+        };
+        fraction("hierarchical.epsilon", self.epsilon)?;
+        fraction("hierarchical.min_area", self.min_area)?;
+        if !(1..=1024).contains(&self.rays) {
+            return Err(Error::setting(
+                "hierarchical.rays",
+                format!("{} is not in 1..=1024", self.rays),
+            ));
+        }
+        if self.max_passes == 0 || self.max_links == 0 {
+            return Err(Error::setting(
+                "hierarchical.max_passes",
+                "max_passes and max_links must be ≥ 1",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Counts of a hierarchical solve (in the report).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Stats {
+    /// Root patches (element-tree roots).
+    pub roots: usize,
+    /// Clusters of the BVH over the roots.
+    pub clusters: usize,
+    /// Elements in all trees (roots, inner and leaves).
+    pub elements: usize,
+    /// Leaf elements.
+    pub leaves: usize,
+    /// Links of the final solve.
+    pub links: u64,
+    /// Links with a cluster at one end or both.
+    pub cluster_links: u64,
+    /// Visibility rays cast (links and closure probes).
+    pub rays_cast: u64,
+    /// Refinement passes that changed the links.
+    pub passes: u32,
+    /// Jacobi sweeps, all passes together.
+    pub sweeps: u32,
+    /// Bytes per link in memory.
+    pub bytes_per_link: usize,
+    /// The scene was found closed and leaf row sums normalised to 1.
+    pub closed_scene: bool,
+    /// ε in absolute units (radiance × area).
+    pub epsilon_absolute: f64,
+    /// Smallest element area allowed, scene units squared.
+    pub min_area_absolute: f64,
+}
+
+/// The result of [`solve`].
+pub struct Hierarchical {
+    /// The output patches: leaves, triangulated conformingly.
+    pub patches: Patches,
+    /// Radiance of each output patch, W·sr⁻¹·m⁻² per channel.
+    pub radiance: Vec<Rgb>,
+    /// The solver's bookkeeping (method Jacobi; Neumann when `bounces` were asked).
+    pub solution: solve::Solution,
+    pub stats: Stats,
+    pub warnings: Vec<String>,
+}
+
+/// Sweeps between refinement passes: the oracle needs radiance of the right order, not a
+/// converged one (the final solve converges).
+const PASS_SWEEPS: u32 = 2;
+
+/// The hierarchical solve of `roots` (patches that are the roots of the element trees).
+/// `solver` gives the stopping rule (tolerance on the relative change per sweep, sweep
+/// limit) and, for `neumann`, the number of bounces of the final solve; `seed` keys every
+/// random choice, so the result is the same for any thread count.
+pub fn solve(
+    roots: &Patches,
+    settings: &Settings,
+    solver: &solve::Settings,
+    seed: u64,
+) -> Result<Hierarchical> {
+    settings.validate()?;
+    solver.validate()?;
+    let mut h = Hierarchy::new(roots, settings, seed);
+    let mut warnings = Vec::new();
+    let mut history = Vec::new();
+    let emitted = h.emitted_power();
+    if emitted > 0.0 && h.tree.root().is_some() {
+        h.start();
+        let mut passes = 0;
+        loop {
+            if passes >= settings.max_passes {
+                warnings.push(format!(
+                    "hierarchical refinement stopped after {passes} passes (max_passes)"
+                ));
+                break;
+            }
+            if h.links.len() as u64 > settings.max_links {
+                warnings.push(format!(
+                    "hierarchical refinement stopped at {} links (max_links {}): raise \
+                     --epsilon or --min-area for a finer solution in this memory",
+                    h.links.len(),
+                    settings.max_links
+                ));
+                break;
+            }
+            if h.refine_pass() {
+                passes += 1;
+                for _ in 0..PASS_SWEEPS {
+                    history.push(h.sweep());
+                }
+                crate::progress::note_status(|| {
+                    format!(
+                        "hierarchical pass {passes}: {} links, {} elements",
+                        h.links.len(),
+                        h.tree.elements.len()
+                    )
+                });
+                continue;
+            }
+            // Stable at this radiance: converge, and stop if the converged radiance asks for
+            // no more links.
+            h.converge(solver, &mut history);
+            if !h.refine_pass() {
+                break;
+            }
+            passes += 1;
+        }
+        h.stats.passes = passes;
+    }
+    // The final solve on the final links: from L = Le, N sweeps for Neumann (exactly the
+    // Neumann partial sum), else to the tolerance.
+    let (converged, iterations) = if emitted == 0.0 {
+        (true, 0)
+    } else if solver.method == solve::Method::Neumann {
+        h.reset();
+        history.clear();
+        for _ in 0..solver.bounces {
+            history.push(h.sweep());
+        }
+        (true, solver.bounces)
+    } else {
+        let before = h.stats.sweeps;
+        let ok = h.converge(solver, &mut history);
+        (ok, h.stats.sweeps - before)
+    };
+    let _ = iterations;
+    let (patches, radiance) = output::leaves(&h.tree, roots, &h.elem_l);
+    let stats = h.finish_stats();
+    let solution = solve::Solution {
+        radiance: radiance.clone(),
+        iterations: stats.sweeps,
+        residual: history.last().copied().unwrap_or(0.0),
+        residual_history: history,
+        converged,
+        grey: false,
+        omega: 1.0,
+        method: if solver.method == solve::Method::Neumann {
+            solve::Method::Neumann
+        } else {
+            solve::Method::Jacobi
+        },
+    };
+    Ok(Hierarchical {
+        patches,
+        radiance,
+        solution,
+        stats,
+        warnings,
+    })
+}
+
+/// The solver's state: the hierarchies, the links, and the radiance of every node.
+pub struct Hierarchy<'a> {
+    pub tree: Tree,
+    pub links: Vec<Link>,
+    roots: &'a Patches,
+    vis: Visibility,
+    occluders: Visibility,
+    settings: Settings,
+    seed: u64,
+    /// Radiance of every element (leaves: solved; inner: area-weighted mean of children).
+    pub elem_l: Vec<Rgb>,
+    /// Radiance of every cluster (area-weighted mean of its root elements).
+    pub cluster_l: Vec<Rgb>,
+    /// Effective row sum of every element (closed scenes), else empty.
+    row_sum: Vec<f64>,
+    /// Absolute ε (radiance × area) and minimum area (scene units²).
+    epsilon: f64,
+    min_area: f64,
+    pub stats: Stats,
+}
+
+impl<'a> Hierarchy<'a> {
+    /// Hierarchies over `roots`, no links yet, L = Le.
+    pub fn new(roots: &'a Patches, settings: &Settings, seed: u64) -> Hierarchy<'a> {
+        let tree = Tree::new(roots);
+        let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
+        let vis = Visibility::build(&corners);
+        let occluders = vis.restricted(&occluders(roots));
+        let total_area = roots.total_area();
+        let mut h = Hierarchy {
+            elem_l: Vec::new(),
+            cluster_l: Vec::new(),
+            tree,
+            links: Vec::new(),
+            roots,
+            vis,
+            occluders,
+            settings: *settings,
+            seed,
+            row_sum: Vec::new(),
+            epsilon: 0.0,
+            min_area: settings.min_area * total_area,
+            stats: Stats::default(),
+        };
+        h.epsilon = settings.epsilon * h.emitted_power();
+        h.stats.epsilon_absolute = h.epsilon;
+        h.stats.min_area_absolute = h.min_area;
+        h.reset();
+        h
+    }
+
+    /// Σ max-channel(Le)·A over the roots: the scale of ε.
+    pub fn emitted_power(&self) -> f64 {
+        (0..self.roots.len())
+            .map(|i| self.roots.emission[i].iter().copied().fold(0.0, f64::max) * self.roots.area[i])
+            .sum()
+    }
+
+    /// L = Le everywhere (leaves), pulled up.
+    fn reset(&mut self) {
+        let n = self.tree.elements.len();
+        let zero = vec![[0.0; 3]; n];
+        self.elem_l = vec![[0.0; 3]; n];
+        self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
+        let gz = vec![[0.0; 3]; self.tree.clusters.len()];
+        self.push_pull(&zero, &gz);
+    }
+
+    /// The root's self-link, and the closure test.
+    fn start(&mut self) {
+        let root = self.tree.root().expect("a root");
+        self.links = match root.as_cluster() {
+            Some(_) => vec![Link {
+                receiver: root,
+                source: root,
+                f: 0.0,
+                bound: 0.0,
+                must_open: true,
+            }],
+            None => Vec::new(),
+        };
+        // Closure: as the matrix estimators do (form_factor::compute), probe rays from every
+        // root; if none escapes, the scene is closed and rows are normalised.
+        let n = self.roots.len();
+        let probes = (4_000_000 / n.max(1)).clamp(4, CLOSURE_PROBES as usize) as u32;
+        let closed = (0..n).into_par_iter().all(|i| {
+            hemisphere::row(self.roots, &self.vis, i, probes, self.seed ^ 0xC105ED).escaped == 0
+        });
+        self.stats.rays_cast += n as u64 * probes as u64;
+        self.stats.closed_scene = closed;
+    }
+
+    /// Largest reflectance channel of a node.
+    fn max_reflectance(&self, node: Node) -> f64 {
+        match node.as_element() {
+            Some(e) => {
+                let r = self.tree.elements[e].root as usize;
+                self.roots.reflectance[r].iter().copied().fold(0.0, f64::max)
+            }
+            None => self.tree.clusters[node.as_cluster().unwrap()].max_reflectance,
+        }
+    }
+
+    fn radiance(&self, node: Node) -> Rgb {
+        match node.as_element() {
+            Some(e) => self.elem_l[e],
+            None => self.cluster_l[node.as_cluster().unwrap()],
+        }
+    }
+
+    /// One refinement pass: every link asks the oracle; links that must be finer are replaced
+    /// by links one level down (elements split as needed, in link order: deterministic).
+    /// Returns whether anything changed.
+    pub fn refine_pass(&mut self) -> bool {
+        let actions: Vec<Action> = self
+            .links
+            .par_iter()
+            .map(|l| {
+                let ls = self.radiance(l.source).iter().copied().fold(0.0, f64::max);
+                links::oracle(
+                    &self.tree,
+                    l,
+                    |n| self.max_reflectance(n),
+                    ls,
+                    self.epsilon,
+                    self.min_area,
+                )
+            })
+            .collect();
+        if actions.iter().all(|&a| a == Action::Keep) {
+            return false;
+        }
+        // Split the elements that must be split, in link order.
+        for (l, &a) in self.links.iter().zip(&actions) {
+            let node = match a {
+                Action::SplitReceiver => l.receiver,
+                Action::SplitSource => l.source,
+                _ => continue,
+            };
+            if let Some(e) = node.as_element() {
+                if self.tree.elements[e].first_child == tree::NO_CHILD {
+                    self.tree.split(e);
+                }
+            }
+        }
+        let mut kept = Vec::with_capacity(self.links.len());
+        let mut pairs = Vec::new();
+        for (l, &a) in self.links.iter().zip(&actions) {
+            match a {
+                Action::Keep => kept.push(*l),
+                Action::SplitReceiver => {
+                    for c in self.tree.children(l.receiver) {
+                        pairs.push((c, l.source));
+                    }
+                }
+                Action::SplitSource => {
+                    for c in self.tree.children(l.source) {
+                        pairs.push((l.receiver, c));
+                    }
+                }
+                Action::SplitBoth => {
+                    let kids = self.tree.children(l.receiver);
+                    for &a in &kids {
+                        for &b in &kids {
+                            pairs.push((a, b));
+                        }
+                    }
+                }
+            }
+        }
+        let rays = self.settings.rays as usize;
+        let estimates: Vec<links::Estimate> = pairs
+            .par_iter()
+            .map(|&(r, s)| links::estimate(&self.tree, &self.occluders, r, s, rays, self.seed))
+            .collect();
+        for e in estimates {
+            self.stats.rays_cast += e.rays;
+            kept.extend(e.link);
+        }
+        kept.par_sort_unstable_by_key(|l| (l.receiver, l.source));
+        self.links = kept;
+        // New elements start at their parent's radiance (so the oracle sees light there).
+        let n_old = self.elem_l.len();
+        for e in n_old..self.tree.elements.len() {
+            let p = self.tree.elements[e].parent as usize;
+            self.elem_l.push(self.elem_l[p]);
+        }
+        if self.stats.closed_scene {
+            self.row_sum = self.row_sums();
+        }
+        true
+    }
+
+    /// Σ F over each node's own links (per channel when `l` is given: Σ F·L).
+    fn gather(&self, with_radiance: bool) -> (Vec<Rgb>, Vec<Rgb>) {
+        let mut starts = Vec::new();
+        for (i, l) in self.links.iter().enumerate() {
+            if i == 0 || self.links[i - 1].receiver != l.receiver {
+                starts.push(i);
+            }
+        }
+        starts.push(self.links.len());
+        let sums: Vec<(Node, Rgb)> = starts
+            .par_windows(2)
+            .map(|w| {
+                let mut g = [0.0; 3];
+                for l in &self.links[w[0]..w[1]] {
+                    let f = l.f as f64;
+                    if with_radiance {
+                        let ls = self.radiance(l.source);
+                        for c in 0..3 {
+                            g[c] += f * ls[c];
+                        }
+                    } else {
+                        for gc in &mut g {
+                            *gc += f;
+                        }
+                    }
+                }
+                (self.links[w[0]].receiver, g)
+            })
+            .collect();
+        let mut ge = vec![[0.0; 3]; self.tree.elements.len()];
+        let mut gc = vec![[0.0; 3]; self.tree.clusters.len()];
+        for (node, g) in sums {
+            match node.as_element() {
+                Some(e) => ge[e] = g,
+                None => gc[node.as_cluster().unwrap()] = g,
+            }
+        }
+        (ge, gc)
+    }
+
+    /// Each element's effective row sum: Σ F over its own links and its ancestors'.
+    fn row_sums(&self) -> Vec<f64> {
+        let (ge, gc) = self.gather(false);
+        let down = self.push_down(&ge, &gc);
+        down.iter().map(|g| g[0]).collect()
+    }
+
+    /// What each element gathers through its own links and all its ancestors' (clusters'
+    /// included): the push half of push-pull.
+    fn push_down(&self, ge: &[Rgb], gc: &[Rgb]) -> Vec<Rgb> {
+        let t = &self.tree;
+        let mut cdown = gc.to_vec();
+        for c in 0..t.clusters.len() {
+            let cl = &t.clusters[c];
+            for k in cl.first..cl.first + cl.count {
+                if let Some(child) = t.cluster_children[k as usize].as_cluster() {
+                    cdown[child] = add(cdown[child], cdown[c]);
+                }
+            }
+        }
+        let mut down = ge.to_vec();
+        for e in 0..t.elements.len() {
+            let p = t.elements[e].parent;
+            let above = if p != tree::NO_CHILD {
+                down[p as usize]
+            } else if t.clusters.is_empty() {
+                [0.0; 3]
+            } else {
+                cdown[t.root_parent[e] as usize]
+            };
+            down[e] = add(down[e], above);
+        }
+        down
+    }
+
+    /// Push-pull: leaves take L = Le + ρ·G (G normalised by the row sum in closed scenes),
+    /// inner elements and clusters the area-weighted mean of their children.
+    fn push_pull(&mut self, ge: &[Rgb], gc: &[Rgb]) {
+        let down = self.push_down(ge, gc);
+        let t = &self.tree;
+        let n = t.elements.len();
+        let mut l = vec![[0.0; 3]; n];
+        for e in (0..n).rev() {
+            let el = &t.elements[e];
+            if el.first_child == tree::NO_CHILD {
+                let r = el.root as usize;
+                let norm = match self.row_sum.get(e) {
+                    Some(&s) if s > 0.0 => 1.0 / s,
+                    _ => 1.0,
+                };
+                for c in 0..3 {
+                    l[e][c] = self.roots.emission[r][c]
+                        + self.roots.reflectance[r][c] * down[e][c] * norm;
+                }
+            } else {
+                // Four children of equal area.
+                let f = el.first_child as usize;
+                for c in 0..3 {
+                    l[e][c] = 0.25 * (l[f][c] + l[f + 1][c] + l[f + 2][c] + l[f + 3][c]);
+                }
+            }
+        }
+        let mut cl = vec![[0.0; 3]; t.clusters.len()];
+        for c in (0..t.clusters.len()).rev() {
+            let k = &t.clusters[c];
+            let mut sum = [0.0; 3];
+            for &child in &t.cluster_children[k.first as usize..(k.first + k.count) as usize] {
+                let (lc, a) = match child.as_element() {
+                    Some(e) => (l[e], t.elements[e].area),
+                    None => {
+                        let j = child.as_cluster().unwrap();
+                        (cl[j], t.clusters[j].area)
+                    }
+                };
+                for ch in 0..3 {
+                    sum[ch] += a * lc[ch];
+                }
+            }
+            cl[c] = sum.map(|s| s / k.area);
+        }
+        self.elem_l = l;
+        self.cluster_l = cl;
+    }
+
+    /// One Jacobi sweep: gather over all links from the current radiance, then push-pull.
+    /// Returns the relative change ‖ΔL‖ / ‖Le‖ over the leaves (area-weighted 2-norms): the
+    /// residual E − (I − K)L of the linear system the links define.
+    pub fn sweep(&mut self) -> f64 {
+        let (ge, gc) = self.gather(true);
+        let old = std::mem::take(&mut self.elem_l);
+        self.push_pull(&ge, &gc);
+        self.stats.sweeps += 1;
+        let (mut num, mut den) = (0.0, 0.0);
+        for (e, el) in self.tree.elements.iter().enumerate() {
+            if el.first_child != tree::NO_CHILD {
+                continue;
+            }
+            let le = self.roots.emission[el.root as usize];
+            for c in 0..3 {
+                num += el.area * (self.elem_l[e][c] - old[e][c]).powi(2);
+                den += el.area * le[c] * le[c];
+            }
+        }
+        if den > 0.0 {
+            (num / den).sqrt()
+        } else {
+            0.0
+        }
+    }
+
+    /// Sweeps until the residual is at most the tolerance or the sweep limit; true if
+    /// converged.
+    fn converge(&mut self, solver: &solve::Settings, history: &mut Vec<f64>) -> bool {
+        for _ in 0..solver.max_iterations {
+            let r = self.sweep();
+            history.push(r);
+            solve::report_sweep(self.stats.sweeps, r);
+            if r <= solver.tolerance {
+                return true;
+            }
+        }
+        false
+    }
+
+    fn finish_stats(&self) -> Stats {
+        let mut s = self.stats.clone();
+        s.roots = self.tree.roots;
+        s.clusters = self.tree.clusters.len();
+        s.elements = self.tree.elements.len();
+        s.leaves = self
+            .tree
+            .elements
+            .iter()
+            .filter(|e| e.first_child == tree::NO_CHILD)
+            .count();
+        s.links = self.links.len() as u64;
+        s.cluster_links = self
+            .links
+            .iter()
+            .filter(|l| l.receiver.as_cluster().is_some() || l.source.as_cluster().is_some())
+            .count() as u64;
+        s.bytes_per_link = std::mem::size_of::<Link>();
+        s
+    }
+}
+
+fn add(a: Rgb, b: Rgb) -> Rgb {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+#[cfg(test)]
+mod tests;
