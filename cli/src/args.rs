@@ -159,6 +159,9 @@ pub enum SceneKind {
     ParallelPlates,
     /// Unit squares at 90° sharing an edge (Howell C-14: F = 0.20004).
     PerpendicularPlates,
+    /// A furnished hall for measuring scale: tables and chairs on a grid, area lights under
+    /// the ceiling, at least --triangles triangles (metres).
+    Hall,
 }
 
 /// Options of `radiosity generate`.
@@ -170,6 +173,9 @@ pub struct GenerateArgs {
     /// Output OBJ (its MTL is written beside it with the same name).
     #[arg(short, long, value_name = "FILE.obj")]
     pub output: PathBuf,
+    /// Triangles at least (hall only; 10⁴ … 10⁶ and more).
+    #[arg(long, default_value_t = 100_000, value_name = "N")]
+    pub triangles: usize,
 }
 
 /// Options of `radiosity bake`.

@@ -171,6 +171,15 @@ pub fn generate(args: &GenerateArgs) -> Result<u8, Failure> {
         SceneKind::Furnace => scenes::furnace_room(0.5, 1.0)?,
         SceneKind::ParallelPlates => scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
         SceneKind::PerpendicularPlates => scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
+        SceneKind::Hall => {
+            if !(1..=50_000_000).contains(&args.triangles) {
+                return Err(Failure::usage(
+                    "--triangles",
+                    format!("{} is not in 1..=50000000", args.triangles),
+                ));
+            }
+            scenes::furnished_hall(args.triangles)?
+        }
     };
     io::obj::save(&scene, &args.output)?;
     Ok(0)

@@ -41,7 +41,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::Rgb;
-use crate::form_factor::{hemisphere, occluders, CLOSURE_PROBES};
+use crate::form_factor::{hemisphere, is_hidden, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
 use crate::solve;
 use crate::visibility::Visibility;
@@ -58,7 +58,9 @@ pub struct Settings {
     pub epsilon: f64,
     /// Smallest element area, as a fraction of the scene's total area; in (0, 1).
     pub min_area: f64,
-    /// Visibility rays (and receiver points) per link; ≥ 1.
+    /// Visibility rays (and receiver points) per link, in 1..=1024. With 1, 3, 6, 7 or 12 an
+    /// element receiver integrates with the symmetric Gauss rule of that many points
+    /// (deterministic; 3 by default, as the contour estimator), else stratified random points.
     pub rays: u32,
     /// Refinement passes at most (each splits one level; a guard, not a tuning knob).
     pub max_passes: u32,
@@ -72,7 +74,7 @@ impl Default for Settings {
         Settings {
             epsilon: 1e-4,
             min_area: 1e-5,
-            rays: 4,
+            rays: 3,
             max_passes: 100,
             max_links: 100_000_000,
         }
@@ -145,6 +147,9 @@ pub struct Hierarchical {
     pub patches: Patches,
     /// Radiance of each output patch, W·sr⁻¹·m⁻² per channel.
     pub radiance: Vec<Rgb>,
+    /// Visible fraction of each output patch (0 for one buried under contact geometry, else
+    /// 1; tested at its centroid).
+    pub visible_fraction: Vec<f64>,
     /// The solver's bookkeeping (method Jacobi; Neumann when `bounces` were asked).
     pub solution: solve::Solution,
     pub stats: Stats,
@@ -231,7 +236,25 @@ pub fn solve(
         (ok, h.stats.sweeps - before)
     };
     let _ = iterations;
-    let (patches, radiance) = output::leaves(&h.tree, roots, &h.elem_l);
+    let output::Leaves {
+        patches,
+        radiance,
+        root,
+    } = output::leaves(&h.tree, roots, &h.elem_l);
+    // Buried output patches (the floor under a block): the centroid's normal ray meets the
+    // back of a surface ([`is_hidden`]). One ray per patch: leaves are small.
+    let visible_fraction: Vec<f64> = (0..patches.len())
+        .into_par_iter()
+        .map(|i| {
+            let hidden = is_hidden(roots, &h.vis, root[i] as usize, patches.centroid[i]);
+            if hidden {
+                0.0
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    h.stats.rays_cast += patches.len() as u64;
     let stats = h.finish_stats();
     let solution = solve::Solution {
         radiance: radiance.clone(),
@@ -250,6 +273,7 @@ pub fn solve(
     Ok(Hierarchical {
         patches,
         radiance,
+        visible_fraction,
         solution,
         stats,
         warnings,

@@ -12,9 +12,19 @@ use crate::color::Rgb;
 use crate::mesh::Patches;
 use crate::scene::NO_TWIN;
 
+/// The output of [`leaves`].
+pub struct Leaves {
+    /// The output patches.
+    pub patches: Patches,
+    /// Radiance of each, W·sr⁻¹·m⁻² per channel (its leaf's).
+    pub radiance: Vec<Rgb>,
+    /// The root patch each lies in.
+    pub root: Vec<u32>,
+}
+
 /// The conforming triangulation of the leaves of `tree` (whose roots are `roots`), with
 /// each triangle's radiance taken from `radiance` (indexed by element).
-pub fn leaves(tree: &Tree, roots: &Patches, radiance: &[Rgb]) -> (Patches, Vec<Rgb>) {
+pub fn leaves(tree: &Tree, roots: &Patches, radiance: &[Rgb]) -> Leaves {
     let mut out = Patches {
         positions: tree.positions.clone(),
         triangles: Vec::new(),
@@ -29,6 +39,7 @@ pub fn leaves(tree: &Tree, roots: &Patches, radiance: &[Rgb]) -> (Patches, Vec<R
         twin: Vec::new(),
     };
     let mut out_radiance = Vec::new();
+    let mut out_root = Vec::new();
     let mut chain = Vec::new();
     for root in 0..tree.roots {
         tree.leaves(root, &mut |e| {
@@ -51,6 +62,7 @@ pub fn leaves(tree: &Tree, roots: &Patches, radiance: &[Rgb]) -> (Patches, Vec<R
             let mut emit = |v: [u32; 3], out: &mut Patches| {
                 push_triangle(tree, roots, e, v, out);
                 out_radiance.push(radiance[e]);
+                out_root.push(el.root);
             };
             match edges_with_extras {
                 0 => emit([a, b, c], &mut out),
@@ -79,7 +91,11 @@ pub fn leaves(tree: &Tree, roots: &Patches, radiance: &[Rgb]) -> (Patches, Vec<R
             }
         });
     }
-    (out, out_radiance)
+    Leaves {
+        patches: out,
+        radiance: out_radiance,
+        root: out_root,
+    }
 }
 
 /// Appends to `out` the vertices strictly inside edge (p, q), in order from p to q, made by

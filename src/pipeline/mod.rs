@@ -38,6 +38,9 @@ pub struct Outcome {
     pub form_factors: Option<FormFactors>,
     /// Their radiance.
     pub solution: Solution,
+    /// The visible (unburied) fraction of each patch's area, in [0, 1]: what a viewer can
+    /// see of it (the floor under a block is 0).
+    pub visible_fraction: Vec<f64>,
     /// The radiance baked to the output mesh's vertices.
     pub baked: BakedMesh,
     /// Counts, counters, seconds per stage and warnings.
@@ -151,6 +154,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     report.seconds.bake = t.elapsed().as_secs_f64();
     Ok(Outcome {
         patches,
+        visible_fraction: form_factors.visible_fraction.clone(),
         form_factors: Some(form_factors),
         solution,
         baked,
@@ -199,6 +203,7 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     report.seconds.bake = t.elapsed().as_secs_f64();
     Ok(Outcome {
         patches: h.patches,
+        visible_fraction: h.visible_fraction,
         form_factors: None,
         solution: h.solution,
         baked,

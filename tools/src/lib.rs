@@ -339,13 +339,12 @@ pub fn chart(
 
 /// Visible-area mean radiance per surface ([`path_tracer::solution_means`]) of a solved scene.
 pub fn surface_means(scene: &Scene, out: &Outcome) -> Vec<[f64; 3]> {
-    // The hierarchical solver's leaves are taken as wholly visible.
-    let ones = vec![1.0; out.patches.len()];
-    let visible = out
-        .form_factors
-        .as_ref()
-        .map_or(&ones, |f| &f.visible_fraction);
-    path_tracer::solution_means(scene, &out.patches, &out.solution.radiance, visible)
+    path_tracer::solution_means(
+        scene,
+        &out.patches,
+        &out.solution.radiance,
+        &out.visible_fraction,
+    )
 }
 
 /// The path-traced per-surface visible means of the Cornell box
