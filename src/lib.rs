@@ -18,6 +18,7 @@
 //! | BVH | [`visibility`] | watertight ray queries in a canonical frame |
 //! | form factors | [`form_factor`] | the estimators, their loop, shortcuts, the cache |
 //! | matrix, solve | [`solve`] | (I − K)L = E and five methods to solve it |
+//! | or, hierarchically | [`hierarchical`] | element trees, clusters, links, push-pull sweeps, conforming leaves |
 //! | bake | [`bake`] | patch radiance → output vertices; the [`bake::BakedMesh`] |
 //! | write, picture | [`io`], [`render`] | files for MeshLab; PNG pictures of a bake |
 //! | checks | [`validation`] | closed forms, procedural scenes, a path tracer, `verify` |

@@ -128,8 +128,8 @@ pub fn estimate(
         for k in 0..rays {
             let ((er, br), (es, bs)) = (xs[k], ys[k]);
             let (x, y) = (tree.point(er, br), tree.point(es, bs));
-            unoccluded[k] = a_s
-                * point_to_point(x, tree.surface_normal(er, br), y, tree.elements[es].normal);
+            unoccluded[k] =
+                a_s * point_to_point(x, tree.surface_normal(er, br), y, tree.elements[es].normal);
         }
     }
     let mut f = 0.0;
@@ -191,23 +191,31 @@ fn largest_point_form_factor(tree: &Tree, r: usize, s: usize) -> f64 {
     let poly = tree.corners(s);
     let (s0, ns) = (poly[0], tree.elements[s].normal);
     let third = 1.0 / 3.0;
-    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [third, third, third]]
-        .into_iter()
-        .map(|b| {
-            let x = tree.point(r, b);
-            if (x - s0).dot(ns) <= 0.0 {
-                0.0
-            } else {
-                point_to_polygon(x, tree.surface_normal(r, b), &poly)
-            }
-        })
-        .fold(0.0, f64::max)
+    [
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [third, third, third],
+    ]
+    .into_iter()
+    .map(|b| {
+        let x = tree.point(r, b);
+        if (x - s0).dot(ns) <= 0.0 {
+            0.0
+        } else {
+            point_to_polygon(x, tree.surface_normal(r, b), &poly)
+        }
+    })
+    .fold(0.0, f64::max)
 }
 
 /// True when every corner of element `a` lies on or behind the plane of element `b`: then `b`
 /// cannot see `a` (nor `a` see `b`'s front), and F is zero both ways.
 fn behind(tree: &Tree, a: usize, b: usize) -> bool {
-    let (p, n) = (tree.positions[tree.elements[b].vertices[0] as usize], tree.elements[b].normal);
+    let (p, n) = (
+        tree.positions[tree.elements[b].vertices[0] as usize],
+        tree.elements[b].normal,
+    );
     let scale = tree.elements[a].radius.max(tree.elements[b].radius);
     tree.corners(a)
         .iter()
@@ -249,8 +257,7 @@ pub fn oracle(
         };
     }
     if !link.must_open {
-        let power =
-            max_reflectance(r) * source_radiance * link.bound as f64 * tree.area(r);
+        let power = max_reflectance(r) * source_radiance * link.bound as f64 * tree.area(r);
         if power <= epsilon {
             return Action::Keep;
         }

@@ -334,7 +334,9 @@ impl<'a> Hierarchy<'a> {
     /// Σ max-channel(Le)·A over the roots: the scale of ε.
     pub fn emitted_power(&self) -> f64 {
         (0..self.roots.len())
-            .map(|i| self.roots.emission[i].iter().copied().fold(0.0, f64::max) * self.roots.area[i])
+            .map(|i| {
+                self.roots.emission[i].iter().copied().fold(0.0, f64::max) * self.roots.area[i]
+            })
             .sum()
     }
 
@@ -377,7 +379,10 @@ impl<'a> Hierarchy<'a> {
         match node.as_element() {
             Some(e) => {
                 let r = self.tree.elements[e].root as usize;
-                self.roots.reflectance[r].iter().copied().fold(0.0, f64::max)
+                self.roots.reflectance[r]
+                    .iter()
+                    .copied()
+                    .fold(0.0, f64::max)
             }
             None => self.tree.clusters[node.as_cluster().unwrap()].max_reflectance,
         }
@@ -570,9 +575,8 @@ impl<'a> Hierarchy<'a> {
             } else {
                 // Four children of equal area.
                 let f = el.first_child as usize;
-                for c in 0..3 {
-                    l[e][c] = 0.25 * (l[f][c] + l[f + 1][c] + l[f + 2][c] + l[f + 3][c]);
-                }
+                let kids = [l[f], l[f + 1], l[f + 2], l[f + 3]];
+                l[e] = std::array::from_fn(|c| 0.25 * kids.iter().map(|k| k[c]).sum::<f64>());
             }
         }
         let mut cl = vec![[0.0; 3]; t.clusters.len()];

@@ -123,7 +123,8 @@ fn push_triangle(tree: &Tree, roots: &Patches, e: usize, v: [u32; 3], out: &mut 
     out.centroid.push((p[0] + p[1] + p[2]) / 3.0);
     out.normal.push(el.normal);
     out.corner_normal.push(p.map(normal_at));
-    out.area.push(0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length());
+    out.area
+        .push(0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length());
     out.material.push(roots.material[r]);
     out.reflectance.push(roots.reflectance[r]);
     out.emission.push(roots.emission[r]);

@@ -266,7 +266,9 @@ impl Tree {
 
     /// The three corners of element `e`, scene units.
     pub fn corners(&self, e: usize) -> [DVec3; 3] {
-        self.elements[e].vertices.map(|v| self.positions[v as usize])
+        self.elements[e]
+            .vertices
+            .map(|v| self.positions[v as usize])
     }
 
     /// Unit smooth-surface normal of element `e` at barycentric point `b`.
@@ -341,7 +343,8 @@ impl Tree {
             let mut at = node;
             while let Some(c) = at.as_cluster() {
                 let cl = &self.clusters[c];
-                let kids = &self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize];
+                let kids =
+                    &self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize];
                 let mut u = rng.next_f64() * cl.area;
                 at = *kids.last().unwrap();
                 for &k in kids {
@@ -386,7 +389,5 @@ fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
 }
 
 fn circumradius(p: [DVec3; 3], centroid: DVec3) -> f64 {
-    p.iter()
-        .map(|v| v.distance(centroid))
-        .fold(0.0, f64::max)
+    p.iter().map(|v| v.distance(centroid)).fold(0.0, f64::max)
 }

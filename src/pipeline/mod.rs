@@ -374,7 +374,10 @@ mod tests {
         assert_eq!(r.patches, out.patches.len());
         assert_eq!(r.vertices, out.baked.positions.len());
         assert_eq!(out.baked.faces.len(), out.patches.len());
-        assert_eq!(r.form_factors.nnz, out.form_factors.as_ref().unwrap().matrix.nnz() as u64);
+        assert_eq!(
+            r.form_factors.nnz,
+            out.form_factors.as_ref().unwrap().matrix.nnz() as u64
+        );
         assert_eq!(r.iterations, out.solution.iterations);
         assert_eq!((r.residual, r.converged), (out.solution.residual, true));
         assert!(

@@ -39,7 +39,9 @@ impl Choice for Method {
 
     fn description(self) -> &'static str {
         match self {
-            Method::Matrix => "form factors between every pair of patches, a sparse matrix: cost ∝ n²",
+            Method::Matrix => {
+                "form factors between every pair of patches, a sparse matrix: cost ∝ n²"
+            }
             Method::Hierarchical => {
                 "hierarchical radiosity with clustering: links at the level ε allows, cost ∝ n"
             }

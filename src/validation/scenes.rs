@@ -214,6 +214,83 @@ pub fn perpendicular_plates(l: f64, w: f64, h: f64, rho: f64, le: f64) -> Result
     b.build()
 }
 
+/// Triangles of one cell of [`furnished_hall`]: a table (top and four legs) and a chair
+/// (seat, back and four legs), 11 boxes of 12 triangles, 5 mm apart where they meet (boxes
+/// that touch would share edges run the same way).
+pub const HALL_CELL_TRIANGLES: usize = 132;
+
+/// A furnished hall for measuring scale: a closed room (walls, floor and ceiling seen from
+/// inside, ρ = 0.6 grey) holding a k × k grid of 2 m × 2 m cells, each with a table and a chair
+/// (boxes, ρ = 0.7 wood, 0.5 red seats) and, over every other cell, a 0.5 m × 0.5 m area light
+/// 1 cm below the ceiling facing down (Le = 10). k is the smallest grid with at least
+/// `triangles` triangles in all ([`HALL_CELL_TRIANGLES`] per cell, 12 for the room, 2 per
+/// light). Lengths in metres; deterministic (no randomness), so a size names a scene.
+pub fn furnished_hall(triangles: usize) -> Result<Scene> {
+    let per_cell = HALL_CELL_TRIANGLES as f64 + 1.0;
+    let k = ((triangles.saturating_sub(12) as f64 / per_cell)
+        .sqrt()
+        .ceil() as usize)
+        .max(1);
+    let mut b = SceneBuilder::new();
+    let wall = b.material("wall", [0.6; 3], [0.0; 3]);
+    let wood = b.material("wood", [0.7, 0.55, 0.35], [0.0; 3]);
+    let seat = b.material("seat", [0.6, 0.15, 0.1], [0.0; 3]);
+    let light = b.material("light", [0.0; 3], [10.0; 3]);
+    let (cell, height) = (2.0, 3.0);
+    let size = k as f64 * cell;
+    add_box(
+        &mut b,
+        DVec3::ZERO,
+        DVec3::new(size, size, height),
+        true,
+        wall,
+    );
+    let boxed = |b: &mut SceneBuilder, lo: [f64; 3], hi: [f64; 3], m: u32| {
+        add_box(b, DVec3::from(lo), DVec3::from(hi), false, m)
+    };
+    for i in 0..k {
+        for j in 0..k {
+            let (x, y) = (i as f64 * cell, j as f64 * cell);
+            // Table: 1.2 × 0.8 top at 0.72–0.75 m, legs 5 cm square.
+            let (tx, ty) = (x + 0.4, y + 0.6);
+            boxed(&mut b, [tx, ty, 0.72], [tx + 1.2, ty + 0.8, 0.75], wood);
+            for (lx, ly) in [(0.0, 0.0), (1.15, 0.0), (0.0, 0.75), (1.15, 0.75)] {
+                boxed(
+                    &mut b,
+                    [tx + lx, ty + ly, 0.0],
+                    [tx + lx + 0.05, ty + ly + 0.05, 0.715],
+                    wood,
+                );
+            }
+            // Chair: 0.45 m seat at 0.43–0.46 m, back 0.45 m high, legs 4 cm.
+            let (cx, cy) = (x + 0.78, y + 0.1);
+            boxed(&mut b, [cx, cy, 0.43], [cx + 0.45, cy + 0.45, 0.46], seat);
+            boxed(&mut b, [cx, cy, 0.465], [cx + 0.45, cy + 0.04, 0.91], seat);
+            for (lx, ly) in [(0.0, 0.0), (0.41, 0.0), (0.0, 0.41), (0.41, 0.41)] {
+                boxed(
+                    &mut b,
+                    [cx + lx, cy + ly, 0.0],
+                    [cx + lx + 0.04, cy + ly + 0.04, 0.425],
+                    wood,
+                );
+            }
+            if (i + j) % 2 == 0 {
+                let (lx, ly, z) = (x + 0.75, y + 0.75, height - 0.01);
+                b.quad(
+                    [
+                        DVec3::new(lx, ly, z),
+                        DVec3::new(lx, ly + 0.5, z),
+                        DVec3::new(lx + 0.5, ly + 0.5, z),
+                        DVec3::new(lx + 0.5, ly, z),
+                    ],
+                    light,
+                );
+            }
+        }
+    }
+    b.build()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -249,62 +326,4 @@ mod tests {
         assert_eq!(s.triangles.len(), 36);
         assert!(uses.keys().all(|&(a, b)| uses.get(&(b, a)) == Some(&1)));
     }
-}
-
-/// Triangles of one cell of [`furnished_hall`]: a table (top and four legs) and a chair
-/// (seat, back and four legs), 11 boxes of 12 triangles, 5 mm apart where they meet (boxes
-/// that touch would share edges run the same way).
-pub const HALL_CELL_TRIANGLES: usize = 132;
-
-/// A furnished hall for measuring scale: a closed room (walls, floor and ceiling seen from
-/// inside, ρ = 0.6 grey) holding a k × k grid of 2 m × 2 m cells, each with a table and a chair
-/// (boxes, ρ = 0.7 wood, 0.5 red seats) and, over every other cell, a 0.5 m × 0.5 m area light
-/// 1 cm below the ceiling facing down (Le = 10). k is the smallest grid with at least
-/// `triangles` triangles in all ([`HALL_CELL_TRIANGLES`] per cell, 12 for the room, 2 per
-/// light). Lengths in metres; deterministic (no randomness), so a size names a scene.
-pub fn furnished_hall(triangles: usize) -> Result<Scene> {
-    let per_cell = HALL_CELL_TRIANGLES as f64 + 1.0;
-    let k = ((triangles.saturating_sub(12) as f64 / per_cell).sqrt().ceil() as usize).max(1);
-    let mut b = SceneBuilder::new();
-    let wall = b.material("wall", [0.6; 3], [0.0; 3]);
-    let wood = b.material("wood", [0.7, 0.55, 0.35], [0.0; 3]);
-    let seat = b.material("seat", [0.6, 0.15, 0.1], [0.0; 3]);
-    let light = b.material("light", [0.0; 3], [10.0; 3]);
-    let (cell, height) = (2.0, 3.0);
-    let size = k as f64 * cell;
-    add_box(&mut b, DVec3::ZERO, DVec3::new(size, size, height), true, wall);
-    let boxed = |b: &mut SceneBuilder, lo: [f64; 3], hi: [f64; 3], m: u32| {
-        add_box(b, DVec3::from(lo), DVec3::from(hi), false, m)
-    };
-    for i in 0..k {
-        for j in 0..k {
-            let (x, y) = (i as f64 * cell, j as f64 * cell);
-            // Table: 1.2 × 0.8 top at 0.72–0.75 m, legs 5 cm square.
-            let (tx, ty) = (x + 0.4, y + 0.6);
-            boxed(&mut b, [tx, ty, 0.72], [tx + 1.2, ty + 0.8, 0.75], wood);
-            for (lx, ly) in [(0.0, 0.0), (1.15, 0.0), (0.0, 0.75), (1.15, 0.75)] {
-                boxed(&mut b, [tx + lx, ty + ly, 0.0], [tx + lx + 0.05, ty + ly + 0.05, 0.715], wood);
-            }
-            // Chair: 0.45 m seat at 0.43–0.46 m, back 0.45 m high, legs 4 cm.
-            let (cx, cy) = (x + 0.78, y + 0.1);
-            boxed(&mut b, [cx, cy, 0.43], [cx + 0.45, cy + 0.45, 0.46], seat);
-            boxed(&mut b, [cx, cy, 0.465], [cx + 0.45, cy + 0.04, 0.91], seat);
-            for (lx, ly) in [(0.0, 0.0), (0.41, 0.0), (0.0, 0.41), (0.41, 0.41)] {
-                boxed(&mut b, [cx + lx, cy + ly, 0.0], [cx + lx + 0.04, cy + ly + 0.04, 0.425], wood);
-            }
-            if (i + j) % 2 == 0 {
-                let (lx, ly, z) = (x + 0.75, y + 0.75, height - 0.01);
-                b.quad(
-                    [
-                        DVec3::new(lx, ly, z),
-                        DVec3::new(lx, ly + 0.5, z),
-                        DVec3::new(lx + 0.5, ly + 0.5, z),
-                        DVec3::new(lx + 0.5, ly, z),
-                    ],
-                    light,
-                );
-            }
-        }
-    }
-    b.build()
 }

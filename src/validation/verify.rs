@@ -228,7 +228,13 @@ pub fn furnace(settings: &Settings) -> Result<Case> {
 pub fn surface_form_factor(out: &Outcome, from: u32, to: u32) -> Option<f64> {
     let p = &out.patches;
     let (mut num, mut den) = (0.0, 0.0);
-    for (i, row) in out.form_factors.as_ref()?.matrix.outer_iterator().enumerate() {
+    for (i, row) in out
+        .form_factors
+        .as_ref()?
+        .matrix
+        .outer_iterator()
+        .enumerate()
+    {
         if p.material[i] != from {
             continue;
         }

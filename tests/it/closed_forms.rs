@@ -122,7 +122,10 @@ fn closed_scenes_are_exact_with_every_estimator() {
         s.form_factors.rays = 128;
         let out = crate::support::run(&scene, &s);
         if estimator != Estimator::Hemisphere {
-            assert!(out.form_factors.as_ref().unwrap().stats.closed_scene, "{estimator:?}");
+            assert!(
+                out.form_factors.as_ref().unwrap().stats.closed_scene,
+                "{estimator:?}"
+            );
         }
         for (i, l) in out.solution.radiance.iter().enumerate() {
             crate::support::assert_rel(&format!("{estimator:?} patch {i}"), l[0], expected, 1e-5);

@@ -78,7 +78,14 @@ fn closed_convex_scene_rows_sum_to_one() {
         &scene,
         &settings(1.0, Estimator::Contour, 4, Method::Neumann, 1),
     );
-    for (i, s) in out.form_factors.as_ref().unwrap().row_sums().iter().enumerate() {
+    for (i, s) in out
+        .form_factors
+        .as_ref()
+        .unwrap()
+        .row_sums()
+        .iter()
+        .enumerate()
+    {
         assert!((s - 1.0).abs() < 1e-5, "row {i} sums to {s}");
     }
 }
@@ -97,7 +104,14 @@ fn sphere_form_factors_converge_to_area_fractions() {
         );
         let total = out.patches.total_area();
         let (mut num, mut den) = (0.0, 0.0);
-        for (i, row) in out.form_factors.as_ref().unwrap().matrix.outer_iterator().enumerate() {
+        for (i, row) in out
+            .form_factors
+            .as_ref()
+            .unwrap()
+            .matrix
+            .outer_iterator()
+            .enumerate()
+        {
             for (j, &f) in row.iter() {
                 let expected = out.patches.area[j] / total;
                 let w = out.patches.area[i] * expected;
@@ -165,7 +179,14 @@ fn hemisphere_rows_sum_to_one_in_closed_scenes_and_never_exceed_it() {
     s.form_factors.rays = 256;
     let out = run(&scene, &s);
     assert!(!out.form_factors.as_ref().unwrap().stats.convex_enclosure);
-    for (i, sum) in out.form_factors.as_ref().unwrap().row_sums().iter().enumerate() {
+    for (i, sum) in out
+        .form_factors
+        .as_ref()
+        .unwrap()
+        .row_sums()
+        .iter()
+        .enumerate()
+    {
         assert!((sum - 1.0).abs() < 1e-5, "row {i} sums to {sum}");
     }
     // In the open Cornell box rows are ≤ 1 (rays escape through the front).
@@ -213,7 +234,10 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
         &settings(1.0, Estimator::Contour, 3, Method::Neumann, 1),
     );
     assert!(skip.form_factors.as_ref().unwrap().stats.convex_enclosure);
-    assert_eq!(skip.form_factors.as_ref().unwrap().stats.occluder_patches, 0);
+    assert_eq!(
+        skip.form_factors.as_ref().unwrap().stats.occluder_patches,
+        0
+    );
     // No visibility ray: only the closure probes (64 per patch) that find the sphere closed.
     let probes = skip.patches.len() as u64 * radiosity::form_factor::CLOSURE_PROBES as u64;
     assert_eq!(skip.form_factors.as_ref().unwrap().stats.rays_cast, probes);
@@ -223,7 +247,10 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
     let cast = run(&sphere, &s);
     assert!(cast.form_factors.as_ref().unwrap().stats.rays_cast > probes);
     // Nothing occludes inside a sphere: the rays change nothing, bit for bit.
-    assert_eq!(skip.form_factors.as_ref().unwrap().matrix, cast.form_factors.as_ref().unwrap().matrix);
+    assert_eq!(
+        skip.form_factors.as_ref().unwrap().matrix,
+        cast.form_factors.as_ref().unwrap().matrix
+    );
     // The same sphere read back from OBJ (tobj parses f32: vertices move by ~1e-7 relative, so
     // facets are no longer exactly coplanar with their neighbours' vertices) is still convex.
     let from_obj = Scene::load(&meshes().join("integrating_sphere.obj")).unwrap();
@@ -263,13 +290,19 @@ fn hull_faces_leave_the_occlusion_tests_without_changing_any_form_factor() {
     let mut full = s;
     full.form_factors.shortcuts.skip_hull = false;
     let traced = run(&cornell, &full);
-    assert_eq!(traced.form_factors.as_ref().unwrap().stats.occluder_patches, p.len() as u64);
+    assert_eq!(
+        traced.form_factors.as_ref().unwrap().stats.occluder_patches,
+        p.len() as u64
+    );
     assert!(skip.form_factors.as_ref().unwrap().stats.occluder_patches < p.len() as u64 / 3);
     assert_eq!(
         skip.form_factors.as_ref().unwrap().stats.rays_cast,
         traced.form_factors.as_ref().unwrap().stats.rays_cast
     );
-    assert_eq!(skip.form_factors.as_ref().unwrap().matrix, traced.form_factors.as_ref().unwrap().matrix);
+    assert_eq!(
+        skip.form_factors.as_ref().unwrap().matrix,
+        traced.form_factors.as_ref().unwrap().matrix
+    );
 }
 
 #[test]
@@ -305,7 +338,8 @@ fn skipping_unneeded_entries_changes_no_radiance() {
             .filter(|&&m| m as usize == green);
         assert_eq!(stats.rows_skipped, green_rows.count() as u64, "{what}");
         assert!(
-            skip.form_factors.as_ref().unwrap().matrix.nnz() < full.form_factors.as_ref().unwrap().matrix.nnz(),
+            skip.form_factors.as_ref().unwrap().matrix.nnz()
+                < full.form_factors.as_ref().unwrap().matrix.nnz(),
             "{what}"
         );
         // A pair of a green patch with another still needs its rays for the other's row;
@@ -350,7 +384,14 @@ fn hemisphere_takes_direct_light_from_the_contour_estimator() {
     let furnace = scenes::furnace_room(0.5, 1.0).unwrap();
     let mut f = settings(0.5, Estimator::Hemisphere, 1, Method::GaussSeidel, 1);
     f.form_factors.rays = 64;
-    assert!(!run(&furnace, &f).form_factors.as_ref().unwrap().stats.exact_direct);
+    assert!(
+        !run(&furnace, &f)
+            .form_factors
+            .as_ref()
+            .unwrap()
+            .stats
+            .exact_direct
+    );
 }
 
 #[test]
@@ -422,7 +463,10 @@ fn far_pairs_integrated_by_the_gauss_rule_agree_with_the_contour_integral() {
     let fast = run(&scene, &s);
     s.form_factors.shortcuts.far_field = false;
     let exact = run(&scene, &s);
-    let (a, b) = (&fast.form_factors.as_ref().unwrap().matrix, &exact.form_factors.as_ref().unwrap().matrix);
+    let (a, b) = (
+        &fast.form_factors.as_ref().unwrap().matrix,
+        &exact.form_factors.as_ref().unwrap().matrix,
+    );
     // Entries above 1e-5 (grazing pairs near zero may appear in one and not the other).
     let mut worst: f64 = 0.0;
     for (i, row) in b.outer_iterator().enumerate() {

@@ -12,6 +12,7 @@
 
 mod closed_forms;
 mod form_factors;
+mod hierarchical;
 mod hostile_geometry;
 mod loaders;
 mod materials;

@@ -61,7 +61,14 @@ pub fn dense_solve(out: &Outcome) -> Vec<Rgb> {
     let mut l = vec![[0.0; 3]; n];
     for c in 0..3 {
         let mut a = DMatrix::<f64>::identity(n, n);
-        for (i, row) in out.form_factors.as_ref().unwrap().matrix.outer_iterator().enumerate() {
+        for (i, row) in out
+            .form_factors
+            .as_ref()
+            .unwrap()
+            .matrix
+            .outer_iterator()
+            .enumerate()
+        {
             for (j, &f) in row.iter() {
                 a[(i, j)] -= out.patches.reflectance[i][c] * f as f64;
             }

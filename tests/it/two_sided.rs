@@ -175,9 +175,17 @@ fn furnace_with_two_sided_walls() {
         let mut s = settings(0.25, estimator, 3, Method::GaussSeidel, 1);
         s.form_factors.rays = 128;
         let out = crate::support::run(&scene, &s);
-        assert!(!out.form_factors.as_ref().unwrap().stats.closed_scene, "{estimator:?}");
+        assert!(
+            !out.form_factors.as_ref().unwrap().stats.closed_scene,
+            "{estimator:?}"
+        );
         assert_eq!(
-            out.form_factors.as_ref().unwrap().stats.patches_partly_hidden, 0,
+            out.form_factors
+                .as_ref()
+                .unwrap()
+                .stats
+                .patches_partly_hidden,
+            0,
             "{estimator:?}"
         );
         let p = &out.patches;
@@ -193,7 +201,14 @@ fn furnace_with_two_sided_walls() {
         assert!(worst <= tolerance, "{estimator:?}: worst {worst:.3e}");
         if estimator == Estimator::Hemisphere {
             // Every inner row is exactly 1; the outer rows are empty.
-            for (i, s) in out.form_factors.as_ref().unwrap().row_sums().into_iter().enumerate() {
+            for (i, s) in out
+                .form_factors
+                .as_ref()
+                .unwrap()
+                .row_sums()
+                .into_iter()
+                .enumerate()
+            {
                 let want = if outer_room(p.source_triangle[i]) {
                     0.0
                 } else {

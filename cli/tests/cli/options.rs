@@ -134,3 +134,70 @@ fn progress_is_hidden_off_a_terminal_and_verbose_adds_detail() {
     assert!(quiet.is_empty(), "{quiet}");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// `--method hierarchical` through the binary: a bake with its own summary and report, the
+/// matrix-only cache refused, bad settings named by their flags, and the generated hall.
+#[test]
+fn hierarchical_method_bakes_and_checks_its_settings() {
+    let dir = temp_dir("hierarchical");
+    let out = dir.join("h.ply");
+    let report = dir.join("h.json");
+    let input = cornell();
+    let o = radiosity(&[
+        "bake",
+        &input,
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        "hierarchical",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains(" links ("), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["method"], "hierarchical");
+    let leaves = json["hierarchical"]["leaves"].as_u64().unwrap();
+    assert!(
+        leaves > 32,
+        "the Cornell box's 32 triangles were refined: {json}"
+    );
+    let p = radiosity::io::ply::read(&out).unwrap();
+    assert_eq!(p.faces.len() as u64, json["patches"].as_u64().unwrap());
+
+    for (extra, flag) in [
+        (&["--cache", dir.to_str().unwrap()][..], "--cache"),
+        (&["--epsilon", "0"][..], "--epsilon"),
+        (&["--min-area", "2"][..], "--min-area"),
+        (&["--link-rays", "0"][..], "--link-rays"),
+    ] {
+        let mut args = vec![
+            "bake",
+            &input,
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "hierarchical",
+        ];
+        args.extend_from_slice(extra);
+        let o = radiosity(&args);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(flag), "{extra:?}: {}", stderr(&o));
+    }
+
+    let hall = dir.join("hall.obj");
+    let o = radiosity(&[
+        "generate",
+        "hall",
+        "--triangles",
+        "3000",
+        "-o",
+        hall.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let scene = radiosity::scene::Scene::load(&hall).unwrap();
+    assert!(scene.triangles.len() >= 3000, "{}", scene.triangles.len());
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert!(scene.has_emitters());
+}

@@ -84,7 +84,11 @@ fn main() -> Result<()> {
         };
         let path = args.out.join(format!("{s}.md"));
         std::fs::write(&path, format!("{header}{md}"))?;
-        eprintln!("{} written ({:.0} s)", path.display(), t.elapsed().as_secs_f64());
+        eprintln!(
+            "{} written ({:.0} s)",
+            path.display(),
+            t.elapsed().as_secs_f64()
+        );
     }
     Ok(())
 }
@@ -103,7 +107,7 @@ struct ChildResult {
     seconds: f64,
     peak_bytes: u64,
     /// Cornell: largest per-surface relative error against the reference; sphere: the
-    /// one-bounce and all-bounce mean per-patch relative errors; hall: NaN.
+    /// one-bounce and all-bounce mean per-patch relative errors; hall: −1 (none).
     errors: Vec<f64>,
 }
 
@@ -161,14 +165,22 @@ fn child(spec: &str) -> Result<()> {
         };
         let out = pipeline::solve_scene(&scene, &s)?;
         let errors = match radiosity_tools::cornell_reference() {
-            Some(reference) if scene_name == "cornell" => vec![
-                radiosity_tools::max_relative_difference(&surface_means(&scene, &out), &reference),
-            ],
+            Some(reference) if scene_name == "cornell" => {
+                vec![radiosity_tools::max_relative_difference(
+                    &surface_means(&scene, &out),
+                    &reference,
+                )]
+            }
             _ => vec![f64::NAN],
         };
         (out, scene, errors)
     };
     let seconds = t.elapsed().as_secs_f64();
+    // JSON has no NaN: "no error measured" travels as −1.
+    let errors = errors
+        .into_iter()
+        .map(|e| if e.is_nan() { -1.0 } else { e })
+        .collect();
     let h = out.report.hierarchical.clone().unwrap_or_default();
     let res = ChildResult {
         spec: spec.into(),
@@ -195,7 +207,10 @@ fn spawn(spec: &str) -> Result<ChildResult> {
     let exe = std::env::current_exe()?;
     let o = Command::new(exe).args(["--child", spec]).output()?;
     if !o.status.success() {
-        bail!("child {spec} failed: {}", String::from_utf8_lossy(&o.stderr));
+        bail!(
+            "child {spec} failed: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
     }
     let r: ChildResult = serde_json::from_slice(&o.stdout)?;
     eprintln!(
@@ -231,15 +246,16 @@ fn epsilon(args: &Args, text: bool) -> Result<String> {
          | scene | ε | leaves | links | links/leaf | seconds | peak MiB | error | error (all bounces) |\n\
          |---|---|---|---|---|---|---|---|---|\n",
     );
-    let mut csv = String::from("scene,epsilon,leaves,elements,links,seconds,peak_MiB,error,error2\n");
+    let mut csv =
+        String::from("scene,epsilon,leaves,elements,links,seconds,peak_MiB,error,error2\n");
     let mut curves = Vec::new();
     let mut links_curves = Vec::new();
     for (k, scene) in ["cornell", "sphere"].into_iter().enumerate() {
-        let mut points = vec![Vec::new(), Vec::new()];
+        let mut points = [Vec::new(), Vec::new()];
         let mut lp = Vec::new();
         for &e in &eps {
             let r = spawn(&format!("{scene}:hierarchical:{e}:{SWEEP_MIN_AREA}"))?;
-            let e2 = r.errors.get(1).copied().unwrap_or(f64::NAN);
+            let e2 = r.errors.get(1).copied().unwrap_or(f64::NAN).max(f64::NAN);
             writeln!(
                 md,
                 "| {scene} | {e:.0e} | {} | {} | {:.1} | {:.2} | {:.0} | {:.2e} | {} |",
@@ -249,7 +265,11 @@ fn epsilon(args: &Args, text: bool) -> Result<String> {
                 r.seconds,
                 mib(r.peak_bytes),
                 r.errors[0],
-                if e2.is_nan() { "–".to_string() } else { format!("{e2:.2e}") }
+                if e2.is_nan() {
+                    "–".to_string()
+                } else {
+                    format!("{e2:.2e}")
+                }
             )?;
             writeln!(
                 csv,
@@ -281,7 +301,10 @@ fn epsilon(args: &Args, text: bool) -> Result<String> {
             });
         }
         if let Some((p, r2)) = fit_order(&lp) {
-            writeln!(md, "\n{scene}: links ∝ elements^{p:.2} (r² = {r2:.3}) over the sweep.\n")?;
+            writeln!(
+                md,
+                "\n{scene}: links ∝ elements^{p:.2} (r² = {r2:.3}) over the sweep.\n"
+            )?;
         }
         links_curves.push(Curve {
             label: scene.into(),
@@ -348,7 +371,11 @@ fn equal_time(args: &Args, text: bool) -> Result<String> {
         writeln!(
             md,
             "| matrix | max edge {} | {} | {} | {:.2} | {:.0} | {:.2e} |",
-            if m == 0.0 { "default".to_string() } else { format!("{m}") },
+            if m == 0.0 {
+                "default".to_string()
+            } else {
+                format!("{m}")
+            },
             r.patches,
             r.links,
             r.seconds,
@@ -433,7 +460,9 @@ fn growth(args: &Args) -> Result<String> {
         l_points.push((r.leaves as f64, r.links as f64));
     }
     std::fs::write(args.out.join("growth.csv"), csv)?;
-    let fit = |p: &[(f64, f64)]| fit_order(p).map_or("–".to_string(), |(p, r2)| format!("{p:.2} (r² {r2:.3})"));
+    let fit = |p: &[(f64, f64)]| {
+        fit_order(p).map_or("–".to_string(), |(p, r2)| format!("{p:.2} (r² {r2:.3})"))
+    };
     writeln!(
         md,
         "\nFitted over the sizes: time ∝ leaves^{}, peak memory ∝ leaves^{}, links ∝ leaves^{}.",
@@ -450,8 +479,14 @@ fn targets(args: &Args) -> Result<String> {
         "| target | run | leaves | links | seconds | peak MiB | error |\n|---|---|---|---|---|---|---|\n",
     );
     let runs = [
-        ("Cornell box, ≥ 100,000 leaves: < 30 s, < 1 GiB, surfaces within 0.5 %", "cornell:hierarchical:3e-6:2e-6"),
-        ("1,000,000 triangles with area lights: < 10 min, < 4 GiB", "hall-1000000:hierarchical:1e-4:1e-7"),
+        (
+            "Cornell box, ≥ 100,000 leaves: < 30 s, < 1 GiB, surfaces within 0.5 %",
+            "cornell:hierarchical:3e-6:2e-6",
+        ),
+        (
+            "1,000,000 triangles with area lights: < 10 min, < 4 GiB",
+            "hall-1000000:hierarchical:1e-4:1e-7",
+        ),
     ];
     for (target, spec) in runs {
         let r = spawn(spec)?;

@@ -53,7 +53,11 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "occluder_patches {} of {}",
-            on.form_factors.as_ref().expect("matrix method").stats.occluder_patches,
+            on.form_factors
+                .as_ref()
+                .expect("matrix method")
+                .stats
+                .occluder_patches,
             on.patches.len()
         ),
         same: same_radiance(&on, &off),
@@ -72,9 +76,21 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "convex_enclosure {}, rays {:.2e} → {:.2e}",
-            on.form_factors.as_ref().expect("matrix method").stats.convex_enclosure,
-            off.form_factors.as_ref().expect("matrix method").stats.rays_cast as f64,
-            on.form_factors.as_ref().expect("matrix method").stats.rays_cast as f64
+            on.form_factors
+                .as_ref()
+                .expect("matrix method")
+                .stats
+                .convex_enclosure,
+            off.form_factors
+                .as_ref()
+                .expect("matrix method")
+                .stats
+                .rays_cast as f64,
+            on.form_factors
+                .as_ref()
+                .expect("matrix method")
+                .stats
+                .rays_cast as f64
         ),
         same: same_radiance(&on, &off),
     });
@@ -88,7 +104,12 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "pairs_culled {} of {}",
-            on.form_factors.as_ref().expect("matrix method").stats.pairs_culled, on.form_factors.as_ref().expect("matrix method").stats.pairs
+            on.form_factors
+                .as_ref()
+                .expect("matrix method")
+                .stats
+                .pairs_culled,
+            on.form_factors.as_ref().expect("matrix method").stats.pairs
         ),
         same: same_radiance(&on, &off),
     });
@@ -106,7 +127,14 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         scene: "Cornell box, red and green walls black",
         before: t_off,
         after: t_on,
-        counter: format!("rows_skipped {}", on.form_factors.as_ref().expect("matrix method").stats.rows_skipped),
+        counter: format!(
+            "rows_skipped {}",
+            on.form_factors
+                .as_ref()
+                .expect("matrix method")
+                .stats
+                .rows_skipped
+        ),
         same: same_radiance(&on, &off),
     });
     // 5. One bounce: only the emitters' columns.
@@ -122,7 +150,12 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "pairs_skipped {} of {}",
-            on.form_factors.as_ref().expect("matrix method").stats.pairs_skipped, on.form_factors.as_ref().expect("matrix method").stats.pairs
+            on.form_factors
+                .as_ref()
+                .expect("matrix method")
+                .stats
+                .pairs_skipped,
+            on.form_factors.as_ref().expect("matrix method").stats.pairs
         ),
         same: same_radiance(&on, &off),
     });
@@ -151,7 +184,11 @@ pub(super) fn skips(args: &Args) -> Result<String> {
         after: t_on,
         counter: format!(
             "pairs_reused {} (last round)",
-            on.form_factors.as_ref().expect("matrix method").stats.pairs_reused
+            on.form_factors
+                .as_ref()
+                .expect("matrix method")
+                .stats
+                .pairs_reused
         ),
         same: format!(
             "per-surface means within {:.1e} of each other (other sample pairings, so other \

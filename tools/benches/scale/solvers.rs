@@ -15,7 +15,13 @@ pub(super) fn solvers(args: &Args) -> Result<String> {
     s.form_factors.shortcuts.skip_unneeded = false;
     let (out, _) = run(&scene, &s)?;
     let n = out.patches.len();
-    let max_row = out.form_factors.as_ref().expect("matrix method").row_sums().into_iter().fold(0.0, f64::max);
+    let max_row = out
+        .form_factors
+        .as_ref()
+        .expect("matrix method")
+        .row_sums()
+        .into_iter()
+        .fold(0.0, f64::max);
     // Only the room's ceiling emits: with uniform emission the furnace's answer is a multiple
     // of Le, which conjugate gradient finds in one step; a lit ceiling exercises the spectrum.
     let emission: Vec<[f64; 3]> = out
