@@ -481,7 +481,7 @@ fn targets(args: &Args) -> Result<String> {
     let runs = [
         (
             "Cornell box, ≥ 100,000 leaves: < 30 s, < 1 GiB, surfaces within 0.5 %",
-            "cornell:hierarchical:3e-6:2e-6",
+            "cornell:hierarchical:1e-6:1e-7",
         ),
         (
             "1,000,000 triangles with area lights: < 10 min, < 4 GiB",
