@@ -141,7 +141,7 @@ pub struct Stats {
     pub min_area_absolute: f64,
 }
 
-/// The result of [`solve`].
+/// The result of [`solve()`].
 pub struct Hierarchical {
     /// The output patches: leaves, triangulated conformingly.
     pub patches: Patches,
