@@ -5,6 +5,8 @@
 
 use std::f64::consts::PI;
 
+use glam::DVec3;
+
 use super::tree::{Node, Tree};
 use crate::form_factor::kernel::{point_to_point, point_to_polygon};
 use crate::form_factor::sampling::{gauss_rule, Rng};
@@ -109,51 +111,45 @@ pub fn estimate(
         }
     }
 
-    // Unoccluded form factor of each sample.
-    let mut unoccluded = vec![0.0; rays];
+    let points: Vec<(DVec3, DVec3)> = (0..rays)
+        .map(|k| (tree.point(xs[k].0, xs[k].1), tree.point(ys[k].0, ys[k].1)))
+        .collect();
+    // Unoccluded form factor of each sample, times its weight.
     let element_pair = receiver.as_element().zip(source.as_element());
-    if let Some((r, s)) = element_pair {
-        let poly = tree.corners(s);
-        let (s0, ns) = (poly[0], tree.elements[s].normal);
-        for (k, &(_, b)) in xs.iter().enumerate() {
-            let x = tree.point(r, b);
-            if (x - s0).dot(ns) <= 0.0 {
-                continue; // x is behind the source: it sees the source's back
-            }
-            unoccluded[k] = point_to_polygon(x, tree.surface_normal(r, b), &poly);
-        }
-    } else {
-        // A_s · G(x, y) for y ∝ area on the source: an unbiased estimate of F_rs.
-        let a_s = tree.area(source);
-        for k in 0..rays {
-            let ((er, br), (es, bs)) = (xs[k], ys[k]);
-            let (x, y) = (tree.point(er, br), tree.point(es, bs));
-            unoccluded[k] =
-                a_s * point_to_point(x, tree.surface_normal(er, br), y, tree.elements[es].normal);
-        }
-    }
+    let a_s = tree.area(source);
+    let unoccluded: Vec<f64> = (0..rays)
+        .map(|k| {
+            let ((er, br), (es, _)) = (xs[k], ys[k]);
+            let (x, y) = points[k];
+            weights[k]
+                * match element_pair {
+                    Some((_, s)) => point_form_factor(tree, x, tree.surface_normal(er, br), s),
+                    // A_s · G(x, y) for y ∝ area on the source: an unbiased estimate of F_rs.
+                    None => {
+                        a_s * point_to_point(
+                            x,
+                            tree.surface_normal(er, br),
+                            y,
+                            tree.elements[es].normal,
+                        )
+                    }
+                }
+        })
+        .collect();
+    let f_unoccluded: f64 = unoccluded.iter().sum();
     let mut f = 0.0;
-    let mut f_unoccluded = 0.0;
-    let mut blocked = 0;
     let mut cast = 0;
     for k in 0..rays {
-        unoccluded[k] *= weights[k];
-        f_unoccluded += unoccluded[k];
         if unoccluded[k] == 0.0 {
             continue;
         }
-        let (er, br) = xs[k];
-        let (es, bs) = ys[k];
-        let (x, y) = (tree.point(er, br), tree.point(es, bs));
+        let ((er, _), (es, _)) = (xs[k], ys[k]);
+        let (x, y) = points[k];
         cast += 1;
-        let ignore = [tree.elements[er].root, tree.elements[es].root];
-        if vis.occluded(x, y, ignore) {
-            blocked += 1;
-        } else {
+        if !vis.occluded(x, y, [tree.elements[er].root, tree.elements[es].root]) {
             f += unoccluded[k];
         }
     }
-    let _ = blocked;
     // The oracle's form factor must not depend on the samples of `f`: keeping the links whose
     // random estimate happened to be low and refining the others would bias the kept sum
     // low (measured: row sums of a closed box 0.98 instead of 1).
@@ -185,11 +181,21 @@ pub fn estimate(
     }
 }
 
+/// The unoccluded form factor from the point `x` with unit normal `n` to element `s`
+/// (Lambert's contour integral, [`point_to_polygon`]); 0 when `x` is behind `s` (it would see
+/// the back of a one-sided surface).
+fn point_form_factor(tree: &Tree, x: DVec3, n: DVec3, s: usize) -> f64 {
+    let poly = tree.corners(s);
+    if (x - poly[0]).dot(tree.elements[s].normal) <= 0.0 {
+        0.0
+    } else {
+        point_to_polygon(x, n, &poly)
+    }
+}
+
 /// The largest unoccluded point-to-polygon form factor from the corners and the centroid of
 /// element `r` to element `s`: a deterministic stand-in for the largest F over `r`.
 fn largest_point_form_factor(tree: &Tree, r: usize, s: usize) -> f64 {
-    let poly = tree.corners(s);
-    let (s0, ns) = (poly[0], tree.elements[s].normal);
     let third = 1.0 / 3.0;
     [
         [1.0, 0.0, 0.0],
@@ -198,14 +204,7 @@ fn largest_point_form_factor(tree: &Tree, r: usize, s: usize) -> f64 {
         [third, third, third],
     ]
     .into_iter()
-    .map(|b| {
-        let x = tree.point(r, b);
-        if (x - s0).dot(ns) <= 0.0 {
-            0.0
-        } else {
-            point_to_polygon(x, tree.surface_normal(r, b), &poly)
-        }
-    })
+    .map(|b| point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s))
     .fold(0.0, f64::max)
 }
 

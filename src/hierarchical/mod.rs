@@ -41,7 +41,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::Rgb;
-use crate::form_factor::{hemisphere, is_hidden, occluders, CLOSURE_PROBES};
+use crate::form_factor::{is_closed, is_hidden, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
 use crate::solve;
 use crate::visibility::Visibility;
@@ -221,21 +221,18 @@ pub fn solve(
     }
     // The final solve on the final links: from L = Le, N sweeps for Neumann (exactly the
     // Neumann partial sum), else to the tolerance.
-    let (converged, iterations) = if emitted == 0.0 {
-        (true, 0)
+    let converged = if emitted == 0.0 {
+        true
     } else if solver.method == solve::Method::Neumann {
         h.reset();
         history.clear();
         for _ in 0..solver.bounces {
             history.push(h.sweep());
         }
-        (true, solver.bounces)
+        true
     } else {
-        let before = h.stats.sweeps;
-        let ok = h.converge(solver, &mut history);
-        (ok, h.stats.sweeps - before)
+        h.converge(solver, &mut history)
     };
-    let _ = iterations;
     let output::Leaves {
         patches,
         radiance,
@@ -283,7 +280,10 @@ pub fn solve(
 /// The solver's state: the hierarchies, the links, and the radiance of every node.
 pub struct Hierarchy<'a> {
     pub tree: Tree,
+    /// The links, sorted by receiver; set through `set_links`.
     pub links: Vec<Link>,
+    /// Where each receiver's run of `links` starts, and `links.len()` last.
+    receiver_starts: Vec<usize>,
     roots: &'a Patches,
     vis: Visibility,
     occluders: Visibility,
@@ -314,6 +314,7 @@ impl<'a> Hierarchy<'a> {
             cluster_l: Vec::new(),
             tree,
             links: Vec::new(),
+            receiver_starts: vec![0],
             roots,
             vis,
             occluders,
@@ -353,7 +354,7 @@ impl<'a> Hierarchy<'a> {
     /// The root's self-link, and the closure test.
     fn start(&mut self) {
         let root = self.tree.root().expect("a root");
-        self.links = match root.as_cluster() {
+        self.set_links(match root.as_cluster() {
             Some(_) => vec![Link {
                 receiver: root,
                 source: root,
@@ -362,14 +363,12 @@ impl<'a> Hierarchy<'a> {
                 must_open: true,
             }],
             None => Vec::new(),
-        };
+        });
         // Closure: as the matrix estimators do (form_factor::compute), probe rays from every
         // root; if none escapes, the scene is closed and rows are normalised.
         let n = self.roots.len();
         let probes = (4_000_000 / n.max(1)).clamp(4, CLOSURE_PROBES as usize) as u32;
-        let closed = (0..n).into_par_iter().all(|i| {
-            hemisphere::row(self.roots, &self.vis, i, probes, self.seed ^ 0xC105ED).escaped == 0
-        });
+        let closed = is_closed(self.roots, &self.vis, probes, self.seed);
         self.stats.rays_cast += n as u64 * probes as u64;
         self.stats.closed_scene = closed;
     }
@@ -464,8 +463,7 @@ impl<'a> Hierarchy<'a> {
             self.stats.rays_cast += e.rays;
             kept.extend(e.link);
         }
-        kept.par_sort_unstable_by_key(|l| (l.receiver, l.source));
-        self.links = kept;
+        self.set_links(kept);
         // New elements start at their parent's radiance (so the oracle sees light there).
         let n_old = self.elem_l.len();
         for e in n_old..self.tree.elements.len() {
@@ -478,16 +476,24 @@ impl<'a> Hierarchy<'a> {
         true
     }
 
-    /// Σ F over each node's own links (per channel when `l` is given: Σ F·L).
-    fn gather(&self, with_radiance: bool) -> (Vec<Rgb>, Vec<Rgb>) {
-        let mut starts = Vec::new();
-        for (i, l) in self.links.iter().enumerate() {
-            if i == 0 || self.links[i - 1].receiver != l.receiver {
-                starts.push(i);
+    /// Replaces the links, sorted by receiver (then source), and finds each receiver's run.
+    fn set_links(&mut self, mut links: Vec<Link>) {
+        links.par_sort_unstable_by_key(|l| (l.receiver, l.source));
+        self.receiver_starts.clear();
+        for (i, l) in links.iter().enumerate() {
+            if i == 0 || links[i - 1].receiver != l.receiver {
+                self.receiver_starts.push(i);
             }
         }
-        starts.push(self.links.len());
-        let sums: Vec<(Node, Rgb)> = starts
+        self.receiver_starts.push(links.len());
+        self.links = links;
+    }
+
+    /// What each node gathers over its own links: Σ F·L per channel (`with_radiance`), or
+    /// Σ F in every channel.
+    fn gather(&self, with_radiance: bool) -> (Vec<Rgb>, Vec<Rgb>) {
+        let sums: Vec<(Node, Rgb)> = self
+            .receiver_starts
             .par_windows(2)
             .map(|w| {
                 let mut g = [0.0; 3];
