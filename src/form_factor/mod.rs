@@ -198,6 +198,14 @@ impl FormFactors {
     }
 }
 
+/// Whether the scene is closed, as far as `probes` cosine-weighted rays from every patch tell:
+/// none escapes the scene or meets the back of a surface. Stops at the first escape.
+pub fn is_closed(patches: &Patches, vis: &Visibility, probes: u32, seed: u64) -> bool {
+    (0..patches.len())
+        .into_par_iter()
+        .all(|i| hemisphere::row(patches, vis, i, probes, seed ^ 0xC105ED).escaped == 0)
+}
+
 /// Estimate every F_ij of the patches, casting visibility rays through `vis` (built over the
 /// patch triangles, triangle index = patch index). Rows are computed in parallel; the result
 /// is deterministic for a given seed whatever the thread count.
@@ -235,10 +243,7 @@ pub fn compute_reusing(
     // escaping probe anywhere and nothing is changed.
     let normalise = pair_estimator
         && settings.shortcuts.normalise_closed
-        && (0..n).into_par_iter().all(|i| {
-            let probe = hemisphere::row(patches, vis, i, CLOSURE_PROBES, settings.seed ^ 0xC105ED);
-            probe.escaped == 0
-        });
+        && is_closed(patches, vis, CLOSURE_PROBES, settings.seed);
     if pair_estimator && settings.shortcuts.normalise_closed {
         stats.rays_cast += n as u64 * CLOSURE_PROBES as u64;
         stats.closed_scene = normalise;

@@ -146,12 +146,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     }
     report.patches = patches.len();
 
-    // Bake.
-    let t = Instant::now();
-    let mut baked = bake::bake(&patches, &solution.radiance, settings.crease_degrees);
-    baked.camera = scene.camera;
-    report.vertices = baked.positions.len();
-    report.seconds.bake = t.elapsed().as_secs_f64();
+    let baked = bake_stage(scene, &patches, &solution.radiance, settings, &mut report);
     Ok(Outcome {
         patches,
         visible_fraction: form_factors.visible_fraction.clone(),
@@ -182,9 +177,7 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
         settings.form_factors.seed,
     )?;
     if !scene.has_emitters() {
-        report
-            .warnings
-            .push("no emitters in the scene (no material has Ke > 0): the result is black".into());
+        report.warn_no_emitters();
     }
     report.warnings.extend(h.warnings);
     report.seconds.solve = t.elapsed().as_secs_f64();
@@ -196,11 +189,7 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     crate::progress::note(|| report::hierarchical_note(&h.stats, &h.solution));
     report.hierarchical = Some(h.stats);
 
-    let t = Instant::now();
-    let mut baked = bake::bake(&h.patches, &h.radiance, settings.crease_degrees);
-    baked.camera = scene.camera;
-    report.vertices = baked.positions.len();
-    report.seconds.bake = t.elapsed().as_secs_f64();
+    let baked = bake_stage(scene, &h.patches, &h.radiance, settings, &mut report);
     Ok(Outcome {
         patches: h.patches,
         visible_fraction: h.visible_fraction,
@@ -209,6 +198,23 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
         baked,
         report,
     })
+}
+
+/// Bake: patch radiance → the output mesh's vertices, with the scene's camera; fills the
+/// report's vertex count and bake seconds.
+fn bake_stage(
+    scene: &Scene,
+    patches: &Patches,
+    radiance: &[crate::Rgb],
+    settings: &Settings,
+    report: &mut Report,
+) -> BakedMesh {
+    let t = Instant::now();
+    let mut baked = bake::bake(patches, radiance, settings.crease_degrees);
+    baked.camera = scene.camera;
+    report.vertices = baked.positions.len();
+    report.seconds.bake = t.elapsed().as_secs_f64();
+    baked
 }
 
 /// BVH → form factors → matrix → solve for `patches`: fills the report's counters and adds
@@ -224,10 +230,7 @@ fn light_transport(
         form_factors(patches, settings, reuse, report)?
     } else {
         // Without emitters L = 0 whatever F is: skip the BVH and the form factors.
-        let warning = "no emitters in the scene (no material has Ke > 0): the result is black";
-        if !report.warnings.iter().any(|w| w == warning) {
-            report.warnings.push(warning.into());
-        }
+        report.warn_no_emitters();
         FormFactors::empty(patches.len())
     };
     report.form_factors = form_factors.stats.clone();

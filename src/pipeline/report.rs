@@ -115,6 +115,14 @@ impl Report {
         }
     }
 
+    /// Warns, once, that the scene has no emitters (L = 0 whatever else).
+    pub fn warn_no_emitters(&mut self) {
+        let warning = "no emitters in the scene (no material has Ke > 0): the result is black";
+        if !self.warnings.iter().any(|w| w == warning) {
+            self.warnings.push(warning.into());
+        }
+    }
+
     /// The one-line summary printed to stderr.
     pub fn summary(&self) -> String {
         if let Some(h) = &self.hierarchical {
