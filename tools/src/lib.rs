@@ -337,6 +337,51 @@ pub fn chart(
         .with_context(|| format!("writing {}", path.display()))
 }
 
+/// Runs each named section (`run` returns its Markdown) and writes it to `out/SECTION.md`,
+/// headed by the date and machine; says on stderr what it is doing and how long it took.
+pub fn write_sections(
+    out: &Path,
+    sections: &[String],
+    mut run: impl FnMut(&str) -> Result<String>,
+) -> Result<()> {
+    std::fs::create_dir_all(out)?;
+    let header = format!("Measured {} on {}.\n\n", utc_date(), machine());
+    for s in sections {
+        let t = std::time::Instant::now();
+        eprintln!("== {s}");
+        let md = run(s)?;
+        let path = out.join(format!("{s}.md"));
+        std::fs::write(&path, format!("{header}{md}"))?;
+        eprintln!(
+            "{} written ({:.0} s)",
+            path.display(),
+            t.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+/// Runs this harness again as `HARNESS --child SPEC` (one run in a process of its own, so its
+/// peak memory is its own) and reads the JSON it prints on stdout.
+pub fn run_child<T: serde::de::DeserializeOwned>(spec: &str) -> Result<T> {
+    let exe = std::env::current_exe()?;
+    let o = std::process::Command::new(exe)
+        .args(["--child", spec])
+        .output()?;
+    if !o.status.success() {
+        anyhow::bail!(
+            "child {spec} failed: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    serde_json::from_slice(&o.stdout).with_context(|| format!("child {spec}: its JSON"))
+}
+
+/// Bytes in MiB.
+pub fn mib(bytes: u64) -> f64 {
+    bytes as f64 / (1u64 << 20) as f64
+}
+
 /// Visible-area mean radiance per surface ([`path_tracer::solution_means`]) of a solved scene.
 pub fn surface_means(scene: &Scene, out: &Outcome) -> Vec<[f64; 3]> {
     path_tracer::solution_means(

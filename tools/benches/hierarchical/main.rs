@@ -18,7 +18,6 @@
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
@@ -26,8 +25,8 @@ use radiosity::pipeline::{self, Method};
 use radiosity::scene::Scene;
 use radiosity::validation::{scenes, verify};
 use radiosity_tools::{
-    chart, fit_order, harness_args, load_font, machine, surface_means, unknown_argument, utc_date,
-    Curve,
+    chart, fit_order, harness_args, load_font, mib, surface_means, unknown_argument,
+    write_sections, Curve,
 };
 
 struct Args {
@@ -69,28 +68,14 @@ fn parse_args() -> Result<Args> {
 
 fn main() -> Result<()> {
     let args = parse_args()?;
-    std::fs::create_dir_all(&args.out)?;
     let text = load_font();
-    let header = format!("Measured {} on {}.\n\n", utc_date(), machine());
-    for s in &args.sections {
-        let t = Instant::now();
-        eprintln!("== {s}");
-        let md = match s.as_str() {
-            "epsilon" => epsilon(&args, text)?,
-            "equal-time" => equal_time(&args, text)?,
-            "growth" => growth(&args)?,
-            "targets" => targets(&args)?,
-            _ => unreachable!(),
-        };
-        let path = args.out.join(format!("{s}.md"));
-        std::fs::write(&path, format!("{header}{md}"))?;
-        eprintln!(
-            "{} written ({:.0} s)",
-            path.display(),
-            t.elapsed().as_secs_f64()
-        );
-    }
-    Ok(())
+    write_sections(&args.out, &args.sections, |s| match s {
+        "epsilon" => epsilon(&args, text),
+        "equal-time" => equal_time(&args, text),
+        "growth" => growth(&args),
+        "targets" => targets(&args),
+        _ => unreachable!(),
+    })
 }
 
 /// What a child run reports.
@@ -204,15 +189,7 @@ fn child(spec: &str) -> Result<()> {
 }
 
 fn spawn(spec: &str) -> Result<ChildResult> {
-    let exe = std::env::current_exe()?;
-    let o = Command::new(exe).args(["--child", spec]).output()?;
-    if !o.status.success() {
-        bail!(
-            "child {spec} failed: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-    }
-    let r: ChildResult = serde_json::from_slice(&o.stdout)?;
+    let r: ChildResult = radiosity_tools::run_child(spec)?;
     eprintln!(
         "  {spec}: {} leaves, {} links, {:.2} s, {:.0} MiB, errors {:?}",
         r.leaves,
@@ -222,10 +199,6 @@ fn spawn(spec: &str) -> Result<ChildResult> {
         r.errors
     );
     Ok(r)
-}
-
-fn mib(b: u64) -> f64 {
-    b as f64 / (1u64 << 20) as f64
 }
 
 /// The default minimum area of the sweeps: small enough that ε decides.

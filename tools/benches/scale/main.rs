@@ -28,7 +28,7 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use radiosity::form_factor::{self, Estimator};
 use radiosity::pipeline::{self, Outcome};
 use radiosity::scene::Scene;
@@ -45,7 +45,7 @@ mod skips;
 mod solvers;
 
 use radiosity_tools::{
-    chart, fit_order, harness_args, load_font, machine, surface_means, unknown_argument, utc_date,
+    chart, fit_order, harness_args, load_font, surface_means, unknown_argument, write_sections,
     Curve,
 };
 use sizes::surface_difference;
@@ -91,29 +91,15 @@ fn parse_args() -> Result<Args> {
 
 fn main() -> Result<()> {
     let args = parse_args()?;
-    std::fs::create_dir_all(&args.out)?;
-    let header = format!("Measured {} on {}.\n\n", utc_date(), machine());
-    for s in &args.sections {
-        let t = Instant::now();
-        eprintln!("== {s}");
-        let md = match s.as_str() {
-            "skips" => skips::skips(&args)?,
-            "solvers" => solvers::solvers(&args)?,
-            "scale" => sizes::scale(&args)?,
-            "rays" => rays::rays(&args)?,
-            "matvec" => matvec::matvec(&args)?,
-            "reference" => reference::reference(&args)?,
-            _ => unreachable!(),
-        };
-        let path = args.out.join(format!("{s}.md"));
-        std::fs::write(&path, format!("{header}{md}"))?;
-        eprintln!(
-            "{} written ({:.0} s)",
-            path.display(),
-            t.elapsed().as_secs_f64()
-        );
-    }
-    Ok(())
+    write_sections(&args.out, &args.sections, |s| match s {
+        "skips" => skips::skips(&args),
+        "solvers" => solvers::solvers(&args),
+        "scale" => sizes::scale(&args),
+        "rays" => rays::rays(&args),
+        "matvec" => matvec::matvec(&args),
+        "reference" => reference::reference(&args),
+        _ => unreachable!(),
+    })
 }
 
 fn cornell() -> Result<Scene> {

@@ -70,20 +70,12 @@ pub(super) fn surface_error(scene: &Scene, out: &Outcome) -> Option<f64> {
 }
 
 pub(super) fn spawn(spec: &str) -> Result<ChildResult> {
-    let exe = std::env::current_exe()?;
-    let o = Command::new(exe).args(["--child", spec]).output()?;
-    if !o.status.success() {
-        bail!(
-            "child {spec} failed: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-    }
-    let r: ChildResult = serde_json::from_slice(&o.stdout)?;
+    let r: ChildResult = radiosity_tools::run_child(spec)?;
     eprintln!(
         "  {spec}: {} patches, {:.2} s, {:.0} MiB, error {:.2e}",
         r.patches,
         r.total,
-        r.peak_bytes as f64 / (1 << 20) as f64,
+        radiosity_tools::mib(r.peak_bytes),
         r.max_surface_error
     );
     Ok(r)
@@ -112,7 +104,7 @@ pub(super) fn scale(args: &Args) -> Result<String> {
                 r.seconds[2],
                 r.seconds[3],
                 r.total,
-                r.peak_bytes as f64 / (1 << 20) as f64,
+                radiosity_tools::mib(r.peak_bytes),
                 r.max_surface_error
             )?;
             writeln!(
@@ -125,7 +117,7 @@ pub(super) fn scale(args: &Args) -> Result<String> {
                 r.seconds[2],
                 r.seconds[3],
                 r.total,
-                r.peak_bytes as f64 / (1 << 20) as f64,
+                radiosity_tools::mib(r.peak_bytes),
                 r.peak_bytes as f64 / r.patches as f64,
                 r.max_surface_error
             )?;
