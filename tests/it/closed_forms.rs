@@ -122,10 +122,7 @@ fn closed_scenes_are_exact_with_every_estimator() {
         s.form_factors.rays = 128;
         let out = crate::support::run(&scene, &s);
         if estimator != Estimator::Hemisphere {
-            assert!(
-                out.form_factors.as_ref().unwrap().stats.closed_scene,
-                "{estimator:?}"
-            );
+            assert!(crate::support::ff(&out).stats.closed_scene, "{estimator:?}");
         }
         for (i, l) in out.solution.radiance.iter().enumerate() {
             crate::support::assert_rel(&format!("{estimator:?} patch {i}"), l[0], expected, 1e-5);
@@ -161,7 +158,7 @@ fn sphere_errors(level: u32, crease: f64) -> (f64, f64) {
     let out = crate::support::run(&scene, &s);
     let one = verify::sphere_wall_errors(&out.patches, &out.solution.radiance, rho, Some(1));
     let system = System {
-        form_factors: out.form_factors.as_ref().unwrap(),
+        form_factors: crate::support::ff(&out),
         reflectance: &out.patches.reflectance,
         emission: &out.patches.emission,
     };
@@ -221,7 +218,7 @@ fn cornell_box_defaults_meet_the_accuracy_target_against_the_path_tracer() {
         &scene,
         &out.patches,
         &out.solution.radiance,
-        &out.form_factors.as_ref().unwrap().visible_fraction,
+        &out.visible_fraction,
     );
     for (k, (m, r)) in means.iter().zip(&reference).enumerate() {
         for c in 0..3 {

@@ -13,7 +13,7 @@ use radiosity::solve::Method;
 use radiosity::validation::scenes;
 use radiosity::visibility::Visibility;
 
-use crate::support::{meshes, run, settings};
+use crate::support::{ff, meshes, run, settings};
 
 fn cornell(max_edge: f64, estimator: Estimator) -> Outcome {
     let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
@@ -29,16 +29,14 @@ fn cornell(max_edge: f64, estimator: Estimator) -> Outcome {
 /// visible area A_i v_i (rows describe the part of a patch not buried in contact geometry).
 fn exchange(out: &Outcome, a: u32, b: u32) -> f64 {
     let p = &out.patches;
-    out.form_factors
-        .as_ref()
-        .unwrap()
+    ff(out)
         .matrix
         .outer_iterator()
         .enumerate()
         .filter(|(i, _)| p.material[*i] == a)
         .map(|(i, row)| {
             p.area[i]
-                * out.form_factors.as_ref().unwrap().visible_fraction[i]
+                * out.visible_fraction[i]
                 * row
                     .iter()
                     .filter(|(j, _)| p.material[*j] == b)
@@ -62,9 +60,9 @@ fn row_sums_never_exceed_one() {
         } else {
             1e-2
         };
-        out.form_factors.as_ref().unwrap().validate(tol).unwrap();
+        ff(&out).validate(tol).unwrap();
         // The Cornell box is closed except its open front: rows < 1 on average.
-        assert!(out.form_factors.as_ref().unwrap().stats.row_sum_mean < 1.0);
+        assert!(ff(&out).stats.row_sum_mean < 1.0);
     }
 }
 
@@ -78,14 +76,7 @@ fn closed_convex_scene_rows_sum_to_one() {
         &scene,
         &settings(1.0, Estimator::Contour, 4, Method::Neumann, 1),
     );
-    for (i, s) in out
-        .form_factors
-        .as_ref()
-        .unwrap()
-        .row_sums()
-        .iter()
-        .enumerate()
-    {
+    for (i, s) in ff(&out).row_sums().iter().enumerate() {
         assert!((s - 1.0).abs() < 1e-5, "row {i} sums to {s}");
     }
 }
@@ -104,14 +95,7 @@ fn sphere_form_factors_converge_to_area_fractions() {
         );
         let total = out.patches.total_area();
         let (mut num, mut den) = (0.0, 0.0);
-        for (i, row) in out
-            .form_factors
-            .as_ref()
-            .unwrap()
-            .matrix
-            .outer_iterator()
-            .enumerate()
-        {
+        for (i, row) in ff(&out).matrix.outer_iterator().enumerate() {
             for (j, &f) in row.iter() {
                 let expected = out.patches.area[j] / total;
                 let w = out.patches.area[i] * expected;
@@ -140,7 +124,7 @@ fn closed_occluded_scene_rows_sum_to_one_within_visibility_error() {
         &scene,
         &settings(0.2, Estimator::Contour, 16, Method::Neumann, 1),
     );
-    let sums = out.form_factors.as_ref().unwrap().row_sums();
+    let sums = ff(&out).row_sums();
     let mean_dev = sums.iter().map(|s| (s - 1.0).abs()).sum::<f64>() / sums.len() as f64;
     let worst = sums.iter().map(|s| (s - 1.0).abs()).fold(0.0, f64::max);
     assert!(mean_dev < 0.01, "mean |1 − row sum| = {mean_dev}");
@@ -178,23 +162,16 @@ fn hemisphere_rows_sum_to_one_in_closed_scenes_and_never_exceed_it() {
     let mut s = settings(0.2, Estimator::Hemisphere, 1, Method::Neumann, 1);
     s.form_factors.rays = 256;
     let out = run(&scene, &s);
-    assert!(!out.form_factors.as_ref().unwrap().stats.convex_enclosure);
-    for (i, sum) in out
-        .form_factors
-        .as_ref()
-        .unwrap()
-        .row_sums()
-        .iter()
-        .enumerate()
-    {
+    assert!(!ff(&out).stats.convex_enclosure);
+    for (i, sum) in ff(&out).row_sums().iter().enumerate() {
         assert!((sum - 1.0).abs() < 1e-5, "row {i} sums to {sum}");
     }
     // In the open Cornell box rows are ≤ 1 (rays escape through the front).
     let cornell = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
     s.max_edge = Some(100.0);
     let out = run(&cornell, &s);
-    out.form_factors.as_ref().unwrap().validate(1e-5).unwrap();
-    assert!(out.form_factors.as_ref().unwrap().stats.row_sum_mean < 0.99);
+    ff(&out).validate(1e-5).unwrap();
+    assert!(ff(&out).stats.row_sum_mean < 0.99);
 }
 
 #[test]
@@ -204,7 +181,7 @@ fn reciprocity_enforcement_is_exact_and_keeps_the_answer() {
     s.form_factors.rays = 512;
     s.form_factors.reciprocity = true;
     let out = run(&scene, &s);
-    let f = &out.form_factors.as_ref().unwrap().matrix;
+    let f = &ff(&out).matrix;
     let a = &out.patches.area;
     for (i, row) in f.outer_iterator().enumerate() {
         for (j, &fij) in row.iter() {
@@ -218,7 +195,7 @@ fn reciprocity_enforcement_is_exact_and_keeps_the_answer() {
         }
     }
     // Rows still sum to 1 on average (the average of two estimates that each sum to 1).
-    let sums = out.form_factors.as_ref().unwrap().row_sums();
+    let sums = ff(&out).row_sums();
     let mean = sums.iter().zip(a).map(|(s, a)| s * a).sum::<f64>() / a.iter().sum::<f64>();
     assert!(
         (mean - 1.0).abs() < 1e-6,
@@ -233,24 +210,18 @@ fn convex_enclosures_skip_rays_and_give_the_same_form_factors() {
         &sphere,
         &settings(1.0, Estimator::Contour, 3, Method::Neumann, 1),
     );
-    assert!(skip.form_factors.as_ref().unwrap().stats.convex_enclosure);
-    assert_eq!(
-        skip.form_factors.as_ref().unwrap().stats.occluder_patches,
-        0
-    );
+    assert!(ff(&skip).stats.convex_enclosure);
+    assert_eq!(ff(&skip).stats.occluder_patches, 0);
     // No visibility ray: only the closure probes (64 per patch) that find the sphere closed.
     let probes = skip.patches.len() as u64 * radiosity::form_factor::CLOSURE_PROBES as u64;
-    assert_eq!(skip.form_factors.as_ref().unwrap().stats.rays_cast, probes);
-    assert!(skip.form_factors.as_ref().unwrap().stats.closed_scene);
+    assert_eq!(ff(&skip).stats.rays_cast, probes);
+    assert!(ff(&skip).stats.closed_scene);
     let mut s = settings(1.0, Estimator::Contour, 3, Method::Neumann, 1);
     s.form_factors.shortcuts.skip_hull = false;
     let cast = run(&sphere, &s);
-    assert!(cast.form_factors.as_ref().unwrap().stats.rays_cast > probes);
+    assert!(ff(&cast).stats.rays_cast > probes);
     // Nothing occludes inside a sphere: the rays change nothing, bit for bit.
-    assert_eq!(
-        skip.form_factors.as_ref().unwrap().matrix,
-        cast.form_factors.as_ref().unwrap().matrix
-    );
+    assert_eq!(ff(&skip).matrix, ff(&cast).matrix);
     // The same sphere read back from OBJ (tobj parses f32: vertices move by ~1e-7 relative, so
     // facets are no longer exactly coplanar with their neighbours' vertices) is still convex.
     let from_obj = Scene::load(&meshes().join("integrating_sphere.obj")).unwrap();
@@ -290,19 +261,10 @@ fn hull_faces_leave_the_occlusion_tests_without_changing_any_form_factor() {
     let mut full = s;
     full.form_factors.shortcuts.skip_hull = false;
     let traced = run(&cornell, &full);
-    assert_eq!(
-        traced.form_factors.as_ref().unwrap().stats.occluder_patches,
-        p.len() as u64
-    );
-    assert!(skip.form_factors.as_ref().unwrap().stats.occluder_patches < p.len() as u64 / 3);
-    assert_eq!(
-        skip.form_factors.as_ref().unwrap().stats.rays_cast,
-        traced.form_factors.as_ref().unwrap().stats.rays_cast
-    );
-    assert_eq!(
-        skip.form_factors.as_ref().unwrap().matrix,
-        traced.form_factors.as_ref().unwrap().matrix
-    );
+    assert_eq!(ff(&traced).stats.occluder_patches, p.len() as u64);
+    assert!(ff(&skip).stats.occluder_patches < p.len() as u64 / 3);
+    assert_eq!(ff(&skip).stats.rays_cast, ff(&traced).stats.rays_cast);
+    assert_eq!(ff(&skip).matrix, ff(&traced).matrix);
 }
 
 #[test]
@@ -330,29 +292,19 @@ fn skipping_unneeded_entries_changes_no_radiance() {
         let full = run(&scene, &s);
         let what = format!("{estimator:?} {method:?}");
         assert_eq!(skip.solution.radiance, full.solution.radiance, "{what}");
-        let stats = &skip.form_factors.as_ref().unwrap().stats;
+        let stats = &ff(&skip).stats;
         let green_rows = skip
             .patches
             .material
             .iter()
             .filter(|&&m| m as usize == green);
         assert_eq!(stats.rows_skipped, green_rows.count() as u64, "{what}");
-        assert!(
-            skip.form_factors.as_ref().unwrap().matrix.nnz()
-                < full.form_factors.as_ref().unwrap().matrix.nnz(),
-            "{what}"
-        );
+        assert!(ff(&skip).matrix.nnz() < ff(&full).matrix.nnz(), "{what}");
         // A pair of a green patch with another still needs its rays for the other's row;
         // pairs within the (flat) green wall were culled anyway.
-        assert!(
-            stats.rays_cast <= full.form_factors.as_ref().unwrap().stats.rays_cast,
-            "{what}"
-        );
+        assert!(stats.rays_cast <= ff(&full).stats.rays_cast, "{what}");
         if method == Method::Neumann || estimator == Estimator::Hemisphere {
-            assert!(
-                stats.rays_cast < full.form_factors.as_ref().unwrap().stats.rays_cast,
-                "{what}"
-            );
+            assert!(stats.rays_cast < ff(&full).stats.rays_cast, "{what}");
         }
         if estimator == Estimator::Contour && method == Method::Neumann {
             // Only pairs with the light (or from a green patch to it) are left.
@@ -373,25 +325,18 @@ fn hemisphere_takes_direct_light_from_the_contour_estimator() {
     s.form_factors.estimator = Estimator::Hemisphere;
     s.form_factors.rays = 64;
     let hemi = run(&scene, &s);
-    assert!(hemi.form_factors.as_ref().unwrap().stats.exact_direct);
+    assert!(ff(&hemi).stats.exact_direct);
     assert_eq!(hemi.solution.radiance, contour.solution.radiance);
     // Without it, the light's columns are hit counts: the same on average, not bit for bit.
     s.form_factors.shortcuts.exact_direct = false;
     let shot = run(&scene, &s);
-    assert!(!shot.form_factors.as_ref().unwrap().stats.exact_direct);
+    assert!(!ff(&shot).stats.exact_direct);
     assert_ne!(shot.solution.radiance, contour.solution.radiance);
     // A furnace emits everywhere: nothing to single out, plain shooting.
     let furnace = scenes::furnace_room(0.5, 1.0).unwrap();
     let mut f = settings(0.5, Estimator::Hemisphere, 1, Method::GaussSeidel, 1);
     f.form_factors.rays = 64;
-    assert!(
-        !run(&furnace, &f)
-            .form_factors
-            .as_ref()
-            .unwrap()
-            .stats
-            .exact_direct
-    );
+    assert!(!ff(&run(&furnace, &f)).stats.exact_direct);
 }
 
 #[test]
@@ -463,10 +408,7 @@ fn far_pairs_integrated_by_the_gauss_rule_agree_with_the_contour_integral() {
     let fast = run(&scene, &s);
     s.form_factors.shortcuts.far_field = false;
     let exact = run(&scene, &s);
-    let (a, b) = (
-        &fast.form_factors.as_ref().unwrap().matrix,
-        &exact.form_factors.as_ref().unwrap().matrix,
-    );
+    let (a, b) = (&ff(&fast).matrix, &ff(&exact).matrix);
     // Entries above 1e-5 (grazing pairs near zero may appear in one and not the other).
     let mut worst: f64 = 0.0;
     for (i, row) in b.outer_iterator().enumerate() {
@@ -478,14 +420,7 @@ fn far_pairs_integrated_by_the_gauss_rule_agree_with_the_contour_integral() {
         }
     }
     assert!(worst < 5e-3, "worst entry {worst:.2e}");
-    for (ra, rb) in fast
-        .form_factors
-        .as_ref()
-        .unwrap()
-        .row_sums()
-        .iter()
-        .zip(exact.form_factors.as_ref().unwrap().row_sums())
-    {
+    for (ra, rb) in ff(&fast).row_sums().iter().zip(ff(&exact).row_sums()) {
         assert!((ra - rb).abs() < 1e-4, "{ra} vs {rb}");
     }
 }

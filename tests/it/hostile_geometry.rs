@@ -11,7 +11,7 @@ use radiosity::scene::{Scene, SceneBuilder};
 use radiosity::solve::Method;
 use radiosity::validation::scenes;
 
-use crate::support::{meshes, run, settings};
+use crate::support::{ff, meshes, run, settings};
 
 const ESTIMATORS: [Estimator; 3] = [Estimator::Area, Estimator::Contour, Estimator::Hemisphere];
 
@@ -111,7 +111,7 @@ fn assert_sane(name: &str, scene: &Scene, max_edge: f64) {
         } else {
             1e-5
         };
-        if let Err(e) = out.form_factors.as_ref().unwrap().validate(tol) {
+        if let Err(e) = ff(&out).validate(tol) {
             panic!("{name} {estimator:?}: {e}");
         }
         for (i, l) in out.solution.radiance.iter().enumerate() {

@@ -12,7 +12,7 @@ use radiosity::solve::{self, Method};
 use radiosity::validation::{closed_forms, scenes};
 use radiosity::Error;
 
-use crate::support::{assert_rel, dense_solve, max_rel_diff, run, settings};
+use crate::support::{assert_rel, dense_solve, ff, max_rel_diff, run, settings};
 
 /// A small coloured scene with occlusion and unequal ρ per channel: the furnace room at a
 /// coarse resolution with its material recoloured.
@@ -66,7 +66,7 @@ fn conjugate_gradient_solves_the_symmetric_system_exactly() {
         &settings(0.35, Estimator::Contour, 2, Method::Cg, 0),
     );
     assert!(out.solution.converged && !out.solution.grey);
-    let ff = out.form_factors.as_ref().unwrap();
+    let ff = ff(&out);
     let area: Vec<f64> = (0..ff.len())
         .map(|i| ff.area[i] * ff.visible_fraction[i])
         .collect();
@@ -322,10 +322,7 @@ fn furnace_near_reflectance_one_converges_to_the_closed_form() {
         // bounds ‖L − L*‖₂ ≤ ‖(I − K)⁻¹‖₂ r ‖E‖₂ ≈ r √n Le/(1 − ρ), relative to L* = Le/(1 − ρ):
         // √n r (×10 for the non-normality of K). Doubled for safety; at ρ = 0.999 with
         // δ ≈ 1e-7 this is ≈ 2e-4, so a wrong answer (or a solver stopped early) still fails.
-        let delta = out
-            .form_factors
-            .as_ref()
-            .unwrap()
+        let delta = ff(&out)
             .row_sums()
             .iter()
             .fold(0.0f64, |m, s| m.max((1.0 - s).abs()));

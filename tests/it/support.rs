@@ -49,6 +49,13 @@ pub fn settings(
     }
 }
 
+/// The form factors of a matrix-method run.
+pub fn ff(out: &Outcome) -> &radiosity::form_factor::FormFactors {
+    out.form_factors
+        .as_ref()
+        .expect("a matrix-method run has form factors")
+}
+
 /// Run the pipeline (no file output) and panic with the error's text on failure.
 pub fn run(scene: &Scene, settings: &pipeline::Settings) -> Outcome {
     pipeline::solve_scene(scene, settings).unwrap_or_else(|e| panic!("pipeline failed: {e}"))

@@ -12,7 +12,7 @@ use radiosity::solve::Method;
 use radiosity::validation::{closed_forms, scenes};
 use radiosity::visibility::Visibility;
 
-use crate::support::{assert_rel, cornell, settings};
+use crate::support::{assert_rel, cornell, ff, settings};
 
 /// Area-weighted mean red radiance over the patches `pick` selects.
 fn mean_radiance(out: &Outcome, pick: impl Fn(usize) -> bool) -> f64 {
@@ -175,19 +175,8 @@ fn furnace_with_two_sided_walls() {
         let mut s = settings(0.25, estimator, 3, Method::GaussSeidel, 1);
         s.form_factors.rays = 128;
         let out = crate::support::run(&scene, &s);
-        assert!(
-            !out.form_factors.as_ref().unwrap().stats.closed_scene,
-            "{estimator:?}"
-        );
-        assert_eq!(
-            out.form_factors
-                .as_ref()
-                .unwrap()
-                .stats
-                .patches_partly_hidden,
-            0,
-            "{estimator:?}"
-        );
+        assert!(!ff(&out).stats.closed_scene, "{estimator:?}");
+        assert_eq!(ff(&out).stats.patches_partly_hidden, 0, "{estimator:?}");
         let p = &out.patches;
         let mut worst: f64 = 0.0;
         for i in 0..p.len() {
@@ -201,14 +190,7 @@ fn furnace_with_two_sided_walls() {
         assert!(worst <= tolerance, "{estimator:?}: worst {worst:.3e}");
         if estimator == Estimator::Hemisphere {
             // Every inner row is exactly 1; the outer rows are empty.
-            for (i, s) in out
-                .form_factors
-                .as_ref()
-                .unwrap()
-                .row_sums()
-                .into_iter()
-                .enumerate()
-            {
+            for (i, s) in ff(&out).row_sums().into_iter().enumerate() {
                 let want = if outer_room(p.source_triangle[i]) {
                     0.0
                 } else {
