@@ -44,6 +44,9 @@ pub const CLUSTER_GAP: f64 = 0.0;
 /// Estimates F_rs for a new link (`None` when it is zero for certain: an element behind the
 /// other's plane, or an element's self-link).
 ///
+/// `buried` marks the receiver's Gauss points that are buried (bit k for point k; 0 for a
+/// cluster or without a rule): they are left out and the others reweighted.
+///
 /// - Element ← element: the mean over `rays` stratified points x of the receiver of the exact
 ///   unoccluded point-to-polygon form factor to the source (Lambert's contour integral,
 ///   [`point_to_polygon`]), each times the visibility of one ray from x to a stratified point
@@ -65,6 +68,7 @@ pub fn estimate(
     receiver: Node,
     source: Node,
     rays: usize,
+    buried: u16,
     seed: u64,
 ) -> Estimate {
     let none = Estimate {
@@ -103,11 +107,24 @@ pub fn estimate(
     // Element receivers integrate with a symmetric Gauss rule when there is one for this
     // many points (as the contour estimator does): deterministic, and far less noisy than
     // random points for the smooth point-to-polygon integrand.
+    // Rule points buried under contact geometry (bit k of `buried`) gather nothing, and the
+    // others stand for the receiver's visible part (as the matrix estimators rescale rows).
     let mut weights = vec![1.0 / rays as f64; rays];
     if let (Some(r), Some(rule)) = (receiver.as_element(), gauss_rule(rays)) {
+        let visible: f64 = (0..rays)
+            .filter(|k| buried & (1 << k) == 0)
+            .map(|k| rule[k].1)
+            .sum();
+        if visible == 0.0 {
+            return none;
+        }
         for (k, (b, w)) in rule.into_iter().enumerate() {
             xs[k] = (r, b);
-            weights[k] = w;
+            weights[k] = if buried & (1 << k) == 0 {
+                w / visible
+            } else {
+                0.0
+            };
         }
     }
 

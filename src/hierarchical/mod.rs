@@ -26,6 +26,12 @@
 //! 4. **Output** ([`output`]): the leaves, triangulated conformingly (a leaf with a split
 //!    neighbour is fanned through the neighbour's edge vertices), are the output patches.
 //!
+//! Buried points (as in [`crate::form_factor`]): a receiving element's Gauss points whose
+//! normal ray meets the back of a surface (the floor under a block) gather nothing, its
+//! other points stand for its visible part, and radiance is pulled up weighted by visible
+//! area, so a source's buried part does not dilute the radiance of the part that is seen
+//! (its visibility rays already count it as blocked).
+//!
 //! Energy: in a closed scene (every probe ray from every root lands on the front of a surface,
 //! as for the matrix estimators) each leaf's gathered light is divided by its effective row
 //! sum Σ F over the links it and its ancestors gather through, which is 1 exactly when the
@@ -41,6 +47,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::Rgb;
+use crate::form_factor::sampling::gauss_rule;
 use crate::form_factor::{is_closed, is_hidden, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
 use crate::solve;
@@ -293,6 +300,16 @@ pub struct Hierarchy<'a> {
     pub elem_l: Vec<Rgb>,
     /// Radiance of every cluster (area-weighted mean of its root elements).
     pub cluster_l: Vec<Rgb>,
+    /// Per element: bit k set when point k of the receiving rule ([`Hierarchy::rule`]) is
+    /// buried under contact geometry (its normal ray meets the back of a surface).
+    buried: Vec<u16>,
+    /// Per element: the rule weight of its unburied points, its visible fraction in [0, 1].
+    visible: Vec<f64>,
+    /// The points where burial is tested: the Gauss rule of `rays` points, else the 3-point
+    /// rule (then only for the visible fractions: random receiving points are not tested).
+    rule: Vec<([f64; 3], f64)>,
+    /// Nothing can be buried (no face can occlude: a convex enclosure).
+    convex: bool,
     /// Effective row sum of every element (closed scenes), else empty.
     row_sum: Vec<f64>,
     /// Absolute ε (radiance × area) and minimum area (scene units²).
@@ -307,7 +324,9 @@ impl<'a> Hierarchy<'a> {
         let tree = Tree::new(roots);
         let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
         let vis = Visibility::build(&corners);
-        let occluders = vis.restricted(&occluders(roots));
+        let can_occlude = occluders(roots);
+        let convex = !can_occlude.contains(&true);
+        let occluders = vis.restricted(&can_occlude);
         let total_area = roots.total_area();
         let mut h = Hierarchy {
             elem_l: Vec::new(),
@@ -321,10 +340,18 @@ impl<'a> Hierarchy<'a> {
             settings: *settings,
             seed,
             row_sum: Vec::new(),
+            buried: Vec::new(),
+            visible: Vec::new(),
+            rule: gauss_rule(settings.rays as usize)
+                .or_else(|| gauss_rule(3))
+                .expect("the 3-point rule exists"),
+            convex: false,
             epsilon: 0.0,
             min_area: settings.min_area * total_area,
             stats: Stats::default(),
         };
+        h.convex = convex;
+        h.update_burial();
         h.epsilon = settings.epsilon * h.emitted_power();
         h.stats.epsilon_absolute = h.epsilon;
         h.stats.min_area_absolute = h.min_area;
@@ -371,6 +398,41 @@ impl<'a> Hierarchy<'a> {
         let closed = is_closed(self.roots, &self.vis, probes, self.seed);
         self.stats.rays_cast += n as u64 * probes as u64;
         self.stats.closed_scene = closed;
+    }
+
+    /// Tests the rule points of the elements made since the last call for burial
+    /// ([`is_hidden`]: the point's normal ray meets the back of a surface first).
+    fn update_burial(&mut self) {
+        let from = self.buried.len();
+        let (tree, roots, vis, rule) = (&self.tree, self.roots, &self.vis, &self.rule);
+        let convex = self.convex;
+        let new: Vec<u16> = (from..tree.elements.len())
+            .into_par_iter()
+            .map(|e| {
+                if convex {
+                    return 0;
+                }
+                let root = tree.elements[e].root as usize;
+                rule.iter().enumerate().fold(0u16, |mask, (k, &(b, _))| {
+                    if is_hidden(roots, vis, root, tree.point(e, b)) {
+                        mask | (1 << k)
+                    } else {
+                        mask
+                    }
+                })
+            })
+            .collect();
+        if !convex {
+            self.stats.rays_cast += (new.len() * rule.len()) as u64;
+        }
+        for mask in new {
+            let visible = (0..rule.len())
+                .filter(|k| mask & (1 << k) == 0)
+                .map(|k| rule[k].1)
+                .sum();
+            self.buried.push(mask);
+            self.visible.push(visible);
+        }
     }
 
     /// Largest reflectance channel of a node.
@@ -429,6 +491,7 @@ impl<'a> Hierarchy<'a> {
                 }
             }
         }
+        self.update_burial();
         let mut kept = Vec::with_capacity(self.links.len());
         let mut pairs = Vec::new();
         for (l, &a) in self.links.iter().zip(&actions) {
@@ -457,7 +520,10 @@ impl<'a> Hierarchy<'a> {
         let rays = self.settings.rays as usize;
         let estimates: Vec<links::Estimate> = pairs
             .par_iter()
-            .map(|&(r, s)| links::estimate(&self.tree, &self.occluders, r, s, rays, self.seed))
+            .map(|&(r, s)| {
+                let buried = r.as_element().map_or(0, |e| self.buried[e]);
+                links::estimate(&self.tree, &self.occluders, r, s, rays, buried, self.seed)
+            })
             .collect();
         for e in estimates {
             self.stats.rays_cast += e.rays;
@@ -566,6 +632,10 @@ impl<'a> Hierarchy<'a> {
         let t = &self.tree;
         let n = t.elements.len();
         let mut l = vec![[0.0; 3]; n];
+        // Radiance is pulled up weighted by visible area: a source's buried part (the floor
+        // under a block) emits nothing and is seen by nobody, and its visibility rays already
+        // count it as blocked, so its darkness must not dilute the visible part's radiance.
+        let mut visible_area = vec![0.0; n];
         for e in (0..n).rev() {
             let el = &t.elements[e];
             if el.first_child == tree::NO_CHILD {
@@ -578,30 +648,26 @@ impl<'a> Hierarchy<'a> {
                     l[e][c] = self.roots.emission[r][c]
                         + self.roots.reflectance[r][c] * down[e][c] * norm;
                 }
+                visible_area[e] = el.area * self.visible[e];
             } else {
-                // Four children of equal area.
-                let f = el.first_child as usize;
-                let kids = [l[f], l[f + 1], l[f + 2], l[f + 3]];
-                l[e] = std::array::from_fn(|c| 0.25 * kids.iter().map(|k| k[c]).sum::<f64>());
+                let kids = el.first_child as usize..el.first_child as usize + 4;
+                (l[e], visible_area[e]) =
+                    weighted_mean(kids.map(|k| (l[k], visible_area[k], t.elements[k].area)));
             }
         }
         let mut cl = vec![[0.0; 3]; t.clusters.len()];
+        let mut cluster_visible = vec![0.0; t.clusters.len()];
         for c in (0..t.clusters.len()).rev() {
             let k = &t.clusters[c];
-            let mut sum = [0.0; 3];
-            for &child in &t.cluster_children[k.first as usize..(k.first + k.count) as usize] {
-                let (lc, a) = match child.as_element() {
-                    Some(e) => (l[e], t.elements[e].area),
+            let kids = &t.cluster_children[k.first as usize..(k.first + k.count) as usize];
+            (cl[c], cluster_visible[c]) =
+                weighted_mean(kids.iter().map(|&child| match child.as_element() {
+                    Some(e) => (l[e], visible_area[e], t.elements[e].area),
                     None => {
                         let j = child.as_cluster().unwrap();
-                        (cl[j], t.clusters[j].area)
+                        (cl[j], cluster_visible[j], t.clusters[j].area)
                     }
-                };
-                for ch in 0..3 {
-                    sum[ch] += a * lc[ch];
-                }
-            }
-            cl[c] = sum.map(|s| s / k.area);
+                }));
         }
         self.elem_l = l;
         self.cluster_l = cl;
@@ -667,6 +733,17 @@ impl<'a> Hierarchy<'a> {
         s.bytes_per_link = std::mem::size_of::<Link>();
         s
     }
+}
+
+/// The visible-area-weighted mean radiance of (radiance, visible area, area) parts, with their
+/// total visible area; the area-weighted mean when nothing is visible.
+fn weighted_mean(parts: impl Iterator<Item = (Rgb, f64, f64)> + Clone) -> (Rgb, f64) {
+    let visible: f64 = parts.clone().map(|p| p.1).sum();
+    let by_visible = visible > 0.0;
+    let weight = |p: &(Rgb, f64, f64)| if by_visible { p.1 } else { p.2 };
+    let total: f64 = parts.clone().map(|p| weight(&p)).sum();
+    let sum = parts.fold([0.0; 3], |acc, p| add(acc, p.0.map(|x| weight(&p) * x)));
+    (sum.map(|s| s / total), visible)
 }
 
 fn add(a: Rgb, b: Rgb) -> Rgb {
