@@ -264,7 +264,7 @@ pub struct MethodArgs {
     /// Hierarchical: smallest element area, as a fraction of the scene's total area.
     #[arg(long, default_value_t = hierarchical::Settings::default().min_area, value_name = "X", allow_negative_numbers = true, help_heading = "Method")]
     pub min_area: f64,
-    /// Hierarchical: visibility rays (and receiving points) per link.
+    /// Hierarchical: visibility rays per link (the form factor uses a 7-point Gauss rule).
     #[arg(long, default_value_t = hierarchical::Settings::default().rays, value_name = "N", allow_negative_numbers = true, help_heading = "Method")]
     pub link_rays: u32,
 }

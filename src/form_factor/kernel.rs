@@ -125,7 +125,7 @@ pub fn angle(y: f64, x: f64) -> f64 {
 
 /// Sutherland–Hodgman clip of a convex polygon (≤ 4 corners relative to the receiving point
 /// in, ≤ 8 out) to the closed half-space np·x ≥ 0. Returns the number of corners written.
-fn clip_above(np: DVec3, poly: &[DVec3], out: &mut [DVec3; 8]) -> usize {
+pub(crate) fn clip_above(np: DVec3, poly: &[DVec3], out: &mut [DVec3; 8]) -> usize {
     let n = poly.len();
     let dist: [f64; 4] = std::array::from_fn(|k| if k < n { np.dot(poly[k]) } else { 0.0 });
     if dist[..n].iter().all(|&d| d >= 0.0) {

@@ -47,7 +47,6 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::Rgb;
-use crate::form_factor::sampling::gauss_rule;
 use crate::form_factor::{is_closed, is_hidden, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
 use crate::solve;
@@ -65,9 +64,10 @@ pub struct Settings {
     pub epsilon: f64,
     /// Smallest element area, as a fraction of the scene's total area; in (0, 1).
     pub min_area: f64,
-    /// Visibility rays (and receiver points) per link, in 1..=1024. With 1, 3, 6, 7 or 12 an
-    /// element receiver integrates with the symmetric Gauss rule of that many points
-    /// (deterministic; 3 by default, as the contour estimator), else stratified random points.
+    /// Visibility rays per link, in 1..=1024 (and the Monte Carlo sample pairs of a link with
+    /// a cluster end). Element receivers integrate the unoccluded form factor with a fixed
+    /// 7-point Gauss rule ([`links::RECEIVER_POINTS`]) whatever this is; the rays estimate
+    /// the visible fraction.
     pub rays: u32,
     /// Refinement passes at most (each splits one level; a guard, not a tuning knob).
     pub max_passes: u32,
@@ -342,9 +342,7 @@ impl<'a> Hierarchy<'a> {
             row_sum: Vec::new(),
             buried: Vec::new(),
             visible: Vec::new(),
-            rule: gauss_rule(settings.rays as usize)
-                .or_else(|| gauss_rule(3))
-                .expect("the 3-point rule exists"),
+            rule: links::receiver_rule().to_vec(),
             convex: false,
             epsilon: 0.0,
             min_area: settings.min_area * total_area,
