@@ -49,7 +49,7 @@ pub const CLUSTER_GAP: f64 = 0.0;
 /// point k; 0 for a cluster): they are left out and the others reweighted, so an element
 /// gathers for its visible part.
 ///
-/// - Element ← element ([`element_pair_estimate`]): the receiver rule (degree 5) over the
+/// - Element ← element (`element_pair_estimate`): the receiver rule (degree 5) over the
 ///   exact unoccluded point-to-polygon form factor to the source (Lambert's contour integral,
 ///   [`point_to_polygon`]; exact for unoccluded pairs as the elements are refined, also when
 ///   they share an edge), times the visible fraction from `rays` rays, each from a rule point
