@@ -105,53 +105,10 @@ pub fn estimate(
         }
     }
     let mut rng = Rng::new(&[seed, receiver.id(), source.id(), 0x4C494E4B]);
-    let a_s = tree.area(source);
     let element_pair = receiver.as_element().zip(source.as_element());
-    let sums = match (receiver.as_element(), source.as_element()) {
-        (Some(r), Some(s)) => element_pair_estimate(tree, vis, r, s, rays, buried, &mut rng),
-        (r, _) => {
-            // Receiving points: on an element, its unburied rule points picked ∝ weight
-            // (so the mean is over its visible part); in a cluster, area-uniform.
-            let mut xs = Vec::with_capacity(rays);
-            match r {
-                Some(r) => {
-                    let weights: Vec<f64> = receiver_rule()
-                        .iter()
-                        .enumerate()
-                        .map(|(k, &(_, w))| if buried & (1 << k) == 0 { w } else { 0.0 })
-                        .collect();
-                    let Some(picks) = pick_proportional(&weights, rays, rng.next_f64()) else {
-                        return none;
-                    };
-                    xs.extend(picks.into_iter().map(|k| (r, receiver_rule()[k].0)));
-                }
-                None => tree.sample(receiver, rays, &mut rng, &mut xs),
-            }
-            let mut ys = Vec::with_capacity(rays);
-            tree.sample(source, rays, &mut rng, &mut ys);
-            // A_s · G(x, y) for y ∝ area on the source: an unbiased estimate of F_rs.
-            let (mut f, mut f_unoccluded, mut cast) = (0.0, 0.0, 0);
-            for (&(er, br), &(es, bs)) in xs.iter().zip(&ys) {
-                let (x, y) = (tree.point(er, br), tree.point(es, bs));
-                let g = a_s
-                    * point_to_point(x, tree.surface_normal(er, br), y, tree.elements[es].normal)
-                    / rays as f64;
-                if g == 0.0 {
-                    continue;
-                }
-                f_unoccluded += g;
-                cast += 1;
-                if !vis.occluded(x, y, [tree.elements[er].root, tree.elements[es].root]) {
-                    f += g;
-                }
-            }
-            Some(Sums {
-                f,
-                f_unoccluded,
-                largest: 0.0,
-                cast,
-            })
-        }
+    let sums = match element_pair {
+        Some((r, s)) => element_pair_estimate(tree, vis, r, s, rays, buried, &mut rng),
+        None => cluster_pair_estimate(tree, vis, receiver, source, rays, buried, &mut rng),
     };
     let Some(Sums {
         f,
@@ -208,6 +165,19 @@ pub fn receiver_rule() -> &'static [([f64; 3], f64)] {
     RULE.get_or_init(|| gauss_rule(RECEIVER_POINTS).expect("a rule of RECEIVER_POINTS exists"))
 }
 
+/// The receiver rule's weights with the points buried in `buried` (bit k for point k) set
+/// to 0: they sum to the element's visible fraction.
+pub fn unburied_weights(buried: u16) -> [f64; RECEIVER_POINTS] {
+    let rule = receiver_rule();
+    std::array::from_fn(|k| {
+        if buried & (1 << k) == 0 {
+            rule[k].1
+        } else {
+            0.0
+        }
+    })
+}
+
 /// What estimating a link sums up.
 struct Sums {
     /// F_rs with visibility.
@@ -236,16 +206,16 @@ fn element_pair_estimate(
     rng: &mut Rng,
 ) -> Option<Sums> {
     let rule = receiver_rule();
-    let mut weighted = [0.0; RECEIVER_POINTS];
-    let (mut visible, mut largest) = (0.0, 0.0f64);
-    for (k, &(b, w)) in rule.iter().enumerate() {
-        if buried & (1 << k) != 0 {
+    let mut weighted = unburied_weights(buried);
+    let visible: f64 = weighted.iter().sum();
+    let mut largest = 0.0f64;
+    for (k, &(b, _)) in rule.iter().enumerate() {
+        if weighted[k] == 0.0 {
             continue;
         }
-        visible += w;
         let f = point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s);
         largest = largest.max(f);
-        weighted[k] = w * f;
+        weighted[k] *= f;
     }
     if visible == 0.0 {
         return None;
@@ -275,6 +245,53 @@ fn element_pair_estimate(
     }
     sums.cast = rays as u64;
     sums.f = f_unoccluded * seen as f64 / rays as f64;
+    Some(sums)
+}
+
+/// F_rs with a cluster at either end: the Monte Carlo estimate A_s · mean_k G(x_k, y_k)
+/// V(x_k, y_k) of the area formulation (see [`estimate`]). Receiving points: on an element,
+/// its unburied rule points picked ∝ weight (so the mean is over its visible part); in a
+/// cluster, area-uniform. `None` when every rule point of an element receiver is buried.
+fn cluster_pair_estimate(
+    tree: &Tree,
+    vis: &Visibility,
+    receiver: Node,
+    source: Node,
+    rays: usize,
+    buried: u16,
+    rng: &mut Rng,
+) -> Option<Sums> {
+    let mut xs = Vec::with_capacity(rays);
+    match receiver.as_element() {
+        Some(r) => {
+            let picks = pick_proportional(&unburied_weights(buried), rays, rng.next_f64())?;
+            xs.extend(picks.into_iter().map(|k| (r, receiver_rule()[k].0)));
+        }
+        None => tree.sample(receiver, rays, rng, &mut xs),
+    }
+    let mut ys = Vec::with_capacity(rays);
+    tree.sample(source, rays, rng, &mut ys);
+    // A_s · G(x, y) for y ∝ area on the source: an unbiased estimate of F_rs.
+    let a_s = tree.area(source);
+    let mut sums = Sums {
+        f: 0.0,
+        f_unoccluded: 0.0,
+        largest: 0.0,
+        cast: 0,
+    };
+    for (&(er, br), &(es, bs)) in xs.iter().zip(&ys) {
+        let (x, y) = (tree.point(er, br), tree.point(es, bs));
+        let g = a_s * point_to_point(x, tree.surface_normal(er, br), y, tree.elements[es].normal)
+            / rays as f64;
+        if g == 0.0 {
+            continue;
+        }
+        sums.f_unoccluded += g;
+        sums.cast += 1;
+        if !vis.occluded(x, y, [tree.elements[er].root, tree.elements[es].root]) {
+            sums.f += g;
+        }
+    }
     Some(sums)
 }
 

@@ -11,11 +11,12 @@
 //!    groups them into clusters, so the whole scene is one root node.
 //! 2. **Links** ([`links`]): the light exchange starts as the root's self-link. A refinement
 //!    pass asks the BF oracle of every link whether it may carry more than ε of the emitted
-//!    power (with the form factor's unoccluded bound when its visibility rays disagreed); if
-//!    so the larger end is split (elements 1 → 4 down to the minimum area, clusters into their
-//!    children) and the link replaced by links to the children, each estimated afresh with a
-//!    few rays. So links stay high in the hierarchies where transfers are weak or far, and
-//!    O(n) links serve n elements at a fixed ε (HSA91 §5).
+//!    power (judged on an upper estimate of the unoccluded form factor, made apart from the
+//!    link's own samples); if so the larger end is split (elements 1 → 4 down to the minimum
+//!    area, clusters into their children) and the link replaced by links to the children,
+//!    each estimated afresh (the receiver's 7-point rule and a few visibility rays). So links
+//!    stay high in the hierarchies where transfers are weak or far, and O(n) links serve n
+//!    elements at a fixed ε (HSA91 §5).
 //! 3. **Solve** ([`Hierarchy::sweep`]): a Jacobi sweep gathers, at every node, Σ F·L over its
 //!    links (from the previous sweep's radiance, in parallel), then *push-pull*: what a node
 //!    gathered is pushed down to every leaf below it (irradiance is intensive: the same on
@@ -26,7 +27,7 @@
 //! 4. **Output** ([`output`]): the leaves, triangulated conformingly (a leaf with a split
 //!    neighbour is fanned through the neighbour's edge vertices), are the output patches.
 //!
-//! Buried points (as in [`crate::form_factor`]): a receiving element's Gauss points whose
+//! Buried points (as in [`crate::form_factor`]): a receiving element's rule points whose
 //! normal ray meets the back of a surface (the floor under a block) gather nothing, its
 //! other points stand for its visible part, and radiance is pulled up weighted by visible
 //! area, so a source's buried part does not dilute the radiance of the part that is seen
@@ -300,14 +301,11 @@ pub struct Hierarchy<'a> {
     pub elem_l: Vec<Rgb>,
     /// Radiance of every cluster (area-weighted mean of its root elements).
     pub cluster_l: Vec<Rgb>,
-    /// Per element: bit k set when point k of the receiving rule ([`Hierarchy::rule`]) is
+    /// Per element: bit k set when point k of the receiver rule ([`links::receiver_rule`]) is
     /// buried under contact geometry (its normal ray meets the back of a surface).
     buried: Vec<u16>,
     /// Per element: the rule weight of its unburied points, its visible fraction in [0, 1].
     visible: Vec<f64>,
-    /// The points where burial is tested: the Gauss rule of `rays` points, else the 3-point
-    /// rule (then only for the visible fractions: random receiving points are not tested).
-    rule: Vec<([f64; 3], f64)>,
     /// Nothing can be buried (no face can occlude: a convex enclosure).
     convex: bool,
     /// Effective row sum of every element (closed scenes), else empty.
@@ -342,7 +340,6 @@ impl<'a> Hierarchy<'a> {
             row_sum: Vec::new(),
             buried: Vec::new(),
             visible: Vec::new(),
-            rule: links::receiver_rule().to_vec(),
             convex: false,
             epsilon: 0.0,
             min_area: settings.min_area * total_area,
@@ -402,7 +399,8 @@ impl<'a> Hierarchy<'a> {
     /// ([`is_hidden`]: the point's normal ray meets the back of a surface first).
     fn update_burial(&mut self) {
         let from = self.buried.len();
-        let (tree, roots, vis, rule) = (&self.tree, self.roots, &self.vis, &self.rule);
+        let (tree, roots, vis) = (&self.tree, self.roots, &self.vis);
+        let rule = links::receiver_rule();
         let convex = self.convex;
         let new: Vec<u16> = (from..tree.elements.len())
             .into_par_iter()
@@ -424,10 +422,7 @@ impl<'a> Hierarchy<'a> {
             self.stats.rays_cast += (new.len() * rule.len()) as u64;
         }
         for mask in new {
-            let visible = (0..rule.len())
-                .filter(|k| mask & (1 << k) == 0)
-                .map(|k| rule[k].1)
-                .sum();
+            let visible = links::unburied_weights(mask).iter().sum();
             self.buried.push(mask);
             self.visible.push(visible);
         }

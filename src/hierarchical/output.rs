@@ -9,7 +9,7 @@ use glam::DVec3;
 
 use super::tree::Tree;
 use crate::color::Rgb;
-use crate::mesh::Patches;
+use crate::mesh::{barycentric, Patches};
 use crate::scene::NO_TWIN;
 
 /// The output of [`leaves`].
@@ -25,19 +25,7 @@ pub struct Leaves {
 /// The conforming triangulation of the leaves of `tree` (whose roots are `roots`), with
 /// each triangle's radiance taken from `radiance` (indexed by element).
 pub fn leaves(tree: &Tree, roots: &Patches, radiance: &[Rgb]) -> Leaves {
-    let mut out = Patches {
-        positions: tree.positions.clone(),
-        triangles: Vec::new(),
-        centroid: Vec::new(),
-        normal: Vec::new(),
-        corner_normal: Vec::new(),
-        area: Vec::new(),
-        material: Vec::new(),
-        reflectance: Vec::new(),
-        emission: Vec::new(),
-        source_triangle: Vec::new(),
-        twin: Vec::new(),
-    };
+    let mut out = Patches::with_capacity(tree.positions.clone(), tree.elements.len());
     let mut out_radiance = Vec::new();
     let mut out_root = Vec::new();
     let mut chain = Vec::new();
@@ -116,7 +104,7 @@ fn push_triangle(tree: &Tree, roots: &Patches, e: usize, v: [u32; 3], out: &mut 
     let r = el.root as usize;
     let corners = tree.corners(e);
     let normal_at = |x: DVec3| {
-        let b = barycentric(corners, x);
+        let b = barycentric(x, corners);
         b[0] * el.corner_normals[0] + b[1] * el.corner_normals[1] + b[2] * el.corner_normals[2]
     };
     out.triangles.push(v);
@@ -130,13 +118,4 @@ fn push_triangle(tree: &Tree, roots: &Patches, e: usize, v: [u32; 3], out: &mut 
     out.emission.push(roots.emission[r]);
     out.source_triangle.push(roots.source_triangle[r]);
     out.twin.push(NO_TWIN);
-}
-
-/// Barycentric coordinates of `x` (in the triangle's plane) in triangle `t`.
-fn barycentric(t: [DVec3; 3], x: DVec3) -> [f64; 3] {
-    let n = (t[1] - t[0]).cross(t[2] - t[0]);
-    let d = n.length_squared();
-    let b1 = (x - t[0]).cross(t[2] - t[0]).dot(n) / d;
-    let b2 = (t[1] - t[0]).cross(x - t[0]).dot(n) / d;
-    [1.0 - b1 - b2, b1, b2]
 }

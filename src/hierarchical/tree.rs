@@ -339,6 +339,7 @@ impl Tree {
             out.extend(bs.into_iter().map(|b| (e, b)));
             return;
         }
+        let mut b = Vec::with_capacity(1);
         for _ in 0..n {
             let mut at = node;
             while let Some(c) = at.as_cluster() {
@@ -356,7 +357,7 @@ impl Tree {
                     u -= a;
                 }
             }
-            let mut b = Vec::with_capacity(1);
+            b.clear();
             stratified_triangle_barycentrics(1, rng, &mut b);
             out.push((at.as_element().unwrap(), b[0]));
         }

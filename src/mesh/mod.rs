@@ -23,6 +23,7 @@ mod subdivide;
 
 pub(crate) use adjacency::{groups, VertexFaces};
 pub use normals::corner_normals;
+pub(crate) use subdivide::barycentric;
 pub use subdivide::{refine, subdivide};
 
 use glam::DVec3;
@@ -75,6 +76,23 @@ pub struct Patches {
 }
 
 impl Patches {
+    /// No patches yet over the vertices `positions`, with room for `n`.
+    pub fn with_capacity(positions: Vec<DVec3>, n: usize) -> Patches {
+        Patches {
+            positions,
+            triangles: Vec::with_capacity(n),
+            centroid: Vec::with_capacity(n),
+            normal: Vec::with_capacity(n),
+            corner_normal: Vec::with_capacity(n),
+            area: Vec::with_capacity(n),
+            material: Vec::with_capacity(n),
+            reflectance: Vec::with_capacity(n),
+            emission: Vec::with_capacity(n),
+            source_triangle: Vec::with_capacity(n),
+            twin: Vec::with_capacity(n),
+        }
+    }
+
     /// Number of patches.
     pub fn len(&self) -> usize {
         self.triangles.len()

@@ -159,19 +159,7 @@ fn build(
 ) -> Result<Patches> {
     let n = tris.len();
     let smooth = corner_normals(scene, crease_degrees);
-    let mut patches = Patches {
-        positions,
-        triangles: Vec::with_capacity(n),
-        centroid: Vec::with_capacity(n),
-        normal: Vec::with_capacity(n),
-        corner_normal: Vec::with_capacity(n),
-        area: Vec::with_capacity(n),
-        material: Vec::with_capacity(n),
-        reflectance: Vec::with_capacity(n),
-        emission: Vec::with_capacity(n),
-        source_triangle: Vec::with_capacity(n),
-        twin: Vec::with_capacity(n),
-    };
+    let mut patches = Patches::with_capacity(positions, n);
     for (t, src) in tris {
         let [a, b, c] = t.map(|v| patches.positions[v as usize]);
         let cross = (b - a).cross(c - a);
@@ -251,7 +239,7 @@ fn mirror_twins(scene: &Scene, patches: &mut Patches) {
 }
 
 /// Barycentric coordinates of `p` (a point in the triangle's plane) in triangle `t`.
-pub(super) fn barycentric(p: DVec3, t: [DVec3; 3]) -> [f64; 3] {
+pub(crate) fn barycentric(p: DVec3, t: [DVec3; 3]) -> [f64; 3] {
     let n = (t[1] - t[0]).cross(t[2] - t[0]);
     let inv = 1.0 / n.length_squared();
     let w1 = (p - t[0]).cross(t[2] - t[0]).dot(n) * inv;

@@ -248,32 +248,30 @@ pub fn furnished_hall(triangles: usize) -> Result<Scene> {
     let boxed = |b: &mut SceneBuilder, lo: [f64; 3], hi: [f64; 3], m: u32| {
         add_box(b, DVec3::from(lo), DVec3::from(hi), false, m)
     };
+    // Four square legs, `side` wide and `height` tall, with their low corners at (x, y),
+    // (x + dx, y), (x, y + dy) and (x + dx, y + dy).
+    let legs = |b: &mut SceneBuilder, (x, y): (f64, f64), (dx, dy): (f64, f64), side, height| {
+        for (lx, ly) in [(0.0, 0.0), (dx, 0.0), (0.0, dy), (dx, dy)] {
+            boxed(
+                b,
+                [x + lx, y + ly, 0.0],
+                [x + lx + side, y + ly + side, height],
+                wood,
+            );
+        }
+    };
     for i in 0..k {
         for j in 0..k {
             let (x, y) = (i as f64 * cell, j as f64 * cell);
             // Table: 1.2 × 0.8 top at 0.72–0.75 m, legs 5 cm square.
             let (tx, ty) = (x + 0.4, y + 0.6);
             boxed(&mut b, [tx, ty, 0.72], [tx + 1.2, ty + 0.8, 0.75], wood);
-            for (lx, ly) in [(0.0, 0.0), (1.15, 0.0), (0.0, 0.75), (1.15, 0.75)] {
-                boxed(
-                    &mut b,
-                    [tx + lx, ty + ly, 0.0],
-                    [tx + lx + 0.05, ty + ly + 0.05, 0.715],
-                    wood,
-                );
-            }
+            legs(&mut b, (tx, ty), (1.15, 0.75), 0.05, 0.715);
             // Chair: 0.45 m seat at 0.43–0.46 m, back 0.45 m high, legs 4 cm.
             let (cx, cy) = (x + 0.78, y + 0.1);
             boxed(&mut b, [cx, cy, 0.43], [cx + 0.45, cy + 0.45, 0.46], seat);
             boxed(&mut b, [cx, cy, 0.465], [cx + 0.45, cy + 0.04, 0.91], seat);
-            for (lx, ly) in [(0.0, 0.0), (0.41, 0.0), (0.0, 0.41), (0.41, 0.41)] {
-                boxed(
-                    &mut b,
-                    [cx + lx, cy + ly, 0.0],
-                    [cx + lx + 0.04, cy + ly + 0.04, 0.425],
-                    wood,
-                );
-            }
+            legs(&mut b, (cx, cy), (0.41, 0.41), 0.04, 0.425);
             if (i + j) % 2 == 0 {
                 let (lx, ly, z) = (x + 0.75, y + 0.75, height - 0.01);
                 b.quad(

@@ -33,10 +33,11 @@ fn one_bounce(mut s: pipeline::Settings) -> pipeline::Settings {
 
 /// Howell's plates as ε → 0: the one-bounce receiver radiance gives F to ≤ 1e-3.
 ///
-/// Tolerance: element links integrate the exact point-to-polygon form factor with the 3-point
+/// Tolerance: element links integrate the exact point-to-polygon form factor with the 7-point
 /// Gauss rule over the receiving element; what is left is that rule's error on the elements
 /// the oracle stops at, largest for the perpendicular pair near the shared edge (measured
-/// 6e-5 parallel and 5e-4 perpendicular at ε = 1e-6). A wrong cosine or π is ≥ 20 %.
+/// 4e-9 parallel and 1e-6 perpendicular at ε = 1e-6; 5e-4 perpendicular with the 3-point rule
+/// this replaced). A wrong cosine or π is ≥ 20 %.
 #[test]
 fn plates_approach_the_exact_form_factor() {
     for (name, scene, expected) in verify::plate_cases().unwrap() {
@@ -115,9 +116,10 @@ fn far_patches_keep_one_link_at_the_top() {
 /// The matrix method as the oracle: a lit room with a block, per-surface visible means.
 ///
 /// Tolerance: both are discretisations; the matrix at 5 cm patches (≈ 17k) against the
-/// hierarchy at ε = 1e-5 differ by up to 3.5 % (measured at 3 cm: the block's faces; walls
-/// ≤ 1.2 %), the hierarchy low. 5 % catches a lost bounce (ρ = 0.7: a third of the indirect light)
-/// or light on the wrong side.
+/// hierarchy at ε = 1e-5 differ by up to 1.3 % (measured: the block's faces; walls ≤ 0.05 %;
+/// 3.5 %, the hierarchy low, before its receivers' 7-point rule and horizon-aware rays).
+/// 5 % catches a lost bounce (ρ = 0.7: a third of the indirect light) or light on the wrong
+/// side.
 #[test]
 fn the_matrix_method_agrees_on_a_room() {
     let mut b = SceneBuilder::new();
@@ -232,8 +234,8 @@ fn determinism_across_thread_counts() {
 }
 
 /// Links grow about linearly with the leaves on the generated hall (a test on counts, not on
-/// timings): the exponent between 10⁴ and 4·10⁴ triangles is at most 1.2 (measured 0.8 here,
-/// 0.96 from 10⁴ to 10⁵ in BENCHMARKS.md). Below 10⁴ triangles it is not: the minimum area
+/// timings): the exponent between 10⁴ and 4·10⁴ triangles is at most 1.2 (measured 1.04 here,
+/// 1.00 from 10⁴ to 10⁶ in BENCHMARKS.md). Below 10⁴ triangles it is not: the minimum area
 /// then still splits most of the few roots, leaves per triangle fall as the hall grows, and
 /// the exponent reads 1.5 — growth in links per leaf that stops once the roots dominate.
 #[test]
