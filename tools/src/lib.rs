@@ -56,6 +56,33 @@ pub fn harness_args(default_out: &str, usage: &str) -> Result<HarnessArgs> {
     Ok(args)
 }
 
+/// The sections a harness's remaining arguments (`HarnessArgs::other`) name, each one of
+/// `known`; `default` when they name none. `--child SPEC` (how a harness runs one measured
+/// run in a process of its own) runs `child(SPEC)` and exits.
+pub fn sections(
+    words: Vec<String>,
+    known: &[&str],
+    default: &[&str],
+    child: impl Fn(&str) -> Result<()>,
+) -> Result<Vec<String>> {
+    let mut sections = Vec::new();
+    let mut it = words.into_iter();
+    while let Some(word) = it.next() {
+        if word == "--child" {
+            child(&it.next().context("--child needs a run spec")?)?;
+            std::process::exit(0);
+        } else if known.contains(&word.as_str()) {
+            sections.push(word);
+        } else {
+            return Err(unknown_argument(&word));
+        }
+    }
+    if sections.is_empty() {
+        sections = default.iter().map(|s| s.to_string()).collect();
+    }
+    Ok(sections)
+}
+
 /// The error for a word a harness does not know.
 pub fn unknown_argument(word: &str) -> anyhow::Error {
     anyhow::anyhow!("unknown argument {word:?} (try --help)")

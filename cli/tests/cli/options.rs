@@ -1,19 +1,13 @@
 //! Options that cut across commands, through the binary: material overrides
 //! (`--reflectance`, `--emission`) and their errors, progress and verbosity (`-q`, `-v`).
 
-use crate::support::{cornell, radiosity, stderr, temp_dir};
+use crate::support::{bake, bake_cornell, cornell, radiosity, stderr, temp_dir};
 
 #[test]
 fn cli_overrides_apply_and_unknown_materials_are_usage_errors() {
     let dir = temp_dir("overrides");
     let out = dir.join("c.ply");
-    let out_s = out.to_str().unwrap();
-    let input = cornell();
-    let bake = |extra: &[&str]| {
-        let mut args = vec!["bake", &input, "-o", out_s, "--max-edge", "110"];
-        args.extend_from_slice(extra);
-        radiosity(&args)
-    };
+    let bake = |extra: &[&str]| bake_cornell(&out, extra);
 
     let o = bake(&["--emission", "light=0"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -78,7 +72,7 @@ fn cli_overrides_apply_and_unknown_materials_are_usage_errors() {
     let png = dir.join("v.png");
     let o = radiosity(&[
         "render",
-        &input,
+        &cornell(),
         "-o",
         png.to_str().unwrap(),
         "--max-edge",
@@ -101,18 +95,8 @@ fn progress_is_hidden_off_a_terminal_and_verbose_adds_detail() {
     // summary but not what `-v` asked for.
     let dir = temp_dir("progress");
     let out = dir.join("c.ply");
-    let input = cornell();
     let run = |extra: &[&str]| {
-        let mut a = vec![
-            "bake",
-            &input,
-            "-o",
-            out.to_str().unwrap(),
-            "--max-edge",
-            "150",
-        ];
-        a.extend_from_slice(extra);
-        let o = radiosity(&a);
+        let o = bake(&cornell(), &out, &[&["--max-edge", "150"], extra].concat());
         assert!(o.status.success(), "{}", stderr(&o));
         stderr(&o)
     };
@@ -142,17 +126,14 @@ fn hierarchical_method_bakes_and_checks_its_settings() {
     let dir = temp_dir("hierarchical");
     let out = dir.join("h.ply");
     let report = dir.join("h.json");
-    let input = cornell();
-    let o = radiosity(&[
-        "bake",
-        &input,
-        "-o",
-        out.to_str().unwrap(),
-        "--method",
-        "hierarchical",
-        "--report",
-        report.to_str().unwrap(),
-    ]);
+    let hierarchical = |extra: &[&str]| {
+        bake(
+            &cornell(),
+            &out,
+            &[&["--method", "hierarchical"], extra].concat(),
+        )
+    };
+    let o = hierarchical(&["--report", report.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains(" links ("), "{}", stderr(&o));
     let json: serde_json::Value =
@@ -172,16 +153,7 @@ fn hierarchical_method_bakes_and_checks_its_settings() {
         (&["--min-area", "2"][..], "--min-area"),
         (&["--link-rays", "0"][..], "--link-rays"),
     ] {
-        let mut args = vec![
-            "bake",
-            &input,
-            "-o",
-            out.to_str().unwrap(),
-            "--method",
-            "hierarchical",
-        ];
-        args.extend_from_slice(extra);
-        let o = radiosity(&args);
+        let o = hierarchical(extra);
         assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(flag), "{extra:?}: {}", stderr(&o));
     }

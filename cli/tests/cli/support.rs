@@ -38,20 +38,17 @@ pub fn radiosity(args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
+/// `radiosity bake INPUT -o OUT` with `extra` options.
+pub fn bake(input: &str, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["bake", input, "-o", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    radiosity(&args)
+}
+
 /// Bake the Cornell box coarsely (max-edge 110 mm: a few hundred patches, fast) to `out`, with
 /// `extra` options.
 pub fn bake_cornell(out: &Path, extra: &[&str]) -> Output {
-    let input = cornell();
-    let mut args = vec![
-        "bake",
-        &input,
-        "-o",
-        out.to_str().unwrap(),
-        "--max-edge",
-        "110",
-    ];
-    args.extend_from_slice(extra);
-    radiosity(&args)
+    bake(&cornell(), out, &[&["--max-edge", "110"], extra].concat())
 }
 
 /// The process's stderr as text.

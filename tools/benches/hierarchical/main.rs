@@ -20,13 +20,12 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use radiosity::pipeline::{self, Method};
 use radiosity::scene::Scene;
 use radiosity::validation::{scenes, verify};
 use radiosity_tools::{
-    chart, fit_order, harness_args, load_font, mib, surface_means, unknown_argument,
-    write_sections, Curve,
+    chart, fit_order, harness_args, load_font, mib, surface_means, write_sections, Curve,
 };
 
 struct Args {
@@ -43,22 +42,7 @@ fn parse_args() -> Result<Args> {
         "cargo bench -p radiosity-tools --bench hierarchical -- \
          [epsilon|equal-time|growth|targets]… [--quick] [--out DIR]",
     )?;
-    let mut sections = Vec::new();
-    let mut it = h.other.into_iter();
-    while let Some(x) = it.next() {
-        if x == "--child" {
-            let spec = it.next().context("--child needs a run spec")?;
-            child(&spec)?;
-            std::process::exit(0);
-        } else if SECTIONS.contains(&x.as_str()) {
-            sections.push(x);
-        } else {
-            return Err(unknown_argument(&x));
-        }
-    }
-    if sections.is_empty() {
-        sections = SECTIONS.map(String::from).to_vec();
-    }
+    let sections = radiosity_tools::sections(h.other, &SECTIONS, &SECTIONS, child)?;
     Ok(Args {
         sections,
         quick: h.quick,
@@ -339,36 +323,37 @@ fn equal_time(args: &Args, text: bool) -> Result<String> {
         },
     ];
     let min_area = pipeline::Settings::default().hierarchical.min_area;
-    for &m in &matrix {
-        let r = spawn(&format!("cornell:matrix:{m}:0"))?;
-        writeln!(
-            md,
-            "| matrix | max edge {} | {} | {} | {:.2} | {:.0} | {:.2e} |",
-            if m == 0.0 {
-                "default".to_string()
+    // (curve, method, setting, spec) of every run, matrix first.
+    let runs = matrix
+        .iter()
+        .map(|&m| {
+            let setting = if m == 0.0 {
+                "max edge default".to_string()
             } else {
-                format!("{m}")
-            },
-            r.patches,
-            r.links,
-            r.seconds,
-            mib(r.peak_bytes),
-            r.errors[0]
-        )?;
-        curves[0].points.push((r.seconds, r.errors[0]));
-    }
-    for &e in &eps {
-        let r = spawn(&format!("cornell:hierarchical:{e}:{min_area}"))?;
+                format!("max edge {m}")
+            };
+            (0, setting, format!("cornell:matrix:{m}:0"))
+        })
+        .chain(eps.iter().map(|&e| {
+            (
+                1,
+                format!("ε {e:.0e}"),
+                format!("cornell:hierarchical:{e}:{min_area}"),
+            )
+        }));
+    for (curve, setting, spec) in runs {
+        let r = spawn(&spec)?;
         writeln!(
             md,
-            "| hierarchical | ε {e:.0e} | {} | {} | {:.2} | {:.0} | {:.2e} |",
+            "| {} | {setting} | {} | {} | {:.2} | {:.0} | {:.2e} |",
+            curves[curve].label,
             r.patches,
             r.links,
             r.seconds,
             mib(r.peak_bytes),
             r.errors[0]
         )?;
-        curves[1].points.push((r.seconds, r.errors[0]));
+        curves[curve].points.push((r.seconds, r.errors[0]));
     }
     chart(
         &args.out.join("equal_time_cornell.png"),

@@ -28,7 +28,7 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use radiosity::form_factor::{self, Estimator};
 use radiosity::pipeline::{self, Outcome};
 use radiosity::scene::Scene;
@@ -45,8 +45,7 @@ mod skips;
 mod solvers;
 
 use radiosity_tools::{
-    chart, fit_order, harness_args, load_font, surface_means, unknown_argument, write_sections,
-    Curve,
+    chart, fit_order, harness_args, load_font, surface_means, write_sections, Curve,
 };
 use sizes::surface_difference;
 
@@ -64,24 +63,12 @@ fn parse_args() -> Result<Args> {
         "cargo bench -p radiosity-tools --bench scale -- \
          [skips|solvers|scale|rays|matvec|reference]… [--quick] [--out DIR]",
     )?;
-    let mut sections = Vec::new();
-    let mut it = h.other.into_iter();
-    while let Some(x) = it.next() {
-        match x.as_str() {
-            "--child" => {
-                let spec = it.next().context("--child needs a run spec")?;
-                sizes::child(&spec)?;
-                std::process::exit(0);
-            }
-            "skips" | "solvers" | "scale" | "rays" | "matvec" | "reference" => sections.push(x),
-            other => return Err(unknown_argument(other)),
-        }
-    }
-    if sections.is_empty() {
-        sections = ["skips", "solvers", "scale", "rays", "matvec"]
-            .map(String::from)
-            .to_vec();
-    }
+    let sections = radiosity_tools::sections(
+        h.other,
+        &["skips", "solvers", "scale", "rays", "matvec", "reference"],
+        &["skips", "solvers", "scale", "rays", "matvec"],
+        sizes::child,
+    )?;
     Ok(Args {
         sections,
         quick: h.quick,
