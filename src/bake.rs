@@ -14,6 +14,8 @@
 //! rasteriser in [`crate::render`] read) with its [`BakedMesh::validate`], and the exposure
 //! the colours are taken at by default ([`BakedMesh::auto_exposure`]).
 
+use glam::DVec3;
+
 use crate::color::{self, Rgb};
 use crate::mesh::{groups, Patches, VertexFaces};
 use crate::scene::Camera;
@@ -22,6 +24,32 @@ use crate::{Error, Result};
 /// Bake patch radiance into a [`BakedMesh`] (see the module documentation for the rule).
 /// `radiance[i]` is patch i's radiance, W·sr⁻¹·m⁻² per channel.
 pub fn bake(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> BakedMesh {
+    bake_sites(patches, radiance, crease_degrees).0
+}
+
+/// An output vertex as a point of the surface: where the final gather
+/// ([`crate::gather`]) evaluates the radiance it shows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Site {
+    /// Position, scene units.
+    pub position: DVec3,
+    /// Unit normal: the area-weighted mean of its patches' normals.
+    pub normal: DVec3,
+    /// The patches whose corner this vertex is (one surface group: same material, normals
+    /// within the crease angle).
+    pub patches: Vec<u32>,
+    /// Other output vertices share its position: it lies on a crease or a material border,
+    /// where surfaces meet.
+    pub shared: bool,
+}
+
+/// [`bake`], with the [`Site`] of every output vertex (indexed like the mesh's positions).
+pub fn bake_sites(
+    patches: &Patches,
+    radiance: &[Rgb],
+    crease_degrees: f64,
+) -> (BakedMesh, Vec<Site>) {
+    let mut sites = Vec::new();
     let cos_crease = crease_degrees.to_radians().cos();
     let nv = patches.positions.len();
     let around = VertexFaces::new(&patches.triangles, nv);
@@ -48,9 +76,16 @@ pub fn bake(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> BakedMe
         // One output vertex per group, in order of the group's first patch (deterministic).
         let first_out = mesh.positions.len();
         let mut sums: Vec<([f64; 3], f64)> = Vec::new();
+        let pos = patches.positions[v];
         for (a, &g) in group.iter().enumerate() {
             if g == sums.len() {
                 sums.push(([0.0; 3], 0.0));
+                sites.push(Site {
+                    position: pos,
+                    normal: DVec3::ZERO,
+                    patches: Vec::new(),
+                    shared: false,
+                });
             }
             let p = ps[a] as usize;
             let w = patches.area[p];
@@ -58,9 +93,16 @@ pub fn bake(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> BakedMe
                 *s += w * l;
             }
             sums[g].1 += w;
+            let site = &mut sites[first_out + g];
+            site.normal += w * patches.normal[p];
+            site.patches.push(p as u32);
             out_vertex[around.offset(v) + a] = (first_out + g) as u32;
         }
-        let pos = patches.positions[v];
+        if sums.len() > 1 {
+            for site in &mut sites[first_out..] {
+                site.shared = true;
+            }
+        }
         for (s, w) in sums {
             mesh.positions.push([pos.x, pos.y, pos.z]);
             mesh.vertex_radiance.push([s[0] / w, s[1] / w, s[2] / w]);
@@ -78,7 +120,10 @@ pub fn bake(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> BakedMe
             *v = out_vertex[around.offset(vi) + slot];
         }
     }
-    mesh
+    for site in &mut sites {
+        site.normal = site.normal.normalize_or_zero();
+    }
+    (mesh, sites)
 }
 
 /// A mesh ready to write: baked vertices (split at creases and material borders) and patch faces.

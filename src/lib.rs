@@ -59,6 +59,7 @@ pub mod choice;
 pub mod color;
 pub mod error;
 pub mod form_factor;
+pub mod gather;
 pub mod hierarchical;
 pub mod io;
 pub mod mesh;

@@ -11,6 +11,7 @@ use clap::{Args, Parser, Subcommand};
 
 use radiosity::bake::BakedMesh;
 use radiosity::form_factor::{self, Estimator};
+use radiosity::gather::Gather;
 use radiosity::hierarchical;
 use radiosity::pipeline::{self, WriteOptions};
 use radiosity::render::{self, View};
@@ -286,6 +287,14 @@ impl MethodArgs {
 pub struct SolveArgs {
     #[command(flatten)]
     pub method: MethodArgs,
+    /// Final gather at the output vertices: `none` (the mean of the patches around each
+    /// vertex), `direct` (the direct light computed exactly at each vertex, the indirect from
+    /// the patches) or `full` (direct exactly and indirect by hemisphere rays at each vertex).
+    #[arg(long, value_parser = choice::<Gather>(), default_value_t = pipeline::Settings::default().gather, help_heading = "Final gather")]
+    pub gather: Gather,
+    /// Hemisphere rays per vertex of `--gather full`.
+    #[arg(long, default_value_t = pipeline::Settings::default().gather_rays, value_name = "N", allow_negative_numbers = true, help_heading = "Final gather")]
+    pub gather_rays: u32,
     /// Longest patch edge, scene units [default: bounding-box diagonal / 16].
     #[arg(
         long,
@@ -453,6 +462,8 @@ impl SolveArgs {
             refine_rounds: self.refine,
             refine_threshold: self.refine_threshold,
             cache: self.cache.clone(),
+            gather: self.gather,
+            gather_rays: self.gather_rays,
         };
         settings.validate()?;
         Ok(settings)

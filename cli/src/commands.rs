@@ -42,8 +42,8 @@ pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
         let s = &report.seconds;
         format!(
             "seconds: load {:.3}, patches {:.3}, bvh {:.3}, form factors {:.3}, solve {:.3}, \
-             bake {:.3}, write {:.3}",
-            s.load, s.patches, s.bvh, s.form_factors, s.solve, s.bake, s.write
+             bake {:.3}, gather {:.3}, write {:.3}",
+            s.load, s.patches, s.bvh, s.form_factors, s.solve, s.bake, s.gather, s.write
         )
     });
     if !report.converged {

@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 25] = [
+pub const FLAGS: [(&str, &str); 27] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -43,6 +43,8 @@ pub const FLAGS: [(&str, &str); 25] = [
     ("emission", "--emission"),
     ("output", "--output"),
     ("cache", "--cache"),
+    ("gather", "--gather"),
+    ("gather_rays", "--gather-rays"),
 ];
 
 /// The flag that sets the library's setting `name`, if there is one.

@@ -2,6 +2,10 @@
 //! (seed, patch, …), so every sample depends only on its key and never on thread scheduling,
 //! and stratified points on triangles.
 
+use glam::DVec3;
+
+use super::kernel::clip_above;
+
 /// SplitMix64 finaliser (Steele, Lea & Flood, "Fast splittable pseudorandom number
 /// generators", OOPSLA 2014): a bijective 64-bit mix used as a hash of the sample key.
 #[inline]
@@ -143,6 +147,49 @@ pub fn gauss_rule(n: usize) -> Option<Vec<([f64; 3], f64)>> {
         _ => return None,
     };
     Some(rule)
+}
+
+/// The point of triangle `corners` with barycentrics `b` when the triangle lies wholly above
+/// the horizon of the point `x` (unit normal `n`); else `b` mapped to a uniform point of the
+/// part above it (the clipped polygon fanned into triangles, one chosen ∝ area with a draw of
+/// `rng`). `None` when nothing of the triangle is above. So rays from `x` aim only at the part
+/// of a source that `x` can see at all, the part its exact form factor
+/// ([`super::kernel::point_to_polygon`]) integrates.
+pub fn point_above(
+    corners: &[DVec3; 3],
+    x: DVec3,
+    n: DVec3,
+    b: [f64; 3],
+    rng: &mut Rng,
+) -> Option<DVec3> {
+    if corners.iter().all(|&v| n.dot(v - x) >= 0.0) {
+        return Some(b[0] * corners[0] + b[1] * corners[1] + b[2] * corners[2]);
+    }
+    let mut clipped = [DVec3::ZERO; 8];
+    let m = clip_above(n, &corners.map(|v| v - x), &mut clipped);
+    if m < 3 {
+        return None;
+    }
+    let fan_area = |i: usize| {
+        0.5 * (clipped[i] - clipped[0])
+            .cross(clipped[i + 1] - clipped[0])
+            .length()
+    };
+    let total: f64 = (1..m - 1).map(fan_area).sum();
+    if total <= 0.0 {
+        return None;
+    }
+    let mut u = rng.next_f64() * total;
+    let mut i = m - 2;
+    for j in 1..m - 1 {
+        let a = fan_area(j);
+        if u < a {
+            i = j;
+            break;
+        }
+        u -= a;
+    }
+    Some(x + b[0] * clipped[0] + b[1] * clipped[i] + b[2] * clipped[i + 1])
 }
 
 #[cfg(test)]

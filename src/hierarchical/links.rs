@@ -9,8 +9,10 @@ use std::sync::OnceLock;
 use glam::DVec3;
 
 use super::tree::{Node, Tree};
-use crate::form_factor::kernel::{clip_above, point_to_point, point_to_polygon};
-use crate::form_factor::sampling::{gauss_rule, stratified_triangle_barycentrics, Rng};
+use crate::form_factor::kernel::{point_to_point, point_to_polygon};
+use crate::form_factor::sampling::{
+    gauss_rule, point_above, stratified_triangle_barycentrics, Rng,
+};
 use crate::visibility::Visibility;
 
 /// A link: `receiver` gathers `f · L(source)` (radiance units) per channel, before its
@@ -238,7 +240,7 @@ fn element_pair_estimate(
         let rb = rule[k].0;
         let (x, n) = (tree.point(r, rb), tree.surface_normal(r, rb));
         // F > 0 at a picked point, so some of the source is above its horizon.
-        let y = point_above(tree, s, x, n, b, rng).unwrap_or_else(|| tree.point(s, b));
+        let y = point_above(&tree.corners(s), x, n, b, rng).unwrap_or_else(|| tree.point(s, b));
         if !vis.occluded(x, y, roots) {
             seen += 1;
         }
@@ -331,49 +333,6 @@ fn point_form_factor(tree: &Tree, x: DVec3, n: DVec3, s: usize) -> f64 {
     } else {
         point_to_polygon(x, n, &poly)
     }
-}
-
-/// The point of element `s` with barycentrics `b` when `s` lies wholly above the horizon of
-/// the point `x` (unit normal `n`); else `b` mapped to a uniform point of the part of `s`
-/// above it (the clipped polygon fanned into triangles, one chosen ∝ area with a draw of
-/// `rng`). `None` when nothing of `s` is above.
-fn point_above(
-    tree: &Tree,
-    s: usize,
-    x: DVec3,
-    n: DVec3,
-    b: [f64; 3],
-    rng: &mut Rng,
-) -> Option<DVec3> {
-    let corners = tree.corners(s);
-    if corners.iter().all(|&v| n.dot(v - x) >= 0.0) {
-        return Some(tree.point(s, b));
-    }
-    let mut clipped = [DVec3::ZERO; 8];
-    let m = clip_above(n, &corners.map(|v| v - x), &mut clipped);
-    if m < 3 {
-        return None;
-    }
-    let fan_area = |i: usize| {
-        0.5 * (clipped[i] - clipped[0])
-            .cross(clipped[i + 1] - clipped[0])
-            .length()
-    };
-    let total: f64 = (1..m - 1).map(fan_area).sum();
-    if total <= 0.0 {
-        return None;
-    }
-    let mut u = rng.next_f64() * total;
-    let mut i = m - 2;
-    for j in 1..m - 1 {
-        let a = fan_area(j);
-        if u < a {
-            i = j;
-            break;
-        }
-        u -= a;
-    }
-    Some(x + b[0] * clipped[0] + b[1] * clipped[i] + b[2] * clipped[i + 1])
 }
 
 /// The largest unoccluded point-to-polygon form factor from the corners and the centroid of

@@ -20,6 +20,7 @@ use std::time::Instant;
 
 use crate::bake::{self, BakedMesh};
 use crate::form_factor::{self, cache, FormFactors, Needed, Reuse};
+use crate::gather::{self, Gather};
 use crate::hierarchical;
 use crate::io::{self, Format};
 use crate::mesh::{self, refine, Patches};
@@ -146,7 +147,14 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     }
     report.patches = patches.len();
 
-    let baked = bake_stage(scene, &patches, &solution.radiance, settings, &mut report);
+    let baked = bake_stage(
+        scene,
+        &patches,
+        &solution.radiance,
+        &form_factors.visible_fraction,
+        settings,
+        &mut report,
+    );
     Ok(Outcome {
         patches,
         visible_fraction: form_factors.visible_fraction.clone(),
@@ -189,7 +197,14 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     crate::progress::note(|| report::hierarchical_note(&h.stats, &h.solution));
     report.hierarchical = Some(h.stats);
 
-    let baked = bake_stage(scene, &h.patches, &h.radiance, settings, &mut report);
+    let baked = bake_stage(
+        scene,
+        &h.patches,
+        &h.radiance,
+        &h.visible_fraction,
+        settings,
+        &mut report,
+    );
     Ok(Outcome {
         patches: h.patches,
         visible_fraction: h.visible_fraction,
@@ -200,20 +215,35 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     })
 }
 
-/// Bake: patch radiance → the output mesh's vertices, with the scene's camera; fills the
-/// report's vertex count and bake seconds.
+/// Bake: patch radiance → the output mesh's vertices (→ final gather at them, unless
+/// `gather = none`), with the scene's camera; fills the report's vertex count and bake and
+/// gather seconds.
 fn bake_stage(
     scene: &Scene,
     patches: &Patches,
     radiance: &[crate::Rgb],
+    visible_fraction: &[f64],
     settings: &Settings,
     report: &mut Report,
 ) -> BakedMesh {
     let t = Instant::now();
-    let mut baked = bake::bake(patches, radiance, settings.crease_degrees);
+    let (mut baked, sites) = bake::bake_sites(patches, radiance, settings.crease_degrees);
     baked.camera = scene.camera;
     report.vertices = baked.positions.len();
     report.seconds.bake = t.elapsed().as_secs_f64();
+    if settings.gather != Gather::None && scene.has_emitters() {
+        let t = Instant::now();
+        let gatherer = gather::Gatherer::new(scene, patches, radiance, settings.form_factors.seed);
+        baked.vertex_radiance = gather::gather(
+            &gatherer,
+            &sites,
+            &baked.vertex_radiance,
+            settings.gather,
+            settings.gather_rays as usize,
+            visible_fraction,
+        );
+        report.seconds.gather = t.elapsed().as_secs_f64();
+    }
     baked
 }
 

@@ -21,6 +21,8 @@ pub struct Seconds {
     pub form_factors: f64,
     pub solve: f64,
     pub bake: f64,
+    /// The final gather at the output vertices (0 for `gather = none`).
+    pub gather: f64,
     pub write: f64,
 }
 
@@ -33,6 +35,7 @@ impl Seconds {
             + self.form_factors
             + self.solve
             + self.bake
+            + self.gather
             + self.write
     }
 }

@@ -11,6 +11,7 @@ use serde::Serialize;
 
 use crate::choice::Choice;
 use crate::color;
+use crate::gather::Gather;
 use crate::mesh::{self, refine};
 use crate::{form_factor, hierarchical, solve, Error, Result};
 
@@ -83,6 +84,10 @@ pub struct Settings {
     /// Form-factor cache directory: F is read from it when these patches and estimator
     /// settings were computed before, and stored otherwise ([`crate::form_factor::cache`]).
     pub cache: Option<PathBuf>,
+    /// Final gather at the output vertices ([`crate::gather`]).
+    pub gather: Gather,
+    /// Hemisphere rays per vertex of the `full` gather, in 1..=65536.
+    pub gather_rays: u32,
 }
 
 impl Default for Settings {
@@ -98,6 +103,8 @@ impl Default for Settings {
             refine_rounds: 2,
             refine_threshold: refine::DEFAULT_THRESHOLD,
             cache: None,
+            gather: Gather::Full,
+            gather_rays: 256,
         }
     }
 }
@@ -127,6 +134,12 @@ impl Settings {
             return Err(Error::setting(
                 "refine_threshold",
                 format!("{} is not a positive number", self.refine_threshold),
+            ));
+        }
+        if !(1..=65536).contains(&self.gather_rays) {
+            return Err(Error::setting(
+                "gather_rays",
+                format!("{} is not in 1..=65536", self.gather_rays),
             ));
         }
         self.form_factors.validate()?;
@@ -171,7 +184,8 @@ mod tests {
     fn validate_names_the_first_bad_setting() {
         Settings::default().validate().unwrap();
         type Breakage = (fn(&mut Settings), &'static str);
-        let cases: [Breakage; 11] = [
+        let cases: [Breakage; 12] = [
+            (|s| s.gather_rays = 0, "gather_rays"),
             (|s| s.max_edge = Some(0.0), "max_edge"),
             (|s| s.max_edge = Some(f64::NAN), "max_edge"),
             (|s| s.max_edge = Some(-2.0), "max_edge"),

@@ -20,6 +20,15 @@ pub fn parallel_rectangles(a: f64, b: f64, c: f64) -> f64 {
             - y * y.atan())
 }
 
+/// Howell B-3: from a differential area to a parallel rectangle a × b at distance c, the
+/// area's normal through one corner of the rectangle. Dimensionless. (Under the corner of a
+/// unit square 1 away: 0.138532.)
+pub fn point_to_parallel_rectangle_corner(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    1.0 / (2.0 * PI) * (x / sx * (y / sx).atan() + y / sy * (x / sy).atan())
+}
+
 /// Howell C-14: from rectangle 1 (common edge length `l`, width `w`) to rectangle 2 (same
 /// common edge, width `h`), at 90° sharing the edge. Dimensionless. (Unit squares: 0.200044.)
 pub fn perpendicular_rectangles(l: f64, w: f64, h: f64) -> f64 {

@@ -155,13 +155,15 @@ pub fn surface_means(
         .collect()
 }
 
-/// The scene prepared for tracing.
-struct Tracer<'a> {
+/// The scene prepared for tracing (also the point-wise benchmark's reference,
+/// [`super::pointwise`]).
+pub(crate) struct Tracer<'a> {
     scene: &'a Scene,
     vis: Visibility,
-    corners: Vec<[DVec3; 3]>,
-    normal: Vec<DVec3>,
-    area: Vec<f64>,
+    pub(crate) corners: Vec<[DVec3; 3]>,
+    /// Unit front normal of each scene triangle.
+    pub(crate) normal: Vec<DVec3>,
+    pub(crate) area: Vec<f64>,
     /// Emitting triangles and the cumulative distribution of their emitted power
     /// (area × largest channel of Le), for next-event estimation.
     emitters: Vec<u32>,
@@ -171,7 +173,7 @@ struct Tracer<'a> {
 }
 
 impl<'a> Tracer<'a> {
-    fn new(scene: &'a Scene) -> Self {
+    pub(crate) fn new(scene: &'a Scene) -> Self {
         let corners: Vec<[DVec3; 3]> = scene
             .triangles
             .iter()
@@ -224,7 +226,7 @@ impl<'a> Tracer<'a> {
     }
 
     /// Uniform point on triangle t from (u, v) ∈ [0, 1)² (area-preserving map).
-    fn point(&self, t: usize, u: f64, v: f64) -> DVec3 {
+    pub(crate) fn point(&self, t: usize, u: f64, v: f64) -> DVec3 {
         let [a, b, c] = self.corners[t];
         let su = u.sqrt();
         (1.0 - su) * a + su * (1.0 - v) * b + su * v * c
@@ -292,7 +294,7 @@ impl<'a> Tracer<'a> {
 
     /// One estimate of the radiance leaving point `x` of triangle `t` (toward its front), and
     /// whether `x` is buried (then the estimate is 0).
-    fn radiance_out(&self, t: usize, x: DVec3, rng: &mut Rng) -> (Rgb, bool) {
+    pub(crate) fn radiance_out(&self, t: usize, x: DVec3, rng: &mut Rng) -> (Rgb, bool) {
         if self.buried(t, x) {
             return ([0.0; 3], true);
         }
@@ -397,7 +399,7 @@ impl<'a> Tracer<'a> {
 
     /// True when the first surface straight along x's normal is seen from behind (`x` lies
     /// inside a closed object or under a surface resting on it).
-    fn buried(&self, t: usize, x: DVec3) -> bool {
+    pub(crate) fn buried(&self, t: usize, x: DVec3) -> bool {
         let n = self.normal[t];
         self.vis
             .closest_hit(x, n, f64::INFINITY, t as u32)

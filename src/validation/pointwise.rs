@@ -1,0 +1,625 @@
+//! The point-wise benchmark: what a viewer of a baked mesh sees, scored point by point against
+//! path-traced radiance. Per-surface means are a weak measure (a path tracer gets a surface's
+//! mean cheaply, and a mean hides a lit vertex bleeding into a shadow); this measures the
+//! radiance a viewer is shown at points spread uniformly over the scene.
+//!
+//! 1. **Probes** ([`sample_points`]): `n` points drawn uniformly by area over the scene's
+//!    triangles (fixed seed), leaving out emitters (their radiance is their own Le, no test of
+//!    the solve) and buried points (the floor under a block: no viewer sees them; the test of
+//!    [`path_tracer`](super::path_tracer)).
+//! 2. **Reference** ([`trace_reference`]): outgoing radiance at each probe from the independent
+//!    path tracer ([`super::path_tracer`], next-event estimation with MIS), paths added per
+//!    probe until the standard error of its luminance is at most a target fraction of it
+//!    (0.3 % by default) or a path limit is reached.
+//! 3. **What the bake displays** ([`Display::at`]): the baked mesh's radiance at each probe,
+//!    interpolated barycentrically from its three vertices (what MeshLab shows with vertex
+//!    colours) and the face's own solved value (flat shading).
+//! 4. **Score** ([`score`]): over the probes brighter than a tenth of the probes' mean
+//!    luminance (so a relative error is not dominated by near-black corners), the relative
+//!    error of luminance e = (Y_shown − Y_ref) / Y_ref; reported as its root mean square,
+//!    median and 90th percentile of |e|, and the mean e (a bias).
+//!
+//! [`trace_for`] gives the same tracer a time budget at the same points: the equal-time
+//! comparison of a bake with path tracing. Every estimate is keyed by (seed, probe, batch), so
+//! a fixed seed gives the same numbers for any thread count.
+
+use std::path::Path;
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::path_tracer::Tracer;
+use crate::bake::BakedMesh;
+use crate::color::{luminance, Rgb};
+use crate::form_factor::sampling::Rng;
+use crate::io::ReadBack;
+use crate::scene::Scene;
+use crate::visibility::{Visibility, NONE};
+use crate::{Error, Result};
+
+/// A point of the scene where the radiance is measured, with the reference found there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Probe {
+    /// The scene triangle the point lies on.
+    pub triangle: u32,
+    /// Position, scene units.
+    pub position: DVec3,
+    /// Unit front normal of the triangle.
+    pub normal: DVec3,
+    /// Path-traced outgoing radiance, W·sr⁻¹·m⁻² per RGB channel (0 before tracing).
+    pub radiance: Rgb,
+    /// Standard error of the luminance of `radiance` (same units).
+    pub std_error: f64,
+    /// Paths traced.
+    pub paths: u32,
+}
+
+/// How the reference is traced.
+#[derive(Debug, Clone, Copy)]
+pub struct ReferenceSettings {
+    /// Stop adding paths to a probe once the standard error of its luminance is at most this
+    /// fraction of the luminance.
+    pub relative_error: f64,
+    /// Paths per probe at least (so the error estimate itself is trustworthy) …
+    pub min_paths: u32,
+    /// … and at most (a probe in deep shadow may never reach `relative_error`).
+    pub max_paths: u32,
+    pub seed: u64,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        ReferenceSettings {
+            relative_error: 0.003,
+            min_paths: 4096,
+            max_paths: 1 << 20,
+            seed: 1,
+        }
+    }
+}
+
+/// Paths traced per probe between checks of the stopping rule.
+const BATCH: u32 = 1024;
+
+/// `n` probes drawn uniformly by area over the scene's non-emitting triangles, skipping buried
+/// points, from `seed`. An error if the scene has no such area, or if most draws are buried.
+pub fn sample_points(scene: &Scene, n: usize, seed: u64) -> Result<Vec<Probe>> {
+    let tracer = Tracer::new(scene);
+    let candidates: Vec<usize> = (0..scene.triangles.len())
+        .filter(|&t| !scene.materials[scene.triangles[t].material as usize].is_emitter())
+        .collect();
+    let mut cdf = Vec::with_capacity(candidates.len());
+    let mut total = 0.0;
+    for &t in &candidates {
+        total += tracer.area[t];
+        cdf.push(total);
+    }
+    if total <= 0.0 {
+        return Err(Error::Internal(
+            "point-wise benchmark: the scene has no non-emitting area to sample".into(),
+        ));
+    }
+    let mut rng = Rng::new(&[seed, 0x50_1E7]);
+    let mut probes = Vec::with_capacity(n);
+    let mut draws = 0usize;
+    while probes.len() < n {
+        draws += 1;
+        if draws > 100 * n.max(1) {
+            return Err(Error::Internal(format!(
+                "point-wise benchmark: {draws} draws found only {} unburied points",
+                probes.len()
+            )));
+        }
+        let q = rng.next_f64() * total;
+        let t = candidates[cdf.partition_point(|&c| c <= q).min(candidates.len() - 1)];
+        let x = tracer.point(t, rng.next_f64(), rng.next_f64());
+        if tracer.buried(t, x) {
+            continue;
+        }
+        probes.push(Probe {
+            triangle: t as u32,
+            position: x,
+            normal: tracer.normal[t],
+            radiance: [0.0; 3],
+            std_error: 0.0,
+            paths: 0,
+        });
+    }
+    Ok(probes)
+}
+
+/// Running sums of one probe's path estimates.
+#[derive(Clone, Copy, Default)]
+struct Sums {
+    rgb: Rgb,
+    y: f64,
+    y2: f64,
+    paths: u32,
+}
+
+impl Sums {
+    /// Adds `count` paths of probe `k`'s batch `batch`.
+    fn add(&mut self, tracer: &Tracer, probe: &Probe, key: [u64; 3], count: u32) {
+        let mut rng = Rng::new(&[key[0], key[1], key[2], 0x9A7_B0B]);
+        for _ in 0..count {
+            let (l, _) = tracer.radiance_out(probe.triangle as usize, probe.position, &mut rng);
+            let y = luminance(l);
+            for (s, v) in self.rgb.iter_mut().zip(l) {
+                *s += v;
+            }
+            self.y += y;
+            self.y2 += y * y;
+        }
+        self.paths += count;
+    }
+
+    fn mean(&self) -> Rgb {
+        let n = self.paths.max(1) as f64;
+        self.rgb.map(|s| s / n)
+    }
+
+    /// Standard error of the mean luminance (sample variance / n, square-rooted).
+    fn std_error(&self) -> f64 {
+        let n = self.paths as f64;
+        if n < 2.0 {
+            return f64::INFINITY;
+        }
+        let mean = self.y / n;
+        let var = ((self.y2 / n - mean * mean) * n / (n - 1.0)).max(0.0);
+        (var / n).sqrt()
+    }
+}
+
+/// Path-traces the reference radiance at every probe (see [`ReferenceSettings`]).
+pub fn trace_reference(scene: &Scene, probes: &mut [Probe], settings: &ReferenceSettings) {
+    let tracer = Tracer::new(scene);
+    probes.par_iter_mut().enumerate().for_each(|(k, probe)| {
+        let mut sums = Sums::default();
+        let mut batch = 0u64;
+        loop {
+            sums.add(&tracer, probe, [settings.seed, k as u64, batch], BATCH);
+            batch += 1;
+            if sums.paths < settings.min_paths {
+                continue;
+            }
+            let y = sums.y / sums.paths as f64;
+            let done = y == 0.0 || sums.std_error() <= settings.relative_error * y;
+            if done || sums.paths >= settings.max_paths {
+                break;
+            }
+        }
+        probe.radiance = sums.mean();
+        probe.std_error = sums.std_error();
+        probe.paths = sums.paths;
+    });
+}
+
+/// The same path tracer given `seconds` (wall clock, its set-up included) at the probes:
+/// rounds of a few paths at every probe until the time is spent. Returns each probe's
+/// estimate and the paths each got. Seeds differ from the reference's, so its error is
+/// independent of the reference's noise.
+pub fn trace_for(scene: &Scene, probes: &[Probe], seconds: f64, seed: u64) -> (Vec<Rgb>, u32) {
+    const ROUND: u32 = 4;
+    let start = Instant::now();
+    let tracer = Tracer::new(scene);
+    let mut sums = vec![Sums::default(); probes.len()];
+    let mut round = 0u64;
+    while round == 0 || start.elapsed().as_secs_f64() < seconds {
+        sums.par_iter_mut().enumerate().for_each(|(k, s)| {
+            s.add(
+                &tracer,
+                &probes[k],
+                [seed ^ 0xE0_A1, k as u64, round],
+                ROUND,
+            )
+        });
+        round += 1;
+    }
+    (
+        sums.iter().map(Sums::mean).collect(),
+        sums.first().map_or(0, |s| s.paths),
+    )
+}
+
+/// A baked mesh as a viewer sees it: triangles with radiance at their vertices and a value per
+/// face. Radiance in W·sr⁻¹·m⁻² per RGB channel.
+pub struct Display {
+    pub positions: Vec<DVec3>,
+    pub faces: Vec<[u32; 3]>,
+    pub vertex_radiance: Vec<Rgb>,
+    pub face_radiance: Vec<Rgb>,
+}
+
+/// What a display shows at one probe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shown {
+    /// Barycentric interpolation of the face's vertex radiance (smooth shading).
+    pub interpolated: Rgb,
+    /// The face's own radiance (flat shading).
+    pub flat: Rgb,
+}
+
+impl Display {
+    pub fn from_baked(mesh: &BakedMesh) -> Display {
+        Display {
+            positions: mesh.positions.iter().map(|&p| DVec3::from(p)).collect(),
+            faces: mesh.faces.clone(),
+            vertex_radiance: mesh.vertex_radiance.clone(),
+            face_radiance: mesh.face_radiance.clone(),
+        }
+    }
+
+    /// From a baked PLY read back ([`crate::io::ply::read`]); `path` names the file in the
+    /// error when it carries no radiance (OBJ output keeps only 8-bit colours).
+    pub fn from_read_back(back: &ReadBack, path: &Path) -> Result<Display> {
+        let (Some(v), Some(f)) = (&back.vertex_radiance, &back.face_radiance) else {
+            return Err(Error::Input {
+                path: path.to_path_buf(),
+                message: "has no radiance properties (score a .ply bake, not an .obj)".into(),
+            });
+        };
+        let widen = |r: &[f32; 3]| r.map(|c| c as f64);
+        Ok(Display {
+            positions: back
+                .positions
+                .iter()
+                .map(|p| DVec3::from(p.map(|c| c as f64)))
+                .collect(),
+            faces: back.faces.clone(),
+            vertex_radiance: v.iter().map(widen).collect(),
+            face_radiance: f.iter().map(widen).collect(),
+        })
+    }
+
+    /// What the display shows at each probe: the face found by a short ray from just in front
+    /// of the probe (a millionth of the mesh's extent) back along its normal, hitting a face
+    /// from its front. `None` where no face of the display covers the probe.
+    pub fn at(&self, probes: &[Probe]) -> Vec<Option<Shown>> {
+        let corners: Vec<[DVec3; 3]> = self
+            .faces
+            .iter()
+            .map(|f| f.map(|v| self.positions[v as usize]))
+            .collect();
+        let vis = Visibility::build(&corners);
+        let (lo, hi) = self.positions.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        let delta = 1e-6 * (hi - lo).length().max(f64::MIN_POSITIVE);
+        probes
+            .par_iter()
+            .map(|p| {
+                let origin = p.position + delta * p.normal;
+                let hit = vis.closest_hit(origin, -p.normal, 2.0 * delta, NONE)?;
+                let f = hit.triangle as usize;
+                let [a, b, c] = corners[f];
+                if (b - a).cross(c - a).dot(p.normal) <= 0.0 {
+                    return None;
+                }
+                let [va, vb, vc] = self.faces[f].map(|v| self.vertex_radiance[v as usize]);
+                let w = [1.0 - hit.u - hit.v, hit.u, hit.v];
+                Some(Shown {
+                    interpolated: std::array::from_fn(|ch| {
+                        w[0] * va[ch] + w[1] * vb[ch] + w[2] * vc[ch]
+                    }),
+                    flat: self.face_radiance[f],
+                })
+            })
+            .collect()
+    }
+}
+
+/// Relative errors of luminance at the probes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct Score {
+    /// Probes scored: brighter than a tenth of the probes' mean luminance.
+    pub scored: usize,
+    /// Of those, probes the display did not cover (scored as showing black: error −1).
+    pub missing: usize,
+    /// Root mean square of e = (Y_shown − Y_ref) / Y_ref.
+    pub rms: f64,
+    /// Median of |e|.
+    pub median: f64,
+    /// 90th percentile of |e| (nearest rank).
+    pub p90: f64,
+    /// Mean of e: the bias (> 0: shown too bright).
+    pub bias: f64,
+    /// Root mean square of the reference's own relative standard error at the scored probes:
+    /// the floor under `rms` that the reference's noise sets.
+    pub reference_noise: f64,
+}
+
+/// Scores `shown` (one value per probe, `None` where nothing is shown) against the probes'
+/// reference radiance (see the module documentation).
+pub fn score(probes: &[Probe], shown: &[Option<Rgb>]) -> Score {
+    assert_eq!(probes.len(), shown.len(), "one shown value per probe");
+    let mean_y =
+        probes.iter().map(|p| luminance(p.radiance)).sum::<f64>() / probes.len().max(1) as f64;
+    let mut errors = Vec::new();
+    let (mut missing, mut noise2) = (0, 0.0);
+    for (p, s) in probes.iter().zip(shown) {
+        let y_ref = luminance(p.radiance);
+        if y_ref.is_nan() || y_ref <= 0.1 * mean_y {
+            continue;
+        }
+        let y = match s {
+            Some(rgb) => luminance(*rgb),
+            None => {
+                missing += 1;
+                0.0
+            }
+        };
+        errors.push((y - y_ref) / y_ref);
+        noise2 += (p.std_error / y_ref).powi(2);
+    }
+    let n = errors.len();
+    if n == 0 {
+        return Score::default();
+    }
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / n as f64).sqrt();
+    let bias = errors.iter().sum::<f64>() / n as f64;
+    let mut abs: Vec<f64> = errors.iter().map(|e| e.abs()).collect();
+    abs.sort_by(f64::total_cmp);
+    let rank = |q: f64| abs[((q * n as f64).ceil() as usize).clamp(1, n) - 1];
+    Score {
+        scored: n,
+        missing,
+        rms,
+        median: rank(0.5),
+        p90: rank(0.9),
+        bias,
+        reference_noise: (noise2 / n as f64).sqrt(),
+    }
+}
+
+/// Columns of the probes' CSV.
+const CSV_HEADER: &str = "triangle,x,y,z,nx,ny,nz,r,g,b,std_error,paths";
+
+/// Writes probes as CSV (full `f64` precision), atomically.
+pub fn write_csv(path: &Path, probes: &[Probe]) -> Result<()> {
+    let mut text = String::from(CSV_HEADER);
+    text.push('\n');
+    for p in probes {
+        let (x, n, r) = (p.position, p.normal, p.radiance);
+        text.push_str(&format!(
+            "{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{}\n",
+            p.triangle, x.x, x.y, x.z, n.x, n.y, n.z, r[0], r[1], r[2], p.std_error, p.paths
+        ));
+    }
+    crate::io::write_atomic(path, text.as_bytes())
+}
+
+/// Reads probes written by [`write_csv`]; errors name the file and line.
+pub fn read_csv(path: &Path) -> Result<Vec<Probe>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let bad = |line: usize, message: String| Error::Parse {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, h)) if h.trim() == CSV_HEADER => {}
+        _ => return Err(bad(1, format!("expected the header `{CSV_HEADER}`"))),
+    }
+    let mut probes = Vec::new();
+    for (i, line) in lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != 12 {
+            return Err(bad(i + 1, format!("{} fields, expected 12", fields.len())));
+        }
+        let num = |k: usize| -> Result<f64> {
+            fields[k]
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    bad(
+                        i + 1,
+                        format!("field {} `{}` is not a number", k + 1, fields[k]),
+                    )
+                })
+        };
+        let int = |k: usize| -> Result<u32> {
+            fields[k].trim().parse::<u32>().map_err(|_| {
+                bad(
+                    i + 1,
+                    format!("field {} `{}` is not a count", k + 1, fields[k]),
+                )
+            })
+        };
+        probes.push(Probe {
+            triangle: int(0)?,
+            position: DVec3::new(num(1)?, num(2)?, num(3)?),
+            normal: DVec3::new(num(4)?, num(5)?, num(6)?),
+            radiance: [num(7)?, num(8)?, num(9)?],
+            std_error: num(10)?,
+            paths: int(11)?,
+        });
+    }
+    Ok(probes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::form_factor::kernel::point_to_polygon;
+    use crate::validation::scenes;
+
+    /// The scene's own triangles as a display, with radiance `field` at each vertex and at
+    /// each face's centroid.
+    fn display_of(scene: &Scene, field: impl Fn(DVec3) -> Rgb) -> Display {
+        let faces: Vec<[u32; 3]> = scene.triangles.iter().map(|t| t.vertices).collect();
+        Display {
+            vertex_radiance: scene.positions.iter().map(|&p| field(p)).collect(),
+            face_radiance: faces
+                .iter()
+                .map(|f| {
+                    field(
+                        f.iter()
+                            .map(|&v| scene.positions[v as usize])
+                            .sum::<DVec3>()
+                            / 3.0,
+                    )
+                })
+                .collect(),
+            positions: scene.positions.clone(),
+            faces,
+        }
+    }
+
+    #[test]
+    fn display_interpolates_a_linear_field_exactly() {
+        // Barycentric interpolation reproduces a linear field, so what is shown at every probe
+        // equals the field there: this checks that each probe finds its own face and the
+        // barycentrics of the hit (a wrong face or swapped weights would be off by O(1)).
+        let scene = scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let probes = sample_points(&scene, 300, 5).unwrap();
+        let field = |p: DVec3| [1.0 + p.x, 2.0 + 0.5 * p.y - 0.25 * p.z, 3.0 + p.z];
+        let shown = display_of(&scene, field).at(&probes);
+        for (p, s) in probes.iter().zip(&shown) {
+            let s = s.expect("every probe lies on a face of the display");
+            let want = field(p.position);
+            for ch in 0..3 {
+                // The hit's barycentrics come from the BVH's f32 triangle test: ~1e-7 relative,
+                // so 1e-6 of these values of order 1 (a wrong face: off by 0.1 or more).
+                assert!(
+                    (s.interpolated[ch] - want[ch]).abs() < 1e-6,
+                    "{s:?} vs {want:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn constant_radiance_scores_zero_and_an_empty_display_scores_missing() {
+        // Probes whose reference is a constant, and a display showing exactly that: 0 error;
+        // a display with no faces shows nothing at any probe.
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let l = 0.25;
+        let mut probes = sample_points(&scene, 200, 2).unwrap();
+        for p in &mut probes {
+            p.radiance = [l; 3];
+        }
+        let shown: Vec<Option<Rgb>> = display_of(&scene, |_| [l; 3])
+            .at(&probes)
+            .iter()
+            .map(|s| s.map(|s| s.interpolated))
+            .collect();
+        let s = score(&probes, &shown);
+        assert_eq!((s.scored, s.missing), (200, 0));
+        assert!(s.rms < 1e-12 && s.p90 < 1e-12, "{s:?}");
+        let empty = Display {
+            positions: vec![],
+            faces: vec![],
+            vertex_radiance: vec![],
+            face_radiance: vec![],
+        };
+        let none: Vec<Option<Rgb>> = empty
+            .at(&probes)
+            .iter()
+            .map(|s| s.map(|s| s.flat))
+            .collect();
+        let s = score(&probes, &none);
+        assert_eq!(s.missing, 200);
+        assert!((s.rms - 1.0).abs() < 1e-12 && (s.bias + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn score_statistics_on_known_errors() {
+        // Ten probes of luminance 1 shown with errors 0, 1, …, 9 % (one probe at 0.05 of the
+        // mean is dark and left out): RMS √(Σk²/10) %, median 4 %, 90th percentile 8 %.
+        let probe = |y: f64| Probe {
+            triangle: 0,
+            position: DVec3::ZERO,
+            normal: DVec3::Z,
+            radiance: [y; 3],
+            std_error: 0.0,
+            paths: 1,
+        };
+        let mut probes: Vec<Probe> = (0..10).map(|_| probe(1.0)).collect();
+        let mut shown: Vec<Option<Rgb>> =
+            (0..10).map(|k| Some([1.0 + 0.01 * k as f64; 3])).collect();
+        probes.push(probe(0.05));
+        shown.push(Some([7.0; 3]));
+        let s = score(&probes, &shown);
+        assert_eq!(s.scored, 10);
+        let rms = ((0..10).map(|k| (k * k) as f64).sum::<f64>() / 10.0).sqrt() / 100.0;
+        assert!((s.rms - rms).abs() < 1e-12, "{s:?}");
+        assert!(
+            (s.median - 0.04).abs() < 1e-12 && (s.p90 - 0.08).abs() < 1e-12,
+            "{s:?}"
+        );
+        assert!((s.bias - 0.045).abs() < 1e-12, "{s:?}");
+    }
+
+    #[test]
+    fn reference_matches_the_exact_point_form_factor() {
+        // Parallel plates, the source black (ρ = 0): the receiver's radiance at x is
+        // ρ·Le·F(x → source) exactly, F the contour integral. The tracer's only error is its
+        // noise, and it stops at the asked relative standard error (2 % here, for speed).
+        let (rho, le) = (0.5, 2.0);
+        let scene = scenes::parallel_plates(1.0, 1.0, 0.5, rho, le).unwrap();
+        let source = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ];
+        let mut probes = sample_points(&scene, 12, 3).unwrap();
+        let settings = ReferenceSettings {
+            relative_error: 0.02,
+            min_paths: 1024,
+            max_paths: 1 << 16,
+            seed: 4,
+        };
+        trace_reference(&scene, &mut probes, &settings);
+        for p in &probes {
+            assert!(
+                (p.position.z - 0.5).abs() < 1e-12,
+                "probes lie on the receiver only"
+            );
+            let expected = rho * le * point_to_polygon(p.position, p.normal, &source);
+            let y = luminance(p.radiance);
+            assert!(p.std_error <= 0.02 * y, "{p:?}");
+            assert!(
+                (y - expected).abs() < 5.0 * p.std_error,
+                "{p:?} vs {expected}"
+            );
+        }
+        // Determinism: the same seed, the same bits.
+        let mut again = sample_points(&scene, 12, 3).unwrap();
+        trace_reference(&scene, &mut again, &settings);
+        assert_eq!(again, probes);
+    }
+
+    #[test]
+    fn csv_round_trips_and_errors_name_the_line() {
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let mut probes = sample_points(&scene, 5, 9).unwrap();
+        probes[2].radiance = [0.1, 0.2, 0.3];
+        let dir = std::env::temp_dir().join(format!("radiosity-probes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("probes.csv");
+        write_csv(&path, &probes).unwrap();
+        assert_eq!(read_csv(&path).unwrap(), probes);
+        // The red radiance of the third probe (line 4) made unreadable.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let mut fields: Vec<&str> = lines[3].split(',').collect();
+        fields[7] = "zero";
+        lines[3] = fields.join(",");
+        std::fs::write(&path, lines.join("\n")).unwrap();
+        let err = read_csv(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("probes.csv:4:") && err.contains("`zero`"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,264 @@
+//! The point-wise harness: `cargo bench -p radiosity-tools --bench pointwise -- [reference]
+//! [curves] [--quick] [--out DIR]` (`curves` when no section is named). What a viewer of the
+//! baked mesh sees, scored at probe points against path-traced radiance
+//! ([`radiosity::validation::pointwise`]), and the same path tracer given the bake's seconds.
+//!
+//! - `reference`: traces the probes of each scene (2,000 points, fixed seed, ≤ 0.3 % standard
+//!   error each where a million paths allow) into `docs/bench/probes_SCENE.csv`. `curves`
+//!   traces them first when the file is missing.
+//! - `curves`: bakes each scene at several settings (matrix and hierarchical); for each bake,
+//!   the displayed radiance (vertex-interpolated and flat) is scored, and the path tracer is
+//!   given the bake's seconds at the same probes. Writes `curves.md` and
+//!   `pointwise_SCENE.png` (RMS relative error against seconds) to DIR (default
+//!   `target/pointwise`).
+//!
+//! Scenes: `cornell` (meshes/cornell_box.obj) and `hall` (the generated furnished hall,
+//! `radiosity generate hall --triangles 10000`: a room of tables and chairs under ceiling
+//! lights, a scene nothing here was tuned to).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use radiosity::gather::Gather;
+use radiosity::pipeline::{self, Method};
+use radiosity::scene::Scene;
+use radiosity::validation::pointwise::{self, Display, ReferenceSettings, Score};
+use radiosity::validation::scenes;
+use radiosity_tools::{chart, harness_args, load_font, root, write_sections, Curve};
+
+const SECTIONS: [&str; 2] = ["reference", "curves"];
+const SCENES: [&str; 2] = ["cornell", "hall"];
+/// Probes per scene, and their seed.
+const PROBES: usize = 2000;
+const PROBE_SEED: u64 = 1;
+
+struct Args {
+    sections: Vec<String>,
+    quick: bool,
+    out: PathBuf,
+}
+
+fn main() -> Result<()> {
+    let h = harness_args(
+        "target/pointwise",
+        "cargo bench -p radiosity-tools --bench pointwise -- [reference|curves]… [--quick] \
+         [--out DIR]",
+    )?;
+    let sections = radiosity_tools::sections(h.other, &SECTIONS, &["curves"], |_| {
+        anyhow::bail!("this harness runs no child processes")
+    })?;
+    let args = Args {
+        sections,
+        quick: h.quick,
+        out: h.out,
+    };
+    let text = load_font();
+    write_sections(&args.out, &args.sections, |s| match s {
+        "reference" => reference(),
+        "curves" => curves(&args, text),
+        _ => unreachable!(),
+    })
+}
+
+fn load(name: &str) -> Result<Scene> {
+    Ok(match name {
+        "cornell" => Scene::load(&root().join("meshes/cornell_box.obj"))?,
+        "hall" => scenes::furnished_hall(10_000)?,
+        _ => anyhow::bail!("unknown scene {name}"),
+    })
+}
+
+fn probes_path(name: &str) -> PathBuf {
+    root().join(format!("docs/bench/probes_{name}.csv"))
+}
+
+/// Traces the probes of `name` and writes them; returns a Markdown line.
+fn trace(name: &str) -> Result<String> {
+    let scene = load(name)?;
+    let t = Instant::now();
+    let mut probes = pointwise::sample_points(&scene, PROBES, PROBE_SEED)?;
+    let settings = ReferenceSettings::default();
+    pointwise::trace_reference(&scene, &mut probes, &settings);
+    let seconds = t.elapsed().as_secs_f64();
+    let path = probes_path(name);
+    pointwise::write_csv(&path, &probes)?;
+    let paths: u64 = probes.iter().map(|p| p.paths as u64).sum();
+    let capped = probes
+        .iter()
+        .filter(|p| p.paths >= settings.max_paths)
+        .count();
+    let line = format!(
+        "| {name} | {} | {paths} | {seconds:.0} | {capped} |\n",
+        probes.len()
+    );
+    eprintln!("  {} written: {line}", path.display());
+    Ok(line)
+}
+
+fn reference() -> Result<String> {
+    let mut md = String::from(
+        "Probes: 2,000 points uniform by area (seed 1; emitters and buried points left out), \
+         path-traced until the standard error of each one's luminance is ≤ 0.3 % of it (at \
+         least 4,096 and at most 1,048,576 paths; 'capped' probes stopped at the limit).\n\n\
+         | scene | probes | paths | seconds | capped |\n|---|---|---|---|---|\n",
+    );
+    for name in SCENES {
+        md.push_str(&trace(name)?);
+    }
+    Ok(md)
+}
+
+/// The bakes measured on each scene: (label, settings). The defaults, each final gather, a
+/// finer matrix bake, and the hierarchical solver at several ε.
+fn bakes(quick: bool, scene: &Scene) -> Vec<(String, pipeline::Settings)> {
+    let with = |method, max_edge, epsilon, gather| {
+        let mut s = pipeline::Settings {
+            method,
+            max_edge,
+            gather,
+            ..pipeline::Settings::default()
+        };
+        s.hierarchical.epsilon = epsilon;
+        s
+    };
+    let default_epsilon = pipeline::Settings::default().hierarchical.epsilon;
+    let mut runs = vec![
+        (
+            "matrix, gather none".to_string(),
+            with(Method::Matrix, None, default_epsilon, Gather::None),
+        ),
+        (
+            "matrix, gather direct".to_string(),
+            with(Method::Matrix, None, default_epsilon, Gather::Direct),
+        ),
+        (
+            "matrix, gather full (the defaults)".to_string(),
+            with(Method::Matrix, None, default_epsilon, Gather::Full),
+        ),
+    ];
+    if !quick {
+        let half = radiosity::mesh::default_max_edge(scene) / 2.0;
+        runs.push((
+            "matrix, max edge default / 2, gather full".to_string(),
+            with(Method::Matrix, Some(half), default_epsilon, Gather::Full),
+        ));
+    }
+    let eps: &[f64] = if quick { &[1e-4] } else { &[1e-4, 1e-5, 1e-6] };
+    for &e in eps {
+        runs.push((
+            format!("hierarchical, ε {e:.0e}, gather full"),
+            with(Method::Hierarchical, None, e, Gather::Full),
+        ));
+    }
+    runs
+}
+
+fn score_row(md: &mut String, what: &str, seconds: f64, s: &Score) {
+    writeln!(
+        md,
+        "| {what} | {seconds:.2} | {:.2} % | {:.2} % | {:.2} % | {:+.2} % | {} |",
+        100.0 * s.rms,
+        100.0 * s.median,
+        100.0 * s.p90,
+        100.0 * s.bias,
+        s.missing
+    )
+    .unwrap();
+}
+
+fn curves(args: &Args, text: bool) -> Result<String> {
+    let mut md = String::from(
+        "Relative error of luminance at the probes (those brighter than a tenth of the mean), \
+         against the path-traced reference (docs/bench/probes_SCENE.csv). 'shown' is what the \
+         baked mesh displays with vertex colours (barycentric interpolation), 'flat' the \
+         face's own value; 'path tracer' is the reference's tracer given the bake's seconds \
+         at the same probes. Seconds: the solve and bake (no file loading or writing).\n",
+    );
+    for name in SCENES {
+        let path = probes_path(name);
+        if !path.exists() {
+            eprintln!("  {} is missing: tracing it", path.display());
+            trace(name)?;
+        }
+        let probes = pointwise::read_csv(&path)?;
+        let scene = load(name)?;
+        let noise = pointwise::score(
+            &probes,
+            &probes.iter().map(|p| Some(p.radiance)).collect::<Vec<_>>(),
+        );
+        writeln!(
+            md,
+            "\n## {name}\n\n{} probes scored; the reference's own noise: RMS {:.2} %.\n\n\
+             | run | seconds | RMS | median | 90th pct | bias | missing |\n\
+             |---|---|---|---|---|---|---|",
+            noise.scored,
+            100.0 * noise.reference_noise
+        )?;
+        let mut shown = Curve {
+            label: "bake, vertex colours".into(),
+            points: vec![],
+            colour: 0,
+            style: 0,
+        };
+        let mut flat = Curve {
+            label: "bake, flat".into(),
+            points: vec![],
+            colour: 1,
+            style: 1,
+        };
+        let mut tracer = Curve {
+            label: "path tracer".into(),
+            points: vec![],
+            colour: 2,
+            style: 1,
+        };
+        for (label, settings) in bakes(args.quick, &scene) {
+            let t = Instant::now();
+            let out = pipeline::solve_scene(&scene, &settings)
+                .with_context(|| format!("{name}: {label}"))?;
+            let seconds = t.elapsed().as_secs_f64();
+            let at = Display::from_baked(&out.baked).at(&probes);
+            let s_shown = pointwise::score(
+                &probes,
+                &at.iter()
+                    .map(|a| a.map(|a| a.interpolated))
+                    .collect::<Vec<_>>(),
+            );
+            let s_flat = pointwise::score(
+                &probes,
+                &at.iter().map(|a| a.map(|a| a.flat)).collect::<Vec<_>>(),
+            );
+            let (traced, paths) = pointwise::trace_for(&scene, &probes, seconds, 7);
+            let s_traced =
+                pointwise::score(&probes, &traced.into_iter().map(Some).collect::<Vec<_>>());
+            score_row(&mut md, &format!("{label}: shown"), seconds, &s_shown);
+            score_row(&mut md, &format!("{label}: flat"), seconds, &s_flat);
+            score_row(
+                &mut md,
+                &format!("path tracer, same seconds ({paths} paths per probe)"),
+                seconds,
+                &s_traced,
+            );
+            eprintln!(
+                "  {name} {label}: {seconds:.2} s, shown {:.4}, flat {:.4}, tracer {:.4}",
+                s_shown.rms, s_flat.rms, s_traced.rms
+            );
+            shown.points.push((seconds, s_shown.rms));
+            flat.points.push((seconds, s_flat.rms));
+            tracer.points.push((seconds, s_traced.rms));
+        }
+        let png = args.out.join(format!("pointwise_{name}.png"));
+        chart(
+            &png,
+            &format!("{name}: what the viewer sees, RMS relative error"),
+            ("seconds", "RMS relative error of luminance"),
+            true,
+            &[shown, flat, tracer],
+            text,
+        )?;
+        writeln!(md, "\n![{name}](pointwise_{name}.png)")?;
+    }
+    Ok(md)
+}
