@@ -25,8 +25,8 @@
 //!
 //! A vertex whose normal ray meets the back of a surface (buried under contact geometry) keeps
 //! the bake's value. Where surfaces meet at the vertex (a crease or material border, or a
-//! partly buried patch around it: a contact line), the point gathered at is moved a thousandth
-//! of the way toward the centroid of the most visible patch around it: at the vertex itself a
+//! partly buried patch around it: a contact line), the point gathered at is moved [`NUDGE`] of
+//! the way toward the centroid of the most visible patch around it: at the vertex itself a
 //! neighbouring surface would be seen edge-on (form factor 0), though every point beside the
 //! vertex sees it fill part of the hemisphere. Every random choice is keyed by (seed, vertex), so a fixed seed gives the
 //! same colours for any thread count.
@@ -90,6 +90,27 @@ impl fmt::Display for Gather {
     }
 }
 
+/// Where surfaces meet at a vertex, the gather point is moved this fraction of the way to the
+/// centroid of the most visible patch around it. Far enough to leave the steep part of the
+/// radiance next to a contact (a light mounted half a millimetre under the Cornell box's
+/// ceiling darkens the ceiling within about a millimetre of its edge), near enough that the
+/// value stands for the vertex. Measured on the Cornell box's 2,000 probes: displayed RMS
+/// 3.3 % at 0.001, 3.0 % at 0.01, 2.8 % at 0.05, 2.9 % at 0.2.
+pub const NUDGE: f64 = 0.05;
+
+/// Hemisphere rays of the whole `full` gather when the number per vertex is not given: the
+/// indirect light's noise falls as rays⁻½ while the cost grows with vertices × rays, so a
+/// fixed budget keeps a large scene's gather bounded. Measured on the Cornell box (3,389
+/// vertices) against 2,000 path-traced probes: displayed RMS 4.3 % at 64 rays, 3.0 % at 128,
+/// 2.8 % at 256, 2.3 % at 1024.
+pub const AUTO_RAY_BUDGET: usize = 4_000_000;
+
+/// Hemisphere rays per vertex for `vertices` output vertices: [`AUTO_RAY_BUDGET`] shared out,
+/// at least 64 and at most 1024 each.
+pub fn auto_rays(vertices: usize) -> usize {
+    (AUTO_RAY_BUDGET / vertices.max(1)).clamp(64, 1024)
+}
+
 /// Shadow rays per emitter at a point, before adapting.
 pub const SHADOW_RAYS: usize = 16;
 /// Shadow rays per emitter at a point when the first [`SHADOW_RAYS`] disagree.
@@ -99,7 +120,7 @@ pub const MAX_SHADOW_RAYS: usize = 256;
 /// scene, the ones with the largest bound on their contribution (Le · A / (π d²), d the
 /// distance to the emitter's centre less its radius); the others' light arrives through the
 /// hemisphere rays (`full`) or the patches' solved radiance (`direct`).
-pub const MAX_EXACT_EMITTERS: usize = 32;
+pub const MAX_EXACT_EMITTERS: usize = 8;
 
 /// Shadow rays start [`LIFT`] × the scene's extent above the surface point and end as far
 /// in front of the emitter point they aim at, so a ray that grazes a surface (from a point
@@ -410,7 +431,7 @@ pub fn gather(
                     .iter()
                     .any(|&q| visible_fraction.get(q as usize).is_some_and(|&f| f < 1.0));
             let x = if contact {
-                site.position + 1e-3 * (p.centroid[best as usize] - site.position)
+                site.position + NUDGE * (p.centroid[best as usize] - site.position)
             } else {
                 site.position
             };

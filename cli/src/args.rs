@@ -13,6 +13,7 @@ use radiosity::bake::BakedMesh;
 use radiosity::form_factor::{self, Estimator};
 use radiosity::gather::Gather;
 use radiosity::hierarchical;
+use radiosity::mesh::Discontinuities;
 use radiosity::pipeline::{self, WriteOptions};
 use radiosity::render::{self, View};
 use radiosity::scene::{Camera, Override, Property};
@@ -287,14 +288,25 @@ impl MethodArgs {
 pub struct SolveArgs {
     #[command(flatten)]
     pub method: MethodArgs,
+    /// Discontinuities made mesh edges before patching: `contacts` (where a face touches or
+    /// crosses another's plane, or a parallel face is mounted just in front of it, the
+    /// contact line becomes an edge) or `none`.
+    #[arg(long, value_parser = choice::<Discontinuities>(), default_value_t = pipeline::Settings::default().discontinuities, help_heading = "Discretisation")]
+    pub discontinuities: Discontinuities,
     /// Final gather at the output vertices: `none` (the mean of the patches around each
     /// vertex), `direct` (the direct light computed exactly at each vertex, the indirect from
     /// the patches) or `full` (direct exactly and indirect by hemisphere rays at each vertex).
     #[arg(long, value_parser = choice::<Gather>(), default_value_t = pipeline::Settings::default().gather, help_heading = "Final gather")]
     pub gather: Gather,
-    /// Hemisphere rays per vertex of `--gather full`.
-    #[arg(long, default_value_t = pipeline::Settings::default().gather_rays, value_name = "N", allow_negative_numbers = true, help_heading = "Final gather")]
-    pub gather_rays: u32,
+    /// Hemisphere rays per vertex of `--gather full` [default: 4·10⁶ / vertices, at least 64
+    /// and at most 1024].
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Final gather"
+    )]
+    pub gather_rays: Option<u32>,
     /// Longest patch edge, scene units [default: bounding-box diagonal / 16].
     #[arg(
         long,
@@ -462,6 +474,7 @@ impl SolveArgs {
             refine_rounds: self.refine,
             refine_threshold: self.refine_threshold,
             cache: self.cache.clone(),
+            discontinuities: self.discontinuities,
             gather: self.gather,
             gather_rays: self.gather_rays,
         };

@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 27] = [
+pub const FLAGS: [(&str, &str); 28] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -44,6 +44,7 @@ pub const FLAGS: [(&str, &str); 27] = [
     ("output", "--output"),
     ("cache", "--cache"),
     ("gather", "--gather"),
+    ("discontinuities", "--discontinuities"),
     ("gather_rays", "--gather-rays"),
 ];
 

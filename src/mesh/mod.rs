@@ -17,11 +17,13 @@
 //! vertex order, which the reversal changes, so twins could be cut differently.
 
 pub(crate) mod adjacency;
+pub mod contact;
 mod normals;
 pub mod refine;
 mod subdivide;
 
 pub(crate) use adjacency::{groups, VertexFaces};
+pub use contact::{split_contacts, ContactStats, Discontinuities};
 pub use normals::corner_normals;
 pub(crate) use subdivide::barycentric;
 pub use subdivide::{refine, subdivide};

@@ -84,7 +84,9 @@ pub struct SceneInfo {
     pub warnings: Vec<String>,
     /// [`mesh::default_max_edge`], scene units.
     pub default_max_edge: f64,
-    /// Number of patches [`crate::mesh::subdivide`] gives with [`SceneInfo::default_max_edge`].
+    /// Number of patches [`crate::mesh::subdivide`] gives with [`SceneInfo::default_max_edge`],
+    /// after the default contact lines are made edges ([`crate::mesh::split_contacts`]), before
+    /// refinement.
     pub default_patches: usize,
 }
 
@@ -120,8 +122,9 @@ impl SceneInfo {
         }
         let (lo, hi) = scene.bounds();
         let default_max_edge = mesh::default_max_edge(scene);
+        let (split, _) = mesh::split_contacts(scene);
         let default_patches =
-            mesh::subdivide(scene, default_max_edge, mesh::DEFAULT_CREASE_DEGREES)?.len();
+            mesh::subdivide(&split, default_max_edge, mesh::DEFAULT_CREASE_DEGREES)?.len();
         Ok(SceneInfo {
             source: scene.source.as_ref().map(|p| p.display().to_string()),
             vertices: scene.positions.len(),

@@ -100,12 +100,24 @@ pub fn run_with(
 /// memory.
 pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     settings.validate()?;
+    let input_triangles = scene.triangles.len();
+    // Contact lines become edges (before the back sides are made: twins stay identical).
+    let t = Instant::now();
+    let contacts = match settings.discontinuities {
+        mesh::Discontinuities::Auto => settings.method == Method::Matrix,
+        d => d == mesh::Discontinuities::Contacts,
+    };
+    let split = contacts.then(|| mesh::split_contacts(scene));
+    let scene = split.as_ref().map_or(scene, |(s, _)| s);
+    let contact_seconds = t.elapsed().as_secs_f64();
     let two_sided = settings.two_sided.then(|| scene.to_two_sided());
     let scene = two_sided.as_ref().unwrap_or(scene);
     scene.validate()?;
     let mut report = Report::new(settings);
     report.warnings.extend(scene.warnings.iter().cloned());
-    report.input_triangles = scene.triangles.len();
+    report.input_triangles = input_triangles;
+    report.contacts = split.as_ref().map(|(_, stats)| stats.clone());
+    report.seconds.patches = contact_seconds;
 
     if settings.method == Method::Hierarchical {
         return hierarchical_scene(scene, settings, report);
@@ -117,7 +129,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
         .max_edge
         .unwrap_or_else(|| mesh::default_max_edge(scene));
     let mut patches = mesh::subdivide(scene, report.max_edge, settings.crease_degrees)?;
-    report.seconds.patches = t.elapsed().as_secs_f64();
+    report.seconds.patches += t.elapsed().as_secs_f64();
 
     // BVH → form factors → matrix → solve.
     let (mut form_factors, mut solution) =
@@ -175,7 +187,7 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
         (hi - lo).length()
     });
     let roots = mesh::subdivide(scene, report.max_edge, settings.crease_degrees)?;
-    report.seconds.patches = t.elapsed().as_secs_f64();
+    report.seconds.patches += t.elapsed().as_secs_f64();
 
     let t = Instant::now();
     let h = hierarchical::solve(
@@ -231,7 +243,10 @@ fn bake_stage(
     baked.camera = scene.camera;
     report.vertices = baked.positions.len();
     report.seconds.bake = t.elapsed().as_secs_f64();
-    if settings.gather != Gather::None && scene.has_emitters() {
+    // A Neumann solve is a chosen number of bounces: gathering on it would add one, so its
+    // vertices show the patches' own N-bounce radiance.
+    let neumann = settings.solver.method == solve::Method::Neumann;
+    if settings.gather != Gather::None && scene.has_emitters() && !neumann {
         let t = Instant::now();
         let gatherer = gather::Gatherer::new(scene, patches, radiance, settings.form_factors.seed);
         baked.vertex_radiance = gather::gather(
@@ -239,7 +254,9 @@ fn bake_stage(
             &sites,
             &baked.vertex_radiance,
             settings.gather,
-            settings.gather_rays as usize,
+            settings
+                .gather_rays
+                .map_or_else(|| gather::auto_rays(sites.len()), |r| r as usize),
             visible_fraction,
         );
         report.seconds.gather = t.elapsed().as_secs_f64();

@@ -51,6 +51,8 @@ pub struct Report {
     pub overrides: Vec<String>,
     /// Triangles in the input after triangulation and cleaning.
     pub input_triangles: usize,
+    /// What making the contact lines edges did (`discontinuities = contacts`).
+    pub contacts: Option<crate::mesh::ContactStats>,
     /// Longest patch edge used, scene units.
     pub max_edge: f64,
     /// Patches of the final solve (after refinement).
@@ -95,6 +97,7 @@ impl Report {
             output: None,
             overrides: Vec::new(),
             input_triangles: 0,
+            contacts: None,
             max_edge: 0.0,
             patches: 0,
             refine_rounds: 0,

@@ -84,10 +84,13 @@ pub struct Settings {
     /// Form-factor cache directory: F is read from it when these patches and estimator
     /// settings were computed before, and stored otherwise ([`crate::form_factor::cache`]).
     pub cache: Option<PathBuf>,
+    /// Discontinuities made mesh edges before patching ([`mesh::contact`]).
+    pub discontinuities: mesh::Discontinuities,
     /// Final gather at the output vertices ([`crate::gather`]).
     pub gather: Gather,
-    /// Hemisphere rays per vertex of the `full` gather, in 1..=65536.
-    pub gather_rays: u32,
+    /// Hemisphere rays per vertex of the `full` gather, in 1..=65536; `None` =
+    /// [`crate::gather::auto_rays`] (a budget of 4·10⁶ rays over the vertices, 64 to 1024 each).
+    pub gather_rays: Option<u32>,
 }
 
 impl Default for Settings {
@@ -103,8 +106,9 @@ impl Default for Settings {
             refine_rounds: 2,
             refine_threshold: refine::DEFAULT_THRESHOLD,
             cache: None,
+            discontinuities: mesh::Discontinuities::Auto,
             gather: Gather::Full,
-            gather_rays: 256,
+            gather_rays: None,
         }
     }
 }
@@ -136,11 +140,13 @@ impl Settings {
                 format!("{} is not a positive number", self.refine_threshold),
             ));
         }
-        if !(1..=65536).contains(&self.gather_rays) {
-            return Err(Error::setting(
-                "gather_rays",
-                format!("{} is not in 1..=65536", self.gather_rays),
-            ));
+        if let Some(r) = self.gather_rays {
+            if !(1..=65536).contains(&r) {
+                return Err(Error::setting(
+                    "gather_rays",
+                    format!("{r} is not in 1..=65536"),
+                ));
+            }
         }
         self.form_factors.validate()?;
         self.solver.validate()?;
@@ -185,7 +191,7 @@ mod tests {
         Settings::default().validate().unwrap();
         type Breakage = (fn(&mut Settings), &'static str);
         let cases: [Breakage; 12] = [
-            (|s| s.gather_rays = 0, "gather_rays"),
+            (|s| s.gather_rays = Some(0), "gather_rays"),
             (|s| s.max_edge = Some(0.0), "max_edge"),
             (|s| s.max_edge = Some(f64::NAN), "max_edge"),
             (|s| s.max_edge = Some(-2.0), "max_edge"),

@@ -63,49 +63,76 @@ pub struct SurfaceMean {
 /// and offsets equal to 1e-6 of the scene's size) share a label; labels run 0.. in order of
 /// first appearance. Returns (label per triangle, number of surfaces).
 pub fn surfaces(scene: &Scene) -> (Vec<u32>, usize) {
-    let (lo, hi) = scene.bounds();
-    let tol = 1e-6 * (hi - lo).length().max(f64::MIN_POSITIVE);
-    let mut planes: Vec<(u32, DVec3, f64)> = Vec::new();
-    let labels = scene
-        .triangles
-        .iter()
-        .map(|t| {
+    let planes = Planes::of(scene);
+    (planes.labels, planes.list.len())
+}
+
+/// The surfaces' planes, for labelling triangles and patches alike.
+struct Planes {
+    /// (material, unit normal, offset n·x) of each surface.
+    list: Vec<(u32, DVec3, f64)>,
+    /// Label of each scene triangle.
+    labels: Vec<u32>,
+    /// Offset tolerance, scene units.
+    tol: f64,
+}
+
+impl Planes {
+    fn of(scene: &Scene) -> Planes {
+        let (lo, hi) = scene.bounds();
+        let mut planes = Planes {
+            list: Vec::new(),
+            labels: Vec::with_capacity(scene.triangles.len()),
+            tol: 1e-6 * (hi - lo).length().max(f64::MIN_POSITIVE),
+        };
+        for t in &scene.triangles {
             let [a, b, c] = t.vertices.map(|v| scene.positions[v as usize]);
             let n = (b - a).cross(c - a).normalize();
-            let d = n.dot(a);
-            let same = |(m, pn, pd): &(u32, DVec3, f64)| {
-                *m == t.material && (pn - n).length() < 1e-6 && (pd - d).abs() < tol
-            };
-            match planes.iter().position(same) {
-                Some(k) => k as u32,
+            let label = match planes.find(t.material, n, n.dot(a)) {
+                Some(k) => k,
                 None => {
-                    planes.push((t.material, n, d));
-                    (planes.len() - 1) as u32
+                    planes.list.push((t.material, n, n.dot(a)));
+                    (planes.list.len() - 1) as u32
                 }
-            }
-        })
-        .collect();
-    (labels, planes.len())
+            };
+            planes.labels.push(label);
+        }
+        planes
+    }
+
+    fn find(&self, material: u32, n: DVec3, d: f64) -> Option<u32> {
+        self.list
+            .iter()
+            .position(|(m, pn, pd)| {
+                *m == material && (*pn - n).length() < 1e-6 && (pd - d).abs() < self.tol
+            })
+            .map(|k| k as u32)
+    }
 }
 
 /// The same per-surface visible-area means from a radiosity solution, for comparison with
 /// [`surface_means`]: Σ A_i v_i L_i / Σ A_i v_i over the patches of each surface (v_i the
-/// patch's visible fraction), RGB. Surfaces with no visible area get 0.
+/// patch's visible fraction), RGB. Surfaces with no visible area get 0. Patches are assigned
+/// to surfaces by their own plane and material (the pipeline may have cut the scene's
+/// triangles along contact lines); one on no surface's plane is left out.
 pub fn solution_means(
     scene: &Scene,
     patches: &crate::mesh::Patches,
     radiance: &[Rgb],
     visible_fraction: &[f64],
 ) -> Vec<Rgb> {
-    let (labels, count) = surfaces(scene);
-    let mut sums = vec![([0.0; 3], 0.0); count];
+    let planes = Planes::of(scene);
+    let mut sums = vec![([0.0; 3], 0.0); planes.list.len()];
     for i in 0..patches.len() {
-        let k = labels[patches.source_triangle[i] as usize] as usize;
+        let n = patches.normal[i];
+        let Some(k) = planes.find(patches.material[i], n, n.dot(patches.centroid[i])) else {
+            continue;
+        };
         let w = patches.area[i] * visible_fraction[i];
-        for (s, l) in sums[k].0.iter_mut().zip(radiance[i]) {
+        for (s, l) in sums[k as usize].0.iter_mut().zip(radiance[i]) {
             *s += w * l;
         }
-        sums[k].1 += w;
+        sums[k as usize].1 += w;
     }
     sums.iter()
         .map(|(s, a)| if *a > 0.0 { s.map(|x| x / a) } else { [0.0; 3] })

@@ -19,9 +19,11 @@ fn cornell(max_edge: f64, estimator: Estimator) -> Outcome {
     let scene = Scene::load(&meshes().join("cornell_box.obj")).unwrap();
     let mut s = settings(max_edge, estimator, 4, Method::Neumann, 1);
     // The whole F (a one-bounce solve needs only the light's columns), on the uniform mesh
-    // (these tests are about the estimators, not about where refinement puts patches).
+    // (these tests are about the estimators, not about where refinement or contact lines put
+    // patches: the thin triangles beside a contact line overshoot a row by up to 5.5e-3).
     s.form_factors.shortcuts.skip_unneeded = false;
     s.refine_rounds = 0;
+    s.discontinuities = radiosity::mesh::Discontinuities::None;
     run(&scene, &s)
 }
 

@@ -1,0 +1,635 @@
+//! Contact lines as mesh edges: where one face touches or crosses another face's plane (a
+//! block standing on the floor, a leg under a table top, a light mounted just below the
+//! ceiling), the line where they meet becomes an edge of the face it lies on, before patching.
+//! Then no patch spans both the part a viewer sees and the part the other object hides, so no
+//! vertex carries lit light into a hidden region or hidden darkness into a lit one (Lischinski,
+//! Tampieri & Greenberg, "Discontinuity meshing for accurate radiosity", IEEE CG&A 1992: these
+//! are the D0 discontinuities, where radiance itself jumps).
+//!
+//! For every face A (a scene triangle) and every face B near it (a BVH over the faces' boxes):
+//!
+//! - **B touches or crosses A's plane** (B's corners on both sides, or an edge of B within
+//!   [`TOUCH`] × the scene's extent of it): the segment where B meets the plane;
+//! - **B lies parallel just in front of A** (within [`NEAR`] × the extent: a light mounted
+//!   below a ceiling, a leg's top under a table top): B's outline projected onto A.
+//!
+//! The segments are clipped to A; those along A's own edges (a wall meeting the floor at the
+//! floor's border) are dropped. A is then re-triangulated with them as constraints (a
+//! constrained Delaunay triangulation, the `spade` crate), and the points where segments end
+//! on A's edges are inserted into the face across each edge as well, so the result stays
+//! conforming. Faces with no contact are kept as they are.
+
+use std::collections::HashMap;
+
+use glam::{DVec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::builder::build_bvh2;
+use obvhs::BvhBuildParams;
+use rayon::prelude::*;
+use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
+
+use crate::scene::{Scene, SceneTriangle, ZERO_AREA_RELATIVE};
+
+/// Which discontinuities of the radiance become mesh edges before patching.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Discontinuities {
+    /// `contacts` for the matrix method, `none` for the hierarchical one: its roots are the
+    /// input triangles, and contact lines inside a large face (a hall's floor under hundreds
+    /// of table legs) leave long thin triangles between them that cost it 2.6× the links
+    /// (measured on the generated hall of 10⁴ triangles: 0.73 M → 1.93 M links, 2.2× the
+    /// time).
+    Auto,
+    /// None: patches follow the input triangles only.
+    None,
+    /// Contact lines (see the module documentation).
+    Contacts,
+}
+
+impl crate::choice::Choice for Discontinuities {
+    const SETTING: &'static str = "discontinuities";
+    const ALL: &'static [Discontinuities] = &[
+        Discontinuities::Auto,
+        Discontinuities::None,
+        Discontinuities::Contacts,
+    ];
+
+    fn name(self) -> &'static str {
+        match self {
+            Discontinuities::Auto => "auto",
+            Discontinuities::None => "none",
+            Discontinuities::Contacts => "contacts",
+        }
+    }
+
+    fn description(self) -> &'static str {
+        match self {
+            Discontinuities::Auto => "contacts for the matrix method, none for the hierarchical",
+            Discontinuities::None => "patches follow the input triangles only",
+            Discontinuities::Contacts => {
+                "where a face touches or crosses another's plane, the contact line becomes an edge"
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for Discontinuities {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(crate::choice::Choice::name(*self))
+    }
+}
+
+/// A face whose corner (or edge) is within this fraction of the scene's extent of another
+/// face's plane touches it.
+pub const TOUCH: f64 = 1e-6;
+/// A parallel face within this fraction of the scene's extent in front of another is mounted
+/// on it: its outline is projected onto it.
+pub const NEAR: f64 = 1e-3;
+
+/// What [`split_contacts`] did.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ContactStats {
+    /// Contact segments inserted (after clipping to the faces they lie on).
+    pub segments: usize,
+    /// Faces re-triangulated.
+    pub faces_split: usize,
+    /// Triangles of the scene after the split.
+    pub triangles: usize,
+}
+
+/// The scene with its contact lines as edges (see the module documentation); the same scene
+/// when it has none, or when it is two-sided (twins must stay pairs of identical faces).
+pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
+    let n = scene.triangles.len();
+    let mut stats = ContactStats {
+        triangles: n,
+        ..ContactStats::default()
+    };
+    if !scene.twin.is_empty() || n < 2 {
+        return (scene.clone(), stats);
+    }
+    let (lo, hi) = scene.bounds();
+    let extent = (hi - lo).length();
+    let faces: Vec<Face> = (0..n).map(|t| Face::new(scene, t)).collect();
+
+    // Segments on each face, found in parallel against a BVH over the faces' boxes.
+    let boxes: Vec<Aabb> = faces.iter().map(|f| f.aabb(0.0)).collect();
+    let mut build_time = std::time::Duration::ZERO;
+    let bvh = build_bvh2(&boxes, BvhBuildParams::fast_build(), &mut build_time);
+    let segments: Vec<Vec<[DVec3; 2]>> = (0..n)
+        .into_par_iter()
+        .map(|a| {
+            let fa = &faces[a];
+            let mut found = Vec::new();
+            bvh.aabb_traverse(fa.aabb(NEAR * extent), |bvh, node| {
+                let node = &bvh.nodes[node as usize];
+                for k in node.first_index..node.first_index + node.prim_count {
+                    let b = bvh.primitive_indices[k as usize] as usize;
+                    if b != a {
+                        found.extend(fa.contact(&faces[b], extent));
+                    }
+                }
+                true
+            });
+            found.sort_by(|p, q| {
+                let key = |s: &[DVec3; 2]| [s[0].x, s[0].y, s[0].z, s[1].x, s[1].y, s[1].z];
+                key(p)
+                    .partial_cmp(&key(q))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            });
+            found.dedup();
+            found
+        })
+        .collect();
+    if segments.iter().all(|s| s.is_empty()) {
+        return (scene.clone(), stats);
+    }
+
+    // Points where segments end on a face's edge, registered on that edge (by its two vertex
+    // indices) so the face across it gets them too.
+    let mut on_edge: HashMap<(u32, u32), Vec<DVec3>> = HashMap::new();
+    for (a, segs) in segments.iter().enumerate() {
+        let f = &faces[a];
+        for s in segs {
+            for &p in s {
+                if let Some(e) = f.edge_through(p, TOUCH * extent) {
+                    let v = scene.triangles[a].vertices;
+                    let (i, j) = (v[e], v[(e + 1) % 3]);
+                    on_edge.entry((i.min(j), i.max(j))).or_default().push(p);
+                }
+            }
+        }
+    }
+
+    // Re-triangulate the faces with segments or extra edge points.
+    let mut positions = scene.positions.clone();
+    let mut index: HashMap<[u64; 3], u32> = positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (bits(*p), i as u32))
+        .collect();
+    let mut triangles = Vec::with_capacity(n);
+    let min_area = ZERO_AREA_RELATIVE * extent * extent;
+    for (a, tri) in scene.triangles.iter().enumerate() {
+        let v = tri.vertices;
+        let edge_points: Vec<DVec3> = (0..3)
+            .flat_map(|e| {
+                let (i, j) = (v[e], v[(e + 1) % 3]);
+                on_edge
+                    .get(&(i.min(j), i.max(j)))
+                    .into_iter()
+                    .flatten()
+                    .copied()
+            })
+            .collect();
+        if segments[a].is_empty() && edge_points.is_empty() {
+            triangles.push(*tri);
+            continue;
+        }
+        let pieces = faces[a].triangulate(&segments[a], &edge_points);
+        let Some(pieces) = pieces else {
+            triangles.push(*tri); // the triangulation failed: keep the face whole
+            continue;
+        };
+        stats.faces_split += 1;
+        stats.segments += segments[a].len();
+        for [p, q, r] in pieces {
+            if 0.5 * (q - p).cross(r - p).length() <= min_area {
+                continue;
+            }
+            let mut id = |x: DVec3| {
+                *index.entry(bits(x)).or_insert_with(|| {
+                    positions.push(x);
+                    (positions.len() - 1) as u32
+                })
+            };
+            triangles.push(SceneTriangle {
+                vertices: [id(p), id(q), id(r)],
+                material: tri.material,
+            });
+        }
+    }
+    stats.triangles = triangles.len();
+    let mut out = scene.clone();
+    out.positions = positions;
+    out.triangles = triangles;
+    (out, stats)
+}
+
+/// The grid [`Face::to_2d`] snaps to: 2³⁰ steps per face size.
+const SNAP: f64 = (1u64 << 30) as f64;
+
+fn bits(p: DVec3) -> [u64; 3] {
+    [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+}
+
+/// A scene triangle with its plane and a frame in it.
+struct Face {
+    corners: [DVec3; 3],
+    /// Unit front normal.
+    normal: DVec3,
+    /// In-plane orthonormal axes (origin corner 0).
+    u: DVec3,
+    w: DVec3,
+    /// Length of the longest edge: 2D coordinates are in this unit.
+    size: f64,
+}
+
+impl Face {
+    fn new(scene: &Scene, t: usize) -> Face {
+        let corners = scene.triangles[t]
+            .vertices
+            .map(|v| scene.positions[v as usize]);
+        let normal = (corners[1] - corners[0])
+            .cross(corners[2] - corners[0])
+            .normalize();
+        let u = (corners[1] - corners[0]).normalize();
+        let size = (0..3)
+            .map(|k| corners[k].distance(corners[(k + 1) % 3]))
+            .fold(0.0, f64::max);
+        Face {
+            corners,
+            normal,
+            u,
+            w: normal.cross(u),
+            size,
+        }
+    }
+
+    fn aabb(&self, pad: f64) -> Aabb {
+        let lo = self.corners[0].min(self.corners[1]).min(self.corners[2]) - pad;
+        let hi = self.corners[0].max(self.corners[1]).max(self.corners[2]) + pad;
+        // f32 boxes: widen by a rounding step so no touching face is missed.
+        let widen = |x: f64, down: bool| {
+            let f = x as f32;
+            let step = f.abs().max(1.0) * f32::EPSILON * 4.0;
+            if down {
+                f - step
+            } else {
+                f + step
+            }
+        };
+        Aabb::new(
+            Vec3A::new(widen(lo.x, true), widen(lo.y, true), widen(lo.z, true)),
+            Vec3A::new(widen(hi.x, false), widen(hi.y, false), widen(hi.z, false)),
+        )
+    }
+
+    /// In-plane coordinates in units of the face's longest edge, snapped to a grid of 2⁻³⁰
+    /// (1e-9 of the face): a scene scaled by any factor gets bitwise the same coordinates, so
+    /// the contact points and the Delaunay triangulation's tie-breaking (the four corners of a
+    /// rectangular footprint lie on one circle) are the same at every scale. Contact points
+    /// move by at most 1e-9 of the face.
+    fn to_2d(&self, p: DVec3) -> [f64; 2] {
+        let d = (p - self.corners[0]) / self.size;
+        let snap = |x: f64| (x * SNAP).round() / SNAP;
+        [snap(d.dot(self.u)), snap(d.dot(self.w))]
+    }
+
+    fn point_at(&self, q: [f64; 2]) -> DVec3 {
+        self.corners[0] + self.size * (q[0] * self.u + q[1] * self.w)
+    }
+
+    /// The segments where face `b` meets this face (see the module documentation), clipped to
+    /// this face and projected onto its plane.
+    fn contact(&self, b: &Face, extent: f64) -> Vec<[DVec3; 2]> {
+        let touch = TOUCH * extent;
+        let d = b.corners.map(|c| self.normal.dot(c - self.corners[0]));
+        let parallel = self.normal.dot(b.normal).abs() > 1.0 - 1e-9;
+        let mut raw: Vec<[DVec3; 2]> = Vec::new();
+        if parallel {
+            // Mounted in front (not coplanar, not behind): its outline.
+            let gap = d[0];
+            if gap > touch && gap <= NEAR * extent && d.iter().all(|&x| x > touch) {
+                for k in 0..3 {
+                    raw.push([b.corners[k], b.corners[(k + 1) % 3]]);
+                }
+            }
+        } else if d.iter().all(|&x| x.abs() <= touch) {
+            // Coplanar within the tolerance but not parallel: degenerate, skip.
+        } else {
+            // Points where B meets the plane: corners on it, and edges crossing it.
+            let mut pts: Vec<DVec3> = Vec::new();
+            for k in 0..3 {
+                let (p, q) = (b.corners[k], b.corners[(k + 1) % 3]);
+                let (dp, dq) = (d[k], d[(k + 1) % 3]);
+                if dp.abs() <= touch {
+                    pts.push(p);
+                }
+                if (dp > touch && dq < -touch) || (dp < -touch && dq > touch) {
+                    let t = dp / (dp - dq);
+                    pts.push(p + t * (q - p));
+                }
+            }
+            if pts.len() >= 2 {
+                // The two farthest apart (B is convex: they bound its section).
+                let (mut best, mut pair) = (0.0, [pts[0], pts[1]]);
+                for i in 0..pts.len() {
+                    for j in i + 1..pts.len() {
+                        let l = pts[i].distance_squared(pts[j]);
+                        if l > best {
+                            best = l;
+                            pair = [pts[i], pts[j]];
+                        }
+                    }
+                }
+                raw.push(pair);
+            }
+        }
+        raw.into_iter()
+            .filter_map(|[p, q]| self.clip([self.to_2d(p), self.to_2d(q)], touch / self.size))
+            .map(|[p, q]| [self.point_at(p), self.point_at(q)])
+            .collect()
+    }
+
+    /// The part of the 2D segment inside this face, `None` if shorter than `tol` or lying
+    /// along one of its edges.
+    fn clip(&self, s: [[f64; 2]; 2], tol: f64) -> Option<[[f64; 2]; 2]> {
+        let c = self.corners.map(|p| self.to_2d(p));
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        let d = [s[1][0] - s[0][0], s[1][1] - s[0][1]];
+        for k in 0..3 {
+            let (a, b) = (c[k], c[(k + 1) % 3]);
+            // Inward normal of edge a→b (counter-clockwise corners in this frame).
+            let nrm = [-(b[1] - a[1]), b[0] - a[0]];
+            let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1]).sqrt();
+            let dist0 = (nrm[0] * (s[0][0] - a[0]) + nrm[1] * (s[0][1] - a[1])) / len;
+            let slope = (nrm[0] * d[0] + nrm[1] * d[1]) / len;
+            if slope.abs() < 1e-300 {
+                if dist0 < -tol {
+                    return None;
+                }
+                continue;
+            }
+            let t = (-dist0) / slope;
+            if slope > 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+        }
+        if t1 <= t0 {
+            return None;
+        }
+        let at = |t: f64| [s[0][0] + t * d[0], s[0][1] + t * d[1]];
+        let (p, q) = (at(t0), at(t1));
+        let length = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt();
+        if length <= tol {
+            return None;
+        }
+        // Along an edge of the face: both ends within tol of the same edge's line.
+        for k in 0..3 {
+            let (a, b) = (c[k], c[(k + 1) % 3]);
+            let e = [b[0] - a[0], b[1] - a[1]];
+            let el = (e[0] * e[0] + e[1] * e[1]).sqrt();
+            let off = |x: [f64; 2]| ((x[0] - a[0]) * e[1] - (x[1] - a[1]) * e[0]).abs() / el;
+            if off(p) <= tol && off(q) <= tol {
+                return None;
+            }
+        }
+        Some([p, q])
+    }
+
+    /// Which edge (k: corners k → k+1) the point lies on, within `tol`, if any (not a corner).
+    fn edge_through(&self, p: DVec3, tol: f64) -> Option<usize> {
+        if self.corners.iter().any(|c| c.distance(p) <= tol) {
+            return None;
+        }
+        (0..3).find(|&k| {
+            let (a, b) = (self.corners[k], self.corners[(k + 1) % 3]);
+            let e = b - a;
+            let t = (p - a).dot(e) / e.length_squared();
+            t > 0.0 && t < 1.0 && (a + t * e).distance(p) <= tol
+        })
+    }
+
+    /// The face triangulated with `segments` as constrained edges and `edge_points` as extra
+    /// vertices on its border (constrained Delaunay triangulation in the face's plane),
+    /// counter-clockwise seen from the front. `None` if the triangulation fails.
+    fn triangulate(
+        &self,
+        segments: &[[DVec3; 2]],
+        edge_points: &[DVec3],
+    ) -> Option<Vec<[DVec3; 3]>> {
+        let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
+        // 3D position of each vertex the triangulation holds (by handle index): corners and
+        // border points exactly as given, so the faces on either side share them.
+        let mut at: HashMap<usize, DVec3> = HashMap::new();
+        let mut insert = |cdt: &mut ConstrainedDelaunayTriangulation<Point2<f64>>, p: DVec3| {
+            let q = self.to_2d(p);
+            let h = cdt.insert(Point2::new(q[0], q[1])).ok()?;
+            at.entry(h.index()).or_insert(p);
+            Some(h)
+        };
+        for &c in &self.corners {
+            insert(&mut cdt, c)?;
+        }
+        for &p in edge_points {
+            insert(&mut cdt, p)?;
+        }
+        for s in segments {
+            let a = insert(&mut cdt, s[0])?;
+            let b = insert(&mut cdt, s[1])?;
+            if a != b {
+                cdt.add_constraint_and_split(a, b, |v| v);
+            }
+        }
+        let mut out = Vec::with_capacity(cdt.num_inner_faces());
+        for face in cdt.inner_faces() {
+            let vs = face.vertices();
+            let p = vs.map(|v| {
+                at.get(&v.fix().index()).copied().unwrap_or_else(|| {
+                    let q = v.position();
+                    self.point_at([q.x, q.y])
+                })
+            });
+            // spade's faces are counter-clockwise in (u, w), the face's own orientation.
+            out.push(p);
+        }
+        Some(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{self, Settings};
+    use crate::scene::SceneBuilder;
+    use crate::validation::scenes::add_box;
+
+    /// A 4 × 4 floor (z = 0, facing up) under a light, with a box standing on it, turned 30°
+    /// about the vertical so its footprint crosses the floor's diagonal. Returns the scene and
+    /// the footprint's corners (counter-clockwise).
+    fn box_on_floor() -> (Scene, [DVec3; 4]) {
+        let mut b = SceneBuilder::new();
+        let white = b.material("white", [0.5; 3], [0.0; 3]);
+        let light = b.material("light", [0.0; 3], [5.0; 3]);
+        let z = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+        b.quad(
+            [z(0., 0., 0.), z(4., 0., 0.), z(4., 4., 0.), z(0., 4., 0.)],
+            white,
+        );
+        b.quad(
+            [z(1., 1., 3.), z(1., 3., 3.), z(3., 3., 3.), z(3., 1., 3.)],
+            light,
+        );
+        let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+        let foot = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
+            .map(|(x, y)| z(2.0 + c * x - s * y, 2.0 + s * x + c * y, 0.0));
+        let up = DVec3::new(0.0, 0.0, 1.0);
+        for k in 0..4 {
+            let (p, q) = (foot[k], foot[(k + 1) % 4]);
+            b.quad([p, q, q + up, p + up], white); // outward: counter-clockwise seen outside
+        }
+        b.quad(
+            [foot[0] + up, foot[1] + up, foot[2] + up, foot[3] + up],
+            white,
+        );
+        (b.build().unwrap(), foot)
+    }
+
+    /// Signed area test: > 0 when `p` is left of a → b (inside a counter-clockwise polygon).
+    fn left(a: DVec3, b: DVec3, p: DVec3) -> f64 {
+        (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)
+    }
+
+    #[test]
+    fn contact_lines_of_a_box_on_a_floor_become_edges() {
+        let (scene, foot) = box_on_floor();
+        let (split, stats) = split_contacts(&scene);
+        split.validate().unwrap();
+        assert_eq!(stats.faces_split, 2, "the floor's two triangles: {stats:?}");
+        // The footprint crosses the diagonal: its four sides give 4 segments on one half and
+        // 2 on the other (the two sides the diagonal cuts are counted on both).
+        assert_eq!(stats.segments, 6, "{stats:?}");
+        let area = |s: &Scene, floor: bool| {
+            (0..s.triangles.len())
+                .filter(|&t| {
+                    let n = s.triangles[t].vertices.map(|v| s.positions[v as usize]);
+                    floor == (n.iter().all(|p| p.z == 0.0))
+                })
+                .map(|t| s.triangle_area(t))
+                .sum::<f64>()
+        };
+        // The floor keeps its area and its facing (every new triangle faces up).
+        assert!((area(&split, true) - 16.0).abs() < 1e-9);
+        assert!((area(&split, false) - area(&scene, false)).abs() < 1e-9);
+        for t in &split.triangles {
+            let [a, b, c] = t.vertices.map(|v| split.positions[v as usize]);
+            if a.z == 0.0 && b.z == 0.0 && c.z == 0.0 {
+                assert!((b - a).cross(c - a).z > 0.0);
+            }
+        }
+        // No patch of the bake straddles the footprint: each floor patch is wholly inside or
+        // wholly outside it (corners on the footprint's sides count as either).
+        let out = pipeline::solve_scene(&scene, &Settings::default()).unwrap();
+        let p = &out.patches;
+        // Contact points are snapped to 1e-9 of the face (4 units here): 1e-8 is "on the line".
+        let eps = 1e-8;
+        let mut inside = 0;
+        for i in 0..p.len() {
+            let corners = p.corners(i);
+            if !corners.iter().all(|c| c.z == 0.0) {
+                continue;
+            }
+            let is_in = |x: DVec3| (0..4).all(|k| left(foot[k], foot[(k + 1) % 4], x) > eps);
+            let is_out = |x: DVec3| (0..4).any(|k| left(foot[k], foot[(k + 1) % 4], x) < -eps);
+            let any_in = corners.iter().any(|&c| is_in(c));
+            let any_out = corners.iter().any(|&c| is_out(c));
+            assert!(
+                !(any_in && any_out),
+                "floor patch {i} straddles the footprint: {corners:?}"
+            );
+            inside += usize::from(is_in(p.centroid[i]));
+            // Inside the footprint: buried (nobody sees it); outside: visible.
+            let expected = if is_in(p.centroid[i]) { 0.0 } else { 1.0 };
+            assert_eq!(out.visible_fraction[i], expected, "patch {i}");
+        }
+        assert!(inside > 0, "some floor patches lie under the box");
+        // Without the split, some patch straddles (what the split is for).
+        let none = Settings {
+            discontinuities: Discontinuities::None,
+            ..Settings::default()
+        };
+        let out = pipeline::solve_scene(&scene, &none).unwrap();
+        let straddles = (0..out.patches.len()).any(|i| {
+            let c = out.patches.corners(i);
+            c.iter().all(|x| x.z == 0.0)
+                && c.iter()
+                    .any(|&x| (0..4).all(|k| left(foot[k], foot[(k + 1) % 4], x) > eps))
+                && c.iter()
+                    .any(|&x| (0..4).any(|k| left(foot[k], foot[(k + 1) % 4], x) < -eps))
+        });
+        assert!(straddles);
+    }
+
+    #[test]
+    fn a_light_mounted_under_a_ceiling_outlines_itself_on_it() {
+        // A ceiling (facing down) and a light 1e-4 of the room below it (facing down): the
+        // light's outline becomes edges of the ceiling; the light itself is not split.
+        let mut b = SceneBuilder::new();
+        let white = b.material("white", [0.5; 3], [0.0; 3]);
+        let light = b.material("light", [0.0; 3], [5.0; 3]);
+        let z = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+        b.quad(
+            [z(0., 0., 0.), z(4., 0., 0.), z(4., 4., 0.), z(0., 4., 0.)],
+            white,
+        );
+        b.quad(
+            [z(0., 0., 4.), z(0., 4., 4.), z(4., 4., 4.), z(4., 0., 4.)],
+            white,
+        );
+        let h = 4.0 - 4e-4;
+        b.quad(
+            [
+                z(1.5, 1.2, h),
+                z(1.5, 2.2, h),
+                z(2.5, 2.2, h),
+                z(2.5, 1.2, h),
+            ],
+            light,
+        );
+        let scene = b.build().unwrap();
+        let (split, stats) = split_contacts(&scene);
+        split.validate().unwrap();
+        assert_eq!(
+            stats.faces_split, 2,
+            "the ceiling's triangles only: {stats:?}"
+        );
+        for t in &split.triangles {
+            let c = t.vertices.map(|v| split.positions[v as usize]);
+            if c.iter().all(|p| p.z == 4.0) {
+                let centroid = (c[0] + c[1] + c[2]) / 3.0;
+                let under =
+                    centroid.x > 1.5 && centroid.x < 2.5 && centroid.y > 1.2 && centroid.y < 2.2;
+                // Snapped to 1e-9 of the face (4 units): 1e-8 is "on the outline".
+                for p in c {
+                    let strictly_in = p.x > 1.5 + 1e-8
+                        && p.x < 2.5 - 1e-8
+                        && p.y > 1.2 + 1e-8
+                        && p.y < 2.2 - 1e-8;
+                    let strictly_out = p.x < 1.5 - 1e-8
+                        || p.x > 2.5 + 1e-8
+                        || p.y < 1.2 - 1e-8
+                        || p.y > 2.2 + 1e-8;
+                    assert!(if under { !strictly_out } else { !strictly_in }, "{c:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn scenes_without_contacts_are_unchanged() {
+        let scene = crate::validation::scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let (split, stats) = split_contacts(&scene);
+        assert_eq!(split.triangles, scene.triangles);
+        assert_eq!(split.positions, scene.positions);
+        assert_eq!(stats.faces_split, 0);
+        // A room's walls meet its floor only along the floor's border: no split either.
+        let mut b = SceneBuilder::new();
+        let m = b.material("white", [0.5; 3], [1.0; 3]);
+        add_box(&mut b, DVec3::ZERO, DVec3::ONE, true, m);
+        let room = b.build().unwrap();
+        assert_eq!(split_contacts(&room).1.faces_split, 0);
+    }
+}
