@@ -13,7 +13,7 @@ python3 - "$out" "$runs" <<'PY'
 import json, sys, statistics
 out, runs = sys.argv[1], int(sys.argv[2])
 reps = [json.load(open(f"{out}/r{i}.json")) for i in range(1, runs + 1)]
-stages = ["load", "patches", "bvh", "form_factors", "solve", "bake", "write"]
+stages = ["load", "patches", "bvh", "form_factors", "solve", "bake", "gather", "write"]
 r = reps[0]
 print(f"patches {r['patches']}, vertices {r['vertices']}, rays {r['form_factors']['rays_cast']:,}, "
       f"nnz {r['form_factors']['nnz']:,}, iterations {r['iterations']}, residual {r['residual']:.2e}")

@@ -1,6 +1,7 @@
 //! The whole data flow in one place — start reading here:
 //!
-//! load → patches → BVH → form factors → matrix → solve → (refine ↺) → bake → write
+//! load → contact lines → patches → BVH → form factors → matrix → solve → (refine ↺) → bake →
+//! gather → write
 //!
 //! [`run`] does all of it for a file; [`solve_scene`] does the middle for a scene already in
 //! memory (the verification suite and the tests use it). Each step is a call into the module

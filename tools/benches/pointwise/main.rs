@@ -22,6 +22,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use radiosity::gather::Gather;
+use radiosity::mesh::Discontinuities;
 use radiosity::pipeline::{self, Method};
 use radiosity::scene::Scene;
 use radiosity::validation::pointwise::{self, Display, ReferenceSettings, Score};
@@ -125,46 +126,51 @@ fn reference() -> Result<String> {
     Ok(md)
 }
 
-/// The bakes measured on each scene: (label, settings). The defaults, each final gather, a
-/// finer matrix bake, and the hierarchical solver at several ε.
-fn bakes(quick: bool, scene: &Scene) -> Vec<(String, pipeline::Settings)> {
-    let with = |method, max_edge, epsilon, gather| {
+/// The bakes measured on each scene: (label, settings). On the Cornell box, the matrix
+/// method with and without each part (contact lines, final gather) and the hierarchical
+/// solver; in the hall (where a matrix bake takes minutes) the hierarchical solver.
+fn bakes(quick: bool, name: &str) -> Vec<(String, pipeline::Settings)> {
+    let with = |method, discontinuities, gather, epsilon| {
         let mut s = pipeline::Settings {
             method,
-            max_edge,
+            discontinuities,
             gather,
             ..pipeline::Settings::default()
         };
         s.hierarchical.epsilon = epsilon;
         s
     };
-    let default_epsilon = pipeline::Settings::default().hierarchical.epsilon;
-    let mut runs = vec![
-        (
-            "matrix, gather none".to_string(),
-            with(Method::Matrix, None, default_epsilon, Gather::None),
-        ),
-        (
-            "matrix, gather direct".to_string(),
-            with(Method::Matrix, None, default_epsilon, Gather::Direct),
-        ),
-        (
-            "matrix, gather full (the defaults)".to_string(),
-            with(Method::Matrix, None, default_epsilon, Gather::Full),
-        ),
-    ];
-    if !quick {
-        let half = radiosity::mesh::default_max_edge(scene) / 2.0;
-        runs.push((
-            "matrix, max edge default / 2, gather full".to_string(),
-            with(Method::Matrix, Some(half), default_epsilon, Gather::Full),
-        ));
+    let (none, contacts, auto) = (
+        Discontinuities::None,
+        Discontinuities::Contacts,
+        Discontinuities::Auto,
+    );
+    let mut runs = Vec::new();
+    if name == "cornell" {
+        for (d, g, label) in [
+            (none, Gather::None, "matrix, no contact lines, no gather"),
+            (contacts, Gather::None, "matrix, contact lines, no gather"),
+            (none, Gather::Full, "matrix, no contact lines, full gather"),
+            (
+                auto,
+                Gather::Full,
+                "matrix, contact lines, full gather (the defaults)",
+            ),
+        ] {
+            runs.push((label.to_string(), with(Method::Matrix, d, g, 1e-4)));
+        }
     }
-    let eps: &[f64] = if quick { &[1e-4] } else { &[1e-4, 1e-5, 1e-6] };
+    let eps: &[f64] = if quick { &[1e-4] } else { &[1e-4, 1e-5] };
     for &e in eps {
+        if name != "cornell" {
+            runs.push((
+                format!("hierarchical, ε {e:.0e}, no gather"),
+                with(Method::Hierarchical, auto, Gather::None, e),
+            ));
+        }
         runs.push((
-            format!("hierarchical, ε {e:.0e}, gather full"),
-            with(Method::Hierarchical, None, e, Gather::Full),
+            format!("hierarchical, ε {e:.0e}, full gather"),
+            with(Method::Hierarchical, auto, Gather::Full, e),
         ));
     }
     runs
@@ -229,7 +235,7 @@ fn curves(args: &Args, text: bool) -> Result<String> {
             colour: 2,
             style: 1,
         };
-        for (label, settings) in bakes(args.quick, &scene) {
+        for (label, settings) in bakes(args.quick, name) {
             let t = Instant::now();
             let out = pipeline::solve_scene(&scene, &settings)
                 .with_context(|| format!("{name}: {label}"))?;
