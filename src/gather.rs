@@ -43,7 +43,7 @@ use crate::choice::Choice;
 use crate::color::Rgb;
 use crate::form_factor::kernel::point_to_polygon;
 use crate::form_factor::sampling::{
-    gauss_rule, point_above, stratified_triangle_barycentrics, Rng,
+    gauss_rule, malley, point_above, stratified_triangle_barycentrics, Rng,
 };
 use crate::mesh::Patches;
 use crate::scene::Scene;
@@ -162,46 +162,33 @@ pub struct Gatherer<'a> {
 impl<'a> Gatherer<'a> {
     /// `radiance[i]` is patch i's solved radiance, W·sr⁻¹·m⁻² per channel.
     pub fn new(scene: &Scene, patches: &'a Patches, radiance: &'a [Rgb], seed: u64) -> Self {
-        let emitters = scene
-            .triangles
-            .iter()
-            .filter_map(|t| {
-                let m = &scene.materials[t.material as usize];
-                if !m.is_emitter() {
-                    return None;
-                }
-                let corners = t.vertices.map(|v| scene.positions[v as usize]);
-                let normal = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
-                let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
-                let radius = corners
-                    .iter()
-                    .map(|c| c.distance(centre))
-                    .fold(0.0, f64::max);
-                let le_max = m.emission.iter().copied().fold(0.0, f64::max);
-                (normal.length() > 0.0).then(|| Emitter {
-                    corners,
-                    normal: normal.normalize(),
-                    le: m.emission,
-                    centre,
-                    radius,
-                    power: 0.5 * normal.length() * le_max,
-                })
-            })
-            .collect();
-        let corners: Vec<[DVec3; 3]> = (0..patches.len()).map(|i| patches.corners(i)).collect();
-        // Emitter index of each scene triangle (NONE for non-emitters).
+        // The emitting triangles, and each scene triangle's index among them.
+        let mut emitters = Vec::new();
         let mut emitter_of = vec![NONE; scene.triangles.len()];
-        let mut k = 0;
         for (t, tri) in scene.triangles.iter().enumerate() {
             let m = &scene.materials[tri.material as usize];
-            if m.is_emitter() {
-                let c = tri.vertices.map(|v| scene.positions[v as usize]);
-                if (c[1] - c[0]).cross(c[2] - c[0]).length() > 0.0 {
-                    emitter_of[t] = k;
-                    k += 1;
-                }
+            let corners = tri.vertices.map(|v| scene.positions[v as usize]);
+            let normal = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+            if !m.is_emitter() || normal.length() == 0.0 {
+                continue;
             }
+            let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+            let radius = corners
+                .iter()
+                .map(|c| c.distance(centre))
+                .fold(0.0, f64::max);
+            let le_max = m.emission.iter().copied().fold(0.0, f64::max);
+            emitter_of[t] = emitters.len() as u32;
+            emitters.push(Emitter {
+                corners,
+                normal: normal.normalize(),
+                le: m.emission,
+                centre,
+                radius,
+                power: 0.5 * normal.length() * le_max,
+            });
         }
+        let corners: Vec<[DVec3; 3]> = (0..patches.len()).map(|i| patches.corners(i)).collect();
         let (lo, hi) = scene.bounds();
         Gatherer {
             emitters,
@@ -316,9 +303,7 @@ impl<'a> Gatherer<'a> {
             let (i, j) = (k / side, k % side);
             let u = (i as f64 + rng.next_f64()) / side as f64;
             let v = (j as f64 + rng.next_f64()) / side as f64;
-            let r = u.sqrt();
-            let phi = 2.0 * PI * v;
-            let dir = r * phi.cos() * t + r * phi.sin() * b + (1.0 - u).max(0.0).sqrt() * n;
+            let dir = malley(u, v, t, b, n);
             let Some(hit) = self
                 .vis
                 .closest_hit(x + self.lift * n, dir, f64::INFINITY, ignore)
@@ -345,7 +330,9 @@ impl<'a> Gatherer<'a> {
         sum.map(|s| s / total as f64)
     }
 
-    /// True when the first surface along `n` from `x` is seen from behind: `x` is buried.
+    /// True when the first surface along `n` from `x` is seen from behind: `x` is buried
+    /// ([`crate::form_factor::is_hidden`]'s test, along the vertex's own normal rather than one
+    /// patch's: on a curved surface the two differ).
     fn buried(&self, x: DVec3, n: DVec3, ignore: u32) -> bool {
         self.vis
             .closest_hit(x, n, f64::INFINITY, ignore)
@@ -412,12 +399,11 @@ pub fn gather(
         .map(|(v, site)| {
             let mut rng = Rng::new(&[gatherer.seed, v as u64, 0x6A7_4E6]);
             // The most visible patch around the vertex: evaluate from its side.
-            let &(best, _) = site
+            let visible = |q: u32| visible_fraction.get(q as usize).copied().unwrap_or(1.0);
+            let (best, _) = site
                 .patches
                 .iter()
-                .map(|&q| (q, visible_fraction.get(q as usize).copied().unwrap_or(1.0)))
-                .collect::<Vec<_>>()
-                .iter()
+                .map(|&q| (q, visible(q)))
                 .max_by(|a, b| a.1.total_cmp(&b.1))
                 .expect("a site has patches");
             // Where surfaces meet (a crease, a material border, a contact line: a patch
@@ -425,11 +411,7 @@ pub fn gather(
             // which it would see edge-on (form factor 0, its rays grazing it) while every
             // point next to it sees that surface fill part of its hemisphere: gather just
             // inside the most visible patch instead. Elsewhere, exactly at the vertex.
-            let contact = site.shared
-                || site
-                    .patches
-                    .iter()
-                    .any(|&q| visible_fraction.get(q as usize).is_some_and(|&f| f < 1.0));
+            let contact = site.shared || site.patches.iter().any(|&q| visible(q) < 1.0);
             let x = if contact {
                 site.position + NUDGE * (p.centroid[best as usize] - site.position)
             } else {
@@ -441,26 +423,21 @@ pub fn gather(
             }
             let exact = gatherer.exact_emitters(x);
             let direct = gatherer.direct_from(x, n, best, &exact, &mut rng);
-            let indirect = match mode {
-                Gather::Full => gatherer.indirect(x, n, best, &exact, rays, &mut rng),
-                _ => {
-                    // The bake's rule (area-weighted mean over the site's patches).
-                    let mut s = [0.0; 3];
-                    let mut a = 0.0;
-                    for &q in &site.patches {
-                        let w = p.area[q as usize];
-                        for c in 0..3 {
-                            s[c] += w * indirect_part[q as usize][c];
-                        }
-                        a += w;
-                    }
-                    let rho = p.reflectance[best as usize];
-                    // indirect_part already carries ρ; divide it back out for the sum below.
-                    std::array::from_fn(|c| if rho[c] > 0.0 { s[c] / a / rho[c] } else { 0.0 })
-                }
-            };
             let (le, rho) = (p.emission[best as usize], p.reflectance[best as usize]);
-            std::array::from_fn(|c| le[c] + rho[c] * (direct[c] + indirect[c]))
+            if mode == Gather::Full {
+                let indirect = gatherer.indirect(x, n, best, &exact, rays, &mut rng);
+                return std::array::from_fn(|c| le[c] + rho[c] * (direct[c] + indirect[c]));
+            }
+            // `direct`: the patches' reflected indirect light, averaged as the bake does.
+            let area: f64 = site.patches.iter().map(|&q| p.area[q as usize]).sum();
+            std::array::from_fn(|c| {
+                let reflected: f64 = site
+                    .patches
+                    .iter()
+                    .map(|&q| p.area[q as usize] * indirect_part[q as usize][c])
+                    .sum();
+                le[c] + rho[c] * direct[c] + reflected / area
+            })
         })
         .collect()
 }

@@ -13,7 +13,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::sampling::Rng;
+use super::sampling::{malley, Rng};
 use crate::mesh::Patches;
 
 use crate::visibility::Visibility;
@@ -73,13 +73,7 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
             orthonormal_basis((normal * 2f64.powi(40)).round() / 2f64.powi(40));
         let s = (perms[1][k] as f64 + rng.next_f64()) / n as f64;
         let t = (perms[2][k] as f64 + rng.next_f64()) / n as f64;
-        // Malley: uniform on the unit disk (polar map), lifted onto the hemisphere, gives
-        // density cosθ/π.
-        let r = s.sqrt();
-        let phi = 2.0 * std::f64::consts::PI * t;
-        let (dx, dy) = (r * phi.cos(), r * phi.sin());
-        let dz = (1.0 - s).max(0.0).sqrt();
-        let mut dir = dx * tangent + dy * bitangent + dz * normal;
+        let mut dir = malley(s, t, tangent, bitangent, normal);
         if facet.dot(dir) <= 0.0 {
             // Where the surface normal leans off the facet's, a sliver of its hemisphere
             // (projected measure O(tilt²)) lies behind the facet: on the smooth surface those

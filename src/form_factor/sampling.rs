@@ -149,6 +149,15 @@ pub fn gauss_rule(n: usize) -> Option<Vec<([f64; 3], f64)>> {
     Some(rule)
 }
 
+/// The cosine-weighted direction for (s, t) ∈ [0, 1)² about the unit normal `n` with the
+/// tangents `tangent`, `bitangent` (Malley's method: (s, t) mapped uniformly onto the unit
+/// disk by the polar map, then lifted onto the hemisphere, which gives density cosθ/π).
+pub fn malley(s: f64, t: f64, tangent: DVec3, bitangent: DVec3, n: DVec3) -> DVec3 {
+    let r = s.sqrt();
+    let phi = 2.0 * std::f64::consts::PI * t;
+    r * phi.cos() * tangent + r * phi.sin() * bitangent + (1.0 - s).max(0.0).sqrt() * n
+}
+
 /// The point of triangle `corners` with barycentrics `b` when the triangle lies wholly above
 /// the horizon of the point `x` (unit normal `n`); else `b` mapped to a uniform point of the
 /// part above it (the clipped polygon fanned into triangles, one chosen ∝ area with a draw of

@@ -457,18 +457,23 @@ mod tests {
     use crate::scene::SceneBuilder;
     use crate::validation::scenes::add_box;
 
+    /// A builder holding a 4 × 4 floor (z = 0, facing up) of the material "white", and the
+    /// materials "white" and "light".
+    fn floor() -> (SceneBuilder, u32, u32) {
+        let mut b = SceneBuilder::new();
+        let white = b.material("white", [0.5; 3], [0.0; 3]);
+        let light = b.material("light", [0.0; 3], [5.0; 3]);
+        let z = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        b.quad([z(0., 0.), z(4., 0.), z(4., 4.), z(0., 4.)], white);
+        (b, white, light)
+    }
+
     /// A 4 × 4 floor (z = 0, facing up) under a light, with a box standing on it, turned 30°
     /// about the vertical so its footprint crosses the floor's diagonal. Returns the scene and
     /// the footprint's corners (counter-clockwise).
     fn box_on_floor() -> (Scene, [DVec3; 4]) {
-        let mut b = SceneBuilder::new();
-        let white = b.material("white", [0.5; 3], [0.0; 3]);
-        let light = b.material("light", [0.0; 3], [5.0; 3]);
+        let (mut b, white, light) = floor();
         let z = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-        b.quad(
-            [z(0., 0., 0.), z(4., 0., 0.), z(4., 4., 0.), z(0., 4., 0.)],
-            white,
-        );
         b.quad(
             [z(1., 1., 3.), z(1., 3., 3.), z(3., 3., 3.), z(3., 1., 3.)],
             light,
@@ -491,6 +496,26 @@ mod tests {
     /// Signed area test: > 0 when `p` is left of a → b (inside a counter-clockwise polygon).
     fn left(a: DVec3, b: DVec3, p: DVec3) -> f64 {
         (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)
+    }
+
+    /// Contact points are snapped to 1e-9 of the face (4 units here): within 1e-8 of the
+    /// footprint's sides is "on the line", neither inside nor outside.
+    const ON_LINE: f64 = 1e-8;
+
+    /// `x` lies strictly inside the footprint.
+    fn inside(foot: &[DVec3; 4], x: DVec3) -> bool {
+        (0..4).all(|k| left(foot[k], foot[(k + 1) % 4], x) > ON_LINE)
+    }
+
+    /// `x` lies strictly outside the footprint.
+    fn outside(foot: &[DVec3; 4], x: DVec3) -> bool {
+        (0..4).any(|k| left(foot[k], foot[(k + 1) % 4], x) < -ON_LINE)
+    }
+
+    /// Some corner of the triangle lies strictly inside the footprint and another strictly
+    /// outside.
+    fn straddles(foot: &[DVec3; 4], corners: &[DVec3; 3]) -> bool {
+        corners.iter().any(|&c| inside(foot, c)) && corners.iter().any(|&c| outside(foot, c))
     }
 
     #[test]
@@ -524,57 +549,44 @@ mod tests {
         // wholly outside it (corners on the footprint's sides count as either).
         let out = pipeline::solve_scene(&scene, &Settings::default()).unwrap();
         let p = &out.patches;
-        // Contact points are snapped to 1e-9 of the face (4 units here): 1e-8 is "on the line".
-        let eps = 1e-8;
-        let mut inside = 0;
+        let mut under = 0;
         for i in 0..p.len() {
             let corners = p.corners(i);
             if !corners.iter().all(|c| c.z == 0.0) {
                 continue;
             }
-            let is_in = |x: DVec3| (0..4).all(|k| left(foot[k], foot[(k + 1) % 4], x) > eps);
-            let is_out = |x: DVec3| (0..4).any(|k| left(foot[k], foot[(k + 1) % 4], x) < -eps);
-            let any_in = corners.iter().any(|&c| is_in(c));
-            let any_out = corners.iter().any(|&c| is_out(c));
             assert!(
-                !(any_in && any_out),
+                !straddles(&foot, &corners),
                 "floor patch {i} straddles the footprint: {corners:?}"
             );
-            inside += usize::from(is_in(p.centroid[i]));
+            under += usize::from(inside(&foot, p.centroid[i]));
             // Inside the footprint: buried (nobody sees it); outside: visible.
-            let expected = if is_in(p.centroid[i]) { 0.0 } else { 1.0 };
+            let expected = if inside(&foot, p.centroid[i]) {
+                0.0
+            } else {
+                1.0
+            };
             assert_eq!(out.visible_fraction[i], expected, "patch {i}");
         }
-        assert!(inside > 0, "some floor patches lie under the box");
+        assert!(under > 0, "some floor patches lie under the box");
         // Without the split, some patch straddles (what the split is for).
         let none = Settings {
             discontinuities: Discontinuities::None,
             ..Settings::default()
         };
         let out = pipeline::solve_scene(&scene, &none).unwrap();
-        let straddles = (0..out.patches.len()).any(|i| {
+        assert!((0..out.patches.len()).any(|i| {
             let c = out.patches.corners(i);
-            c.iter().all(|x| x.z == 0.0)
-                && c.iter()
-                    .any(|&x| (0..4).all(|k| left(foot[k], foot[(k + 1) % 4], x) > eps))
-                && c.iter()
-                    .any(|&x| (0..4).any(|k| left(foot[k], foot[(k + 1) % 4], x) < -eps))
-        });
-        assert!(straddles);
+            c.iter().all(|x| x.z == 0.0) && straddles(&foot, &c)
+        }));
     }
 
     #[test]
     fn a_light_mounted_under_a_ceiling_outlines_itself_on_it() {
         // A ceiling (facing down) and a light 1e-4 of the room below it (facing down): the
         // light's outline becomes edges of the ceiling; the light itself is not split.
-        let mut b = SceneBuilder::new();
-        let white = b.material("white", [0.5; 3], [0.0; 3]);
-        let light = b.material("light", [0.0; 3], [5.0; 3]);
+        let (mut b, white, light) = floor();
         let z = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-        b.quad(
-            [z(0., 0., 0.), z(4., 0., 0.), z(4., 4., 0.), z(0., 4., 0.)],
-            white,
-        );
         b.quad(
             [z(0., 0., 4.), z(0., 4., 4.), z(4., 4., 4.), z(4., 0., 4.)],
             white,

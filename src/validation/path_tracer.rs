@@ -31,7 +31,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::color::Rgb;
-use crate::form_factor::sampling::Rng;
+use crate::form_factor::sampling::{malley, Rng};
 use crate::scene::Scene;
 use crate::visibility::Visibility;
 
@@ -438,10 +438,8 @@ impl<'a> Tracer<'a> {
 /// disk, lifted to the hemisphere).
 fn cosine_direction(n: DVec3, rng: &mut Rng) -> DVec3 {
     let (s, t) = (rng.next_f64(), rng.next_f64());
-    let r = s.sqrt();
-    let phi = 2.0 * std::f64::consts::PI * t;
     let (tangent, bitangent) = n.any_orthonormal_pair();
-    r * phi.cos() * tangent + r * phi.sin() * bitangent + (1.0 - s).max(0.0).sqrt() * n
+    malley(s, t, tangent, bitangent, n)
 }
 
 #[cfg(test)]
