@@ -35,7 +35,8 @@ mod tests {
         let input = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
         let outcome = super::bake(&input, &out, &settings).unwrap();
         let back = radiosity::io::ply::read(&out).unwrap();
-        assert_eq!(back.faces.len(), outcome.report.patches);
+        assert_eq!(back.faces.len(), outcome.baked.faces.len());
+        assert_eq!(back.positions.len(), outcome.report.vertices);
         assert!(
             back.colours.iter().any(|c| c[0] > 200 && c[1] < 100),
             "no red-wall colour"

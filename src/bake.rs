@@ -41,6 +41,9 @@ pub struct Site {
     /// Other output vertices share its position: it lies on a crease or a material border,
     /// where surfaces meet.
     pub shared: bool,
+    /// The patch-mesh vertex it stands at: output vertices split at a crease or a material
+    /// border have the same one.
+    pub mesh_vertex: u32,
 }
 
 /// [`bake`], with the [`Site`] of every output vertex (indexed like the mesh's positions).
@@ -85,6 +88,7 @@ pub fn bake_sites(
                     normal: DVec3::ZERO,
                     patches: Vec::new(),
                     shared: false,
+                    mesh_vertex: v as u32,
                 });
             }
             let p = ps[a] as usize;

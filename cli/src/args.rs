@@ -307,6 +307,12 @@ pub struct SolveArgs {
         help_heading = "Final gather"
     )]
     pub gather_rays: Option<u32>,
+    /// Display refinement after the gather: an output edge is split (a new vertex gathered at
+    /// its midpoint) where the light there departs from the interpolation of its ends by more
+    /// than this fraction of the local luminance; 0 = none. New vertices are bounded: half the
+    /// gather's ray budget.
+    #[arg(long, value_name = "FRACTION", allow_negative_numbers = true, default_value_t = pipeline::Settings::default().gather_tolerance, help_heading = "Final gather")]
+    pub gather_tolerance: f64,
     /// Longest patch edge, scene units [default: bounding-box diagonal / 16].
     #[arg(
         long,
@@ -477,6 +483,7 @@ impl SolveArgs {
             discontinuities: self.discontinuities,
             gather: self.gather,
             gather_rays: self.gather_rays,
+            gather_tolerance: self.gather_tolerance,
         };
         settings.validate()?;
         Ok(settings)

@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 28] = [
+pub const FLAGS: [(&str, &str); 29] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -46,6 +46,7 @@ pub const FLAGS: [(&str, &str); 28] = [
     ("gather", "--gather"),
     ("discontinuities", "--discontinuities"),
     ("gather_rays", "--gather-rays"),
+    ("gather_tolerance", "--gather-tolerance"),
 ];
 
 /// The flag that sets the library's setting `name`, if there is one.

@@ -250,16 +250,33 @@ fn bake_stage(
     if settings.gather != Gather::None && scene.has_emitters() && !neumann {
         let t = Instant::now();
         let gatherer = gather::Gatherer::new(scene, patches, radiance, settings.form_factors.seed);
-        baked.vertex_radiance = gather::gather(
+        let rays = settings
+            .gather_rays
+            .map_or_else(|| gather::auto_rays(sites.len()), |r| r as usize);
+        let values = gather::gather(
             &gatherer,
             &sites,
             &baked.vertex_radiance,
             settings.gather,
-            settings
-                .gather_rays
-                .map_or_else(|| gather::auto_rays(sites.len()), |r| r as usize),
+            rays,
             visible_fraction,
         );
+        let plan = gather::Plan {
+            mode: settings.gather,
+            rays,
+            tolerance: settings.gather_tolerance,
+            budget: gather::refine::budget(rays),
+        };
+        let refined = gather::refine(
+            &gatherer,
+            &mut baked,
+            sites,
+            values,
+            &plan,
+            visible_fraction,
+        );
+        report.vertices = baked.positions.len();
+        report.display_refinement = refined;
         report.seconds.gather = t.elapsed().as_secs_f64();
     }
     baked
@@ -497,7 +514,10 @@ mod tests {
         assert_eq!(r.overrides, ["emission source=2,2,2"]);
         assert_eq!(r.exposure, out.baked.auto_exposure());
         let back = io::ply::read(&output).unwrap();
-        assert_eq!(back.faces.len(), r.patches);
+        // One face per patch, and more where the display refinement split them.
+        assert_eq!(back.faces.len(), out.baked.faces.len());
+        assert!(back.faces.len() >= r.patches);
+        assert_eq!(out.baked.positions.len(), r.vertices);
         // The override doubled the source's Le.
         let le = out
             .patches

@@ -59,8 +59,11 @@ pub struct Report {
     pub patches: usize,
     /// Adaptive refinement rounds performed (each split patches and solved again).
     pub refine_rounds: u32,
-    /// Vertices of the output mesh (after splitting at creases and material borders).
+    /// Vertices of the output mesh (after splitting at creases and material borders, and the
+    /// display refinement).
     pub vertices: usize,
+    /// What the display refinement after the final gather did ([`crate::gather::refine`]).
+    pub display_refinement: crate::gather::Refined,
     /// Matrix or hierarchical.
     pub method: super::Method,
     /// The hierarchical solver's settings (`method = hierarchical`).
@@ -102,6 +105,7 @@ impl Report {
             patches: 0,
             refine_rounds: 0,
             vertices: 0,
+            display_refinement: crate::gather::Refined::default(),
             method: settings.method,
             hierarchical_settings: (settings.method == super::Method::Hierarchical)
                 .then_some(settings.hierarchical),

@@ -91,6 +91,10 @@ pub struct Settings {
     /// Hemisphere rays per vertex of the `full` gather, in 1..=65536; `None` =
     /// [`crate::gather::auto_rays`] (a budget of 4·10⁶ rays over the vertices, 64 to 1024 each).
     pub gather_rays: Option<u32>,
+    /// Display refinement after the gather ([`crate::gather::refine`]): an output edge is
+    /// split where the light at its midpoint departs from the linear interpolation of its
+    /// ends by more than this fraction of the local luminance; finite and >= 0 (0 = none).
+    pub gather_tolerance: f64,
 }
 
 impl Default for Settings {
@@ -109,6 +113,7 @@ impl Default for Settings {
             discontinuities: mesh::Discontinuities::Auto,
             gather: Gather::Full,
             gather_rays: None,
+            gather_tolerance: crate::gather::refine::DEFAULT_TOLERANCE,
         }
     }
 }
@@ -138,6 +143,12 @@ impl Settings {
             return Err(Error::setting(
                 "refine_threshold",
                 format!("{} is not a positive number", self.refine_threshold),
+            ));
+        }
+        if !(self.gather_tolerance >= 0.0 && self.gather_tolerance.is_finite()) {
+            return Err(Error::setting(
+                "gather_tolerance",
+                format!("{} is not a number >= 0", self.gather_tolerance),
             ));
         }
         if let Some(r) = self.gather_rays {
@@ -190,8 +201,10 @@ mod tests {
     fn validate_names_the_first_bad_setting() {
         Settings::default().validate().unwrap();
         type Breakage = (fn(&mut Settings), &'static str);
-        let cases: [Breakage; 12] = [
+        let cases: [Breakage; 14] = [
             (|s| s.gather_rays = Some(0), "gather_rays"),
+            (|s| s.gather_tolerance = -0.01, "gather_tolerance"),
+            (|s| s.gather_tolerance = f64::INFINITY, "gather_tolerance"),
             (|s| s.max_edge = Some(0.0), "max_edge"),
             (|s| s.max_edge = Some(f64::NAN), "max_edge"),
             (|s| s.max_edge = Some(-2.0), "max_edge"),

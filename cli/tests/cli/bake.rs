@@ -31,7 +31,8 @@ fn bake_cornell_to_ply_and_obj_and_read_back() {
         assert!(json["seconds"][stage].as_f64().unwrap() >= 0.0, "{stage}");
     }
     let p = ply::read(&ply_path).unwrap();
-    assert_eq!(p.faces.len(), patches);
+    // One face per patch, and more where the display refinement split them.
+    assert!(p.faces.len() >= patches, "{} faces", p.faces.len());
     assert_eq!(p.positions.len(), vertices);
     let vr = p.vertex_radiance.as_ref().unwrap();
     let fr = p.face_radiance.as_ref().unwrap();

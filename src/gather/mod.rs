@@ -49,6 +49,10 @@ use crate::mesh::Patches;
 use crate::scene::Scene;
 use crate::visibility::{Visibility, NONE};
 
+pub mod refine;
+
+pub use refine::{refine, Plan, Refined};
+
 /// What the final gather recomputes at the output vertices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -205,7 +209,8 @@ impl<'a> Gatherer<'a> {
     /// normal `n`) divided by π, per channel (radiance units). `ignore` is the patch `x` lies
     /// on.
     pub fn direct(&self, x: DVec3, n: DVec3, ignore: u32, rng: &mut Rng) -> Rgb {
-        self.direct_from(x, n, ignore, &self.exact_emitters(x), rng)
+        self.direct_from(x, n, ignore, &self.exact_emitters(x), MAX_SHADOW_RAYS, rng)
+            .0
     }
 
     /// The emitters whose light is computed exactly at `x`: all of them, or the
@@ -230,10 +235,21 @@ impl<'a> Gatherer<'a> {
         chosen
     }
 
-    /// [`Gatherer::direct`] from the emitters `exact` only.
-    fn direct_from(&self, x: DVec3, n: DVec3, ignore: u32, exact: &[u32], rng: &mut Rng) -> Rgb {
+    /// [`Gatherer::direct`] from the emitters `exact` only, with up to `max_rays` shadow rays
+    /// per emitter in a penumbra (at least [`SHADOW_RAYS`]), and whether some emitter is
+    /// partly hidden (its shadow rays disagree: `x` is in a penumbra).
+    fn direct_from(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        ignore: u32,
+        exact: &[u32],
+        max_rays: usize,
+        rng: &mut Rng,
+    ) -> (Rgb, bool) {
         let mut sum = [0.0; 3];
-        let mut targets = Vec::with_capacity(MAX_SHADOW_RAYS);
+        let mut penumbra = false;
+        let mut targets = Vec::with_capacity(max_rays.max(SHADOW_RAYS));
         let from = self.vis.point(x + self.lift * n);
         for e in exact.iter().map(|&k| &self.emitters[k as usize]) {
             if (x - e.corners[0]).dot(e.normal) <= 0.0 {
@@ -247,7 +263,7 @@ impl<'a> Gatherer<'a> {
             // horizon, G = cosθ_x cosθ_y / r²: the visible share of F itself (weighting by G
             // matters for a large emitter close by, where an area fraction would not do).
             let (mut seen, mut total, mut agree) = (0.0f64, 0.0f64, [false, false]);
-            for round in [SHADOW_RAYS, MAX_SHADOW_RAYS - SHADOW_RAYS] {
+            for round in [SHADOW_RAYS, max_rays.saturating_sub(SHADOW_RAYS)] {
                 targets.clear();
                 stratified_triangle_barycentrics(round, rng, &mut targets);
                 for &b in &targets {
@@ -272,6 +288,7 @@ impl<'a> Gatherer<'a> {
                     break; // the first rays agree: wholly lit or wholly shadowed
                 }
             }
+            penumbra |= agree[0] && agree[1];
             if total == 0.0 {
                 continue;
             }
@@ -280,7 +297,7 @@ impl<'a> Gatherer<'a> {
                 *s += le * f * v;
             }
         }
-        sum
+        (sum, penumbra)
     }
 
     /// ∫_Ω L_r(h(x, ω)) cosθ/π dω by `rays` stratified cosine-weighted rays: the reflected
@@ -363,10 +380,122 @@ impl<'a> Gatherer<'a> {
     }
 }
 
+/// What the gather found at one output vertex.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gathered {
+    /// The radiance shown, W·sr⁻¹·m⁻² per channel: Le + `direct` + `indirect`, or the bake's
+    /// value at a buried vertex.
+    pub radiance: Rgb,
+    /// Reflected direct light ρ·Σ_e Le_e F V̄ (radiance units; 0 when `buried`).
+    pub direct: Rgb,
+    /// Reflected indirect light (radiance units; 0 when `buried`).
+    pub indirect: Rgb,
+    /// Some emitter is partly hidden from the point: it lies in a penumbra.
+    pub penumbra: bool,
+    /// The point is buried under contact geometry and keeps the bake's value.
+    pub buried: bool,
+}
+
+/// Where the gather evaluates at a site: the point, its normal and the patch it lies on
+/// (whose rays ignore), or `None` when the point is buried.
+pub(crate) struct Spot {
+    x: DVec3,
+    n: DVec3,
+    patch: u32,
+}
+
+impl Gatherer<'_> {
+    /// The point a site is gathered at (see the module documentation: nudged into the most
+    /// visible patch where surfaces meet), or `None` when it is buried.
+    pub(crate) fn spot(&self, site: &Site, visible_fraction: &[f64]) -> Option<Spot> {
+        let p = self.patches;
+        // The most visible patch around the vertex: evaluate from its side.
+        let visible = |q: u32| visible_fraction.get(q as usize).copied().unwrap_or(1.0);
+        let (best, _) = site
+            .patches
+            .iter()
+            .map(|&q| (q, visible(q)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("a site has patches");
+        // Where surfaces meet (a crease, a material border, a contact line: a patch
+        // around it partly buried), the vertex is on the plane of a neighbouring surface,
+        // which it would see edge-on (form factor 0, its rays grazing it) while every
+        // point next to it sees that surface fill part of its hemisphere: gather just
+        // inside the most visible patch instead. Elsewhere, exactly at the vertex.
+        let contact = site.shared || site.patches.iter().any(|&q| visible(q) < 1.0);
+        let x = if contact {
+            site.position + NUDGE * (p.centroid[best as usize] - site.position)
+        } else {
+            site.position
+        };
+        let n = site.normal;
+        (!self.buried(x, n, best)).then_some(Spot { x, n, patch: best })
+    }
+
+    /// The reflected direct light ρ·Σ_e Le_e F V̄ at `spot` (up to `max_rays` shadow rays per
+    /// emitter), whether it is in a penumbra, and the emitters computed exactly there.
+    pub(crate) fn reflected_direct(
+        &self,
+        spot: &Spot,
+        max_rays: usize,
+        rng: &mut Rng,
+    ) -> (Rgb, bool, Vec<u32>) {
+        let exact = self.exact_emitters(spot.x);
+        let (direct, penumbra) =
+            self.direct_from(spot.x, spot.n, spot.patch, &exact, max_rays, rng);
+        let rho = self.patches.reflectance[spot.patch as usize];
+        (std::array::from_fn(|c| rho[c] * direct[c]), penumbra, exact)
+    }
+
+    /// The `full` gather at `spot`: emission, reflected direct light and reflected indirect
+    /// light by `rays` hemisphere rays.
+    pub(crate) fn full(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> Gathered {
+        let (direct, penumbra, exact) = self.reflected_direct(spot, MAX_SHADOW_RAYS, rng);
+        let indirect = self.indirect(spot.x, spot.n, spot.patch, &exact, rays, rng);
+        let p = spot.patch as usize;
+        let rho = self.patches.reflectance[p];
+        let indirect = std::array::from_fn(|c| rho[c] * indirect[c]);
+        self.with_emission(p, direct, indirect, penumbra)
+    }
+
+    /// Le of patch `p` plus the reflected parts.
+    fn with_emission(&self, p: usize, direct: Rgb, indirect: Rgb, penumbra: bool) -> Gathered {
+        let le = self.patches.emission[p];
+        Gathered {
+            radiance: std::array::from_fn(|c| le[c] + direct[c] + indirect[c]),
+            direct,
+            indirect,
+            penumbra,
+            buried: false,
+        }
+    }
+
+    /// The random numbers of output vertex `v`.
+    pub(crate) fn vertex_rng(&self, v: usize) -> Rng {
+        Rng::new(&[self.seed, v as u64, 0x6A7_4E6])
+    }
+
+    /// Every emitter's direct light is computed exactly at every point (there are at most
+    /// [`MAX_EXACT_EMITTERS`]).
+    pub(crate) fn all_exact(&self) -> bool {
+        self.emitters.len() <= MAX_EXACT_EMITTERS
+    }
+
+    /// The scene's extent (its bounding box diagonal), scene units.
+    pub(crate) fn extent(&self) -> f64 {
+        self.lift / LIFT
+    }
+
+    /// The seed every random choice is keyed by.
+    pub(crate) fn seed(&self) -> u64 {
+        self.seed
+    }
+}
+
 /// Recomputes the radiance of the output vertices `sites` (from [`crate::bake::bake_sites`])
 /// by the final gather `mode`, with `rays` hemisphere rays for `full`. `baked[v]` is the
 /// bake's value at vertex v (kept for buried vertices; for `direct`, the bake of the indirect
-/// part is recomputed here). Returns the new vertex radiance.
+/// part is recomputed here). Returns what was found at each vertex.
 pub fn gather(
     gatherer: &Gatherer,
     sites: &[Site],
@@ -374,10 +503,17 @@ pub fn gather(
     mode: Gather,
     rays: usize,
     visible_fraction: &[f64],
-) -> Vec<Rgb> {
+) -> Vec<Gathered> {
     let p = gatherer.patches;
+    let kept = |l: Rgb| Gathered {
+        radiance: l,
+        direct: [0.0; 3],
+        indirect: [0.0; 3],
+        penumbra: false,
+        buried: true,
+    };
     if mode == Gather::None {
-        return baked.to_vec();
+        return baked.iter().map(|&l| kept(l)).collect();
     }
     // `direct`: each patch's indirect part, L − Le − ρ·D, to be averaged like the bake.
     let indirect_part: Vec<Rgb> = if mode == Gather::Direct {
@@ -397,47 +533,25 @@ pub fn gather(
         .par_iter()
         .enumerate()
         .map(|(v, site)| {
-            let mut rng = Rng::new(&[gatherer.seed, v as u64, 0x6A7_4E6]);
-            // The most visible patch around the vertex: evaluate from its side.
-            let visible = |q: u32| visible_fraction.get(q as usize).copied().unwrap_or(1.0);
-            let (best, _) = site
-                .patches
-                .iter()
-                .map(|&q| (q, visible(q)))
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .expect("a site has patches");
-            // Where surfaces meet (a crease, a material border, a contact line: a patch
-            // around it partly buried), the vertex is on the plane of a neighbouring surface,
-            // which it would see edge-on (form factor 0, its rays grazing it) while every
-            // point next to it sees that surface fill part of its hemisphere: gather just
-            // inside the most visible patch instead. Elsewhere, exactly at the vertex.
-            let contact = site.shared || site.patches.iter().any(|&q| visible(q) < 1.0);
-            let x = if contact {
-                site.position + NUDGE * (p.centroid[best as usize] - site.position)
-            } else {
-                site.position
+            let mut rng = gatherer.vertex_rng(v);
+            let Some(spot) = gatherer.spot(site, visible_fraction) else {
+                return kept(baked[v]);
             };
-            let n = site.normal;
-            if gatherer.buried(x, n, best) {
-                return baked[v];
-            }
-            let exact = gatherer.exact_emitters(x);
-            let direct = gatherer.direct_from(x, n, best, &exact, &mut rng);
-            let (le, rho) = (p.emission[best as usize], p.reflectance[best as usize]);
             if mode == Gather::Full {
-                let indirect = gatherer.indirect(x, n, best, &exact, rays, &mut rng);
-                return std::array::from_fn(|c| le[c] + rho[c] * (direct[c] + indirect[c]));
+                return gatherer.full(&spot, rays, &mut rng);
             }
             // `direct`: the patches' reflected indirect light, averaged as the bake does.
+            let (direct, penumbra, _) = gatherer.reflected_direct(&spot, MAX_SHADOW_RAYS, &mut rng);
             let area: f64 = site.patches.iter().map(|&q| p.area[q as usize]).sum();
-            std::array::from_fn(|c| {
+            let indirect = std::array::from_fn(|c| {
                 let reflected: f64 = site
                     .patches
                     .iter()
                     .map(|&q| p.area[q as usize] * indirect_part[q as usize][c])
                     .sum();
-                le[c] + rho[c] * direct[c] + reflected / area
-            })
+                reflected / area
+            });
+            gatherer.with_emission(spot.patch as usize, direct, indirect, penumbra)
         })
         .collect()
 }
