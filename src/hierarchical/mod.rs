@@ -301,6 +301,10 @@ pub struct Hierarchy<'a> {
     pub elem_l: Vec<Rgb>,
     /// Radiance of every cluster (area-weighted mean of its root elements).
     pub cluster_l: Vec<Rgb>,
+    /// The largest channel of the radiance of any leaf below each element and each cluster:
+    /// what the oracle bounds a source's radiance by.
+    elem_max: Vec<f64>,
+    cluster_max: Vec<f64>,
     /// Per element: bit k set when point k of the receiver rule ([`links::receiver_rule`]) is
     /// buried under contact geometry (its normal ray meets the back of a surface).
     buried: Vec<u16>,
@@ -329,6 +333,8 @@ impl<'a> Hierarchy<'a> {
         let mut h = Hierarchy {
             elem_l: Vec::new(),
             cluster_l: Vec::new(),
+            elem_max: Vec::new(),
+            cluster_max: Vec::new(),
             tree,
             links: Vec::new(),
             receiver_starts: vec![0],
@@ -369,6 +375,7 @@ impl<'a> Hierarchy<'a> {
         let zero = vec![[0.0; 3]; n];
         self.elem_l = vec![[0.0; 3]; n];
         self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
+        self.cluster_max = vec![0.0; self.tree.clusters.len()];
         let gz = vec![[0.0; 3]; self.tree.clusters.len()];
         self.push_pull(&zero, &gz);
     }
@@ -442,6 +449,14 @@ impl<'a> Hierarchy<'a> {
         }
     }
 
+    /// The brightest channel of any leaf below `node`, W·sr⁻¹·m⁻².
+    fn max_radiance(&self, node: Node) -> f64 {
+        match node.as_element() {
+            Some(e) => self.elem_max[e],
+            None => self.cluster_max[node.as_cluster().unwrap()],
+        }
+    }
+
     fn radiance(&self, node: Node) -> Rgb {
         match node.as_element() {
             Some(e) => self.elem_l[e],
@@ -457,7 +472,11 @@ impl<'a> Hierarchy<'a> {
             .links
             .par_iter()
             .map(|l| {
-                let ls = self.radiance(l.source).iter().copied().fold(0.0, f64::max);
+                // Bounded by the brightest leaf below the source, not its mean: a link from a
+                // cluster gathers its area-mean radiance, which dilutes a small light among
+                // dark surfaces the receiver may not see at all (energy lost). With the bound,
+                // what that can take away is at most the power the oracle allows.
+                let ls = self.max_radiance(l.source);
                 links::oracle(
                     &self.tree,
                     l,
@@ -528,6 +547,7 @@ impl<'a> Hierarchy<'a> {
         for e in n_old..self.tree.elements.len() {
             let p = self.tree.elements[e].parent as usize;
             self.elem_l.push(self.elem_l[p]);
+            self.elem_max.push(self.elem_max[p]);
         }
         if self.stats.closed_scene {
             self.row_sum = self.row_sums();
@@ -629,6 +649,7 @@ impl<'a> Hierarchy<'a> {
         // under a block) emits nothing and is seen by nobody, and its visibility rays already
         // count it as blocked, so its darkness must not dilute the visible part's radiance.
         let mut visible_area = vec![0.0; n];
+        let mut lmax = vec![0.0f64; n];
         for e in (0..n).rev() {
             let el = &t.elements[e];
             if el.first_child == tree::NO_CHILD {
@@ -642,17 +663,27 @@ impl<'a> Hierarchy<'a> {
                         + self.roots.reflectance[r][c] * down[e][c] * norm;
                 }
                 visible_area[e] = el.area * self.visible[e];
+                lmax[e] = l[e].iter().copied().fold(0.0, f64::max);
             } else {
                 let kids = el.first_child as usize..el.first_child as usize + 4;
+                lmax[e] = kids.clone().map(|k| lmax[k]).fold(0.0, f64::max);
                 (l[e], visible_area[e]) =
                     weighted_mean(kids.map(|k| (l[k], visible_area[k], t.elements[k].area)));
             }
         }
         let mut cl = vec![[0.0; 3]; t.clusters.len()];
         let mut cluster_visible = vec![0.0; t.clusters.len()];
+        let mut cmax = vec![0.0f64; t.clusters.len()];
         for c in (0..t.clusters.len()).rev() {
             let k = &t.clusters[c];
             let kids = &t.cluster_children[k.first as usize..(k.first + k.count) as usize];
+            cmax[c] = kids
+                .iter()
+                .map(|&child| match child.as_element() {
+                    Some(e) => lmax[e],
+                    None => cmax[child.as_cluster().unwrap()],
+                })
+                .fold(0.0, f64::max);
             (cl[c], cluster_visible[c]) =
                 weighted_mean(kids.iter().map(|&child| match child.as_element() {
                     Some(e) => (l[e], visible_area[e], t.elements[e].area),
@@ -664,6 +695,8 @@ impl<'a> Hierarchy<'a> {
         }
         self.elem_l = l;
         self.cluster_l = cl;
+        self.elem_max = lmax;
+        self.cluster_max = cmax;
     }
 
     /// One Jacobi sweep: gather over all links from the current radiance, then push-pull.

@@ -127,7 +127,7 @@ fn reference() -> Result<String> {
 }
 
 /// The bakes measured on each scene: (label, settings). On the Cornell box, the matrix
-/// method with and without each part (contact lines, final gather) and the hierarchical
+/// method with and without each part (contact lines, final gather, display refinement) and the hierarchical
 /// solver; in the hall (where a matrix bake takes minutes) the hierarchical solver.
 fn bakes(quick: bool, name: &str) -> Vec<(String, pipeline::Settings)> {
     let with = |method, discontinuities, gather, epsilon| {
@@ -147,17 +147,44 @@ fn bakes(quick: bool, name: &str) -> Vec<(String, pipeline::Settings)> {
     );
     let mut runs = Vec::new();
     if name == "cornell" {
-        for (d, g, label) in [
-            (none, Gather::None, "matrix, no contact lines, no gather"),
-            (contacts, Gather::None, "matrix, contact lines, no gather"),
-            (none, Gather::Full, "matrix, no contact lines, full gather"),
+        let unrefined = |s: pipeline::Settings| pipeline::Settings {
+            gather_tolerance: 0.0,
+            ..s
+        };
+        for (d, g, refine, label) in [
+            (
+                none,
+                Gather::None,
+                false,
+                "matrix, no contact lines, no gather",
+            ),
+            (
+                contacts,
+                Gather::None,
+                false,
+                "matrix, contact lines, no gather",
+            ),
+            (
+                none,
+                Gather::Full,
+                false,
+                "matrix, no contact lines, full gather",
+            ),
             (
                 auto,
                 Gather::Full,
-                "matrix, contact lines, full gather (the defaults)",
+                false,
+                "matrix, contact lines, full gather",
+            ),
+            (
+                auto,
+                Gather::Full,
+                true,
+                "matrix, contact lines, full gather, display refinement (the defaults)",
             ),
         ] {
-            runs.push((label.to_string(), with(Method::Matrix, d, g, 1e-4)));
+            let s = with(Method::Matrix, d, g, 1e-4);
+            runs.push((label.to_string(), if refine { s } else { unrefined(s) }));
         }
     }
     let eps: &[f64] = if quick { &[1e-4] } else { &[1e-4, 1e-5] };
@@ -169,7 +196,7 @@ fn bakes(quick: bool, name: &str) -> Vec<(String, pipeline::Settings)> {
             ));
         }
         runs.push((
-            format!("hierarchical, ε {e:.0e}, full gather"),
+            format!("hierarchical, ε {e:.0e}, full gather, display refinement"),
             with(Method::Hierarchical, auto, Gather::Full, e),
         ));
     }
