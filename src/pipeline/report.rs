@@ -62,7 +62,7 @@ pub struct Report {
     /// Vertices of the output mesh (after splitting at creases and material borders, and the
     /// display refinement).
     pub vertices: usize,
-    /// What the display refinement after the final gather did ([`crate::gather::refine`]).
+    /// What the display refinement after the final gather did ([`mod@crate::gather::refine`]).
     pub display_refinement: crate::gather::Refined,
     /// Matrix or hierarchical.
     pub method: super::Method,

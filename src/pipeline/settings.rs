@@ -91,7 +91,7 @@ pub struct Settings {
     /// Hemisphere rays per vertex of the `full` gather, in 1..=65536; `None` =
     /// [`crate::gather::auto_rays`] (a budget of 4·10⁶ rays over the vertices, 64 to 1024 each).
     pub gather_rays: Option<u32>,
-    /// Display refinement after the gather ([`crate::gather::refine`]): an output edge is
+    /// Display refinement after the gather ([`mod@crate::gather::refine`]): an output edge is
     /// split where the light at its midpoint departs from the linear interpolation of its
     /// ends by more than this fraction of the local luminance; finite and >= 0 (0 = none).
     pub gather_tolerance: f64,
