@@ -210,19 +210,25 @@ fn element_pair_estimate(
     let rule = receiver_rule();
     let mut weighted = unburied_weights(buried);
     let visible: f64 = weighted.iter().sum();
-    let mut largest = 0.0f64;
+    let (mut largest, mut smallest) = (0.0f64, f64::INFINITY);
     for (k, &(b, _)) in rule.iter().enumerate() {
         if weighted[k] == 0.0 {
             continue;
         }
         let f = point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s);
         largest = largest.max(f);
+        smallest = smallest.min(f);
         weighted[k] *= f;
     }
     if visible == 0.0 {
         return None;
     }
-    let f_unoccluded = weighted.iter().sum::<f64>() / visible;
+    let mut f_unoccluded = weighted.iter().sum::<f64>() / visible;
+    // A kernel that varies too much over the receiver: integrate on its quarters (with
+    // buried points the one rule's reweighting stands).
+    if buried == 0 && largest - smallest > SPREAD_FOR_QUARTERS * f_unoccluded {
+        f_unoccluded = composite_form_factor(tree, r, s, 1);
+    }
     let mut sums = Sums {
         f: 0.0,
         f_unoccluded,
@@ -248,6 +254,43 @@ fn element_pair_estimate(
     sums.cast = rays as u64;
     sums.f = f_unoccluded * seen as f64 / rays as f64;
     Some(sums)
+}
+
+/// Where the receiver rule's point values of F spread over more than this many times their
+/// mean (a receiver large against its distance to the source, or one cut by the source's
+/// plane), the rule under-integrates the kernel: F_rs is integrated again on the receiver's
+/// four quarters ([`composite_form_factor`]). Measured on the generated hall (10⁴ triangles)
+/// against its path-traced probes: the solution's bias −5.9 % → −3.3 % at ε = 1e-4 and
+/// −3.1 % → −1.0 % at 1e-5, for under 3 % more time; a threshold of 0.25 gave the same bias
+/// for 25 % more time, 4 left half of it.
+pub const SPREAD_FOR_QUARTERS: f64 = 2.0;
+
+/// The unoccluded F_rs by the receiver rule on each of the 4^`depth` sub-triangles of `r`
+/// (split at edge midpoints `depth` times): a composite rule for receivers on which one rule
+/// under-integrates the kernel.
+pub(crate) fn composite_form_factor(tree: &Tree, r: usize, s: usize, depth: u32) -> f64 {
+    // Sub-triangles as barycentric corners in r.
+    let mut parts = vec![[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]];
+    for _ in 0..depth {
+        let mut next = Vec::with_capacity(4 * parts.len());
+        for [a, b, c] in parts {
+            let m = |p: [f64; 3], q: [f64; 3]| std::array::from_fn(|i| 0.5 * (p[i] + q[i]));
+            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
+            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [bc, ca, ab]]);
+        }
+        parts = next;
+    }
+    let share = 1.0 / parts.len() as f64;
+    let mut sum = 0.0;
+    for q in &parts {
+        for &(b, w) in receiver_rule() {
+            let at: [f64; 3] =
+                std::array::from_fn(|i| b[0] * q[0][i] + b[1] * q[1][i] + b[2] * q[2][i]);
+            let f = point_form_factor(tree, tree.point(r, at), tree.surface_normal(r, at), s);
+            sum += share * w * f;
+        }
+    }
+    sum
 }
 
 /// F_rs with a cluster at either end: the Monte Carlo estimate A_s · mean_k G(x_k, y_k)
