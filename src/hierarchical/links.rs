@@ -259,7 +259,7 @@ fn element_pair_estimate(
 /// Where the receiver rule's point values of F spread over more than this many times their
 /// mean (a receiver large against its distance to the source, or one cut by the source's
 /// plane), the rule under-integrates the kernel: F_rs is integrated again on the receiver's
-/// four quarters ([`composite_form_factor`]). Measured on the generated hall (10⁴ triangles)
+/// four quarters (`composite_form_factor`). Measured on the generated hall (10⁴ triangles)
 /// against its path-traced probes: the solution's bias −5.9 % → −3.3 % at ε = 1e-4 and
 /// −3.1 % → −1.0 % at 1e-5, for under 3 % more time; a threshold of 0.25 gave the same bias
 /// for 25 % more time, 4 left half of it.
