@@ -396,6 +396,19 @@ pub struct Gathered {
     pub buried: bool,
 }
 
+impl Gathered {
+    /// A buried point showing `radiance` (the bake's value, or its neighbours' mean).
+    pub fn buried(radiance: Rgb) -> Self {
+        Gathered {
+            radiance,
+            direct: [0.0; 3],
+            indirect: [0.0; 3],
+            penumbra: false,
+            buried: true,
+        }
+    }
+}
+
 /// Where the gather evaluates at a site: the point, its normal and the patch it lies on
 /// (whose rays ignore), or `None` when the point is buried.
 pub(crate) struct Spot {
@@ -505,15 +518,8 @@ pub fn gather(
     visible_fraction: &[f64],
 ) -> Vec<Gathered> {
     let p = gatherer.patches;
-    let kept = |l: Rgb| Gathered {
-        radiance: l,
-        direct: [0.0; 3],
-        indirect: [0.0; 3],
-        penumbra: false,
-        buried: true,
-    };
     if mode == Gather::None {
-        return baked.iter().map(|&l| kept(l)).collect();
+        return baked.iter().map(|&l| Gathered::buried(l)).collect();
     }
     // `direct`: each patch's indirect part, L − Le − ρ·D, to be averaged like the bake.
     let indirect_part: Vec<Rgb> = if mode == Gather::Direct {
@@ -535,7 +541,7 @@ pub fn gather(
         .map(|(v, site)| {
             let mut rng = gatherer.vertex_rng(v);
             let Some(spot) = gatherer.spot(site, visible_fraction) else {
-                return kept(baked[v]);
+                return Gathered::buried(baked[v]);
             };
             if mode == Gather::Full {
                 return gatherer.full(&spot, rays, &mut rng);

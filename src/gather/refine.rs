@@ -80,6 +80,11 @@ fn edge(a: u32, b: u32) -> Edge {
     (a.min(b), a.max(b))
 }
 
+/// The three edges of a face.
+fn face_edges(face: [u32; 3]) -> [Edge; 3] {
+    std::array::from_fn(|k| edge(face[k], face[(k + 1) % 3]))
+}
+
 /// The output mesh being refined, with what the gather found at each vertex.
 struct Display<'m> {
     mesh: &'m mut BakedMesh,
@@ -146,13 +151,12 @@ pub fn refine(
             break;
         }
         let waiting: HashSet<Edge> = deferred.iter().map(|d| d.edge).collect();
-        // The candidate faces' edges, long enough and not tested before, with their contrast.
-        let mut edges: Vec<(f64, Edge)> = Vec::new();
+        // The candidate faces' edges, long enough and not tested before, with their contrast
+        // and the luminance their deviation is relative to.
+        let mut edges: Vec<(f64, Edge, f64)> = Vec::new();
         let mut seen = HashSet::new();
         for &f in &candidates {
-            let face = d.mesh.faces[f];
-            for k in 0..3 {
-                let e = edge(face[k], face[(k + 1) % 3]);
+            for e in face_edges(d.mesh.faces[f]) {
                 if kept.contains(&e) || waiting.contains(&e) || !seen.insert(e) {
                     continue;
                 }
@@ -170,7 +174,7 @@ pub fn refine(
                 if va.penumbra || vb.penumbra {
                     contrast += 1.0;
                 }
-                edges.push((contrast, e));
+                edges.push((contrast, e, reference));
             }
         }
         // The most promising edges first, as many as the budget pays tests for.
@@ -182,10 +186,8 @@ pub fn refine(
         let seed = gatherer.seed();
         let deviations: Vec<(f64, bool)> = edges
             .par_iter()
-            .map(|&(_, e)| {
-                let (a, b) = (e.0 as usize, e.1 as usize);
-                let (va, vb) = (&d.values[a], &d.values[b]);
-                let reference = luminance(mid(va.radiance, vb.radiance)).max(floor);
+            .map(|&(_, e, reference)| {
+                let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
                 // The indirect light: endpoints that differ this much (a contact's fall-off).
                 let indirect =
                     0.5 * (luminance(va.indirect) - luminance(vb.indirect)).abs() / reference;
@@ -199,7 +201,7 @@ pub fn refine(
             })
             .collect();
         let mut split: Vec<Split> = std::mem::take(&mut deferred);
-        for (&(_, edge), &(deviation, indirect)) in edges.iter().zip(&deviations) {
+        for (&(_, edge, _), &(deviation, indirect)) in edges.iter().zip(&deviations) {
             if deviation > tolerance {
                 split.push(Split {
                     deviation,
@@ -222,6 +224,8 @@ pub fn refine(
         let mut chosen: Vec<Edge> = Vec::new();
         // Chosen edges whose new vertex gathers its own indirect light.
         let mut own_indirect: HashSet<Edge> = HashSet::new();
+        // Chosen edges with other output edges at the same place: their midpoints are shared.
+        let mut beside_others: HashSet<Edge> = HashSet::new();
         {
             let by_place = d.edges_by_place();
             let mut placed = HashSet::new();
@@ -239,6 +243,9 @@ pub fn refine(
                 chosen.extend(sides.iter().copied());
                 if s.indirect {
                     own_indirect.extend(sides.iter().copied());
+                }
+                if sides.len() > 1 {
+                    beside_others.extend(sides.iter().copied());
                 }
             }
         }
@@ -259,16 +266,9 @@ pub fn refine(
             });
             let mut site = d.midpoint_site(e, &faces_of[&e]);
             site.mesh_vertex = mv;
+            site.shared = beside_others.contains(&e);
             midpoint.insert(e, d.sites.len() as u32);
             d.sites.push(site);
-        }
-        // Shared: other output vertices stand at the same place.
-        let mut at_place: HashMap<Edge, usize> = HashMap::new();
-        for &e in &chosen {
-            *at_place.entry(d.place(e)).or_default() += 1;
-        }
-        for &e in &chosen {
-            d.sites[midpoint[&e] as usize].shared = at_place[&d.place(e)] > 1;
         }
         let new_values: Vec<Gathered> = (first..d.sites.len())
             .into_par_iter()
@@ -280,13 +280,7 @@ pub fn refine(
                     &d.values[endpoints.1 as usize],
                 );
                 match gatherer.spot(site, visible_fraction) {
-                    None => Gathered {
-                        radiance: mid(va.radiance, vb.radiance),
-                        direct: [0.0; 3],
-                        indirect: [0.0; 3],
-                        penumbra: false,
-                        buried: true,
-                    },
+                    None => Gathered::buried(mid(va.radiance, vb.radiance)),
                     Some(spot) => {
                         let mut rng = gatherer.vertex_rng(v);
                         // Across a shadow edge the indirect light is smooth: the ends'
@@ -369,9 +363,8 @@ impl Display<'_> {
     /// Every output edge, grouped by place.
     fn edges_by_place(&self) -> HashMap<Edge, Vec<Edge>> {
         let mut map: HashMap<Edge, Vec<Edge>> = HashMap::new();
-        for face in &self.mesh.faces {
-            for k in 0..3 {
-                let e = edge(face[k], face[(k + 1) % 3]);
+        for &face in &self.mesh.faces {
+            for e in face_edges(face) {
                 let sides = map.entry(self.place(e)).or_default();
                 if !sides.contains(&e) {
                     sides.push(e);
@@ -385,9 +378,8 @@ impl Display<'_> {
     fn faces_of(&self, edges: &[Edge]) -> HashMap<Edge, Vec<u32>> {
         let wanted: HashSet<Edge> = edges.iter().copied().collect();
         let mut map: HashMap<Edge, Vec<u32>> = HashMap::new();
-        for (f, face) in self.mesh.faces.iter().enumerate() {
-            for k in 0..3 {
-                let e = edge(face[k], face[(k + 1) % 3]);
+        for (f, &face) in self.mesh.faces.iter().enumerate() {
+            for e in face_edges(face) {
                 if wanted.contains(&e) {
                     let patches = map.entry(e).or_default();
                     let p = self.face_patch[f];

@@ -375,7 +375,6 @@ impl<'a> Hierarchy<'a> {
         let zero = vec![[0.0; 3]; n];
         self.elem_l = vec![[0.0; 3]; n];
         self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
-        self.cluster_max = vec![0.0; self.tree.clusters.len()];
         let gz = vec![[0.0; 3]; self.tree.clusters.len()];
         self.push_pull(&zero, &gz);
     }
