@@ -32,7 +32,8 @@
 //! [`Estimator`], [`Settings`] and [`Shortcuts`]; the pair estimators' loop is `pairwise`
 //! (one screen), one pair's estimate `pair` ([`kernel`] has the integrands), their sample
 //! points `samples` ([`sampling`] the rules and random numbers), buried points [`is_hidden`]
-//! (`burial`), the convex-hull skip [`occluders`], reuse between refinement rounds [`Reuse`];
+//! (`burial`), the convex-hull skip [`occluders`] (whose module also rebuilds the occluding
+//! scene triangles the rays are traced against), reuse between refinement rounds [`Reuse`];
 //! hemisphere shooting is [`hemisphere`]; CSR assembly `assemble`; [`symmetric_part`]
 //! enforces reciprocity; [`cache`] stores F on disk.
 
@@ -97,9 +98,11 @@ pub struct Stats {
     /// True when the scene was recognised as a convex enclosure (every patch on the scene's
     /// convex hull), where nothing can occlude anything and no visibility ray is cast.
     pub convex_enclosure: bool,
-    /// Patches that can occlude (not on the convex hull, [`occluders`]): the only ones in the
-    /// BVH of the visibility rays.
+    /// Patches that can occlude (not on the convex hull, [`occluders`]).
     pub occluder_patches: u64,
+    /// The triangles the visibility rays are traced against: the scene triangles the
+    /// occluding patches tile (fewer than `occluder_patches` once patches are subdivided).
+    pub occluder_triangles: u64,
     /// Patches with some sample points buried in contact geometry ([`is_hidden`]).
     pub patches_partly_hidden: u64,
     /// True when closure probes found the scene closed and the rows were normalised to 1

@@ -99,8 +99,11 @@ pub(super) struct PairEstimator<'a> {
     pub settings: &'a Settings,
     pub samples: &'a SamplePoints,
     pub burial: &'a Burial,
-    /// The occluders ([`super::occluders`]), or every patch.
+    /// The occluders ([`super::occluders`]) as the scene triangles they tile
+    /// ([`super::occluders::Coarse`]), or every patch.
     pub blockers: &'a Visibility,
+    /// Each patch's triangle in `blockers`, or [`crate::visibility::NONE`].
+    pub occluder_of: &'a [u32],
     /// The scene is a convex enclosure: nothing occludes, no ray is cast.
     pub convex: bool,
     pub geometry: &'a [PatchGeometry],
@@ -149,6 +152,8 @@ impl PairEstimator<'_> {
         let shift = (sampling::mix64(self.settings.seed ^ ((i as u64) << 32 | j as u64))
             % ns as u64) as usize;
         let (mut n_valid, mut n_visible, mut rays) = (0u32, 0u32, 0u32);
+        // Segments leave their own patches at once: those triangles cannot block them.
+        let ignore = [self.occluder_of[i], self.occluder_of[j]];
         for k in 0..ns {
             let ky = (k + shift) % ns;
             let d = pj[ky] - pi[k];
@@ -169,7 +174,7 @@ impl PairEstimator<'_> {
                     !self.blockers.occluded_points(
                         &self.samples.prepared[i * ns + k],
                         &self.samples.prepared[j * ns + ky],
-                        [i as u32, j as u32],
+                        ignore,
                     )
                 };
                 n_visible += scratch.visible[k] as u32;
@@ -273,6 +278,8 @@ mod tests {
         geometry: Vec<PatchGeometry>,
         settings: Settings,
         convex: bool,
+        /// Patch i traces as triangle i of `vis`.
+        identity: Vec<u32>,
     }
 
     impl Fixture {
@@ -284,6 +291,7 @@ mod tests {
             let samples = SamplePoints::place(&patches, &vis, &settings);
             let burial = Burial::find(&patches, &vis, &samples, convex);
             let geometry = PatchGeometry::of_all(&patches);
+            let patches_len = patches.len() as u32;
             Fixture {
                 patches,
                 vis,
@@ -292,6 +300,7 @@ mod tests {
                 geometry,
                 settings,
                 convex,
+                identity: (0..patches_len).collect(),
             }
         }
 
@@ -301,6 +310,7 @@ mod tests {
                 samples: &self.samples,
                 burial: &self.burial,
                 blockers: &self.vis,
+                occluder_of: &self.identity,
                 convex: self.convex,
                 geometry: &self.geometry,
             };

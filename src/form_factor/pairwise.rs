@@ -11,6 +11,7 @@ use sprs::CsMatI;
 
 use super::assemble::{assemble, scale_rows, PairRows};
 use super::burial::Burial;
+use super::occluders::Coarse;
 use super::pair::{Pair, PairEstimator, PatchGeometry, Scratch};
 use super::samples::SamplePoints;
 use super::{occluders, Needed, Reuse, Settings, Stats};
@@ -48,13 +49,11 @@ pub(super) fn pairwise(
     stats.occluder_patches = occluder_mask.iter().filter(|&&o| o).count() as u64;
     let convex = stats.occluder_patches == 0;
     stats.convex_enclosure = convex;
-    let restricted;
-    let blockers = if convex || stats.occluder_patches == n as u64 {
-        vis
-    } else {
-        restricted = vis.restricted(&occluder_mask);
-        &restricted
-    };
+    // Traced as the scene triangles the occluding patches were cut from, in `vis`'s frame
+    // (the sample points are prepared in it).
+    let coarse = Coarse::of(patches, &occluder_mask);
+    let blockers = vis.in_frame_of(&coarse.triangles);
+    stats.occluder_triangles = coarse.triangles.len() as u64;
     // The sample points of every patch, and which of them contact geometry buries.
     let samples = SamplePoints::place(patches, vis, settings);
     let mut burial = Burial::find(patches, vis, &samples, convex);
@@ -67,7 +66,8 @@ pub(super) fn pairwise(
         settings,
         samples: &samples,
         burial: &burial,
-        blockers,
+        blockers: &blockers,
+        occluder_of: &coarse.of_patch,
         convex,
         geometry: &geometry,
     };

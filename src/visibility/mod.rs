@@ -199,20 +199,29 @@ impl Visibility {
         vis.centre = 0.5 * (lo + hi);
         vis.scale = CANONICAL_EXTENT / extent;
         vis.min_distance = MIN_DISTANCE_REL * extent * vis.scale;
+        vis.fill(triangles);
+        vis
+    }
 
+    /// Traces `triangles` (scene coordinates) in this frame: each is mapped to canonical
+    /// coordinates and kept unless it is non-finite or degenerate there.
+    fn fill(&mut self, triangles: &[[DVec3; 3]]) {
         let mut tris = Vec::with_capacity(triangles.len());
         let mut ids = Vec::with_capacity(triangles.len());
         for (i, t) in triangles.iter().enumerate() {
-            let c = t.map(|v| vis.to_canonical(v).as_vec3a());
+            let c = t.map(|v| self.to_canonical(v).as_vec3a());
             let area2 =
                 (c[1].as_dvec3() - c[0].as_dvec3()).cross(c[2].as_dvec3() - c[0].as_dvec3());
-            if finite(t) && c.iter().all(|v| v.is_finite()) && area2 != DVec3::ZERO {
+            let finite = t
+                .iter()
+                .chain(&c.map(|v| v.as_dvec3()))
+                .all(|v| v.is_finite());
+            if finite && area2 != DVec3::ZERO {
                 tris.push(c);
                 ids.push(i as u32);
             }
         }
-        vis.set_triangles(tris, ids);
-        vis
+        self.set_triangles(tris, ids);
     }
 
     /// A `Visibility` of `len` input triangles in the given frame with nothing traced yet
@@ -324,6 +333,22 @@ impl Visibility {
         kept.sort_unstable_by_key(|&(id, _)| id);
         let (ids, tris): (Vec<u32>, Vec<[Vec3A; 3]>) = kept.into_iter().unzip();
         out.set_triangles(tris, ids);
+        out
+    }
+
+    /// Other triangles (scene coordinates) in this `Visibility`'s canonical frame, so that points
+    /// prepared by [`Visibility::point`] of either serve both ([`Visibility::occluded_points`]).
+    /// Degenerate and non-finite triangles are left out as in [`Visibility::build`]; the
+    /// frame's rounding is the same, so a triangle given to both traces identically.
+    pub fn in_frame_of(&self, triangles: &[[DVec3; 3]]) -> Visibility {
+        assert!(
+            triangles.len() < NONE as usize,
+            "at most u32::MAX - 1 triangles are supported, got {}",
+            triangles.len()
+        );
+        let mut out =
+            Visibility::untraced(triangles.len(), self.centre, self.scale, self.min_distance);
+        out.fill(triangles);
         out
     }
 
