@@ -66,7 +66,7 @@ pub fn occluders(patches: &Patches) -> Vec<bool> {
 /// patches is blocked by the triangle and conversely (up to the `f32` rounding of the corners
 /// that subdivision adds inside the triangle's edges, ~1e-9 of the scene), while the BVH
 /// holds one triangle where it held every patch: the default Cornell box traces its two blocks
-/// as 20 triangles instead of ~1,600 patches.
+/// and its light as 22 triangles instead of 647 patches.
 pub struct Coarse {
     /// Occluding triangles, scene units, counter-clockwise seen from the front.
     pub triangles: Vec<[DVec3; 3]>,

@@ -179,11 +179,6 @@ impl Visibility {
     /// # Panics
     /// If `triangles.len() ≥ u32::MAX` (indices are `u32` and [`NONE`] is reserved).
     pub fn build(triangles: &[[DVec3; 3]]) -> Visibility {
-        assert!(
-            triangles.len() < NONE as usize,
-            "at most u32::MAX - 1 triangles are supported, got {}",
-            triangles.len()
-        );
         let finite = |t: &[DVec3; 3]| t.iter().all(|v| v.is_finite());
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for v in triangles.iter().filter(|t| finite(t)).flatten() {
@@ -226,7 +221,14 @@ impl Visibility {
 
     /// A `Visibility` of `len` input triangles in the given frame with nothing traced yet
     /// ([`Visibility::set_triangles`] fills it).
+    ///
+    /// # Panics
+    /// If `len ≥ u32::MAX` (indices are `u32` and [`NONE`] is reserved).
     fn untraced(len: usize, centre: DVec3, scale: f64, min_distance: f64) -> Visibility {
+        assert!(
+            len < NONE as usize,
+            "at most u32::MAX - 1 triangles are supported, got {len}"
+        );
         Visibility {
             bvh: CwBvh::default(),
             tris: Vec::new(),
@@ -340,12 +342,10 @@ impl Visibility {
     /// prepared by [`Visibility::point`] of either serve both ([`Visibility::occluded_points`]).
     /// Degenerate and non-finite triangles are left out as in [`Visibility::build`]; the
     /// frame's rounding is the same, so a triangle given to both traces identically.
+    ///
+    /// # Panics
+    /// If `triangles.len() ≥ u32::MAX`, as [`Visibility::build`].
     pub fn in_frame_of(&self, triangles: &[[DVec3; 3]]) -> Visibility {
-        assert!(
-            triangles.len() < NONE as usize,
-            "at most u32::MAX - 1 triangles are supported, got {}",
-            triangles.len()
-        );
         let mut out =
             Visibility::untraced(triangles.len(), self.centre, self.scale, self.min_distance);
         out.fill(triangles);
