@@ -32,6 +32,12 @@ pub struct Link {
     /// The estimate is meaningless (a cluster too close to the other node for the
     /// far-field formula): refine unconditionally, transfer nothing meanwhile.
     pub must_open: bool,
+    /// For an element source: the share of the unoccluded F_rs that arrives at each of the
+    /// source's four children (as [`Tree::split`] makes them, in its order), in 255ths
+    /// (rounded; a weight, so only ratios matter); all 0 for a cluster source. Once the
+    /// source is split the gather weights its children's radiance by these
+    /// ([`Hierarchy::link_radiance`](super::Hierarchy::link_radiance)).
+    pub children: [u8; 4],
 }
 
 /// What estimating one link produced.
@@ -97,6 +103,7 @@ pub fn estimate(
                 f: 0.0,
                 bound: 0.0,
                 must_open: true,
+                children: [0; 4],
             }),
             rays: 0,
         };
@@ -117,6 +124,7 @@ pub fn estimate(
         f_unoccluded,
         largest,
         cast,
+        children,
     }) = sums
     else {
         return none;
@@ -148,6 +156,7 @@ pub fn estimate(
             f: f as f32,
             bound: bound as f32,
             must_open: false,
+            children,
         }),
         rays: cast,
     }
@@ -190,6 +199,8 @@ struct Sums {
     largest: f64,
     /// Rays cast.
     cast: u64,
+    /// See [`Link::children`].
+    children: [u8; 4],
 }
 
 /// F_rs between elements: the receiver rule over its unburied points of the exact
@@ -220,6 +231,7 @@ fn element_pair_estimate(
         smallest = smallest.min(f);
         weighted[k] *= f;
     }
+    let children = child_shares(tree, r, s);
     if visible == 0.0 {
         return None;
     }
@@ -234,6 +246,7 @@ fn element_pair_estimate(
         f_unoccluded,
         largest,
         cast: 0,
+        children,
     };
     let Some(picks) = pick_proportional(&weighted, rays, rng.next_f64()) else {
         return Some(sums);
@@ -323,6 +336,7 @@ fn cluster_pair_estimate(
         f_unoccluded: 0.0,
         largest: 0.0,
         cast: 0,
+        children: [0; 4],
     };
     for (&(er, br), &(es, bs)) in xs.iter().zip(&ys) {
         let (x, y) = (tree.point(er, br), tree.point(es, bs));
@@ -364,6 +378,35 @@ fn pick_proportional(weights: &[f64], n: usize, u: f64) -> Option<Vec<usize>> {
         picks.push(k);
     }
     Some(picks)
+}
+
+/// [`Link::children`] of element `r` gathering from element `s`: the unoccluded form factor
+/// from `r`'s centroid to each of `s`'s four children, as shares of their sum in 255ths (all
+/// 0 when the centroid sees none of `s`). One point: the shares only need to say which part
+/// of the source the receiver favours (measured on the Cornell box at ε = 1e-6: the same
+/// surface errors within 0.1 % as the receiver's whole 7-point rule, at a seventh of the
+/// cost).
+fn child_shares(tree: &Tree, r: usize, s: usize) -> [u8; 4] {
+    let third = [1.0 / 3.0; 3];
+    let (x, n) = (tree.point(r, third), tree.surface_normal(r, third));
+    if (x - tree.corners(s)[0]).dot(tree.elements[s].normal) <= 0.0 {
+        return [0; 4];
+    }
+    // The children share the source's plane, so x is in front of each.
+    let through = child_corners(tree.corners(s)).map(|q| point_to_polygon(x, n, &q));
+    let total: f64 = through.iter().sum();
+    if total > 0.0 {
+        through.map(|t| (255.0 * t / total).round() as u8)
+    } else {
+        [0; 4]
+    }
+}
+
+/// The corners of the four children [`Tree::split`] makes of a triangle with `corners`, in
+/// its order (the same midpoints, so the same triangles).
+pub(crate) fn child_corners([a, b, c]: [DVec3; 3]) -> [[DVec3; 3]; 4] {
+    let (ab, bc, ca) = (0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a));
+    [[a, ab, ca], [ab, b, bc], [ca, bc, c], [bc, ca, ab]]
 }
 
 /// The unoccluded form factor from the point `x` with unit normal `n` to element `s`

