@@ -22,7 +22,9 @@
 //!    its children's radiance weighted by how much of F reaches each,
 //!    [`Hierarchy::link_radiance`]), then *push-pull*: what a node
 //!    gathered is pushed down to every leaf below it (irradiance is intensive: the same on
-//!    every part), leaves take L = Le + ρ·G, and radiance is pulled up as area-weighted means.
+//!    every part; a cluster whose faces look different ways gives each face its cosine's
+//!    share, [`ClusterGather`]), leaves take L = Le + ρ·G, and radiance is pulled up as
+//!    area-weighted means.
 //!    Refinement is interleaved with the solve (refine against the current radiance, sweep,
 //!    refine again: the multigridding of HSA91 §4.3), until a converged solution asks for no
 //!    more links.
@@ -165,6 +167,14 @@ pub struct Hierarchical {
     pub stats: Stats,
     pub warnings: Vec<String>,
 }
+
+/// A cluster pushes what it gathers by its faces' orientation ([`ClusterGather`]) when some
+/// face below turns more than arccos(0.8) ≈ 37° from their mean normal (a block's top and
+/// sides: 45° and more); flatter clusters push uniformly. Measured: the integrating sphere
+/// (1280 facets) keeps its error (0.24 % at ε = 1e-4; pushed by orientation, 1.6 %), the
+/// Cornell box cut into 11,338 roots and the hall are the same for any threshold in
+/// 0.8–0.95.
+pub const ORIENTED_CONE_COS: f64 = 0.8;
 
 /// Sweeps between refinement passes: the oracle needs radiance of the right order, not a
 /// converged one (the final solve converges).
@@ -377,7 +387,7 @@ impl<'a> Hierarchy<'a> {
         let zero = vec![[0.0; 3]; n];
         self.elem_l = vec![[0.0; 3]; n];
         self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
-        let gz = vec![[0.0; 3]; self.tree.clusters.len()];
+        let gz = vec![ClusterGather::default(); self.tree.clusters.len()];
         self.push_pull(&zero, &gz);
     }
 
@@ -600,35 +610,40 @@ impl<'a> Hierarchy<'a> {
     }
 
     /// What each node gathers over its own links: Σ F·L per channel (`with_radiance`), or
-    /// Σ F in every channel.
-    fn gather(&self, with_radiance: bool) -> (Vec<Rgb>, Vec<Rgb>) {
-        let sums: Vec<(Node, Rgb)> = self
+    /// Σ F in every channel. A cluster's gather is kept by direction ([`ClusterGather`]).
+    fn gather(&self, with_radiance: bool) -> (Vec<Rgb>, Vec<ClusterGather>) {
+        let t = &self.tree;
+        let sums: Vec<(Node, Rgb, ClusterGather)> = self
             .receiver_starts
             .par_windows(2)
             .map(|w| {
+                let receiver = self.links[w[0]].receiver;
                 let mut g = [0.0; 3];
+                let mut cg = ClusterGather::default();
                 for l in &self.links[w[0]..w[1]] {
                     let f = l.f as f64;
-                    if with_radiance {
-                        let ls = self.link_radiance(l);
-                        for c in 0..3 {
-                            g[c] += f * ls[c];
-                        }
+                    let v = if with_radiance {
+                        self.link_radiance(l).map(|x| f * x)
                     } else {
-                        for gc in &mut g {
-                            *gc += f;
+                        [f; 3]
+                    };
+                    match receiver.as_cluster() {
+                        None => g = add(g, v),
+                        Some(c) => {
+                            let d = t.sphere(l.source).0 - t.clusters[c].centre;
+                            cg.add(&t.clusters[c], d, v);
                         }
                     }
                 }
-                (self.links[w[0]].receiver, g)
+                (receiver, g, cg)
             })
             .collect();
-        let mut ge = vec![[0.0; 3]; self.tree.elements.len()];
-        let mut gc = vec![[0.0; 3]; self.tree.clusters.len()];
-        for (node, g) in sums {
+        let mut ge = vec![[0.0; 3]; t.elements.len()];
+        let mut gc = vec![ClusterGather::default(); t.clusters.len()];
+        for (node, g, cg) in sums {
             match node.as_element() {
                 Some(e) => ge[e] = g,
-                None => gc[node.as_cluster().unwrap()] = g,
+                None => gc[node.as_cluster().unwrap()] = cg,
             }
         }
         (ge, gc)
@@ -642,15 +657,17 @@ impl<'a> Hierarchy<'a> {
     }
 
     /// What each element gathers through its own links and all its ancestors' (clusters'
-    /// included): the push half of push-pull.
-    fn push_down(&self, ge: &[Rgb], gc: &[Rgb]) -> Vec<Rgb> {
+    /// included): the push half of push-pull. A root element takes from its clusters what
+    /// its own orientation receives ([`ClusterGather::at`]).
+    fn push_down(&self, ge: &[Rgb], gc: &[ClusterGather]) -> Vec<Rgb> {
         let t = &self.tree;
         let mut cdown = gc.to_vec();
         for c in 0..t.clusters.len() {
             let cl = &t.clusters[c];
             for k in cl.first..cl.first + cl.count {
                 if let Some(child) = t.cluster_children[k as usize].as_cluster() {
-                    cdown[child] = add(cdown[child], cdown[c]);
+                    let parent = cdown[c].clone();
+                    cdown[child].add_all(&parent);
                 }
             }
         }
@@ -662,7 +679,7 @@ impl<'a> Hierarchy<'a> {
             } else if t.clusters.is_empty() {
                 [0.0; 3]
             } else {
-                cdown[t.root_parent[e] as usize]
+                cdown[t.root_parent[e] as usize].at(t.elements[e].normal)
             };
             down[e] = add(down[e], above);
         }
@@ -671,7 +688,7 @@ impl<'a> Hierarchy<'a> {
 
     /// Push-pull: leaves take L = Le + ρ·G (G normalised by the row sum in closed scenes),
     /// inner elements and clusters the area-weighted mean of their children.
-    fn push_pull(&mut self, ge: &[Rgb], gc: &[Rgb]) {
+    fn push_pull(&mut self, ge: &[Rgb], gc: &[ClusterGather]) {
         let down = self.push_down(ge, gc);
         let t = &self.tree;
         let n = t.elements.len();
@@ -789,6 +806,75 @@ impl<'a> Hierarchy<'a> {
             .count() as u64;
         s.bytes_per_link = std::mem::size_of::<Link>();
         s
+    }
+}
+
+/// What a cluster gathers, kept by the direction it arrives from, so that each face below
+/// receives what its orientation lets it see: a cluster receives light through one link
+/// and pushes it to every face below, and pushed uniformly, the faces of a block that look
+/// away from a light got as much of it as the top that faces it (measured on the Cornell box
+/// cut into 11,338 roots: +42 % on a block face that looks at the dark open front).
+///
+/// A link's light v from direction d (unit, the source's centre seen from the cluster's) is
+/// spread over the faces below in proportion to the clamped cosine between each face's
+/// normal n and d, in the separable form c(n, d) = Σ_a |d_a| · max(0, sign(d_a) n_a) (exact
+/// for faces and directions along the axes, an upper estimate otherwise), normalised by the
+/// cluster's area-mean of it ([`tree::Cluster::facing`]): so the area-mean over the cluster
+/// of what its faces take is v, as the link's form factor (an area-mean over the cluster)
+/// says, and a face turned away from d takes none. Links whose direction no face below
+/// meets (a mean of 0) are pushed uniformly, and so is everything a cluster gathers whose
+/// faces all lie within [`ORIENTED_CONE_COS`] of their mean normal: there the cosine's
+/// variation is small and, on a curved surface, mostly cancelled by parallax (inside a
+/// sphere, exactly: every point receives alike), which one direction per link cannot follow.
+#[derive(Clone, Debug, Default)]
+pub struct ClusterGather {
+    /// Pushed to every face alike, per channel.
+    uniform: Rgb,
+    /// Per axis direction (+x, +y, +z, −x, −y, −z), per channel: light already divided by the
+    /// cluster's mean cosine; a face with normal n takes max(0, ±n_a) of each.
+    by_axis: [Rgb; 6],
+}
+
+impl ClusterGather {
+    /// Adds light `v` (per channel) that cluster `cluster` gathers from direction `d` (any
+    /// length; 0 pushes uniformly).
+    fn add(&mut self, cluster: &tree::Cluster, d: DVec3, v: Rgb) {
+        let oriented = cluster.cone_cos < ORIENTED_CONE_COS;
+        let Some(d) = d.try_normalize().filter(|_| oriented) else {
+            self.uniform = add(self.uniform, v);
+            return;
+        };
+        let bin = |a: usize| if d[a] >= 0.0 { a } else { a + 3 };
+        let mean: f64 = (0..3)
+            .map(|a| d[a].abs() * cluster.facing[bin(a)])
+            .sum::<f64>()
+            / cluster.area;
+        if mean.is_nan() || mean <= 1e-12 {
+            self.uniform = add(self.uniform, v);
+            return;
+        }
+        for a in 0..3 {
+            let w = d[a].abs() / mean;
+            self.by_axis[bin(a)] = add(self.by_axis[bin(a)], v.map(|x| w * x));
+        }
+    }
+
+    /// Adds everything `other` holds (a parent's gather, pushed to a child).
+    fn add_all(&mut self, other: &ClusterGather) {
+        self.uniform = add(self.uniform, other.uniform);
+        for (a, b) in self.by_axis.iter_mut().zip(&other.by_axis) {
+            *a = add(*a, *b);
+        }
+    }
+
+    /// What a face with unit normal `n` below the cluster receives, per channel.
+    fn at(&self, n: DVec3) -> Rgb {
+        let mut g = self.uniform;
+        for a in 0..3 {
+            g = add(g, self.by_axis[a].map(|x| n[a].max(0.0) * x));
+            g = add(g, self.by_axis[a + 3].map(|x| (-n[a]).max(0.0) * x));
+        }
+        g
     }
 }
 

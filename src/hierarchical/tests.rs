@@ -349,3 +349,50 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
 fn a_link_takes_24_bytes() {
     assert_eq!(std::mem::size_of::<Link>(), 24);
 }
+
+/// What a cluster gathers reaches its faces by their orientation: over the faces of a closed
+/// box (one cluster tree over its 12 triangles), light from a direction d is shared so that
+/// the area-mean of what the faces take is the light gathered (the link's form factor is an
+/// area-mean over the cluster), a face turned away from d takes nothing, and the faces that
+/// see d take in proportion to their cosine (exact here: the box's faces lie along the axes).
+#[test]
+fn clusters_push_light_to_the_faces_that_face_it() {
+    let roots = closed_box();
+    let tree = Tree::new(&roots);
+    let root = &tree.clusters[0];
+    for d in [
+        DVec3::new(0.3, 0.5, -0.8),
+        DVec3::new(-1.0, 0.0, 0.0),
+        DVec3::new(0.2, -0.9, 0.1),
+    ] {
+        let mut g = ClusterGather::default();
+        let v = [1.0, 2.0, 0.5];
+        g.add(root, d, v);
+        let d = d.normalize();
+        let total: f64 = roots.area.iter().sum();
+        let mean_cos: f64 = (0..roots.len())
+            .map(|i| roots.area[i] * roots.normal[i].dot(d).max(0.0))
+            .sum::<f64>()
+            / total;
+        let (mut mean, mut area) = ([0.0; 3], 0.0);
+        for i in 0..roots.len() {
+            let n = roots.normal[i];
+            let took = g.at(n);
+            for c in 0..3 {
+                mean[c] += roots.area[i] * took[c];
+                let expected = v[c] * n.dot(d).max(0.0) / mean_cos;
+                assert!(
+                    (took[c] - expected).abs() < 1e-12 * v[c],
+                    "face {i}, d {d}: took {took:?}, expected {expected} in channel {c}"
+                );
+            }
+            area += roots.area[i];
+        }
+        for c in 0..3 {
+            assert!(
+                (mean[c] / area - v[c]).abs() < 1e-12 * v[c],
+                "{mean:?} {area}"
+            );
+        }
+    }
+}

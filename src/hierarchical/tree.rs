@@ -92,6 +92,13 @@ pub struct Cluster {
     pub area: f64,
     /// Largest reflectance of any channel of any patch below (for the refinement oracle).
     pub max_reflectance: f64,
+    /// Σ A·max(0, n_a) over the root patches below for the axes a = x, y, z, then
+    /// Σ A·max(0, −n_a): how much of the cluster's area faces each of the six axis
+    /// directions, scene units squared ([`super::ClusterGather`] weighs light by it).
+    pub facing: [f64; 6],
+    /// Cosine of the widest angle between a root patch's normal and the area-weighted mean
+    /// normal of all below (1 for coplanar patches facing one way; −1 when the normals cancel).
+    pub cone_cos: f64,
 }
 
 /// Both hierarchies. Invariants: clusters are stored parents before children (cluster 0 is
@@ -177,6 +184,25 @@ impl Tree {
                 .iter()
                 .flat_map(|&i| patches.reflectance[i as usize])
                 .fold(0.0, f64::max);
+            let mut facing = [0.0; 6];
+            for &i in items.iter() {
+                let (a, n) = (patches.area[i as usize], patches.normal[i as usize]);
+                for axis in 0..3 {
+                    facing[axis] += a * n[axis].max(0.0);
+                    facing[axis + 3] += a * (-n[axis]).max(0.0);
+                }
+            }
+            let mean: DVec3 = items
+                .iter()
+                .map(|&i| patches.area[i as usize] * patches.normal[i as usize])
+                .sum();
+            let cone_cos = match mean.try_normalize() {
+                Some(m) => items
+                    .iter()
+                    .map(|&i| patches.normal[i as usize].dot(m))
+                    .fold(1.0, f64::min),
+                None => -1.0,
+            };
             let first = self.cluster_children.len() as u32;
             let count;
             if items.len() <= LEAF_SIZE {
@@ -211,6 +237,8 @@ impl Tree {
                 radius: 0.5 * (bmax - bmin).length(),
                 area,
                 max_reflectance,
+                facing,
+                cone_cos,
             };
         }
     }
@@ -223,6 +251,8 @@ impl Tree {
             radius: 0.0,
             area: 0.0,
             max_reflectance: 0.0,
+            facing: [0.0; 6],
+            cone_cos: -1.0,
         }
     }
 
