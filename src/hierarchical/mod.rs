@@ -613,38 +613,48 @@ impl<'a> Hierarchy<'a> {
     /// Σ F in every channel. A cluster's gather is kept by direction ([`ClusterGather`]).
     fn gather(&self, with_radiance: bool) -> (Vec<Rgb>, Vec<ClusterGather>) {
         let t = &self.tree;
-        let sums: Vec<(Node, Rgb, ClusterGather)> = self
-            .receiver_starts
+        let value = |l: &Link| {
+            let f = l.f as f64;
+            if with_radiance {
+                self.link_radiance(l).map(|x| f * x)
+            } else {
+                [f; 3]
+            }
+        };
+        // Links are sorted by receiver and elements sort before clusters, so the element
+        // receivers' runs come first.
+        let starts = &self.receiver_starts;
+        let runs = starts.len() - 1;
+        let split =
+            starts[..runs].partition_point(|&i| self.links[i].receiver.as_element().is_some());
+        let mut ge = vec![[0.0; 3]; t.elements.len()];
+        let by_element: Vec<(usize, Rgb)> = starts[..=split]
             .par_windows(2)
             .map(|w| {
-                let receiver = self.links[w[0]].receiver;
-                let mut g = [0.0; 3];
-                let mut cg = ClusterGather::default();
-                for l in &self.links[w[0]..w[1]] {
-                    let f = l.f as f64;
-                    let v = if with_radiance {
-                        self.link_radiance(l).map(|x| f * x)
-                    } else {
-                        [f; 3]
-                    };
-                    match receiver.as_cluster() {
-                        None => g = add(g, v),
-                        Some(c) => {
-                            let d = t.sphere(l.source).0 - t.clusters[c].centre;
-                            cg.add(&t.clusters[c], d, v);
-                        }
-                    }
-                }
-                (receiver, g, cg)
+                let run = &self.links[w[0]..w[1]];
+                let g = run.iter().fold([0.0; 3], |g, l| add(g, value(l)));
+                (run[0].receiver.as_element().unwrap(), g)
             })
             .collect();
-        let mut ge = vec![[0.0; 3]; t.elements.len()];
+        for (e, g) in by_element {
+            ge[e] = g;
+        }
         let mut gc = vec![ClusterGather::default(); t.clusters.len()];
-        for (node, g, cg) in sums {
-            match node.as_element() {
-                Some(e) => ge[e] = g,
-                None => gc[node.as_cluster().unwrap()] = cg,
-            }
+        let by_cluster: Vec<(usize, ClusterGather)> = starts[split..]
+            .par_windows(2)
+            .map(|w| {
+                let run = &self.links[w[0]..w[1]];
+                let c = run[0].receiver.as_cluster().unwrap();
+                let mut cg = ClusterGather::default();
+                for l in run {
+                    let d = t.sphere(l.source).0 - t.clusters[c].centre;
+                    cg.add(&t.clusters[c], d, value(l));
+                }
+                (c, cg)
+            })
+            .collect();
+        for (c, cg) in by_cluster {
+            gc[c] = cg;
         }
         (ge, gc)
     }
@@ -870,9 +880,8 @@ impl ClusterGather {
     /// What a face with unit normal `n` below the cluster receives, per channel.
     fn at(&self, n: DVec3) -> Rgb {
         let mut g = self.uniform;
-        for a in 0..3 {
-            g = add(g, self.by_axis[a].map(|x| n[a].max(0.0) * x));
-            g = add(g, self.by_axis[a + 3].map(|x| (-n[a]).max(0.0) * x));
+        for (bin, w) in self.by_axis.iter().zip(tree::axis_weights(n)) {
+            g = add(g, bin.map(|x| w * x));
         }
         g
     }

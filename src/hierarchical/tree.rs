@@ -187,9 +187,8 @@ impl Tree {
             let mut facing = [0.0; 6];
             for &i in items.iter() {
                 let (a, n) = (patches.area[i as usize], patches.normal[i as usize]);
-                for axis in 0..3 {
-                    facing[axis] += a * n[axis].max(0.0);
-                    facing[axis + 3] += a * (-n[axis]).max(0.0);
+                for (f, w) in facing.iter_mut().zip(axis_weights(n)) {
+                    *f += a * w;
                 }
             }
             let mean: DVec3 = items
@@ -413,6 +412,20 @@ impl Tree {
 }
 
 /// Axis-aligned bounds of points.
+/// How much a unit normal `n` faces each of the six axis directions (+x, +y, +z, −x, −y, −z):
+/// max(0, n_a), then max(0, −n_a). [`Cluster::facing`] sums these by area, and
+/// [`super::ClusterGather`] shares light by them.
+pub fn axis_weights(n: DVec3) -> [f64; 6] {
+    [
+        n.x.max(0.0),
+        n.y.max(0.0),
+        n.z.max(0.0),
+        (-n.x).max(0.0),
+        (-n.y).max(0.0),
+        (-n.z).max(0.0),
+    ]
+}
+
 fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
     points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
         (lo.min(p), hi.max(p))
