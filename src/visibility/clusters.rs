@@ -61,17 +61,19 @@ impl Visibility {
             return true;
         }
         let d = q - p;
+        // Per axis: 1/d (computed once for every box), or None where the segment keeps the
+        // coordinate.
+        let inv = [0, 1, 2].map(|k| (d[k] != 0.0).then(|| 1.0 / d[k]));
         self.clusters.iter().any(|[lo, hi]| {
             // Slab test of the segment x(t) = p + t·d, t ∈ [0, 1], against [lo, hi].
             let (mut t0, mut t1) = (0.0f64, 1.0f64);
             for k in 0..3 {
-                if d[k] == 0.0 {
+                let Some(inv) = inv[k] else {
                     if p[k] < lo[k] || p[k] > hi[k] {
                         return false;
                     }
                     continue;
-                }
-                let inv = 1.0 / d[k];
+                };
                 let (a, b) = ((lo[k] - p[k]) * inv, (hi[k] - p[k]) * inv);
                 t0 = t0.max(a.min(b));
                 t1 = t1.min(a.max(b));

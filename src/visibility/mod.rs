@@ -1,12 +1,11 @@
 //! Ray queries against the scene's triangles: `occluded(p, q)` for the open segment between two
 //! surface points (the visibility term of the form factors) and `closest_hit` for a ray. This
-//! module owns the BVH (an obvhs compressed wide BVH8), the watertight ray–triangle test and the
-//! numerical conventions that make the answers independent of the scene's units. It does not
+//! module owns the BVH (built by obvhs, traversed four boxes and four triangles at a time by our
+//! own SIMD code in `bvh4`), the watertight ray–triangle test and the numerical conventions that make the answers independent of the scene's units. It does not
 //! know about patches, materials or sampling: callers pass points and triangle indices.
 //!
 //! # Canonical frame
-//! obvhs works in `f32` and clamps the entry distance of every box test to a fixed `1e-4`. To make
-//! answers independent of the scene's scale and position, [`Visibility::build`] maps the scene
+//! The BVH and the triangle test work in `f32`. To make answers independent of the scene's scale and position, [`Visibility::build`] maps the scene
 //! into a canonical frame, `canonical = (scene − centre) · scale`, where `centre` is the centre of
 //! the triangles' bounding box and `scale = 1024 / largest extent`, and the canonical
 //! coordinates are snapped to a grid of 2⁻²⁰ canonical units (≈ 1e-9 of the extent) before
@@ -19,13 +18,17 @@
 //! - The ray–triangle test is the watertight test of Woop, Benthin & Wald, "Watertight
 //!   Ray/Triangle Intersection", JCGT 2(1), 2013: a ray through a shared edge or vertex of a
 //!   closed mesh hits at least one of the triangles that share it.
-//! - The BVH is built over triangle boxes padded by `BOX_PAD` canonical units. obvhs's
-//!   quantised box test is not conservative (a ray grazing a box face can miss the box by one
+//! - The BVH is built over triangle boxes padded by `BOX_PAD` canonical units. A box test in
+//!   `f32` is not conservative on its own (a ray grazing a box face can miss the box by one
 //!   rounding), which would undo the watertight triangle test for rays along box boundaries
 //!   (e.g. through the edges of an axis-aligned grid). The padding is far larger than the `f32`
 //!   rounding of the box test and far smaller than any triangle that matters.
-//! - Ray origins are moved back along the ray by `ORIGIN_SHIFT` (in the ray's parameter), so
-//!   obvhs's fixed `t ≥ 1e-4` box clamp lies before the start of every query interval.
+//! - The four-lane triangle test performs the scalar test's operations in the same order, lane
+//!   by lane, so the traversal's answers are those of testing every triangle (the brute-force
+//!   oracles [`Visibility::occluded_brute_force`] and [`Visibility::closest_hit_brute_force`]).
+//! - Ray origins are moved back along the ray by `ORIGIN_SHIFT` (in the ray's parameter); the
+//!   shift dates from obvhs's traversal (its box test clamps `t ≥ 1e-4`) and is kept so that
+//!   every ray, and so every answer, stays what it was.
 //!
 //! # Twins: the two sides of one surface
 //! A triangle and its reverse over the same three corners (bitwise the same canonical
@@ -42,20 +45,17 @@
 //! triangle over the same corners with the opposite winding. A third copy (a duplicate face
 //! with the same winding as one of a pair) stays a separate triangle, as any coincident face does.
 
+mod bvh4;
 mod clusters;
 mod ray;
 mod twins;
 
 use std::fmt;
-use std::time::Duration;
 
 use glam::{DVec3, Vec3A};
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::cwbvh::CwBvh;
-use obvhs::ray::RayHit;
-use obvhs::BvhBuildParams;
 
+use bvh4::Bvh4;
 use ray::{snap, WatertightRay, CANONICAL_GRID, DIRECTION_GRID};
 use twins::pair_twins;
 
@@ -124,8 +124,8 @@ pub struct Hit {
 /// every input index to its twin or [`NONE`]. `bvh` is only traversed when `tris` is non-empty.
 #[derive(Clone)]
 pub struct Visibility {
-    /// Compressed wide BVH8 over the padded boxes of `tris`.
-    bvh: CwBvh,
+    /// Four-wide BVH over the padded boxes of `tris`.
+    bvh: Bvh4,
     /// Triangles in canonical coordinates, reordered by `bvh.primitive_indices`.
     tris: Vec<[Vec3A; 3]>,
     /// Input index of each triangle of `tris`.
@@ -160,7 +160,7 @@ impl fmt::Debug for Visibility {
             .field("len", &self.len)
             .field("traced_triangles", &self.tris.len())
             .field("twin_pairs", &self.twin_pairs())
-            .field("bvh_nodes", &self.bvh.nodes.len())
+            .field("bvh_bytes", &self.bvh.bytes())
             .field("centre", &self.centre)
             .field("scale", &self.scale)
             .finish()
@@ -230,7 +230,7 @@ impl Visibility {
             "at most u32::MAX - 1 triangles are supported, got {len}"
         );
         Visibility {
-            bvh: CwBvh::default(),
+            bvh: Bvh4::default(),
             tris: Vec::new(),
             ids: Vec::new(),
             twins: Vec::new(),
@@ -289,25 +289,11 @@ impl Visibility {
                 Aabb::new(min, max)
             })
             .collect();
-        // `build_cwbvh` is what `build_cwbvh_from_tris` runs when `pre_split` is off (as in
-        // `fast_build`), with our padded boxes in place of the exact triangle boxes.
-        let bvh = build_cwbvh(
-            &boxes,
-            BvhBuildParams::fast_build(),
-            &mut Duration::default(),
-        );
-        // Reorder once so the primitive id a traversal reports indexes `tris` directly.
-        let order = &bvh.primitive_indices;
-        self.tris = permute(order, &tris);
-        self.ids = permute(order, &ids);
-        self.twins = permute(order, &twins);
-        self.twin_corners = permute(order, &twin_corners);
-        debug_assert_eq!(
-            self.tris.len(),
-            tris.len(),
-            "no spatial splits: a permutation"
-        );
-        self.bvh = bvh;
+        self.bvh = Bvh4::build(&tris, &boxes);
+        self.tris = tris;
+        self.ids = ids;
+        self.twins = twins;
+        self.twin_corners = twin_corners;
         self.clusters = self.cluster_boxes();
     }
 
@@ -432,18 +418,8 @@ impl Visibility {
         let Some(ray) = self.canonical_segment_ray(p, q) else {
             return false;
         };
-        let obvhs_ray = ray.obvhs_ray();
-        !self.bvh.ray_traverse_miss(obvhs_ray, |_, i| {
-            if self.ignored(i, ignore) {
-                return f32::INFINITY;
-            }
-            // Any hit in [t_lo, t_hi] blocks; obvhs counts a hit only if the returned t is
-            // below the ray's t_max, so report t_lo rather than a t that may equal t_hi.
-            match ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi) {
-                Some(_) => ray.t_lo,
-                None => f32::INFINITY,
-            }
-        })
+        self.bvh
+            .any_hit(&ray, |i| !self.ignored(i, ignore))
     }
 
     /// Oracle for tests: [`Visibility::occluded`] answered by testing every triangle with the
@@ -465,27 +441,22 @@ impl Visibility {
     /// `t_min = 1e-9 × extent / |dir|` ([`HIT_MIN_DISTANCE_REL`]) stands in for 0: the caller
     /// excludes the origin's own triangle with `ignore`, and a larger floor would let rays that
     /// start next to a concave corner pass through the adjacent wall (a leak of ~1e-3 of the
-    /// rays from corner patches in hemisphere shooting). Both sides of triangles are hit. Ties in `t` go to the lowest
-    /// triangle index. Returns `None` for a zero or non-finite `dir`.
+    /// rays from corner patches in hemisphere shooting). Both sides of triangles are hit. The
+    /// hit is the least `(t, triangle index)` over all triangles met, `t` as the watertight test
+    /// computes it, whatever the traversal order (ties go to the lowest index). Returns `None` for a zero or non-finite `dir`.
     pub fn closest_hit(&self, origin: DVec3, dir: DVec3, t_max: f64, ignore: u32) -> Option<Hit> {
         let (ray, m) = self.direction_ray(origin, dir, t_max)?;
         let mut best: Option<(f32, u32, f32, f32)> = None;
-        let mut hit = RayHit::none();
-        self.bvh.ray_traverse(ray.obvhs_ray(), &mut hit, |_, i| {
+        self.bvh.closest(&ray, |i| {
             if self.ignored(i, [ignore, ignore]) {
-                return f32::INFINITY;
+                return None;
             }
-            let t_hi = best.map_or(ray.t_hi, |b| b.0);
-            match ray.intersect(&self.tris[i], ray.t_lo, t_hi) {
-                Some((t, u, v)) => {
-                    let (id, u, v) = self.facing(i, ray.dir, u, v);
-                    if best.is_none_or(|b| t < b.0 || (t == b.0 && id < b.1)) {
-                        best = Some((t, id, u, v));
-                    }
-                    t
-                }
-                None => f32::INFINITY,
+            let (t, u, v) = ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi)?;
+            let (id, u, v) = self.facing(i, ray.dir, u, v);
+            if best.is_none_or(|b| t < b.0 || (t == b.0 && id < b.1)) {
+                best = Some((t, id, u, v));
             }
+            Some(best.map_or(t, |b| b.0))
         });
         best.map(|b| ray.hit(b, m))
     }
@@ -505,8 +476,7 @@ impl Visibility {
             if self.ignored(i, [ignore, ignore]) {
                 continue;
             }
-            let t_hi = best.map_or(ray.t_hi, |b| b.0);
-            if let Some((t, u, v)) = ray.intersect(tri, ray.t_lo, t_hi) {
+            if let Some((t, u, v)) = ray.intersect(tri, ray.t_lo, ray.t_hi) {
                 let (id, u, v) = self.facing(i, ray.dir, u, v);
                 if best.is_none_or(|b| t < b.0 || (t == b.0 && id < b.1)) {
                     best = Some((t, id, u, v));
@@ -561,11 +531,6 @@ impl Visibility {
         let ray = WatertightRay::new(self.to_canonical(origin), d, t_lo, t_max * m)?;
         Some((ray, m))
     }
-}
-
-/// `v` in the order `order` (element k of the result is `v[order[k]]`).
-fn permute<T: Copy>(order: &[u32], v: &[T]) -> Vec<T> {
-    order.iter().map(|&k| v[k as usize]).collect()
 }
 
 #[cfg(test)]

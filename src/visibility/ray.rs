@@ -3,13 +3,13 @@
 //! the frame snaps coordinates and directions to (see the module documentation of
 //! [`super`]).
 
-use glam::{DVec3, Mat3A, Vec3A};
-use obvhs::ray::Ray;
+use glam::{DVec3, Vec3A};
 
 use super::Hit;
 
 /// Distance, in units of the ray's direction vector, by which ray origins are moved back along
-/// the ray. Must exceed obvhs's box-test clamp `t ≥ 1e-4` with margin.
+/// the ray. It had to exceed the box-test clamp `t ≥ 1e-4` of obvhs's traversal, used until
+/// issue 13; kept so that rays (and answers) are unchanged.
 const ORIGIN_SHIFT: f64 = 1.0 / 1024.0;
 
 /// Canonical coordinates are multiples of this (2⁻²⁰ canonical units): far below `f32`
@@ -33,9 +33,13 @@ pub(super) struct WatertightRay {
     pub origin: Vec3A,
     /// Direction, canonical `f32`.
     pub dir: Vec3A,
-    /// Permutation and shear to ray space: for `a = vertex − origin`, `shear · a =
-    /// (a[kx] − Sx·a[kz], a[ky] − Sy·a[kz], Sz·a[kz])`.
-    shear: Mat3A,
+    /// Permutation to ray space: `k[2]` (kz) is the axis where the direction is largest in
+    /// magnitude, `k[0]`, `k[1]` (kx, ky) the other two in the order that keeps the winding.
+    pub k: [usize; 3],
+    /// Shear to ray space: for `a = vertex − origin`, the vertex in ray space is
+    /// `(a[kx] − s[0]·a[kz], a[ky] − s[1]·a[kz], s[2]·a[kz])`. The SIMD test
+    /// ([`super::bvh4`]) evaluates exactly these operations, so both decide alike.
+    pub s: [f32; 3],
     /// Query interval in internal (shifted) parameters, inclusive.
     pub t_lo: f32,
     pub t_hi: f32,
@@ -45,9 +49,10 @@ impl WatertightRay {
     /// Ray from `origin` along `dir` (canonical, `f64`), counting hits with
     /// `t ∈ [t_lo, t_hi]`. `None` if it cannot be represented in `f32`.
     pub fn new(origin: DVec3, dir: DVec3, t_lo: f64, t_hi: f64) -> Option<WatertightRay> {
-        // `+ 0.0` turns −0.0 components into +0.0: obvhs picks a box's near plane by
-        // `dir < 0.0` (false for −0.0) but inverts −0.0 to −1/ε, so a direction such as a floor's
-        // normal (0, 1, −0) would miss every box it should enter.
+        // `+ 0.0` turns −0.0 components into +0.0: a box test that picks the near plane by
+        // `dir < 0.0` (false for −0.0) but inverts −0.0 to −∞ would send a direction such as a
+        // floor's normal (0, 1, −0) past every box it should enter (obvhs did; `bvh4` picks by
+        // the inverse's sign and gives a zero component a finite inverse, and keeps this too).
         let dir32 = dir.as_vec3a() + Vec3A::ZERO;
         let origin32 = (origin - ORIGIN_SHIFT * dir).as_vec3a();
         if !(origin32.is_finite() && dir32.is_finite()) || dir32 == Vec3A::ZERO {
@@ -65,22 +70,26 @@ impl WatertightRay {
         let sz = 1.0 / dir32[kz];
         let sx = dir32[kx] * sz;
         let sy = dir32[ky] * sz;
-        let mut cols = [Vec3A::ZERO; 3];
-        cols[kx] = Vec3A::X;
-        cols[ky] = Vec3A::Y;
-        cols[kz] = Vec3A::new(-sx, -sy, sz);
         Some(WatertightRay {
             origin: origin32,
             dir: dir32,
-            shear: Mat3A::from_cols(cols[0], cols[1], cols[2]),
+            k: [kx, ky, kz],
+            s: [sx, sy, sz],
             t_lo: (t_lo + ORIGIN_SHIFT) as f32,
             t_hi: (t_hi + ORIGIN_SHIFT) as f32,
         })
     }
 
-    /// The obvhs ray for traversal; its `tmax` bounds the box tests.
-    pub fn obvhs_ray(&self) -> Ray {
-        Ray::new(self.origin, self.dir, self.t_lo, self.t_hi)
+    /// `v − origin` in ray space (step 3 of the paper): permuted and sheared.
+    #[inline(always)]
+    fn to_ray_space(&self, v: Vec3A) -> Vec3A {
+        let a = v - self.origin;
+        let [kx, ky, kz] = self.k;
+        Vec3A::new(
+            a[kx] - self.s[0] * a[kz],
+            a[ky] - self.s[1] * a[kz],
+            self.s[2] * a[kz],
+        )
     }
 
     /// Watertight intersection with `tri` for internal parameters in `[t_lo, t_hi]`; returns
@@ -93,9 +102,9 @@ impl WatertightRay {
     #[inline(always)]
     pub fn intersect(&self, tri: &[Vec3A; 3], t_lo: f32, t_hi: f32) -> Option<(f32, f32, f32)> {
         // Step 3: vertices relative to the origin, permuted and sheared to ray space.
-        let a = self.shear * (tri[0] - self.origin);
-        let b = self.shear * (tri[1] - self.origin);
-        let c = self.shear * (tri[2] - self.origin);
+        let a = self.to_ray_space(tri[0]);
+        let b = self.to_ray_space(tri[1]);
+        let c = self.to_ray_space(tri[2]);
         // Step 4: scaled barycentric coordinates (2D edge functions at the ray's (0, 0)).
         let mut e0 = c.x * b.y - c.y * b.x;
         let mut e1 = a.x * c.y - a.y * c.x;

@@ -1,0 +1,493 @@
+//! The traversal: a four-wide BVH of our own, tested four boxes or four triangles at a time
+//! with SIMD (`wide::f32x4`: SSE2 on x86-64, NEON on AArch64, plain arrays elsewhere, the same
+//! IEEE operations on every path, so the same answers).
+//!
+//! obvhs builds the tree (a binary BVH by PLOC over the padded triangle boxes, the builder the
+//! wide CWBVH came from); [`Bvh4::build`] collapses it into nodes of four children, the way
+//! Embree's BVH4 is laid out (Wald et al., "Embree: A Kernel Framework for Efficient CPU Ray
+//! Tracing", SIGGRAPH 2014): each node holds its children's boxes as structure-of-arrays, so one
+//! slab test decides all four, and every subtree of at most four triangles becomes one leaf
+//! *packet* holding its triangles' corners as structure-of-arrays, so one watertight test decides
+//! all four.
+//!
+//! The triangle test is [`WatertightRay::intersect`] evaluated lane by lane with the same
+//! operations in the same order (ray-space transform, edge functions, the sign rules, the scaled
+//! distance), so every lane decides exactly as the scalar test; a lane whose edge function is
+//! exactly zero (the ray through an edge or a corner, or in the triangle's plane) has its edge
+//! functions recomputed in `f64` as the scalar test does. The box test is the slab test in `f32` on boxes padded by
+//! [`super::BOX_PAD`], which is far larger than its rounding, so a box is never missed by a ray
+//! that meets a triangle inside it: the traversal visits a superset of what it must, and the
+//! answers are those of testing every triangle (the brute-force oracle of the tests).
+//!
+//! Nothing is allocated per query: the traversal stack is a fixed array on the call stack,
+//! sized by the tree's depth at build time (a heap stack only for trees deeper than
+//! `STACK` allows, which no builder output here comes near).
+//!
+//! Unit tests (in `super::tests`): every lane of [`PacketRay::hits`] equals the scalar test on
+//! random, grid-aligned (rays through edges and corners), coplanar and scaled triangles; the
+//! queries equal the brute-force oracles.
+
+use std::time::Duration;
+
+use glam::Vec3A;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::builder::build_bvh2;
+use obvhs::BvhBuildParams;
+use wide::f32x4;
+
+use super::ray::WatertightRay;
+
+/// Flag of a child that is a leaf packet (the rest of the word is the packet's index).
+const LEAF: u32 = 1 << 31;
+
+/// An empty child slot (its box is inverted, so no ray enters it).
+const EMPTY: u32 = u32::MAX;
+
+/// Factor by which [`Bvh4::closest`] widens the best hit's parameter before pruning with it:
+/// 2⁻¹⁰ relative, far more than the rounding of the scaled comparison (a few ulp) and far less
+/// than any gap that matters (a pruned box lies farther by its padding).
+const BOUND_SLACK: f32 = 1.0 + 1.0 / 1024.0;
+
+/// Entries of the fixed traversal stack; a tree needs at most `3 × depth + 2` (a tree of
+/// 10⁶ triangles is about 14 deep).
+const STACK: usize = 64;
+
+/// Four children's boxes (canonical units), structure-of-arrays: lane `i` of `lo[k]` is the
+/// lower bound of child `i` along axis `k`. Invariant: an [`EMPTY`] child's box has
+/// `lo = +∞`, `hi = −∞`.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node {
+    lo: [f32x4; 3],
+    hi: [f32x4; 3],
+    child: [u32; 4],
+}
+
+/// Up to four triangles (canonical units), structure-of-arrays: lane `i` of `v[c][k]` is
+/// coordinate `k` of corner `c` of triangle `prim[i]` (an index into the caller's triangle
+/// list). Invariant: a packet of fewer than four triangles repeats its last one in the unused
+/// lanes (a repeated test gives the repeated answer).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct Packet {
+    v: [[f32x4; 3]; 3],
+    prim: [u32; 4],
+}
+
+/// A four-wide BVH over triangles in the canonical frame.
+///
+/// Invariants: `root` is [`EMPTY`] (no triangles), `LEAF | p` for a packet index `p`, or a node
+/// index; every triangle index `0..n` given to [`Bvh4::build`] is in exactly one packet lane
+/// (possibly repeated within it); `depth` bounds the number of nodes on any root-to-leaf path.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Bvh4 {
+    nodes: Vec<Node>,
+    packets: Vec<Packet>,
+    root: u32,
+    depth: usize,
+}
+
+/// What the ray needs for the box tests, prepared once per query.
+struct BoxRay {
+    origin: [f32x4; 3],
+    inv: [f32x4; 3],
+    /// Per axis: the direction is negative, so the near plane is the box's upper bound.
+    negative: [bool; 3],
+}
+
+impl BoxRay {
+    fn new(ray: &WatertightRay) -> BoxRay {
+        let inv = |d: f32| {
+            // A zero component gets a large finite inverse: the slab is then all or nothing
+            // (no 0·∞ = NaN), decided by whether the origin lies between the planes.
+            let i = 1.0 / d;
+            if i.is_finite() {
+                i
+            } else {
+                1e30
+            }
+        };
+        let i = [inv(ray.dir.x), inv(ray.dir.y), inv(ray.dir.z)];
+        let o = ray.origin;
+        BoxRay {
+            origin: [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)],
+            inv: [f32x4::splat(i[0]), f32x4::splat(i[1]), f32x4::splat(i[2])],
+            negative: [i[0] < 0.0, i[1] < 0.0, i[2] < 0.0],
+        }
+    }
+
+    /// Slab test of the four boxes of `node` for parameters in `[t_lo, t_hi]`: a bit per child
+    /// whose box the ray enters, and the entry parameters.
+    #[inline(always)]
+    fn enter(&self, node: &Node, t_lo: f32x4, t_hi: f32x4) -> (u32, f32x4) {
+        let mut near = t_lo;
+        let mut far = t_hi;
+        for k in 0..3 {
+            let (n, f) = if self.negative[k] {
+                (node.hi[k], node.lo[k])
+            } else {
+                (node.lo[k], node.hi[k])
+            };
+            near = near.fast_max((n - self.origin[k]) * self.inv[k]);
+            far = far.fast_min((f - self.origin[k]) * self.inv[k]);
+        }
+        (near.simd_le(far).to_bitmask(), near)
+    }
+}
+
+/// What the ray needs for the packet tests, prepared once per query.
+struct PacketRay {
+    origin: [f32x4; 3],
+    k: [usize; 3],
+    s: [f32x4; 3],
+}
+
+impl PacketRay {
+    fn new(ray: &WatertightRay) -> PacketRay {
+        let (o, s) = (ray.origin, ray.s);
+        PacketRay {
+            origin: [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)],
+            k: ray.k,
+            s: [f32x4::splat(s[0]), f32x4::splat(s[1]), f32x4::splat(s[2])],
+        }
+    }
+
+    /// Corner `c` of the packet's four triangles in ray space: the operations of
+    /// [`WatertightRay::intersect`]'s step 3.
+    #[inline(always)]
+    fn corner(&self, p: &Packet, c: usize) -> [f32x4; 3] {
+        let [kx, ky, kz] = self.k;
+        let v = &p.v[c];
+        let a = [
+            v[0] - self.origin[0],
+            v[1] - self.origin[1],
+            v[2] - self.origin[2],
+        ];
+        [
+            a[kx] - self.s[0] * a[kz],
+            a[ky] - self.s[1] * a[kz],
+            self.s[2] * a[kz],
+        ]
+    }
+
+    /// The lanes of `p` whose triangle the ray meets for internal parameters in
+    /// `[t_lo, t_hi]`, as a bit mask, by the steps of [`WatertightRay::intersect`] on four lanes
+    /// (a lane whose edge function is exactly zero has all three recomputed in `f64`, as
+    /// there).
+    #[inline(always)]
+    fn hits(&self, p: &Packet, t_lo: f32, t_hi: f32) -> u32 {
+        let (a, b, c) = (self.corner(p, 0), self.corner(p, 1), self.corner(p, 2));
+        let mut e0 = c[0] * b[1] - c[1] * b[0];
+        let mut e1 = a[0] * c[1] - a[1] * c[0];
+        let mut e2 = b[0] * a[1] - b[1] * a[0];
+        let zero = f32x4::ZERO;
+        let on_edge = (e0.simd_eq(zero) | e1.simd_eq(zero) | e2.simd_eq(zero)).to_bitmask();
+        if on_edge != 0 {
+            // Step 5 lane by lane: the products of f32 values are exact in f64.
+            let [a, b, c] = [a, b, c].map(|v| v.map(|x| x.to_array()));
+            let (mut f0, mut f1, mut f2) = (e0.to_array(), e1.to_array(), e2.to_array());
+            let edge = |p: f32, q: f32, r: f32, s: f32| {
+                (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
+            };
+            for i in lanes(on_edge) {
+                f0[i] = edge(c[0][i], b[1][i], c[1][i], b[0][i]);
+                f1[i] = edge(a[0][i], c[1][i], a[1][i], c[0][i]);
+                f2[i] = edge(b[0][i], a[1][i], b[1][i], a[0][i]);
+            }
+            (e0, e1, e2) = (f32x4::from(f0), f32x4::from(f1), f32x4::from(f2));
+        }
+        let negative = e0.simd_lt(zero) | e1.simd_lt(zero) | e2.simd_lt(zero);
+        let positive = e0.simd_gt(zero) | e1.simd_gt(zero) | e2.simd_gt(zero);
+        let det = e0 + e1 + e2;
+        let t_scaled = e0 * a[2] + e1 * b[2] + e2 * c[2];
+        // t_scaled with the sign of det, against the interval scaled by |det|.
+        let sign = det & f32x4::splat(-0.0);
+        let t_signed = t_scaled ^ sign;
+        let det_abs = det.abs();
+        let outside = (negative & positive)
+            | det.simd_eq(zero)
+            | t_signed.simd_lt(f32x4::splat(t_lo) * det_abs)
+            | t_signed.simd_gt(f32x4::splat(t_hi) * det_abs);
+        !outside.to_bitmask() & 0xf
+    }
+}
+
+impl PacketRay {
+    /// True if a triangle of `p` met by the ray within `[t_lo, t_hi]` `blocks`.
+    #[inline(always)]
+    fn blocked(&self, p: &Packet, t_lo: f32, t_hi: f32, blocks: &impl Fn(usize) -> bool) -> bool {
+        let mask = self.hits(p, t_lo, t_hi);
+        mask != 0 && lanes(mask).any(|lane| blocks(p.prim[lane] as usize))
+    }
+}
+
+impl Bvh4 {
+    /// The tree over `tris` (canonical frame), whose padded boxes are `boxes`. Triangle `i`
+    /// is reported as `i`.
+    pub fn build(tris: &[[Vec3A; 3]], boxes: &[Aabb]) -> Bvh4 {
+        if tris.is_empty() {
+            return Bvh4 {
+                root: EMPTY,
+                ..Bvh4::default()
+            };
+        }
+        let params = BvhBuildParams {
+            max_prims_per_leaf: 1,
+            ..BvhBuildParams::fast_build()
+        };
+        let bvh2 = build_bvh2(boxes, params, &mut Duration::default());
+        let nodes2 = &bvh2.nodes;
+        // Triangles under each binary node (the children of inner node n are
+        // nodes2[first_index] and nodes2[first_index + 1]; a leaf lists prim_count of
+        // primitive_indices), children before parents: the optimiser moves nodes, so the
+        // array's order says nothing.
+        let mut count = vec![0u32; nodes2.len()];
+        let mut todo = vec![(0usize, false)];
+        while let Some((n, children_done)) = todo.pop() {
+            let node = &nodes2[n];
+            let f = node.first_index as usize;
+            if node.prim_count > 0 {
+                count[n] = node.prim_count;
+            } else if children_done {
+                count[n] = count[f] + count[f + 1];
+            } else {
+                todo.extend([(n, true), (f, false), (f + 1, false)]);
+            }
+        }
+        let mut out = Bvh4::default();
+        // Every triangle under binary node n, in the tree's order.
+        let triangles_under = |n: usize, into: &mut Vec<u32>| {
+            let mut todo = vec![n];
+            while let Some(m) = todo.pop() {
+                let node = &nodes2[m];
+                if node.prim_count > 0 {
+                    let f = node.first_index as usize;
+                    into.extend(&bvh2.primitive_indices[f..f + node.prim_count as usize]);
+                } else {
+                    todo.push(node.first_index as usize + 1);
+                    todo.push(node.first_index as usize);
+                }
+            }
+        };
+        let area = |n: usize| nodes2[n].aabb().half_area();
+        // Work list: (binary node, slot to patch with the child's encoding, depth).
+        let mut todo: Vec<(usize, Option<(usize, usize)>, usize)> = vec![(0, None, 1)];
+        let mut scratch = Vec::new();
+        while let Some((n, slot, depth)) = todo.pop() {
+            let encoded = if count[n] <= 4 {
+                scratch.clear();
+                triangles_under(n, &mut scratch);
+                let packet = Packet::new(tris, &scratch);
+                out.packets.push(packet);
+                LEAF | (out.packets.len() - 1) as u32
+            } else {
+                // Open the largest child until there are four (or only leaves-to-be remain).
+                let first = nodes2[n].first_index as usize;
+                let mut kids = vec![first, first + 1];
+                while kids.len() < 4 {
+                    let open = kids
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, &k)| count[k] > 4)
+                        .max_by(|a, b| area(*a.1).total_cmp(&area(*b.1)))
+                        .map(|(i, _)| i);
+                    let Some(i) = open else { break };
+                    let k = kids.swap_remove(i);
+                    let f = nodes2[k].first_index as usize;
+                    kids.extend([f, f + 1]);
+                }
+                let index = out.nodes.len();
+                out.nodes.push(Node::empty());
+                out.depth = out.depth.max(depth);
+                for (i, &k) in kids.iter().enumerate() {
+                    let b = nodes2[k].aabb();
+                    let node = &mut out.nodes[index];
+                    for axis in 0..3 {
+                        node.lo[axis] = set_lane(node.lo[axis], i, b.min[axis]);
+                        node.hi[axis] = set_lane(node.hi[axis], i, b.max[axis]);
+                    }
+                    todo.push((k, Some((index, i)), depth + 1));
+                }
+                index as u32
+            };
+            match slot {
+                Some((node, i)) => out.nodes[node].child[i] = encoded,
+                None => out.root = encoded,
+            }
+        }
+        out
+    }
+
+    /// True if the ray meets a triangle `i` with internal parameter in `[ray.t_lo, ray.t_hi]`
+    /// for which `blocks(i)` holds (called only for triangles met).
+    pub fn any_hit(&self, ray: &WatertightRay, blocks: impl Fn(usize) -> bool) -> bool {
+        if self.root == EMPTY {
+            return false;
+        }
+        let boxes = BoxRay::new(ray);
+        let packets = PacketRay::new(ray);
+        let (t_lo, t_hi) = (f32x4::splat(ray.t_lo), f32x4::splat(ray.t_hi));
+        let leaf = |p: &Packet| packets.blocked(p, ray.t_lo, ray.t_hi, &blocks);
+        self.with_stack(|stack| {
+            let mut top = 0;
+            stack[top] = self.root;
+            top += 1;
+            while top > 0 {
+                top -= 1;
+                let c = stack[top];
+                if c & LEAF != 0 {
+                    if leaf(&self.packets[(c & !LEAF) as usize]) {
+                        return true;
+                    }
+                    continue;
+                }
+                let node = &self.nodes[c as usize];
+                let (mask, _) = boxes.enter(node, t_lo, t_hi);
+                for i in lanes(mask) {
+                    let child = node.child[i];
+                    // Leaves first: a hit there ends the query before more nodes are opened.
+                    if child & LEAF != 0 {
+                        if leaf(&self.packets[(child & !LEAF) as usize]) {
+                            return true;
+                        }
+                    } else {
+                        stack[top] = child;
+                        top += 1;
+                    }
+                }
+            }
+            false
+        })
+    }
+
+    /// Visits every triangle `i` the ray may meet with internal parameter in
+    /// `[ray.t_lo, bound]`, calling `hit(i)`, where `bound` starts at `ray.t_hi` and becomes
+    /// what `hit` returns (the best hit's parameter so far; `None` leaves it). Children are
+    /// visited nearest first, so far subtrees are pruned. The bound is widened by
+    /// [`BOUND_SLACK`] before it prunes, so a triangle whose exact parameter ties the best is
+    /// still visited: the caller's choice among ties is then independent of the visiting
+    /// order.
+    pub fn closest(&self, ray: &WatertightRay, mut hit: impl FnMut(usize) -> Option<f32>) {
+        if self.root == EMPTY {
+            return;
+        }
+        let boxes = BoxRay::new(ray);
+        let packets = PacketRay::new(ray);
+        let t_lo = f32x4::splat(ray.t_lo);
+        let mut t_hi = ray.t_hi;
+        let mut leaf = |p: &Packet, t_hi: &mut f32| {
+            // Lanes that may hit within the current bound; each is then decided (and its hit
+            // recorded) by the caller's exact test, in lane order.
+            let mask = packets.hits(p, ray.t_lo, *t_hi);
+            for lane in lanes(mask) {
+                if lane > 0 && p.prim[..lane].contains(&p.prim[lane]) {
+                    continue; // a repeated lane
+                }
+                if let Some(t) = hit(p.prim[lane] as usize) {
+                    *t_hi = (t * BOUND_SLACK).min(ray.t_hi);
+                }
+            }
+        };
+        self.with_stack(|stack| {
+            let mut top = 0;
+            stack[top] = self.root;
+            top += 1;
+            while top > 0 {
+                top -= 1;
+                let c = stack[top];
+                if c & LEAF != 0 {
+                    leaf(&self.packets[(c & !LEAF) as usize], &mut t_hi);
+                    continue;
+                }
+                let node = &self.nodes[c as usize];
+                let (mask, near) = boxes.enter(node, t_lo, f32x4::splat(t_hi));
+                // Push the entered children farthest first, so the nearest is popped next.
+                let near = near.to_array();
+                let mut order = [0usize; 4];
+                let mut n = 0;
+                for i in lanes(mask) {
+                    // Insert i among the first n, by decreasing entry parameter.
+                    let mut at = n;
+                    while at > 0 && near[order[at - 1]] < near[i] {
+                        order[at] = order[at - 1];
+                        at -= 1;
+                    }
+                    order[at] = i;
+                    n += 1;
+                }
+                for &i in &order[..n] {
+                    stack[top] = node.child[i];
+                    top += 1;
+                }
+            }
+        });
+    }
+
+    /// Runs `f` with a traversal stack deep enough for this tree.
+    #[inline(always)]
+    fn with_stack<R>(&self, f: impl FnOnce(&mut [u32]) -> R) -> R {
+        let need = 3 * self.depth + 2;
+        if need <= STACK {
+            let mut stack = [0u32; STACK];
+            f(&mut stack)
+        } else {
+            f(&mut vec![0u32; need])
+        }
+    }
+
+    /// Bytes held by the tree.
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>()
+            + self.packets.len() * std::mem::size_of::<Packet>()
+    }
+}
+
+impl Node {
+    fn empty() -> Node {
+        Node {
+            lo: [f32x4::splat(f32::INFINITY); 3],
+            hi: [f32x4::splat(f32::NEG_INFINITY); 3],
+            child: [EMPTY; 4],
+        }
+    }
+}
+
+impl Packet {
+    /// The packet of triangles `ids` (one to four) of `tris`, the last repeated in unused lanes.
+    fn new(tris: &[[Vec3A; 3]], ids: &[u32]) -> Packet {
+        debug_assert!((1..=4).contains(&ids.len()));
+        let prim: [u32; 4] = std::array::from_fn(|i| ids[i.min(ids.len() - 1)]);
+        let v = std::array::from_fn(|c| {
+            std::array::from_fn(|k| f32x4::from(prim.map(|t| tris[t as usize][c][k])))
+        });
+        Packet { v, prim }
+    }
+}
+
+/// `v` with lane `i` set to `x`.
+fn set_lane(v: f32x4, i: usize, x: f32) -> f32x4 {
+    let mut a = v.to_array();
+    a[i] = x;
+    f32x4::from(a)
+}
+
+/// The set bits of a four-lane mask, lowest first.
+#[inline(always)]
+fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        if mask == 0 {
+            return None;
+        }
+        let lane = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        Some(lane)
+    })
+}
+
+/// For tests: the mask [`PacketRay::hits`] gives for the packet of `tris` (one to four, the last
+/// repeated) and `ray`, for internal parameters in `[t_lo, t_hi]`.
+#[cfg(test)]
+pub(super) fn packet_hits(tris: &[[Vec3A; 3]], ray: &WatertightRay, t_lo: f32, t_hi: f32) -> u32 {
+    let ids: Vec<u32> = (0..tris.len() as u32).collect();
+    PacketRay::new(ray).hits(&Packet::new(tris, &ids), t_lo, t_hi)
+}
