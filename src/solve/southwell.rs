@@ -66,7 +66,7 @@ pub(crate) fn solve<const C: usize>(p: &Problem<C>, s: &Settings) -> Run<C> {
             }
         }
         shots += 1;
-        if shots % n as u64 == 0 || shots == max_shots {
+        if shots.is_multiple_of(n as u64) || shots == max_shots {
             residual = residual_of(&unshot);
             history.push(residual);
             super::report_sweep((shots / n as u64) as u32, residual);

@@ -270,8 +270,9 @@ impl Bvh4 {
             }
         };
         let area = |n: usize| nodes2[n].aabb().half_area();
-        // Work list: (binary node, slot to patch with the child's encoding, depth).
-        let mut todo: Vec<(usize, Option<(usize, usize)>, usize)> = vec![(0, None, 1)];
+        // Work list: (binary node, slot (node, child) to patch with its encoding, depth).
+        type Slot = Option<(usize, usize)>;
+        let mut todo: Vec<(usize, Slot, usize)> = vec![(0, None, 1)];
         let mut scratch = Vec::new();
         while let Some((n, slot, depth)) = todo.pop() {
             let encoded = if count[n] <= 4 {

@@ -418,8 +418,7 @@ impl Visibility {
         let Some(ray) = self.canonical_segment_ray(p, q) else {
             return false;
         };
-        self.bvh
-            .any_hit(&ray, |i| !self.ignored(i, ignore))
+        self.bvh.any_hit(&ray, |i| !self.ignored(i, ignore))
     }
 
     /// Oracle for tests: [`Visibility::occluded`] answered by testing every triangle with the

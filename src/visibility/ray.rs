@@ -82,7 +82,7 @@ impl WatertightRay {
 
     /// `v − origin` in ray space (step 3 of the paper): permuted and sheared.
     #[inline(always)]
-    fn to_ray_space(&self, v: Vec3A) -> Vec3A {
+    fn in_ray_space(&self, v: Vec3A) -> Vec3A {
         let a = v - self.origin;
         let [kx, ky, kz] = self.k;
         Vec3A::new(
@@ -102,9 +102,9 @@ impl WatertightRay {
     #[inline(always)]
     pub fn intersect(&self, tri: &[Vec3A; 3], t_lo: f32, t_hi: f32) -> Option<(f32, f32, f32)> {
         // Step 3: vertices relative to the origin, permuted and sheared to ray space.
-        let a = self.to_ray_space(tri[0]);
-        let b = self.to_ray_space(tri[1]);
-        let c = self.to_ray_space(tri[2]);
+        let a = self.in_ray_space(tri[0]);
+        let b = self.in_ray_space(tri[1]);
+        let c = self.in_ray_space(tri[2]);
         // Step 4: scaled barycentric coordinates (2D edge functions at the ray's (0, 0)).
         let mut e0 = c.x * b.y - c.y * b.x;
         let mut e1 = a.x * c.y - a.y * c.x;

@@ -562,7 +562,11 @@ fn four_lane_triangle_test_equals_the_scalar_test() {
         let grid = case % 2 == 1;
         let point = |rng: &mut Rng| {
             let v = rng.vec(-4.0, 4.0);
-            if grid { v.round() * scale } else { v * scale }
+            if grid {
+                v.round() * scale
+            } else {
+                v * scale
+            }
         };
         let n = 1 + case % 4;
         let tris: Vec<[Vec3A; 3]> = (0..n)
@@ -613,8 +617,14 @@ fn four_lane_triangle_test_equals_the_scalar_test() {
         }
     }
     // Both answers must be common, and the edge cases present, or this proves little.
-    assert!(hits > lanes / 10 && hits < lanes * 9 / 10, "{hits} hits of {lanes}");
-    assert!(on_edge > 3000, "{on_edge} lanes with the ray through an edge or corner");
+    assert!(
+        hits > lanes / 10 && hits < lanes * 9 / 10,
+        "{hits} hits of {lanes}"
+    );
+    assert!(
+        on_edge > 3000,
+        "{on_edge} lanes with the ray through an edge or corner"
+    );
 }
 
 /// The traversal equals the brute-force oracle on a closed room of 10,032 triangles with ten
@@ -635,11 +645,18 @@ fn traversal_equals_brute_force_in_a_subdivided_room() {
         let (p, q) = (rng.on_triangle(&tris[i]), rng.on_triangle(&tris[j]));
         let ignore = [i as u32, j as u32];
         let fast = vis.occluded(p, q, ignore);
-        assert_eq!(fast, vis.occluded_brute_force(p, q, ignore), "segment {k}: {p} -> {q}");
+        assert_eq!(
+            fast,
+            vis.occluded_brute_force(p, q, ignore),
+            "segment {k}: {p} -> {q}"
+        );
         blocked += fast as usize;
         let dir = rng.direction();
         let fast = vis.closest_hit(p, dir, f64::INFINITY, i as u32);
-        assert_eq!(fast, vis.closest_hit_brute_force(p, dir, f64::INFINITY, i as u32));
+        assert_eq!(
+            fast,
+            vis.closest_hit_brute_force(p, dir, f64::INFINITY, i as u32)
+        );
     }
     assert!(blocked > 150 && blocked < 1000, "{blocked} of 1500 blocked");
 }
