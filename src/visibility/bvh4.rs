@@ -48,8 +48,8 @@ const EMPTY: u32 = u32::MAX;
 /// than any gap that matters (a pruned box lies farther by its padding).
 const BOUND_SLACK: f32 = 1.0 + 1.0 / 1024.0;
 
-/// Entries of the fixed traversal stack; a tree needs at most `3 × depth + 2` (a tree of
-/// 10⁶ triangles is about 14 deep).
+/// Entries of the fixed traversal stack; a tree needs at most `3 × depth + 2` (each node popped
+/// pushes at most four children in place of itself).
 const STACK: usize = 64;
 
 /// Four children's boxes (canonical units), structure-of-arrays: lane `i` of `lo[k]` is the

@@ -1,13 +1,15 @@
 //! Ray queries against the scene's triangles: `occluded(p, q)` for the open segment between two
 //! surface points (the visibility term of the form factors) and `closest_hit` for a ray. This
 //! module owns the BVH (built by obvhs, traversed four boxes and four triangles at a time by our
-//! own SIMD code in `bvh4`), the watertight ray–triangle test and the numerical conventions that make the answers independent of the scene's units. It does not
-//! know about patches, materials or sampling: callers pass points and triangle indices.
+//! own SIMD code in `bvh4`), the watertight ray–triangle test and the numerical conventions that
+//! make the answers independent of the scene's units. It does not know about patches, materials
+//! or sampling: callers pass points and triangle indices.
 //!
 //! # Canonical frame
-//! The BVH and the triangle test work in `f32`. To make answers independent of the scene's scale and position, [`Visibility::build`] maps the scene
-//! into a canonical frame, `canonical = (scene − centre) · scale`, where `centre` is the centre of
-//! the triangles' bounding box and `scale = 1024 / largest extent`, and the canonical
+//! The BVH and the triangle test work in `f32`. To make answers independent of the scene's scale
+//! and position, [`Visibility::build`] maps the scene into a canonical frame,
+//! `canonical = (scene − centre) · scale`, where `centre` is the centre of the triangles'
+//! bounding box and `scale = 1024 / largest extent`, and the canonical
 //! coordinates are snapped to a grid of 2⁻²⁰ canonical units (≈ 1e-9 of the extent) before
 //! they are rounded to `f32`. The snap absorbs the last-bit differences that rescaling by a
 //! non-power of two (millimetres vs metres: ×1e-3) leaves in f64, so a scene in any unit, near
@@ -116,8 +118,8 @@ pub struct Hit {
 /// A BVH over a triangle soup answering occlusion and closest-hit queries.
 ///
 /// Invariants: `tris`, `ids`, `twins` and `twin_corners` have the same length, and `tris[i]` is
-/// the canonical-frame, non-degenerate triangle `ids[i]` of the input, in the BVH's primitive
-/// order (`tris[i]` is the primitive the traversal reports as id `i`). A twin pair (see the
+/// the canonical-frame, non-degenerate triangle `ids[i]` of the input, in input order
+/// (`tris[i]` is the primitive the traversal reports as id `i`). A twin pair (see the
 /// module documentation) is one primitive: `ids[i]` is the earlier of the two input indices,
 /// `twins[i]` the later (or [`NONE`]), and corner `k` of the twin is corner
 /// `twin_corners[i][k]` of `tris[i]`. `twin_of` is empty when there are no twins, else it maps
@@ -126,7 +128,7 @@ pub struct Hit {
 pub struct Visibility {
     /// Four-wide BVH over the padded boxes of `tris`.
     bvh: Bvh4,
-    /// Triangles in canonical coordinates, reordered by `bvh.primitive_indices`.
+    /// Triangles in canonical coordinates; the BVH reports triangle `i` of this list as `i`.
     tris: Vec<[Vec3A; 3]>,
     /// Input index of each triangle of `tris`.
     ids: Vec<u32>,
