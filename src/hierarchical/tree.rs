@@ -411,7 +411,6 @@ impl Tree {
     }
 }
 
-/// Axis-aligned bounds of points.
 /// How much a unit normal `n` faces each of the six axis directions (+x, +y, +z, −x, −y, −z):
 /// max(0, n_a), then max(0, −n_a). [`Cluster::facing`] sums these by area, and
 /// [`super::ClusterGather`] shares light by them.
@@ -426,6 +425,7 @@ pub fn axis_weights(n: DVec3) -> [f64; 6] {
     ]
 }
 
+/// Axis-aligned bounds of points.
 fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
     points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
         (lo.min(p), hi.max(p))

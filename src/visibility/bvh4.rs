@@ -23,7 +23,7 @@
 //! sized by the tree's depth at build time (a heap stack only for trees deeper than
 //! `STACK` allows, which no builder output here comes near).
 //!
-//! Unit tests (in `super::tests`): every lane of [`PacketRay::hits`] equals the scalar test on
+//! Unit tests (in `super::tests`): every lane of [`Ray4::hits`] equals the scalar test on
 //! random, grid-aligned (rays through edges and corners), coplanar and scaled triangles; the
 //! queries equal the brute-force oracles.
 
@@ -35,7 +35,7 @@ use obvhs::bvh2::builder::build_bvh2;
 use obvhs::BvhBuildParams;
 use wide::f32x4;
 
-use super::ray::WatertightRay;
+use super::ray::{exact_edges, WatertightRay};
 
 /// Flag of a child that is a leaf packet (the rest of the word is the packet's index).
 const LEAF: u32 = 1 << 31;
@@ -87,16 +87,22 @@ pub(super) struct Bvh4 {
     depth: usize,
 }
 
-/// What the ray needs for the box tests, prepared once per query.
-struct BoxRay {
+/// The ray as the four-lane tests need it, prepared once per query.
+struct Ray4 {
+    /// Origin, each coordinate in every lane.
     origin: [f32x4; 3],
+    /// Per axis: 1/direction (a large finite value for a zero component).
     inv: [f32x4; 3],
     /// Per axis: the direction is negative, so the near plane is the box's upper bound.
     negative: [bool; 3],
+    /// The permutation to ray space ([`WatertightRay::k`]).
+    k: [usize; 3],
+    /// The shear constants ([`WatertightRay::s`]), in every lane.
+    s: [f32x4; 3],
 }
 
-impl BoxRay {
-    fn new(ray: &WatertightRay) -> BoxRay {
+impl Ray4 {
+    fn new(ray: &WatertightRay) -> Ray4 {
         let inv = |d: f32| {
             // A zero component gets a large finite inverse: the slab is then all or nothing
             // (no 0·∞ = NaN), decided by whether the origin lies between the planes.
@@ -108,11 +114,12 @@ impl BoxRay {
             }
         };
         let i = [inv(ray.dir.x), inv(ray.dir.y), inv(ray.dir.z)];
-        let o = ray.origin;
-        BoxRay {
-            origin: [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)],
-            inv: [f32x4::splat(i[0]), f32x4::splat(i[1]), f32x4::splat(i[2])],
-            negative: [i[0] < 0.0, i[1] < 0.0, i[2] < 0.0],
+        Ray4 {
+            origin: ray.origin.to_array().map(f32x4::splat),
+            inv: i.map(f32x4::splat),
+            negative: i.map(|i| i < 0.0),
+            k: ray.k,
+            s: ray.s.map(f32x4::splat),
         }
     }
 
@@ -132,24 +139,6 @@ impl BoxRay {
             far = far.fast_min((f - self.origin[k]) * self.inv[k]);
         }
         (near.simd_le(far).to_bitmask(), near)
-    }
-}
-
-/// What the ray needs for the packet tests, prepared once per query.
-struct PacketRay {
-    origin: [f32x4; 3],
-    k: [usize; 3],
-    s: [f32x4; 3],
-}
-
-impl PacketRay {
-    fn new(ray: &WatertightRay) -> PacketRay {
-        let (o, s) = (ray.origin, ray.s);
-        PacketRay {
-            origin: [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)],
-            k: ray.k,
-            s: [f32x4::splat(s[0]), f32x4::splat(s[1]), f32x4::splat(s[2])],
-        }
     }
 
     /// Corner `c` of the packet's four triangles in ray space: the operations of
@@ -186,13 +175,9 @@ impl PacketRay {
             // Step 5 lane by lane: the products of f32 values are exact in f64.
             let [a, b, c] = [a, b, c].map(|v| v.map(|x| x.to_array()));
             let (mut f0, mut f1, mut f2) = (e0.to_array(), e1.to_array(), e2.to_array());
-            let edge = |p: f32, q: f32, r: f32, s: f32| {
-                (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
-            };
             for i in lanes(on_edge) {
-                f0[i] = edge(c[0][i], b[1][i], c[1][i], b[0][i]);
-                f1[i] = edge(a[0][i], c[1][i], a[1][i], c[0][i]);
-                f2[i] = edge(b[0][i], a[1][i], b[1][i], a[0][i]);
+                let xy = |v: &[[f32; 4]; 3]| [v[0][i], v[1][i]];
+                [f0[i], f1[i], f2[i]] = exact_edges(xy(&a), xy(&b), xy(&c));
             }
             (e0, e1, e2) = (f32x4::from(f0), f32x4::from(f1), f32x4::from(f2));
         }
@@ -210,9 +195,7 @@ impl PacketRay {
             | t_signed.simd_gt(f32x4::splat(t_hi) * det_abs);
         !outside.to_bitmask() & 0xf
     }
-}
 
-impl PacketRay {
     /// True if a triangle of `p` met by the ray within `[t_lo, t_hi]` `blocks`.
     #[inline(always)]
     fn blocked(&self, p: &Packet, t_lo: f32, t_hi: f32, blocks: &impl Fn(usize) -> bool) -> bool {
@@ -325,10 +308,9 @@ impl Bvh4 {
         if self.root == EMPTY {
             return false;
         }
-        let boxes = BoxRay::new(ray);
-        let packets = PacketRay::new(ray);
+        let r4 = Ray4::new(ray);
         let (t_lo, t_hi) = (f32x4::splat(ray.t_lo), f32x4::splat(ray.t_hi));
-        let leaf = |p: &Packet| packets.blocked(p, ray.t_lo, ray.t_hi, &blocks);
+        let leaf = |p: &Packet| r4.blocked(p, ray.t_lo, ray.t_hi, &blocks);
         self.with_stack(|stack| {
             let mut top = 0;
             stack[top] = self.root;
@@ -343,7 +325,7 @@ impl Bvh4 {
                     continue;
                 }
                 let node = &self.nodes[c as usize];
-                let (mask, _) = boxes.enter(node, t_lo, t_hi);
+                let (mask, _) = r4.enter(node, t_lo, t_hi);
                 for i in lanes(mask) {
                     let child = node.child[i];
                     // Leaves first: a hit there ends the query before more nodes are opened.
@@ -372,14 +354,13 @@ impl Bvh4 {
         if self.root == EMPTY {
             return;
         }
-        let boxes = BoxRay::new(ray);
-        let packets = PacketRay::new(ray);
+        let r4 = Ray4::new(ray);
         let t_lo = f32x4::splat(ray.t_lo);
         let mut t_hi = ray.t_hi;
         let mut leaf = |p: &Packet, t_hi: &mut f32| {
             // Lanes that may hit within the current bound; each is then decided (and its hit
             // recorded) by the caller's exact test, in lane order.
-            let mask = packets.hits(p, ray.t_lo, *t_hi);
+            let mask = r4.hits(p, ray.t_lo, *t_hi);
             for lane in lanes(mask) {
                 if lane > 0 && p.prim[..lane].contains(&p.prim[lane]) {
                     continue; // a repeated lane
@@ -401,7 +382,7 @@ impl Bvh4 {
                     continue;
                 }
                 let node = &self.nodes[c as usize];
-                let (mask, near) = boxes.enter(node, t_lo, f32x4::splat(t_hi));
+                let (mask, near) = r4.enter(node, t_lo, f32x4::splat(t_hi));
                 // Push the entered children farthest first, so the nearest is popped next.
                 let near = near.to_array();
                 let mut order = [0usize; 4];
@@ -485,10 +466,10 @@ fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
     })
 }
 
-/// For tests: the mask [`PacketRay::hits`] gives for the packet of `tris` (one to four, the last
+/// For tests: the mask [`Ray4::hits`] gives for the packet of `tris` (one to four, the last
 /// repeated) and `ray`, for internal parameters in `[t_lo, t_hi]`.
 #[cfg(test)]
 pub(super) fn packet_hits(tris: &[[Vec3A; 3]], ray: &WatertightRay, t_lo: f32, t_hi: f32) -> u32 {
     let ids: Vec<u32> = (0..tris.len() as u32).collect();
-    PacketRay::new(ray).hits(&Packet::new(tris, &ids), t_lo, t_hi)
+    Ray4::new(ray).hits(&Packet::new(tris, &ids), t_lo, t_hi)
 }

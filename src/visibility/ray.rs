@@ -111,12 +111,7 @@ impl WatertightRay {
         let mut e2 = b.x * a.y - b.y * a.x;
         // Step 5: fall back to f64 on the edge (exactly 0) for a consistent decision.
         if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
-            let edge = |p: f32, q: f32, r: f32, s: f32| {
-                (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
-            };
-            e0 = edge(c.x, b.y, c.y, b.x);
-            e1 = edge(a.x, c.y, a.y, c.x);
-            e2 = edge(b.x, a.y, b.y, a.x);
+            [e0, e1, e2] = exact_edges([a.x, a.y], [b.x, b.y], [c.x, c.y]);
         }
         // Step 6: inside if all edge functions share a sign (0 counts as either: the tie rule
         // that makes both triangles of a shared edge report the hit). No backface culling.
@@ -148,4 +143,20 @@ impl WatertightRay {
             v: f64::from(v),
         }
     }
+}
+
+/// Step 5 of the watertight test: the three edge functions of the ray-space corners `a`, `b`,
+/// `c` (x, y) recomputed in `f64`, where the products of `f32` values are exact, so the sign of
+/// each is exact; rounded back to `f32`. Shared by [`WatertightRay::intersect`] and the
+/// four-lane test ([`super::bvh4`]), so both decide alike.
+#[inline]
+pub(super) fn exact_edges(a: [f32; 2], b: [f32; 2], c: [f32; 2]) -> [f32; 3] {
+    let edge = |p: f32, q: f32, r: f32, s: f32| {
+        (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
+    };
+    [
+        edge(c[0], b[1], c[1], b[0]),
+        edge(a[0], c[1], a[1], c[0]),
+        edge(b[0], a[1], b[1], a[0]),
+    ]
 }

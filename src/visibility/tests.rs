@@ -547,6 +547,17 @@ fn twins_block_like_one_surface_and_report_the_side_facing_the_ray() {
     assert!(fronts[0] > 300 && fronts[1] > 300, "{fronts:?}");
 }
 
+/// A closed room of 10 × 10 × 10, 26 × 26 squares per face, with ten boxes of 4 × 4 squares per
+/// face placed at random inside: 10,032 triangles.
+fn room_with_boxes(rng: &mut Rng) -> Vec<[DVec3; 3]> {
+    let mut tris = grid_box(DVec3::ZERO, DVec3::splat(10.0), 26);
+    for _ in 0..10 {
+        let lo = rng.vec(0.5, 8.0);
+        tris.extend(grid_box(lo, lo + rng.vec(0.5, 1.5), 4));
+    }
+    tris
+}
+
 /// The four-lane test (`bvh4`) decides every lane as the scalar watertight test does: random
 /// triangles, triangles on an integer grid with rays aimed exactly at their corners and edges
 /// (edge functions exactly zero: the `f64` recomputation), rays in a triangle's plane, −0.0
@@ -632,12 +643,8 @@ fn four_lane_triangle_test_equals_the_scalar_test() {
 /// triangle it passes), and on rays from the walls (closest hit).
 #[test]
 fn traversal_equals_brute_force_in_a_subdivided_room() {
-    let mut tris = grid_box(DVec3::ZERO, DVec3::splat(10.0), 26);
     let mut rng = Rng(sampling::Rng::new(&[17]));
-    for _ in 0..10 {
-        let lo = rng.vec(0.5, 8.0);
-        tris.extend(grid_box(lo, lo + rng.vec(0.5, 1.5), 4));
-    }
+    let tris = room_with_boxes(&mut rng);
     let vis = Visibility::build(&tris);
     let mut blocked = 0;
     for k in 0..1500 {
@@ -665,13 +672,8 @@ fn traversal_equals_brute_force_in_a_subdivided_room() {
 #[test]
 #[ignore]
 fn throughput() {
-    // A closed room of 26 × 26 squares per face with ten subdivided boxes inside.
-    let mut tris = grid_box(DVec3::ZERO, DVec3::splat(10.0), 26);
     let mut rng = Rng(sampling::Rng::new(&[6]));
-    for _ in 0..10 {
-        let lo = rng.vec(0.5, 8.0);
-        tris.extend(grid_box(lo, lo + rng.vec(0.5, 1.5), 4));
-    }
+    let tris = room_with_boxes(&mut rng);
     let start = Instant::now();
     let vis = Visibility::build(&tris);
     println!("{} triangles, build {:.1?}", tris.len(), start.elapsed());
