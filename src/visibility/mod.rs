@@ -48,7 +48,6 @@
 //! with the same winding as one of a pair) stays a separate triangle, as any coincident face does.
 
 mod bvh4;
-mod clusters;
 mod ray;
 mod twins;
 
@@ -146,15 +145,7 @@ pub struct Visibility {
     scale: f64,
     /// `MIN_DISTANCE_REL × largest extent`, canonical units.
     min_distance: f64,
-    /// Boxes (scene coordinates, padded) of the connected groups of triangles, when there are
-    /// at most [`MAX_CLUSTERS`]: a segment that meets none of them meets no triangle, and
-    /// [`Visibility::occluded`] answers without tracing. Empty: no such test.
-    clusters: Vec<[DVec3; 2]>,
 }
-
-/// Most connected groups of triangles whose boxes [`Visibility::occluded`] tests before
-/// tracing (a room's few pieces of furniture, the light); more, and every segment is traced.
-const MAX_CLUSTERS: usize = 32;
 
 impl fmt::Debug for Visibility {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -242,7 +233,6 @@ impl Visibility {
             centre,
             scale,
             min_distance,
-            clusters: Vec::new(),
         }
     }
 
@@ -296,7 +286,6 @@ impl Visibility {
         self.ids = ids;
         self.twins = twins;
         self.twin_corners = twin_corners;
-        self.clusters = self.cluster_boxes();
     }
 
     /// The same triangles, frame and conventions, with only those where `keep[id]` is true
@@ -414,9 +403,6 @@ impl Visibility {
     /// `Visibility`, or of one it was [`Visibility::restricted`] from: the frame is the same).
     /// Same answers, bit for bit, without transforming the points again.
     pub fn occluded_points(&self, p: &Point, q: &Point, ignore: [u32; 2]) -> bool {
-        if !self.may_block(p.scene, q.scene) {
-            return false;
-        }
         let Some(ray) = self.canonical_segment_ray(p, q) else {
             return false;
         };
