@@ -40,11 +40,14 @@ use crate::form_factor::sampling::Rng;
 /// triangle shows there by more than 2 % of the local luminance.
 pub const DEFAULT_TOLERANCE: f64 = 0.02;
 
-/// New vertices, at most, when each gets `rays` hemisphere rays: as many as half the gather's
-/// own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the refinement adds at
-/// most half as many hemisphere rays again, whatever the scene's size.
+/// New vertices, at most, when each gets `rays` hemisphere rays: as many as twice the
+/// gather's own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the refinement
+/// adds at most twice as many hemisphere rays again, whatever the scene's size. Measured on
+/// the Cornell box's 2,000 probes (displayed RMS; each budget was used up): half the gather's
+/// budget (1,946 vertices) 1.45 %, once (3,891) 1.31 %, twice (7,782) 1.13 %, for about 1.3 s
+/// more than half.
 pub fn budget(rays: usize) -> usize {
-    super::AUTO_RAY_BUDGET / (2 * rays.max(1))
+    2 * super::AUTO_RAY_BUDGET / rays.max(1)
 }
 
 /// Rounds of testing new triangles' edges, at most: each halves the edges it splits.
