@@ -502,6 +502,12 @@ impl Gatherer<'_> {
         self.emitters.len() <= MAX_EXACT_EMITTERS
     }
 
+    /// Emitters whose direct light is computed exactly at each point: all of them, at most
+    /// [`MAX_EXACT_EMITTERS`].
+    pub fn exact_per_point(&self) -> usize {
+        self.emitters.len().min(MAX_EXACT_EMITTERS)
+    }
+
     /// The scene's extent (its bounding box diagonal), scene units.
     pub(crate) fn extent(&self) -> f64 {
         self.lift / LIFT

@@ -40,14 +40,15 @@ use crate::form_factor::sampling::Rng;
 /// triangle shows there by more than 2 % of the local luminance.
 pub const DEFAULT_TOLERANCE: f64 = 0.02;
 
-/// New vertices, at most, when each gets `rays` hemisphere rays: as many as twice the
-/// gather's own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the refinement
-/// adds at most twice as many hemisphere rays again, whatever the scene's size. Measured on
-/// the Cornell box's 2,000 probes (displayed RMS; each budget was used up): half the gather's
-/// budget (1,946 vertices) 1.45 %, once (3,891) 1.31 %, twice (7,782) 1.13 %, for about 1.3 s
-/// more than half.
-pub fn budget(rays: usize) -> usize {
-    2 * super::AUTO_RAY_BUDGET / rays.max(1)
+/// New vertices, at most, when each gets `rays` hemisphere rays and the direct light of
+/// `exact_emitters` emitters ([`super::SHADOW_RAYS`] shadow rays each, at least): as many as
+/// twice the gather's own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the
+/// refinement adds at most about twice as many rays again, whatever the scene's size and its
+/// number of lights. Measured on the Cornell box's 2,000 probes (displayed RMS; each budget was
+/// used up): half the gather's budget (1,946 vertices) 1.45 %, once (3,891) 1.31 %, twice
+/// (7,782) 1.13 %, for about 1.3 s more than half.
+pub fn budget(rays: usize, exact_emitters: usize) -> usize {
+    2 * super::AUTO_RAY_BUDGET / (rays + super::SHADOW_RAYS * exact_emitters).max(1)
 }
 
 /// Rounds of testing new triangles' edges, at most: each halves the edges it splits.
@@ -596,7 +597,7 @@ mod tests {
             fine.baked.positions.len(),
             coarse.baked.positions.len() + added
         );
-        assert!(added <= super::budget(1024), "{added} vertices");
+        assert!(added <= super::budget(1024, 1), "{added} vertices");
         // Measured 44 % → 1.4 % (1,800 vertices added). What remains is the shadow rays' noise
         // in the penumbra (256 stratified rays, ~1 % a vertex) and the τ left to
         // interpolation: 3 % bounds it with room for another seed.

@@ -265,7 +265,7 @@ fn bake_stage(
             mode: settings.gather,
             rays,
             tolerance: settings.gather_tolerance,
-            budget: gather::refine::budget(rays),
+            budget: gather::refine::budget(rays, gatherer.exact_per_point()),
         };
         let refined = gather::refine(
             &gatherer,
