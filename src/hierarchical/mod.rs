@@ -43,6 +43,7 @@
 //! estimates are (Cohen & Wallace §4.11's row normalisation): the furnace is then exact
 //! whatever the cluster approximations.
 
+pub mod direct;
 pub mod links;
 pub mod output;
 pub mod tree;
@@ -79,6 +80,9 @@ pub struct Settings {
     /// Links at most: refinement stops with a warning beyond this (memory guard: a link takes
     /// 24 bytes).
     pub max_links: u64,
+    /// Compute the emitters' direct light at every element ([`direct`]) when the scene
+    /// qualifies ([`direct::chosen`]: few, small emitters); false: links carry all emission.
+    pub direct: bool,
 }
 
 impl Default for Settings {
@@ -89,6 +93,7 @@ impl Default for Settings {
             rays: 3,
             max_passes: 100,
             max_links: 100_000_000,
+            direct: true,
         }
     }
 }
@@ -151,6 +156,9 @@ pub struct Stats {
     pub epsilon_absolute: f64,
     /// Smallest element area allowed, scene units squared.
     pub min_area_absolute: f64,
+    /// Emitting root patches whose direct light every element computes at its own rule
+    /// points ([`direct`]); 0 when links carry all emission.
+    pub direct_emitters: usize,
 }
 
 /// The result of [`solve()`].
@@ -257,7 +265,7 @@ pub fn solve(
         patches,
         radiance,
         root,
-    } = output::leaves(&h.tree, roots, &h.elem_l);
+    } = output::leaves(&h.tree, roots, &h.total_radiance());
     // Buried output patches (the floor under a block): the centroid's normal ray meets the
     // back of a surface ([`is_hidden`]). One ray per patch: leaves are small.
     let visible_fraction: Vec<f64> = (0..patches.len())
@@ -309,9 +317,12 @@ pub struct Hierarchy<'a> {
     occluders: Visibility,
     settings: Settings,
     seed: u64,
-    /// Radiance of every element (leaves: solved; inner: area-weighted mean of children).
+    /// Radiance every element sends through links, W·sr⁻¹·m⁻² (leaves: solved; inner:
+    /// area-weighted mean of children): its radiance L less the emission that reaches other
+    /// elements as their direct light ([`direct`]; L itself when the links carry all
+    /// emission).
     pub elem_l: Vec<Rgb>,
-    /// Radiance of every cluster (area-weighted mean of its root elements).
+    /// The same for every cluster (area-weighted mean of its root elements).
     pub cluster_l: Vec<Rgb>,
     /// The largest channel of the radiance of any leaf below each element and each cluster:
     /// what the oracle bounds a source's radiance by.
@@ -326,6 +337,14 @@ pub struct Hierarchy<'a> {
     convex: bool,
     /// Effective row sum of every element (closed scenes), else empty.
     row_sum: Vec<f64>,
+    /// The emitters whose direct light the elements compute themselves ([`direct`]); empty
+    /// when the links carry all emission.
+    emitters: Vec<direct::Emitter>,
+    /// Per root: its emission reaches other elements through their own direct light
+    /// ([`direct`]), so links carry only its reflected radiance.
+    exact: Vec<bool>,
+    /// Per element: its direct light from `emitters`.
+    direct: Vec<direct::Direct>,
     /// Absolute ε (radiance × area) and minimum area (scene units²).
     epsilon: f64,
     min_area: f64,
@@ -358,13 +377,24 @@ impl<'a> Hierarchy<'a> {
             row_sum: Vec::new(),
             buried: Vec::new(),
             visible: Vec::new(),
+            emitters: if settings.direct {
+                direct::chosen(roots)
+            } else {
+                Vec::new()
+            },
+            exact: vec![false; roots.len()],
+            direct: Vec::new(),
             convex: false,
             epsilon: 0.0,
             min_area: settings.min_area * total_area,
             stats: Stats::default(),
         };
         h.convex = convex;
-        h.update_burial();
+        for e in &h.emitters {
+            h.exact[e.root as usize] = true;
+        }
+        h.stats.direct_emitters = h.emitters.len();
+        h.update_new_elements();
         h.epsilon = settings.epsilon * h.emitted_power();
         h.stats.epsilon_absolute = h.epsilon;
         h.stats.min_area_absolute = h.min_area;
@@ -381,14 +411,16 @@ impl<'a> Hierarchy<'a> {
             .sum()
     }
 
-    /// L = Le everywhere (leaves), pulled up.
+    /// No light has bounced yet: leaves hold the emission links carry, pulled up (L = Le
+    /// without the emission the elements compute themselves, which only reaches other
+    /// elements as their direct light, from the first sweep on).
     fn reset(&mut self) {
         let n = self.tree.elements.len();
         let zero = vec![[0.0; 3]; n];
         self.elem_l = vec![[0.0; 3]; n];
         self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
         let gz = vec![ClusterGather::default(); self.tree.clusters.len()];
-        self.push_pull(&zero, &gz);
+        self.push_pull(&zero, &gz, false);
     }
 
     /// The root's self-link, and the closure test.
@@ -414,9 +446,10 @@ impl<'a> Hierarchy<'a> {
         self.stats.closed_scene = closed;
     }
 
-    /// Tests the rule points of the elements made since the last call for burial
-    /// ([`is_hidden`]: the point's normal ray meets the back of a surface first).
-    fn update_burial(&mut self) {
+    /// Prepares the elements made since the last call: tests their rule points for burial
+    /// ([`is_hidden`]: the point's normal ray meets the back of a surface first), then
+    /// computes their direct light ([`direct::element_direct`]).
+    fn update_new_elements(&mut self) {
         let from = self.buried.len();
         let (tree, roots, vis) = (&self.tree, self.roots, &self.vis);
         let rule = links::receiver_rule();
@@ -445,6 +478,63 @@ impl<'a> Hierarchy<'a> {
             self.buried.push(mask);
             self.visible.push(visible);
         }
+        let (emitters, occluders, buried) = (&self.emitters, &self.occluders, &self.buried);
+        let (shadows, seed) = (!convex, self.seed);
+        let new: Vec<direct::Direct> = (from..tree.elements.len())
+            .into_par_iter()
+            .map(|e| direct::element_direct(tree, occluders, shadows, emitters, e, buried[e], seed))
+            .collect();
+        for d in new {
+            self.stats.rays_cast += d.rays;
+            self.direct.push(d);
+        }
+    }
+
+    /// The emission links carry from root `r`: none when the elements compute it themselves
+    /// ([`direct`]).
+    fn carried_emission(&self, r: usize) -> Rgb {
+        if self.exact[r] {
+            [0.0; 3]
+        } else {
+            self.roots.emission[r]
+        }
+    }
+
+    /// The leaves whose direct light varies over them by more than ε allows (ρ · spread · A
+    /// above ε, the largest channels; [`direct::Direct::spread`]) and that can still be
+    /// split: the direct light's own refinement, where a shadow edge or the fall-off next to
+    /// a light crosses a leaf, whatever its links.
+    fn direct_splits(&self) -> Vec<usize> {
+        if self.emitters.is_empty() {
+            return Vec::new();
+        }
+        let t = &self.tree;
+        (0..t.elements.len())
+            .into_par_iter()
+            .filter(|&e| {
+                let el = &t.elements[e];
+                el.first_child == tree::NO_CHILD
+                    && 0.25 * el.area >= self.min_area
+                    && self.max_reflectance(Node::element(e)) * self.direct[e].spread * el.area
+                        > self.epsilon
+            })
+            .collect()
+    }
+
+    /// Every element's radiance L, W·sr⁻¹·m⁻²: what the links transport plus the emission the
+    /// elements compute themselves.
+    fn total_radiance(&self) -> Vec<Rgb> {
+        let t = &self.tree;
+        (0..t.elements.len())
+            .map(|e| {
+                let r = t.elements[e].root as usize;
+                if self.exact[r] {
+                    add(self.elem_l[e], self.roots.emission[r])
+                } else {
+                    self.elem_l[e]
+                }
+            })
+            .collect()
     }
 
     /// Largest reflectance channel of a node.
@@ -528,8 +618,12 @@ impl<'a> Hierarchy<'a> {
                 )
             })
             .collect();
-        if actions.iter().all(|&a| a == Action::Keep) {
+        let direct_splits = self.direct_splits();
+        if actions.iter().all(|&a| a == Action::Keep) && direct_splits.is_empty() {
             return false;
+        }
+        for e in direct_splits {
+            self.tree.split(e);
         }
         // Split the elements that must be split, in link order.
         for (l, &a) in self.links.iter().zip(&actions) {
@@ -544,7 +638,7 @@ impl<'a> Hierarchy<'a> {
                 }
             }
         }
-        self.update_burial();
+        self.update_new_elements();
         let mut kept = Vec::with_capacity(self.links.len());
         let mut pairs = Vec::new();
         for (l, &a) in self.links.iter().zip(&actions) {
@@ -696,9 +790,11 @@ impl<'a> Hierarchy<'a> {
         down
     }
 
-    /// Push-pull: leaves take L = Le + ρ·G (G normalised by the row sum in closed scenes),
-    /// inner elements and clusters the area-weighted mean of their children.
-    fn push_pull(&mut self, ge: &[Rgb], gc: &[ClusterGather]) {
+    /// Push-pull: leaves take L = Le + ρ·(D + G) (D their direct light when `with_direct`,
+    /// G what the links bring, normalised by the row sum in closed scenes; Le only the
+    /// emission links carry), inner elements and clusters the area-weighted mean of their
+    /// children.
+    fn push_pull(&mut self, ge: &[Rgb], gc: &[ClusterGather], with_direct: bool) {
         let down = self.push_down(ge, gc);
         let t = &self.tree;
         let n = t.elements.len();
@@ -716,9 +812,15 @@ impl<'a> Hierarchy<'a> {
                     Some(&s) if s > 0.0 => 1.0 / s,
                     _ => 1.0,
                 };
+                let le = self.carried_emission(r);
+                let d = if with_direct {
+                    self.direct[e].mean
+                } else {
+                    [0.0; 3]
+                };
+                let rho = self.roots.reflectance[r];
                 for c in 0..3 {
-                    l[e][c] = self.roots.emission[r][c]
-                        + self.roots.reflectance[r][c] * down[e][c] * norm;
+                    l[e][c] = le[c] + rho[c] * (d[c] + down[e][c] * norm);
                 }
                 visible_area[e] = el.area * self.visible[e];
                 lmax[e] = l[e].iter().copied().fold(0.0, f64::max);
@@ -763,7 +865,7 @@ impl<'a> Hierarchy<'a> {
     pub fn sweep(&mut self) -> f64 {
         let (ge, gc) = self.gather(true);
         let old = std::mem::take(&mut self.elem_l);
-        self.push_pull(&ge, &gc);
+        self.push_pull(&ge, &gc, true);
         self.stats.sweeps += 1;
         let (mut num, mut den) = (0.0, 0.0);
         for (e, el) in self.tree.elements.iter().enumerate() {

@@ -327,7 +327,7 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
 
     // Split the source and give every element its mean radiance.
     h.tree.split(s);
-    h.update_burial();
+    h.update_new_elements();
     h.elem_l = h
         .tree
         .elements
@@ -395,4 +395,131 @@ fn clusters_push_light_to_the_faces_that_face_it() {
             );
         }
     }
+}
+
+/// A square emitter 1 above a tiny receiving triangle (side 1e-4) under its centre, and
+/// optionally an opaque square between them.
+fn under_a_square_light(blocked: bool) -> Patches {
+    let mut b = SceneBuilder::new();
+    let light = b.material("light", [0.0; 3], [2.0; 3]);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    let square = |z: f64, h: f64| {
+        [
+            DVec3::new(-h, -h, z),
+            DVec3::new(-h, h, z),
+            DVec3::new(h, h, z),
+            DVec3::new(h, -h, z),
+        ]
+    };
+    b.quad(square(1.0, 0.5), light); // clockwise seen from above: faces down
+    let s = 1e-4;
+    let v = [
+        DVec3::new(-s, -s, 0.0),
+        DVec3::new(s, -s, 0.0),
+        DVec3::new(0.0, s, 0.0),
+    ]
+    .map(|p| b.vertex(p));
+    b.triangle(v, grey);
+    if blocked {
+        b.quad(square(0.5, 1.0), grey);
+    }
+    mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap()
+}
+
+/// The direct light an element computes for itself ([`direct::element_direct`]) is Le times
+/// the exact point-to-polygon form factor: under the centre of a unit square at height 1,
+/// four Howell B-3 corners (the element is 1e-4 across, so its rule points see the same F
+/// to 1e-8; tolerance 1e-6). Behind an opaque square, every shadow ray is blocked: exactly 0.
+#[test]
+fn direct_light_at_an_element_is_exact_and_shadowed() {
+    let f =
+        4.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
+    for blocked in [false, true] {
+        let roots = under_a_square_light(blocked);
+        let tree = Tree::new(&roots);
+        let emitters: Vec<direct::Emitter> = (0..roots.len())
+            .filter(|&r| roots.emission[r][0] > 0.0)
+            .map(|r| direct::Emitter::of(&roots, r))
+            .collect();
+        assert_eq!(emitters.len(), 2);
+        let receiver = (0..roots.len())
+            .find(|&r| roots.area[r] < 1e-6)
+            .expect("the tiny triangle is a root");
+        let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
+        let vis = Visibility::build(&corners);
+        let d = direct::element_direct(&tree, &vis, true, &emitters, receiver, 0, 1);
+        let want = if blocked { 0.0 } else { 2.0 * f };
+        for c in d.mean {
+            assert!(
+                (c - want).abs() <= 1e-6 * want,
+                "blocked {blocked}: {c} vs {want}"
+            );
+        }
+        assert!(
+            d.spread <= 1e-6 * want,
+            "uniform over the element: {}",
+            d.spread
+        );
+        assert!(d.rays > 0, "shadow rays were cast");
+    }
+}
+
+/// Where the direct light varies over a leaf (a shadow edge crosses it), the leaf is split
+/// until ρ · spread · A ≤ ε or its children would be below the minimum area: after the
+/// refinement no leaf is left that the rule would split, and the shadow edge did split some.
+#[test]
+fn leaves_split_where_their_direct_light_varies() {
+    let mut b = SceneBuilder::new();
+    let light = b.material("light", [0.0; 3], [10.0; 3]);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    let quad = |z: f64, lo: DVec3, hi: DVec3, up: bool| {
+        let c = [
+            DVec3::new(lo.x, lo.y, z),
+            DVec3::new(hi.x, lo.y, z),
+            DVec3::new(hi.x, hi.y, z),
+            DVec3::new(lo.x, hi.y, z),
+        ];
+        if up {
+            c
+        } else {
+            [c[0], c[3], c[2], c[1]]
+        }
+    };
+    // A floor 4 × 4, a light 0.2 × 0.2 at height 2, a blocker over half the floor at 1.
+    b.quad(quad(0.0, DVec3::splat(-2.0), DVec3::splat(2.0), true), grey);
+    b.quad(
+        quad(2.0, DVec3::splat(-0.1), DVec3::splat(0.1), false),
+        light,
+    );
+    b.quad(
+        quad(
+            1.0,
+            DVec3::new(-2.0, -2.0, 0.0),
+            DVec3::new(0.0, 2.0, 0.0),
+            false,
+        ),
+        grey,
+    );
+    let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
+    let s = Settings {
+        epsilon: 1e-4,
+        min_area: 1e-5,
+        ..Settings::default()
+    };
+    let mut h = Hierarchy::new(&roots, &s, 1);
+    assert!(!h.emitters.is_empty(), "the light qualifies");
+    refine(&mut h);
+    assert!(h.direct_splits().is_empty(), "no leaf left to split");
+    let shadow_edge = h
+        .tree
+        .elements
+        .iter()
+        .enumerate()
+        .filter(|(e, el)| el.first_child == tree::NO_CHILD && h.direct[*e].spread > 0.0)
+        .count();
+    assert!(
+        shadow_edge > 10,
+        "leaves along the shadow edge: {shadow_edge}"
+    );
+    assert!(h.tree.elements.len() > 100, "{}", h.tree.elements.len());
 }
