@@ -402,6 +402,28 @@ fn child_shares(tree: &Tree, r: usize, s: usize) -> [u8; 4] {
     }
 }
 
+/// The shares of the unoccluded F from element `r`'s centroid that arrive at each of element
+/// `s`'s 16 grandchildren (as [`Tree::split`] would make them twice: child q's child k is
+/// share 4q + k), in 255ths of their sum (rounded; all 0 when the centroid sees none of `s`).
+/// Like [`Link::children`], one point is enough to say which parts of the source the
+/// receiver favours.
+pub fn grandchild_shares(tree: &Tree, r: usize, s: usize) -> [u8; 16] {
+    let third = [1.0 / 3.0; 3];
+    let (x, n) = (tree.point(r, third), tree.surface_normal(r, third));
+    if (x - tree.corners(s)[0]).dot(tree.elements[s].normal) <= 0.0 {
+        return [0; 16];
+    }
+    let children = child_corners(tree.corners(s));
+    let through: [f64; 16] =
+        std::array::from_fn(|i| point_to_polygon(x, n, &child_corners(children[i / 4])[i % 4]));
+    let total: f64 = through.iter().sum();
+    if total > 0.0 {
+        through.map(|t| (255.0 * t / total).round() as u8)
+    } else {
+        [0; 16]
+    }
+}
+
 /// The corners of the four children [`Tree::split`] makes of a triangle with `corners`, in
 /// its order (the same midpoints, so the same triangles).
 pub(crate) fn child_corners([a, b, c]: [DVec3; 3]) -> [[DVec3; 3]; 4] {
