@@ -107,9 +107,13 @@ fn shadow_rays(x: DVec3, n: DVec3, em: &Emitter) -> usize {
     }
 }
 
-/// See [`shadow_rays`].
+/// Shadow rays per rule point and emitter where the kernel is nearly even over the emitter:
+/// at most [`EVEN_KERNEL`] between its largest and smallest values at the emitter's corners
+/// and centre (a small or far emitter, not at a grazing angle). The ratio Σ G V / Σ G is then
+/// nearly the plain visible fraction, unbiased at any count; decided on the geometry alone,
+/// never on what rays saw.
 pub const FEW_SHADOW_RAYS: usize = 4;
-/// See [`shadow_rays`].
+/// See [`FEW_SHADOW_RAYS`].
 pub const EVEN_KERNEL: f64 = 1.25;
 
 impl Emitter {

@@ -575,7 +575,7 @@ impl<'a> Hierarchy<'a> {
     /// (measured on the Cornell box at ε = 1e-6: worst surface 2.6 % → 1.4 %).
     ///
     /// Once the links are final, the same two levels down: each split child's four children
-    /// weighted by the link's shares through each ([`Hierarchy::find_grandchild_shares`]). A
+    /// weighted by the link's shares through each ([`links::grandchild_shares`]). A
     /// dim face next to a bright floor sees the part of the floor beside it best, which is
     /// where the floor's radiance changes most (its shadow, its corner with the face); on the
     /// Cornell box at ε = 1e-6 the worst surface (such a face) went 0.94 % → 0.66 %, and

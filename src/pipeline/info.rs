@@ -88,6 +88,10 @@ pub struct SceneInfo {
     /// after the default contact lines are made edges ([`crate::mesh::split_contacts`]), before
     /// refinement.
     pub default_patches: usize,
+    /// The method `bake` takes by default (`method = auto` resolved,
+    /// [`super::Settings::resolved`]: `matrix` up to [`super::AUTO_MATRIX_MAX_PATCHES`] patches,
+    /// `hierarchical` beyond).
+    pub default_method: super::Method,
 }
 
 impl SceneInfo {
@@ -125,6 +129,7 @@ impl SceneInfo {
         let (split, _) = mesh::split_contacts(scene);
         let default_patches =
             mesh::subdivide(&split, default_max_edge, mesh::DEFAULT_CREASE_DEGREES)?.len();
+        let default_method = super::Settings::default().resolved(scene)?.method;
         Ok(SceneInfo {
             source: scene.source.as_ref().map(|p| p.display().to_string()),
             vertices: scene.positions.len(),
@@ -141,6 +146,7 @@ impl SceneInfo {
             warnings: scene.warnings.clone(),
             default_max_edge,
             default_patches,
+            default_method,
         })
     }
 
@@ -172,6 +178,12 @@ impl SceneInfo {
             "patches:      {} with the default --max-edge {}",
             self.default_patches,
             g(self.default_max_edge)
+        );
+        let _ = writeln!(
+            s,
+            "method:       {} (the default, --method auto: matrix up to {} patches)",
+            self.default_method,
+            super::AUTO_MATRIX_MAX_PATCHES
         );
         let _ = writeln!(s, "materials:    {}", self.materials.len());
         for m in &self.materials {

@@ -14,7 +14,7 @@ pub mod report;
 pub mod settings;
 
 pub use report::{Report, Seconds};
-pub use settings::{Method, Settings, WriteOptions};
+pub use settings::{Method, Settings, WriteOptions, AUTO_MATRIX_MAX_PATCHES};
 
 use std::path::Path;
 use std::time::Instant;
@@ -101,6 +101,7 @@ pub fn run_with(
 /// memory.
 pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     settings.validate()?;
+    let settings = &settings.resolved(scene)?;
     let input_triangles = scene.triangles.len();
     // Contact lines become edges (before the back sides are made: twins stay identical).
     let t = Instant::now();
@@ -247,7 +248,12 @@ fn bake_stage(
     // A Neumann solve is a chosen number of bounces: gathering on it would add one, so its
     // vertices show the patches' own N-bounce radiance.
     let neumann = settings.solver.method == solve::Method::Neumann;
-    if settings.gather != Gather::None && scene.has_emitters() && !neumann {
+    let mode = settings
+        .gather
+        .resolve(sites.len(), settings.gather_rays.is_some());
+    let gathers = mode != Gather::None && scene.has_emitters() && !neumann;
+    report.gather = if gathers { mode } else { Gather::None };
+    if gathers {
         let t = Instant::now();
         let gatherer = gather::Gatherer::new(scene, patches, radiance, settings.form_factors.seed);
         let rays = settings
@@ -257,12 +263,12 @@ fn bake_stage(
             &gatherer,
             &sites,
             &baked.vertex_radiance,
-            settings.gather,
+            mode,
             rays,
             visible_fraction,
         );
         let plan = gather::Plan {
-            mode: settings.gather,
+            mode,
             rays,
             tolerance: settings.gather_tolerance,
             budget: gather::refine::budget(rays, gatherer.exact_per_point()),

@@ -62,6 +62,9 @@ pub struct Report {
     /// Vertices of the output mesh (after splitting at creases and material borders, and the
     /// display refinement).
     pub vertices: usize,
+    /// The final gather that ran at the output vertices (`gather = auto` resolved:
+    /// [`crate::gather::Gather::resolve`]; `none` when none ran).
+    pub gather: crate::gather::Gather,
     /// What the display refinement after the final gather did ([`mod@crate::gather::refine`]).
     pub display_refinement: crate::gather::Refined,
     /// Matrix or hierarchical.
@@ -105,6 +108,7 @@ impl Report {
             patches: 0,
             refine_rounds: 0,
             vertices: 0,
+            gather: crate::gather::Gather::None,
             display_refinement: crate::gather::Refined::default(),
             method: settings.method,
             hierarchical_settings: (settings.method == super::Method::Hierarchical)

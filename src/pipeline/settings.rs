@@ -19,6 +19,9 @@ use crate::{form_factor, hierarchical, solve, Error, Result};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
+    /// `matrix` when the scene cuts into at most [`AUTO_MATRIX_MAX_PATCHES`] patches at the
+    /// matrix method's `max_edge`, else `hierarchical` ([`Settings::resolved`]).
+    Auto,
     /// Every pair of patches gets a form factor (a sparse n × n matrix), solved by
     /// `solver`, with adaptive refinement rounds between solves. Cost ∝ n².
     Matrix,
@@ -29,10 +32,11 @@ pub enum Method {
 
 impl Choice for Method {
     const SETTING: &'static str = "method";
-    const ALL: &'static [Method] = &[Method::Matrix, Method::Hierarchical];
+    const ALL: &'static [Method] = &[Method::Auto, Method::Matrix, Method::Hierarchical];
 
     fn name(self) -> &'static str {
         match self {
+            Method::Auto => "auto",
             Method::Matrix => "matrix",
             Method::Hierarchical => "hierarchical",
         }
@@ -40,6 +44,7 @@ impl Choice for Method {
 
     fn description(self) -> &'static str {
         match self {
+            Method::Auto => "matrix up to 10,000 patches, hierarchical beyond",
             Method::Matrix => {
                 "form factors between every pair of patches, a sparse matrix: cost ∝ n²"
             }
@@ -55,6 +60,17 @@ impl fmt::Display for Method {
         f.write_str(self.name())
     }
 }
+
+/// `method = auto` takes the matrix method for a scene that cuts into at most this many
+/// patches at its `max_edge`, and the hierarchical solver beyond. The matrix method's pair
+/// loop and memory grow as patches² (and its refinement rounds add about 60 %): the default
+/// Cornell box (4,004 patches, 6,481 after refinement) takes 8 s; at `--max-edge 35` (14,811
+/// after refinement) 17 s and 1.9 GiB without the gather; at `--max-edge 25` (17,285) 80 s
+/// and 3.2 GiB; the generated hall of 10⁴ triangles (27,517 patches) 110 s. The hierarchical
+/// solver grows as the elements (BENCHMARKS.md: the hall of 10⁴ triangles in 4 s), but on the
+/// small benchmark scene the matrix method has the lower error at equal time, so small
+/// scenes keep it.
+pub const AUTO_MATRIX_MAX_PATCHES: usize = 10_000;
 
 /// Everything that controls a bake.
 #[derive(Debug, Clone)]
@@ -100,7 +116,7 @@ pub struct Settings {
 impl Default for Settings {
     fn default() -> Self {
         Settings {
-            method: Method::Matrix,
+            method: Method::Auto,
             hierarchical: hierarchical::Settings::default(),
             max_edge: None,
             form_factors: form_factor::Settings::default(),
@@ -111,7 +127,7 @@ impl Default for Settings {
             refine_threshold: refine::DEFAULT_THRESHOLD,
             cache: None,
             discontinuities: mesh::Discontinuities::Auto,
-            gather: Gather::Full,
+            gather: Gather::Auto,
             gather_rays: None,
             gather_tolerance: crate::gather::refine::DEFAULT_TOLERANCE,
         }
@@ -119,6 +135,29 @@ impl Default for Settings {
 }
 
 impl Settings {
+    /// These settings with `method = auto` resolved for `scene`: `matrix` when the scene cuts
+    /// into at most [`AUTO_MATRIX_MAX_PATCHES`] patches at the matrix method's `max_edge` (the
+    /// given one, or [`mesh::default_max_edge`]), or when a form-factor cache is given (it
+    /// stores a matrix); else `hierarchical`. Other methods are kept.
+    pub fn resolved(&self, scene: &crate::scene::Scene) -> Result<Settings> {
+        let mut s = self.clone();
+        if s.method == Method::Auto {
+            s.method = if s.cache.is_some() {
+                Method::Matrix
+            } else {
+                let max_edge = s.max_edge.unwrap_or_else(|| mesh::default_max_edge(scene));
+                let sides = if s.two_sided { 2 } else { 1 };
+                let n = sides * mesh::subdivide(scene, max_edge, s.crease_degrees)?.len();
+                if n <= AUTO_MATRIX_MAX_PATCHES {
+                    Method::Matrix
+                } else {
+                    Method::Hierarchical
+                }
+            };
+        }
+        Ok(s)
+    }
+
     /// Checks every range before any work: `max_edge` (when given) finite and > 0,
     /// `crease_degrees` in [0, 180], `refine_threshold` finite and > 0, and the form-factor and
     /// solver settings ([`form_factor::Settings::validate`], [`solve::Settings::validate`]).
@@ -161,14 +200,14 @@ impl Settings {
         }
         self.form_factors.validate()?;
         self.solver.validate()?;
-        if self.method == Method::Hierarchical {
+        if self.method != Method::Matrix {
             self.hierarchical.validate()?;
-            if self.cache.is_some() {
-                return Err(Error::setting(
-                    "cache",
-                    "the form-factor cache stores a matrix: it applies to method matrix only",
-                ));
-            }
+        }
+        if self.method == Method::Hierarchical && self.cache.is_some() {
+            return Err(Error::setting(
+                "cache",
+                "the form-factor cache stores a matrix: it applies to method matrix only",
+            ));
         }
         Ok(())
     }

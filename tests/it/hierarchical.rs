@@ -177,6 +177,7 @@ fn the_matrix_method_agrees_on_a_room() {
     let matrix = run(
         &scene,
         &pipeline::Settings {
+            method: Method::Matrix, // `auto` would take the hierarchy for 17k patches
             max_edge: Some(0.05),
             refine_rounds: 0,
             ..pipeline::Settings::default()
@@ -359,4 +360,30 @@ fn clusters_do_not_light_faces_turned_away() {
     }
     assert_eq!(top, 0.0, "the top faces away from the only light");
     assert!(bottom > 0.01, "the bottom faces it: {bottom}");
+}
+
+/// `method = auto` (the default) takes the matrix method for a scene of few patches and the
+/// hierarchy beyond [`pipeline::AUTO_MATRIX_MAX_PATCHES`] (here the furnace room cut finely);
+/// a form-factor cache, which stores a matrix, keeps the matrix method; a chosen method stays.
+#[test]
+fn auto_takes_the_matrix_for_few_patches_and_the_hierarchy_beyond() {
+    let scene = scenes::furnace_room(0.5, 1.0).unwrap();
+    let auto = pipeline::Settings::default();
+    assert_eq!(auto.method, Method::Auto);
+    assert_eq!(auto.resolved(&scene).unwrap().method, Method::Matrix);
+    let fine = pipeline::Settings {
+        max_edge: Some(0.02),
+        ..auto.clone()
+    };
+    assert_eq!(fine.resolved(&scene).unwrap().method, Method::Hierarchical);
+    let cached = pipeline::Settings {
+        cache: Some(std::env::temp_dir()),
+        ..fine.clone()
+    };
+    assert_eq!(cached.resolved(&scene).unwrap().method, Method::Matrix);
+    let chosen = pipeline::Settings {
+        method: Method::Matrix,
+        ..fine
+    };
+    assert_eq!(chosen.resolved(&scene).unwrap().method, Method::Matrix);
 }
