@@ -131,7 +131,8 @@ pub const MIN_AUTO_RAYS: usize = 64;
 /// from patches fine enough that their own radiance, averaged to the vertices, shows more
 /// truly than a gather of so few rays a vertex (whose noise is then the larger error), and the
 /// gather's cost would grow with the vertices past its budget. Measured on the Cornell box
-/// baked hierarchically at ε = 3e-7 (226,811 leaves, 220,935 vertices) against its 2,000
+/// baked hierarchically at ε = 3e-7 (226,811 leaves, 137,927 vertices; 220,935 after the
+/// display refinement of `full`) against its 2,000
 /// path-traced probes: no gather, displayed RMS 3.25 % (median 0.60 %) in 16 s; `full` with
 /// 64 rays, 3.88 % (median 1.38 %) in 35 s; `direct`, 3.26 % in 83 s.
 pub const FULL_GATHER_MAX_VERTICES: usize = AUTO_RAY_BUDGET / MIN_AUTO_RAYS;
