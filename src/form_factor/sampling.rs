@@ -201,6 +201,39 @@ pub fn point_above(
     Some(x + b[0] * clipped[0] + b[1] * clipped[i] + b[2] * clipped[i + 1])
 }
 
+/// `count` stratified points y of the part of the triangle `corners` (unit front normal
+/// `normal`) above the horizon of the point `x` (unit normal `n`), each passed to `visit` with
+/// its point-pair kernel G = cosθ_x cosθ_y / r² ([`point_above`]; points where G = 0 are left
+/// out). Σ G V / Σ G over them, V the visibility of the segment x–y, is the visible share of
+/// the form factor from x to the triangle: what shadow rays to an emitter estimate (the final
+/// gather's, [`crate::gather`], and the hierarchy's elements', [`crate::hierarchical::direct`]).
+/// `scratch` holds the barycentrics between calls.
+#[allow(clippy::too_many_arguments)]
+pub fn kernel_samples(
+    corners: &[DVec3; 3],
+    normal: DVec3,
+    x: DVec3,
+    n: DVec3,
+    count: usize,
+    rng: &mut Rng,
+    scratch: &mut Vec<[f64; 3]>,
+    mut visit: impl FnMut(DVec3, f64),
+) {
+    scratch.clear();
+    stratified_triangle_barycentrics(count, rng, scratch);
+    for &b in scratch.iter() {
+        let Some(y) = point_above(corners, x, n, b, rng) else {
+            continue;
+        };
+        let d = y - x;
+        let r2 = d.length_squared();
+        let g = n.dot(d).max(0.0) * (-normal.dot(d)).max(0.0) / (r2 * r2);
+        if g > 0.0 {
+            visit(y, g);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -13,9 +13,9 @@
 //! - **direct** (every emitting scene triangle e): F(x → e) the exact unoccluded
 //!   point-to-polygon form factor ([`point_to_polygon`], Lambert's contour integral, clipped to
 //!   x's horizon) and V̄ the fraction of shadow rays that reach stratified points of the part
-//!   of e above the horizon ([`point_above`]). Adaptive: [`SHADOW_RAYS`] rays, and when they
-//!   disagree (x is in a penumbra) up to [`MAX_SHADOW_RAYS`]. Unoccluded, the direct term is
-//!   exact to rounding.
+//!   of e above the horizon ([`kernel_samples`]). Adaptive: [`SHADOW_RAYS`] rays, and when
+//!   they disagree (x is in a penumbra) up to [`MAX_SHADOW_RAYS`]. Unoccluded, the direct term
+//!   is exact to rounding.
 //! - **indirect** (`full` only): stratified cosine-weighted rays over the hemisphere (Malley's
 //!   method), each bringing the *reflected* radiance L − Le of the output patch it hits (the
 //!   emitted part is the direct term's); a miss or the back of a surface brings nothing.
@@ -42,9 +42,7 @@ use crate::bake::Site;
 use crate::choice::Choice;
 use crate::color::Rgb;
 use crate::form_factor::kernel::point_to_polygon;
-use crate::form_factor::sampling::{
-    gauss_rule, malley, point_above, stratified_triangle_barycentrics, Rng,
-};
+use crate::form_factor::sampling::{gauss_rule, kernel_samples, malley, Rng};
 use crate::mesh::Patches;
 use crate::scene::Scene;
 use crate::visibility::{Visibility, NONE};
@@ -299,18 +297,8 @@ impl<'a> Gatherer<'a> {
             // matters for a large emitter close by, where an area fraction would not do).
             let (mut seen, mut total, mut agree) = (0.0f64, 0.0f64, [false, false]);
             for round in [SHADOW_RAYS, max_rays.saturating_sub(SHADOW_RAYS)] {
-                targets.clear();
-                stratified_triangle_barycentrics(round, rng, &mut targets);
-                for &b in &targets {
-                    let Some(y) = point_above(&e.corners, x, n, b, rng) else {
-                        continue;
-                    };
-                    let d = y - x;
-                    let r2 = d.length_squared();
-                    let g = n.dot(d).max(0.0) * (-e.normal.dot(d)).max(0.0) / (r2 * r2);
-                    if g == 0.0 {
-                        continue;
-                    }
+                let (c, nn) = (&e.corners, e.normal);
+                kernel_samples(c, nn, x, n, round, rng, &mut targets, |y, g| {
                     total += g;
                     let to = self.vis.point(y + self.lift * e.normal);
                     let visible = !self.vis.occluded_points(&from, &to, [ignore, NONE]);
@@ -318,7 +306,7 @@ impl<'a> Gatherer<'a> {
                     if visible {
                         seen += g;
                     }
-                }
+                });
                 if !(agree[0] && agree[1]) {
                     break; // the first rays agree: wholly lit or wholly shadowed
                 }

@@ -43,7 +43,7 @@ use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
 use crate::form_factor::kernel::point_to_polygon;
-use crate::form_factor::sampling::{point_above, stratified_triangle_barycentrics, Rng};
+use crate::form_factor::sampling::{kernel_samples, Rng};
 use crate::mesh::Patches;
 use crate::visibility::Visibility;
 
@@ -196,25 +196,15 @@ pub fn element_direct(
             }
             let v = if shadows {
                 let (mut seen, mut all) = (0.0, 0.0);
-                targets.clear();
                 let rays = shadow_rays(x, n, em);
-                stratified_triangle_barycentrics(rays, &mut rng, &mut targets);
-                for &b in &targets {
-                    let Some(y) = point_above(&em.corners, x, n, b, &mut rng) else {
-                        continue;
-                    };
-                    let d = y - x;
-                    let r2 = d.length_squared();
-                    let g = n.dot(d).max(0.0) * (-em.normal.dot(d)).max(0.0) / (r2 * r2);
-                    if g == 0.0 {
-                        continue;
-                    }
+                let (c, nn) = (&em.corners, em.normal);
+                kernel_samples(c, nn, x, n, rays, &mut rng, &mut targets, |y, g| {
                     all += g;
                     out.rays += 1;
                     if !occluders.occluded(x, y, [root, em.root]) {
                         seen += g;
                     }
-                }
+                });
                 if all > 0.0 {
                     seen / all
                 } else {

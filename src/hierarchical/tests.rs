@@ -325,15 +325,18 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
     let exact = kernel_weighted(6);
     assert!((exact - kernel_weighted(5)).abs() < 1e-3 * exact);
 
-    // Split the source and give every element its mean radiance.
+    // Split the source and give every element its mean radiance (linear L: at its centroid).
+    let at_centroids = |h: &mut Hierarchy| {
+        h.update_new_elements();
+        h.elem_l = h
+            .tree
+            .elements
+            .iter()
+            .map(|e| [radiance(e.centroid); 3])
+            .collect();
+    };
     h.tree.split(s);
-    h.update_new_elements();
-    h.elem_l = h
-        .tree
-        .elements
-        .iter()
-        .map(|e| [radiance(e.centroid); 3])
-        .collect();
+    at_centroids(&mut h);
     let mean = h.elem_l[s][0];
     let weighted = h.link_radiance(0, &link)[0];
     let (off_mean, off_weighted) = ((mean - exact).abs(), (weighted - exact).abs());
@@ -348,13 +351,7 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
     for c in h.tree.children(Node::element(s)) {
         h.tree.split(c.as_element().unwrap());
     }
-    h.update_new_elements();
-    h.elem_l = h
-        .tree
-        .elements
-        .iter()
-        .map(|e| [radiance(e.centroid); 3])
-        .collect();
+    at_centroids(&mut h);
     h.links = vec![link];
     h.find_grandchild_shares();
     let shares = h.grandchild_shares[0];
