@@ -24,9 +24,9 @@
 //!
 //! F the exact unoccluded point-to-polygon form factor (Lambert's contour integral, clipped to
 //! x's horizon, [`point_to_polygon`]) and V̄ = Σ G_k V_k / Σ G_k over [`SHADOW_RAYS`] rays to
-//! stratified points y_k of the part of e above x's horizon ([`point_above`]), G the point-pair
-//! kernel cosθ_x cosθ_y / r²: the visible share of F itself. The element's direct light is the
-//! rule's weighted mean of D over its unburied points.
+//! stratified points y_k of the part of e above x's horizon ([`kernel_samples`]), G the
+//! point-pair kernel cosθ_x cosθ_y / r²: the visible share of F itself. The element's direct
+//! light is the rule's weighted mean of D over its unburied points.
 //!
 //! The number of rays is fixed, not adapted to what the first rays see: stopping when a few
 //! rays agree (wholly lit or wholly shadowed) makes the estimate biased, as points in a thin
