@@ -387,19 +387,8 @@ fn pick_proportional(weights: &[f64], n: usize, u: f64) -> Option<Vec<usize>> {
 /// surface errors within 0.1 % as the receiver's whole 7-point rule, at a seventh of the
 /// cost).
 fn child_shares(tree: &Tree, r: usize, s: usize) -> [u8; 4] {
-    let third = [1.0 / 3.0; 3];
-    let (x, n) = (tree.point(r, third), tree.surface_normal(r, third));
-    if (x - tree.corners(s)[0]).dot(tree.elements[s].normal) <= 0.0 {
-        return [0; 4];
-    }
-    // The children share the source's plane, so x is in front of each.
-    let through = child_corners(tree.corners(s)).map(|q| point_to_polygon(x, n, &q));
-    let total: f64 = through.iter().sum();
-    if total > 0.0 {
-        through.map(|t| (255.0 * t / total).round() as u8)
-    } else {
-        [0; 4]
-    }
+    // The children share the source's plane, so a point in front of it is in front of each.
+    centroid_shares(tree, r, s, child_corners(tree.corners(s)))
 }
 
 /// The shares of the unoccluded F from element `r`'s centroid that arrive at each of element
@@ -408,19 +397,31 @@ fn child_shares(tree: &Tree, r: usize, s: usize) -> [u8; 4] {
 /// Like [`Link::children`], one point is enough to say which parts of the source the
 /// receiver favours.
 pub fn grandchild_shares(tree: &Tree, r: usize, s: usize) -> [u8; 16] {
+    let children = child_corners(tree.corners(s));
+    let parts = std::array::from_fn(|i| child_corners(children[i / 4])[i % 4]);
+    centroid_shares(tree, r, s, parts)
+}
+
+/// The unoccluded form factor from element `r`'s centroid to each of `parts` (triangles in
+/// element `s`'s plane), as shares of their sum in 255ths (rounded); all 0 when the centroid
+/// is behind `s` or sees none of it.
+fn centroid_shares<const N: usize>(
+    tree: &Tree,
+    r: usize,
+    s: usize,
+    parts: [[DVec3; 3]; N],
+) -> [u8; N] {
     let third = [1.0 / 3.0; 3];
     let (x, n) = (tree.point(r, third), tree.surface_normal(r, third));
     if (x - tree.corners(s)[0]).dot(tree.elements[s].normal) <= 0.0 {
-        return [0; 16];
+        return [0; N];
     }
-    let children = child_corners(tree.corners(s));
-    let through: [f64; 16] =
-        std::array::from_fn(|i| point_to_polygon(x, n, &child_corners(children[i / 4])[i % 4]));
+    let through = parts.map(|q| point_to_polygon(x, n, &q));
     let total: f64 = through.iter().sum();
     if total > 0.0 {
         through.map(|t| (255.0 * t / total).round() as u8)
     } else {
-        [0; 16]
+        [0; N]
     }
 }
 

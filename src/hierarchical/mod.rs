@@ -582,50 +582,52 @@ impl<'a> Hierarchy<'a> {
     /// weighting the source's leaves however deep only to 0.61 %.
     pub fn link_radiance(&self, i: usize, l: &Link) -> Rgb {
         if let Some(e) = l.source.as_element() {
-            let first = self.tree.elements[e].first_child;
+            let first = self.tree.elements[e].first_child as usize;
             if let Some(shares) = self.grandchild_shares.get(i).filter(|s| **s != [0; 16]) {
-                let mut sum = [0.0; 3];
-                let mut total = 0.0;
+                // Each child split further gives its four children their shares; an unsplit
+                // child takes the sum of its quarter.
+                let (mut parts, mut n) = ([(0, 0.0); 16], 0);
                 for q in 0..4 {
-                    let child = first as usize + q;
-                    let quarter = &shares[4 * q..4 * q + 4];
+                    let (child, quarter) = (first + q, &shares[4 * q..4 * q + 4]);
                     let grand = self.tree.elements[child].first_child;
-                    let mut add_part = |k: usize, share: f64| {
-                        let w = share * self.visible[k];
-                        total += w;
-                        for (s, l) in sum.iter_mut().zip(self.elem_l[k]) {
-                            *s += w * l;
-                        }
-                    };
                     if grand == tree::NO_CHILD {
-                        add_part(child, quarter.iter().map(|&x| x as f64).sum());
+                        parts[n] = (child, quarter.iter().map(|&x| x as f64).sum());
+                        n += 1;
                     } else {
                         for (k, &share) in quarter.iter().enumerate() {
-                            add_part(grand as usize + k, share as f64);
+                            parts[n] = (grand as usize + k, share as f64);
+                            n += 1;
                         }
                     }
                 }
-                if total > 0.0 {
-                    return sum.map(|x| x / total);
+                let parts = parts[..n].iter().copied();
+                if let Some(l) = self.share_weighted(parts) {
+                    return l;
                 }
             }
-            if first != tree::NO_CHILD {
-                let mut sum = [0.0; 3];
-                let mut total = 0.0;
-                for (q, &share) in l.children.iter().enumerate() {
-                    let k = first as usize + q;
-                    let w = share as f64 * self.visible[k];
-                    total += w;
-                    for (s, l) in sum.iter_mut().zip(self.elem_l[k]) {
-                        *s += w * l;
-                    }
-                }
-                if total > 0.0 {
-                    return sum.map(|x| x / total);
+            if first != tree::NO_CHILD as usize {
+                let parts = (0..4).map(|q| (first + q, l.children[q] as f64));
+                if let Some(l) = self.share_weighted(parts) {
+                    return l;
                 }
             }
         }
         self.radiance(l.source)
+    }
+
+    /// Σ w·v·L / Σ w·v over (element, share w) parts, v each element's visible fraction;
+    /// `None` when the weights sum to 0.
+    fn share_weighted(&self, parts: impl Iterator<Item = (usize, f64)>) -> Option<Rgb> {
+        let mut sum = [0.0; 3];
+        let mut total = 0.0;
+        for (k, share) in parts {
+            let w = share * self.visible[k];
+            total += w;
+            for (s, l) in sum.iter_mut().zip(self.elem_l[k]) {
+                *s += w * l;
+            }
+        }
+        (total > 0.0).then(|| sum.map(|x| x / total))
     }
 
     fn radiance(&self, node: Node) -> Rgb {

@@ -139,6 +139,12 @@ impl Settings {
     /// into at most [`AUTO_MATRIX_MAX_PATCHES`] patches at the matrix method's `max_edge` (the
     /// given one, or [`mesh::default_max_edge`]), or when a form-factor cache is given (it
     /// stores a matrix); else `hierarchical`. Other methods are kept.
+    ///
+    /// The patches are counted by cutting the scene only when two lower bounds allow the
+    /// matrix: every triangle is at least one patch, and a patch whose edges are at most
+    /// `max_edge` long covers at most √3/4 · max_edge² (the equilateral triangle). A large scene,
+    /// or a small one asked for a very fine mesh, is sent to the hierarchy without making
+    /// millions of patches only to count them.
     pub fn resolved(&self, scene: &crate::scene::Scene) -> Result<Settings> {
         let mut s = self.clone();
         if s.method == Method::Auto {
@@ -147,8 +153,15 @@ impl Settings {
             } else {
                 let max_edge = s.max_edge.unwrap_or_else(|| mesh::default_max_edge(scene));
                 let sides = if s.two_sided { 2 } else { 1 };
-                let n = sides * mesh::subdivide(scene, max_edge, s.crease_degrees)?.len();
-                if n <= AUTO_MATRIX_MAX_PATCHES {
+                let area: f64 = (0..scene.triangles.len())
+                    .map(|t| scene.triangle_area(t))
+                    .sum();
+                let by_area = area / (0.75f64.sqrt() / 2.0 * max_edge * max_edge);
+                let at_least = scene.triangles.len().max(by_area.floor() as usize);
+                let few = sides * at_least <= AUTO_MATRIX_MAX_PATCHES
+                    && sides * mesh::subdivide(scene, max_edge, s.crease_degrees)?.len()
+                        <= AUTO_MATRIX_MAX_PATCHES;
+                if few {
                     Method::Matrix
                 } else {
                     Method::Hierarchical
