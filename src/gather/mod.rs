@@ -397,19 +397,12 @@ impl<'a> Gatherer<'a> {
     /// of its visible share, and noisy alone; the gather averages many such hits.
     fn reflected_at_hit(&self, y: DVec3, h: usize, exact: &[u32], rng: &mut Rng) -> Rgb {
         let ny = self.patches.normal[h];
-        // The emitters whose emission the caller's direct term counted are those `exact`
-        // names when every emitter is exact; else the hit point has its own nearest ones.
-        let own;
-        let at_y = if self.emitters.len() <= MAX_EXACT_EMITTERS {
-            exact
-        } else {
-            own = self.exact_emitters(y);
-            &own
-        };
+        // The gathering point's own exact emitters (`y` lies within a patch of it): its
+        // direct term counts their emission, the ray at `y` the others'.
         let hi = h as u32;
         let (direct, _) =
-            self.direct_first(y, ny, hi, at_y, NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS, rng);
-        let indirect = self.hemisphere(y, ny, hi, at_y, NEAR_RAYS, false, rng);
+            self.direct_first(y, ny, hi, exact, NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS, rng);
+        let indirect = self.hemisphere(y, ny, hi, exact, NEAR_RAYS, false, rng);
         let rho = self.patches.reflectance[h];
         std::array::from_fn(|c| rho[c] * (direct[c] + indirect[c]))
     }
