@@ -265,7 +265,8 @@ impl<'a> Gatherer<'a> {
     /// normal `n`) divided by π, per channel (radiance units). `ignore` is the patch `x` lies
     /// on.
     pub fn direct(&self, x: DVec3, n: DVec3, ignore: u32, rng: &mut Rng) -> Rgb {
-        self.direct_from(x, n, ignore, &self.exact_emitters(x), MAX_SHADOW_RAYS, rng)
+        let rays = (SHADOW_RAYS, MAX_SHADOW_RAYS);
+        self.direct_from(x, n, ignore, &self.exact_emitters(x), rays, rng)
             .0
     }
 
@@ -291,35 +292,20 @@ impl<'a> Gatherer<'a> {
         chosen
     }
 
-    /// [`Gatherer::direct`] from the emitters `exact` only, with up to `max_rays` shadow rays
-    /// per emitter in a penumbra (at least [`SHADOW_RAYS`]), and whether some emitter is
-    /// partly hidden (its shadow rays disagree: `x` is in a penumbra).
+    /// [`Gatherer::direct`] from the emitters `exact` only, with `first` shadow rays per
+    /// emitter and, when any emitter's disagree, up to `max` in all for every emitter
+    /// (`rays = (first, max)`), and whether some emitter is partly hidden (`x` is in a
+    /// penumbra).
     fn direct_from(
         &self,
         x: DVec3,
         n: DVec3,
         ignore: u32,
         exact: &[u32],
-        max_rays: usize,
+        (first, max_rays): (usize, usize),
         rng: &mut Rng,
     ) -> (Rgb, bool) {
-        self.direct_first(x, n, ignore, exact, SHADOW_RAYS, max_rays, rng)
-    }
-
-    /// [`Gatherer::direct_from`] with `first` shadow rays per emitter before deciding whether
-    /// `x` is in a penumbra.
-    #[allow(clippy::too_many_arguments)]
-    fn direct_first(
-        &self,
-        x: DVec3,
-        n: DVec3,
-        ignore: u32,
-        exact: &[u32],
-        first: usize,
-        max_rays: usize,
-        rng: &mut Rng,
-    ) -> (Rgb, bool) {
-        let mut targets = Vec::with_capacity(max_rays.max(SHADOW_RAYS));
+        let mut targets = Vec::with_capacity(max_rays.max(first));
         let from = self.vis.point(x + self.lift * n);
         // Per emitter in front of x: its form factor, and the G-weighted visible and total
         // weights of the shadow rays cast so far.
@@ -401,7 +387,7 @@ impl<'a> Gatherer<'a> {
         // direct term counts their emission, the ray at `y` the others'.
         let hi = h as u32;
         let (direct, _) =
-            self.direct_first(y, ny, hi, exact, NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS, rng);
+            self.direct_from(y, ny, hi, exact, (NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS), rng);
         let indirect = self.hemisphere(y, ny, hi, exact, NEAR_RAYS, false, rng);
         let rho = self.patches.reflectance[h];
         std::array::from_fn(|c| rho[c] * (direct[c] + indirect[c]))
@@ -580,8 +566,14 @@ impl Gatherer<'_> {
         rng: &mut Rng,
     ) -> (Rgb, bool, Vec<u32>) {
         let exact = self.exact_emitters(spot.x);
-        let (direct, penumbra) =
-            self.direct_from(spot.x, spot.n, spot.patch, &exact, max_rays, rng);
+        let (direct, penumbra) = self.direct_from(
+            spot.x,
+            spot.n,
+            spot.patch,
+            &exact,
+            (SHADOW_RAYS, max_rays),
+            rng,
+        );
         let rho = self.patches.reflectance[spot.patch as usize];
         (std::array::from_fn(|c| rho[c] * direct[c]), penumbra, exact)
     }
