@@ -54,7 +54,7 @@ pub mod settings;
 
 pub use burial::{is_hidden, VISIBLE_AREA_LATTICE};
 pub use needed::Needed;
-pub use occluders::occluders;
+pub use occluders::{occluders, Coarse};
 pub use pair::{FAR_FIELD_FACTOR, NEAR_FIELD_FACTOR};
 pub use reciprocity::symmetric_part;
 pub use reuse::Reuse;

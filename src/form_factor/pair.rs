@@ -23,7 +23,7 @@ use super::samples::SamplePoints;
 use super::sampling;
 use super::{Estimator, Settings};
 use crate::mesh::Patches;
-use crate::visibility::Visibility;
+use crate::visibility::{LightBuffer, Visibility};
 
 /// Pairs with squared centroid distance below this multiple of the larger patch area use the
 /// exact point-to-polygon integrand even in the `Area` estimator (Baum et al. 1989 use the
@@ -78,18 +78,25 @@ pub(super) enum Pair {
     Estimated { fij: f64, fji: f64, rays: u32 },
 }
 
-/// Scratch of one worker: per sample, whether its ray was cast and what it found (no
-/// allocation per pair).
-pub(super) struct Scratch {
+/// Scratch of one worker: per sample, whether its ray was cast and what it found, and the
+/// light buffers of the gathering patch's sample points (no allocation per pair).
+pub(super) struct Scratch<'a> {
     valid: Vec<bool>,
     visible: Vec<bool>,
+    /// One per sample point of patch `aimed`, over the blockers: a row's segments leave from
+    /// these few points towards every later patch, so each point's buffer serves thousands.
+    buffers: Vec<LightBuffer<'a>>,
+    /// The patch whose points the buffers are aimed at, or `usize::MAX`.
+    aimed: usize,
 }
 
-impl Scratch {
-    pub fn new(samples: usize) -> Scratch {
+impl<'a> Scratch<'a> {
+    fn new(samples: usize, blockers: &'a Visibility) -> Scratch<'a> {
         Scratch {
             valid: vec![false; samples],
             visible: vec![false; samples],
+            buffers: (0..samples).map(|_| LightBuffer::new(blockers)).collect(),
+            aimed: usize::MAX,
         }
     }
 }
@@ -109,7 +116,12 @@ pub(super) struct PairEstimator<'a> {
     pub geometry: &'a [PatchGeometry],
 }
 
-impl PairEstimator<'_> {
+impl<'a> PairEstimator<'a> {
+    /// A worker's scratch for [`PairEstimator::estimate`].
+    pub fn scratch(&self) -> Scratch<'a> {
+        Scratch::new(self.samples.per_patch, self.blockers)
+    }
+
     /// F_ij and F_ji of patches i < j (see the module documentation); `need_ij` / `need_ji`
     /// say which directions the solve reads (an unneeded one is left at zero).
     pub fn estimate(
@@ -117,7 +129,7 @@ impl PairEstimator<'_> {
         i: usize,
         j: usize,
         (need_ij, need_ji): (bool, bool),
-        scratch: &mut Scratch,
+        scratch: &mut Scratch<'_>,
     ) -> Pair {
         let ns = self.samples.per_patch;
         let weights = &self.samples.weights;
@@ -171,11 +183,15 @@ impl PairEstimator<'_> {
                 n_valid += 1;
                 scratch.visible[k] = self.convex || {
                     rays += 1;
-                    !self.blockers.occluded_points(
-                        &self.samples.prepared[i * ns + k],
-                        &self.samples.prepared[j * ns + ky],
-                        ignore,
-                    )
+                    if scratch.aimed != i {
+                        // The row's first ray: aim the buffers at patch i's sample points.
+                        for (kk, buffer) in scratch.buffers.iter_mut().enumerate() {
+                            buffer.aim(&self.samples.prepared[i * ns + kk], ignore[0]);
+                        }
+                        scratch.aimed = i;
+                    }
+                    // The same answer as `occluded_points(x_k, y, ignore)`, bit for bit.
+                    !scratch.buffers[k].occluded(&self.samples.prepared[j * ns + ky], ignore[1])
                 };
                 n_visible += scratch.visible[k] as u32;
             }
@@ -314,7 +330,7 @@ mod tests {
                 convex: self.convex,
                 geometry: &self.geometry,
             };
-            estimator.estimate(i, j, need, &mut Scratch::new(self.samples.per_patch))
+            estimator.estimate(i, j, need, &mut estimator.scratch())
         }
 
         /// The patches of material `m`.

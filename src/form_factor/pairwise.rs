@@ -12,7 +12,7 @@ use sprs::CsMatI;
 use super::assemble::{assemble, scale_rows, PairRows};
 use super::burial::Burial;
 use super::occluders::Coarse;
-use super::pair::{Pair, PairEstimator, PatchGeometry, Scratch};
+use super::pair::{Pair, PairEstimator, PatchGeometry};
 use super::samples::SamplePoints;
 use super::{occluders, Needed, Reuse, Settings, Stats};
 use crate::mesh::Patches;
@@ -82,7 +82,7 @@ pub(super) fn pairwise(
             progress.advance((n - i - 1) as u64);
             let (mut upper, mut lower) = (Vec::new(), Vec::new());
             let mut counts = Counts::default();
-            let mut scratch = Scratch::new(samples.per_patch);
+            let mut scratch = estimator.scratch();
             // Row i of the earlier F and of its transpose (column i), walked in step with j.
             let mut old = reuse.and_then(|r| r.rows(i));
             for j in i + 1..n {

@@ -48,6 +48,7 @@
 //! with the same winding as one of a pair) stays a separate triangle, as any coincident face does.
 
 mod bvh4;
+pub mod light_buffer;
 mod ray;
 mod twins;
 
@@ -57,6 +58,7 @@ use glam::{DVec3, Vec3A};
 use obvhs::aabb::Aabb;
 
 use bvh4::Bvh4;
+pub use light_buffer::LightBuffer;
 use ray::{snap, WatertightRay, CANONICAL_GRID, DIRECTION_GRID};
 use twins::pair_twins;
 
@@ -489,9 +491,15 @@ impl Visibility {
         if self.tris.is_empty() || p.scene == q.scene {
             return None;
         }
-        let (pc, qc) = (p.canonical, q.canonical);
-        let d = qc - pc;
-        let length = d.length();
+        let d = q.canonical - p.canonical;
+        self.segment_ray_along(p, d, d.length())
+    }
+
+    /// [`Visibility::canonical_segment_ray`] for `d = q.canonical − p.canonical` and its length,
+    /// already computed by the caller (`p.scene != q.scene` and a non-empty scene assumed).
+    #[inline(always)]
+    fn segment_ray_along(&self, p: &Point, d: DVec3, length: f64) -> Option<WatertightRay> {
+        let pc = p.canonical;
         let margin = SEGMENT_EPS.max(self.min_distance / length);
         if !(length > 0.0 && margin < 0.5) {
             return None;

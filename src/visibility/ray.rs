@@ -48,6 +48,7 @@ pub(super) struct WatertightRay {
 impl WatertightRay {
     /// Ray from `origin` along `dir` (canonical, `f64`), counting hits with
     /// `t ∈ [t_lo, t_hi]`. `None` if it cannot be represented in `f32`.
+    #[inline]
     pub fn new(origin: DVec3, dir: DVec3, t_lo: f64, t_hi: f64) -> Option<WatertightRay> {
         // `+ 0.0` turns −0.0 components into +0.0: a box test that picks the near plane by
         // `dir < 0.0` (false for −0.0) but inverts −0.0 to −∞ would send a direction such as a

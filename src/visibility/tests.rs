@@ -668,6 +668,84 @@ fn traversal_equals_brute_force_in_a_subdivided_room() {
     assert!(blocked > 150 && blocked < 1000, "{blocked} of 1500 blocked");
 }
 
+/// The light buffer (many segments from one origin) answers every segment as
+/// [`Visibility::occluded_points`] does: random scenes of one, two and four 64-triangle words
+/// and one past [`light_buffer::MAX_TRIANGLES`] (the fallback), a closed grid box whose
+/// segments run from and to its vertices and edge midpoints (through shared edges, along its
+/// faces: grazing and coplanar), twins, scenes scaled from 1e-3 to 1e3 and moved off the
+/// origin, origins on a triangle (ignored) or free, targets on triangles (ignored), free, in
+/// the origin's own plane, and the origin itself.
+#[test]
+fn light_buffer_answers_equal_single_rays() {
+    let mut rng = Rng(sampling::Rng::new(&[29]));
+    let mut scenes: Vec<Vec<[DVec3; 3]>> = [40, 100, 230, 300]
+        .into_iter()
+        .map(|n| random_scene(&mut rng, n))
+        .collect();
+    scenes.push(grid_box(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), 3));
+    let mut boxes = grid_box(DVec3::ZERO, DVec3::splat(10.0), 2);
+    boxes.extend(grid_box(dvec3(2.0, 0.0, 2.0), dvec3(5.0, 4.0, 6.0), 2));
+    scenes.push(with_twins(&boxes));
+    let (mut queries, mut blocked) = (0usize, 0usize);
+    for (s, base) in scenes.iter().enumerate() {
+        for (scale, offset) in [
+            (1.0, DVec3::ZERO),
+            (1e-3, dvec3(7.0, -3.0, 1.0)),
+            (1e3, DVec3::splat(-2e4)),
+        ] {
+            let tris: Vec<[DVec3; 3]> =
+                base.iter().map(|t| t.map(|v| v * scale + offset)).collect();
+            let vis = Visibility::build(&tris);
+            let special = edge_and_vertex_targets(&tris);
+            let mut buffer = LightBuffer::new(&vis);
+            for o in 0..24 {
+                // Origins: on a triangle (ignored), at a vertex or edge midpoint, or free.
+                let (origin, ig0) = match o % 3 {
+                    0 => {
+                        let i = rng.index(tris.len());
+                        (rng.on_triangle(&tris[i]), i as u32)
+                    }
+                    1 => (special[rng.index(special.len())], NONE),
+                    _ => (rng.vec(-1.0, 11.0) * scale + offset, NONE),
+                };
+                let p = vis.point(origin);
+                buffer.aim(&p, ig0);
+                for k in 0..400 {
+                    let (target, ig1) = match k % 5 {
+                        0 | 1 => {
+                            let j = rng.index(tris.len());
+                            (rng.on_triangle(&tris[j]), j as u32)
+                        }
+                        2 => (special[rng.index(special.len())], NONE),
+                        3 if ig0 != NONE => {
+                            // In the origin's own plane: a grazing or coplanar segment.
+                            let t = &tris[ig0 as usize];
+                            let (u, v) = (rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+                            (t[0] + u * (t[1] - t[0]) + v * (t[2] - t[0]), NONE)
+                        }
+                        3 => (origin, NONE),
+                        _ => (rng.vec(-1.0, 11.0) * scale + offset, NONE),
+                    };
+                    let q = vis.point(target);
+                    let expected = vis.occluded_points(&p, &q, [ig0, ig1]);
+                    assert_eq!(
+                        buffer.occluded(&q, ig1),
+                        expected,
+                        "scene {s} scale {scale}: {origin} (ignoring {ig0}) -> {target} (ignoring {ig1})"
+                    );
+                    queries += 1;
+                    blocked += expected as usize;
+                }
+            }
+        }
+    }
+    // Both answers are exercised in earnest.
+    assert!(
+        blocked > queries / 10 && blocked < queries * 9 / 10,
+        "{blocked} of {queries}"
+    );
+}
+
 /// `cargo test --release -- --ignored --nocapture throughput`
 #[test]
 #[ignore]
