@@ -69,7 +69,7 @@ struct Node {
 /// lanes (a repeated test gives the repeated answer).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-pub(super) struct Packet {
+struct Packet {
     v: [[f32x4; 3]; 3],
     prim: [u32; 4],
 }
@@ -88,7 +88,7 @@ pub(super) struct Bvh4 {
 }
 
 /// The ray as the four-lane tests need it, prepared once per query.
-pub(super) struct Ray4 {
+struct Ray4 {
     /// Origin, each coordinate in every lane.
     origin: [f32x4; 3],
     /// Per axis: 1/direction (a large finite value for a zero component).
@@ -102,7 +102,7 @@ pub(super) struct Ray4 {
 }
 
 impl Ray4 {
-    pub(super) fn new(ray: &WatertightRay) -> Ray4 {
+    fn new(ray: &WatertightRay) -> Ray4 {
         let inv = |d: f32| {
             // A zero component gets a large finite inverse: the slab is then all or nothing
             // (no 0·∞ = NaN), decided by whether the origin lies between the planes.
@@ -164,7 +164,7 @@ impl Ray4 {
     /// (a lane whose edge function is exactly zero has all three recomputed in `f64`, as
     /// there).
     #[inline(always)]
-    pub(super) fn hits(&self, p: &Packet, t_lo: f32, t_hi: f32) -> u32 {
+    fn hits(&self, p: &Packet, t_lo: f32, t_hi: f32) -> u32 {
         let (a, b, c) = (self.corner(p, 0), self.corner(p, 1), self.corner(p, 2));
         let mut e0 = c[0] * b[1] - c[1] * b[0];
         let mut e1 = a[0] * c[1] - a[1] * c[0];
@@ -436,7 +436,7 @@ impl Node {
 
 impl Packet {
     /// The packet of triangles `ids` (one to four) of `tris`, the last repeated in unused lanes.
-    pub(super) fn new(tris: &[[Vec3A; 3]], ids: &[u32]) -> Packet {
+    fn new(tris: &[[Vec3A; 3]], ids: &[u32]) -> Packet {
         debug_assert!((1..=4).contains(&ids.len()));
         let prim: [u32; 4] = std::array::from_fn(|i| ids[i.min(ids.len() - 1)]);
         let v = std::array::from_fn(|c| {

@@ -42,14 +42,14 @@ pub const MAX_TRIANGLES: usize = 256;
 /// to spare (1/16: about 6e-5 of the scene's extent, far above the `f32` rounding of rays and
 /// triangles in the canonical frame, ≲ 1e-3 canonical units, and four times the BVH's box
 /// padding).
-const SLACK: f64 = 1.0 / 16.0;
+pub const SLACK: f64 = 1.0 / 16.0;
 
 /// Triangles closer to the origin than this many [`SLACK`]s are candidates in every cell.
-const NEAR: f64 = 16.0;
+pub const NEAR: f64 = 16.0;
 
 /// Widening of each cell range in cube-map coordinates (which lie in [−1, 1]), far above the
 /// rounding of one `f64` division.
-const CELL_EPS: f64 = 1e-9;
+pub const CELL_EPS: f64 = 1e-9;
 
 /// The light buffer of one origin over the triangles of a [`Visibility`] (see the module
 /// documentation). Invariant once aimed: `cells` holds `6·CELLS²·words` words, bit `t` of cell
@@ -310,9 +310,18 @@ impl<'a> LightBuffer<'a> {
         let vis = self.vis;
         let length = d.length();
         let last = self.last.get();
+        // The segment can reach triangle t and crosses its plane (conservative by SLACK).
+        let crosses = |t: usize| {
+            let (normal, offset) = self.planes[t];
+            let (hp, hq) = (self.side[t], normal.dot(q.canonical) - offset);
+            self.near[t] <= length
+                && hp.min(hq) <= SLACK
+                && hp.max(hq) >= -SLACK
+                && !vis.ignored(t, both)
+        };
         let cached = last != usize::MAX && masks[last / 64] >> (last % 64) & 1 == 1;
         let mut ray = None;
-        if cached && !vis.ignored(last, both) {
+        if cached && crosses(last) {
             let Some(r) = vis.segment_ray_along(p, d, length) else {
                 return false;
             };
@@ -321,22 +330,13 @@ impl<'a> LightBuffer<'a> {
             }
             ray = Some(r);
         }
-        // The cell's triangles that pass the cheap culls.
+        // The cell's other triangles that the segment crosses.
         for (w, &mask) in masks.iter().enumerate() {
             let mut bits = mask;
             while bits != 0 {
                 let t = w * 64 + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                // The segment ends before the triangle, or both ends lie clearly on one side
-                // of its plane: no crossing.
-                let (normal, offset) = self.planes[t];
-                let (hp, hq) = (self.side[t], normal.dot(q.canonical) - offset);
-                if t == last
-                    || self.near[t] > length
-                    || (hp > SLACK && hq > SLACK)
-                    || (hp < -SLACK && hq < -SLACK)
-                    || vis.ignored(t, both)
-                {
+                if t == last || !crosses(t) {
                     continue;
                 }
                 if ray.is_none() {

@@ -223,7 +223,7 @@ fn form_factor_workloads(args: &Args) -> Result<String> {
     let cases: [(&str, &Scene, f64, usize); 3] = [
         ("Cornell box", &cornell, 67.5, 3),
         ("Cornell box", &cornell, 33.8, 40),
-        ("furnished hall, 10⁴ triangles", &hall, 1.0, 8),
+        ("furnished hall, 10⁴ triangles", &hall, 1.0, 24),
     ];
     for (name, scene, max_edge, stride) in cases {
         let (patches, tris, rows) = form_factor_workload(scene, max_edge, stride)?;
