@@ -24,8 +24,8 @@
 //!
 //! A buffer holds one bit per triangle and cell, so it serves triangle sets of at most
 //! [`MAX_TRIANGLES`] (the form factors' occluders are the scene triangles off the convex hull:
-//! 22 in the Cornell box); beyond that, and with no triangles, every query falls back to
-//! [`Visibility::occluded_points`]. Its memory is reused between origins (no allocation per
+//! 22 in the Cornell box); beyond that every query tries the last occluder and then traverses
+//! the BVH as [`Visibility::occluded_points`] does. Its memory is reused between origins (no allocation per
 //! origin or per segment). Measured in BENCHMARKS.md ("Visibility").
 
 use glam::DVec3;
@@ -278,6 +278,36 @@ impl<'a> LightBuffer<'a> {
         }
     }
 
+    /// Too many triangles for cells: [`Visibility::occluded_points`] through the BVH, after the
+    /// last occluder (the cache serves here too; the many-occluder rows of a furnished hall
+    /// are blocked one segment in two, mostly by the triangle that blocked the one before).
+    fn occluded_by_bvh(&self, p: &Point, q: &Point, both: [u32; 2]) -> bool {
+        let vis = self.vis;
+        let Some(ray) = vis.canonical_segment_ray(p, q) else {
+            return false;
+        };
+        let last = self.last.get();
+        if last != usize::MAX
+            && !vis.ignored(last, both)
+            && ray.intersect(&vis.tris[last], ray.t_lo, ray.t_hi).is_some()
+        {
+            return true;
+        }
+        // The BVH calls the filter only for triangles the ray meets: one that passes blocks.
+        let blocker = std::cell::Cell::new(usize::MAX);
+        let blocked = vis.bvh.any_hit(&ray, |i| {
+            let blocks = !vis.ignored(i, both);
+            if blocks {
+                blocker.set(i);
+            }
+            blocks
+        });
+        if blocked {
+            self.last.set(blocker.get());
+        }
+        blocked
+    }
+
     /// [`Visibility::occluded_points`]`(origin, q, [ignore of aim, ignore])`, the same answer
     /// bit for bit, testing only the triangles of the segment's cell.
     ///
@@ -291,7 +321,7 @@ impl<'a> LightBuffer<'a> {
             .expect("LightBuffer::aim before occluded");
         let both = [self.ignore, ignore];
         if self.words == 0 {
-            return self.vis.occluded_points(p, q, both);
+            return self.occluded_by_bvh(p, q, both);
         }
         let d = q.canonical - p.canonical;
         if d == DVec3::ZERO {
@@ -352,5 +382,34 @@ impl<'a> LightBuffer<'a> {
             }
         }
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A direction's cell does not depend on the sign of its zero components (a segment's
+    /// direction is a difference, never −0.0, but the lookup must not care), and each face's
+    /// cells are where the face's axis is largest.
+    #[test]
+    fn cells_ignore_the_sign_of_zero() {
+        for d in [
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, -2.0, 0.0),
+            DVec3::new(0.5, 0.0, -3.0),
+            DVec3::new(0.0, 1.0, 1.0),
+        ] {
+            let flipped = DVec3::new(
+                if d.x == 0.0 { -0.0 } else { d.x },
+                if d.y == 0.0 { -0.0 } else { d.y },
+                if d.z == 0.0 { -0.0 } else { d.z },
+            );
+            assert_eq!(cell_of(d), cell_of(flipped), "{d}");
+        }
+        // +x, −y and −z faces: 0, 3 and 5.
+        assert_eq!(cell_of(DVec3::new(1.0, 0.0, 0.0)) / (CELLS * CELLS), 0);
+        assert_eq!(cell_of(DVec3::new(0.1, -2.0, 0.3)) / (CELLS * CELLS), 3);
+        assert_eq!(cell_of(DVec3::new(0.5, 0.0, -3.0)) / (CELLS * CELLS), 5);
     }
 }
