@@ -78,49 +78,52 @@ pub(super) fn pairwise(
         crate::progress::stage("form factors", Some((n * n.saturating_sub(1) / 2) as u64));
     let tasks: Vec<(PairRows, Counts)> = (0..n)
         .into_par_iter()
-        .map(|i| {
-            progress.advance((n - i - 1) as u64);
-            let (mut upper, mut lower) = (Vec::new(), Vec::new());
-            let mut counts = Counts::default();
-            let mut scratch = estimator.scratch();
-            // Row i of the earlier F and of its transpose (column i), walked in step with j.
-            let mut old = reuse.and_then(|r| r.rows(i));
-            for j in i + 1..n {
-                let need = (needed.entry(i, j), needed.entry(j, i));
-                if need == (false, false) {
-                    counts.skipped += 1;
-                    continue;
-                }
-                let oj = reuse.map_or(NONE, |r| r.old_of_new[j]);
-                if let Some(rows) = old.as_mut().filter(|_| oj != NONE) {
-                    // Both unchanged: the earlier entries, back to the unscaled form (rows are
-                    // divided by the visible weight below).
-                    counts.reused += 1;
-                    let (fij, fji) = rows.next(oj);
-                    if need.0 && fij > 0.0 {
-                        upper.push((j as u32, (fij * visible[i]) as f32));
+        // One scratch per worker (its light buffers are re-aimed at each row's points).
+        .map_init(
+            || estimator.scratch(),
+            |scratch, i| {
+                progress.advance((n - i - 1) as u64);
+                let (mut upper, mut lower) = (Vec::new(), Vec::new());
+                let mut counts = Counts::default();
+                // Row i of the earlier F and of its transpose (column i), walked in step with j.
+                let mut old = reuse.and_then(|r| r.rows(i));
+                for j in i + 1..n {
+                    let need = (needed.entry(i, j), needed.entry(j, i));
+                    if need == (false, false) {
+                        counts.skipped += 1;
+                        continue;
                     }
-                    if need.1 && fji > 0.0 {
-                        lower.push((j as u32, (fji * visible[j]) as f32));
-                    }
-                    continue;
-                }
-                match estimator.estimate(i, j, need, &mut scratch) {
-                    Pair::Culled => counts.culled += 1,
-                    Pair::Estimated { fij, fji, rays } => {
-                        counts.rays += rays as u64;
-                        // An unneeded direction is zero (its gathering points count as buried).
-                        if fij > 0.0 {
-                            upper.push((j as u32, fij as f32));
+                    let oj = reuse.map_or(NONE, |r| r.old_of_new[j]);
+                    if let Some(rows) = old.as_mut().filter(|_| oj != NONE) {
+                        // Both unchanged: the earlier entries, back to the unscaled form (rows are
+                        // divided by the visible weight below).
+                        counts.reused += 1;
+                        let (fij, fji) = rows.next(oj);
+                        if need.0 && fij > 0.0 {
+                            upper.push((j as u32, (fij * visible[i]) as f32));
                         }
-                        if fji > 0.0 {
-                            lower.push((j as u32, fji as f32));
+                        if need.1 && fji > 0.0 {
+                            lower.push((j as u32, (fji * visible[j]) as f32));
+                        }
+                        continue;
+                    }
+                    match estimator.estimate(i, j, need, scratch) {
+                        Pair::Culled => counts.culled += 1,
+                        Pair::Estimated { fij, fji, rays } => {
+                            counts.rays += rays as u64;
+                            // An unneeded direction is zero (its gathering points count as buried).
+                            if fij > 0.0 {
+                                upper.push((j as u32, fij as f32));
+                            }
+                            if fji > 0.0 {
+                                lower.push((j as u32, fji as f32));
+                            }
                         }
                     }
                 }
-            }
-            ((upper, lower), counts)
-        })
+                ((upper, lower), counts)
+            },
+        )
         .collect();
 
     let mut rows = Vec::with_capacity(n);

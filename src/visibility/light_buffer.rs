@@ -190,13 +190,14 @@ impl<'a> LightBuffer<'a> {
         } else {
             n.div_ceil(64)
         };
+        // Triangles with per-triangle tables: all of them when there are cells, else none.
+        let m = if words == 0 { 0 } else { n };
         LightBuffer {
             vis,
             words,
             cells: vec![0; 6 * CELLS * CELLS * words],
-            near: vec![0.0; n],
-            spheres: vis
-                .tris
+            near: vec![0.0; m],
+            spheres: vis.tris[..m]
                 .iter()
                 .map(|tri| {
                     let [a, b, c] = tri.map(|v| v.as_dvec3());
@@ -208,8 +209,7 @@ impl<'a> LightBuffer<'a> {
                     (centre, r * (1.0 + 1e-9))
                 })
                 .collect(),
-            planes: vis
-                .tris
+            planes: vis.tris[..m]
                 .iter()
                 .map(|tri| {
                     let [a, b, c] = tri.map(|v| v.as_dvec3());
@@ -217,7 +217,7 @@ impl<'a> LightBuffer<'a> {
                     (normal, normal.dot(a))
                 })
                 .collect(),
-            side: vec![0.0; n],
+            side: vec![0.0; m],
             origin: None,
             last: std::cell::Cell::new(usize::MAX),
             ignore: super::NONE,
