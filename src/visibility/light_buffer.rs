@@ -325,16 +325,12 @@ impl<'a> LightBuffer<'a> {
         }
         let d = q.canonical - p.canonical;
         if d == DVec3::ZERO {
-            // No segment: never occluded (as `occluded_points`).
+            // No segment (equal points among them): never occluded, as `occluded_points`.
             return false;
         }
         let cell = cell_of(d);
         let masks = &self.cells[cell * self.words..(cell + 1) * self.words];
         if masks.iter().all(|&m| m == 0) {
-            return false;
-        }
-        if p.scene == q.scene {
-            // No segment (as `occluded_points`).
             return false;
         }
         let vis = self.vis;
