@@ -164,6 +164,9 @@ pub enum SceneKind {
     /// A furnished hall for measuring scale: tables and chairs on a grid, area lights under
     /// the ceiling, at least --triangles triangles (metres).
     Hall,
+    /// A living room (432 triangles, metres, z up): ceiling panel and wall lamp, sofa,
+    /// bookshelf, coffee table and a ball; the point-wise benchmark's untuned scene.
+    LivingRoom,
 }
 
 /// Options of `radiosity generate`.

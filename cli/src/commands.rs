@@ -180,6 +180,7 @@ pub fn generate(args: &GenerateArgs) -> Result<u8, Failure> {
             }
             scenes::furnished_hall(args.triangles)?
         }
+        SceneKind::LivingRoom => scenes::living_room()?,
     };
     io::obj::save(&scene, &args.output)?;
     Ok(0)

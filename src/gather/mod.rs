@@ -15,10 +15,14 @@
 //!   x's horizon) and V̄ the fraction of shadow rays that reach stratified points of the part
 //!   of e above the horizon ([`kernel_samples`]). Adaptive: [`SHADOW_RAYS`] rays per emitter,
 //!   and when any emitter's rays disagree (x is in a penumbra) up to [`MAX_SHADOW_RAYS`] for
-//!   every emitter. Unoccluded, the direct term is exact to rounding.
+//!   every emitter. With more than [`MAX_EXACT_EMITTERS`] emitters, the others that are small
+//!   as seen from x ([`SAMPLED_SPREAD`]) share [`OTHER_LIGHT_SAMPLES`] shadow rays, drawn in
+//!   proportion to Le·F (many-light next-event estimation), and the large near ones are left
+//!   to the hemisphere rays. Unoccluded, the direct term is exact to rounding.
 //! - **indirect** (`full` only): stratified cosine-weighted rays over the hemisphere (Malley's
 //!   method), each bringing the *reflected* radiance L − Le of the output patch it hits (the
-//!   emitted part is the direct term's); a miss or the back of a surface brings nothing. A
+//!   emitted part is the direct term's, unless the emitter is one left to these rays); a miss
+//!   or the back of a surface brings nothing. A
 //!   hit closer than the hit patch's size ([`NEAR_HIT`]: a concave corner) brings instead the
 //!   radiance at the hit point, one bounce further (its direct light by one shadow ray per
 //!   emitter, its indirect by one ray reading the patches).
@@ -178,9 +182,31 @@ pub const NEAR_RAYS: usize = 1;
 
 /// Emitters whose direct light is computed exactly at a point, at most: with more in the
 /// scene, the ones with the largest bound on their contribution (Le · A / (π d²), d the
-/// distance to the emitter's centre less its radius); the others' light arrives through the
-/// hemisphere rays (`full`) or the patches' solved radiance (`direct`).
+/// distance to the emitter's centre less its radius); the others' light is estimated by
+/// [`OTHER_LIGHT_SAMPLES`] shadow rays to emitters drawn in proportion to their unoccluded
+/// contribution (those small as seen from the point, [`SAMPLED_SPREAD`]) or by the hemisphere
+/// rays (the large near ones).
 pub const MAX_EXACT_EMITTERS: usize = 8;
+
+/// Shadow rays at a point for the emitters beyond its [`MAX_EXACT_EMITTERS`]: each ray goes to
+/// an emitter drawn with probability ∝ Le_max · F(x → e) (the exact unoccluded form factor;
+/// systematic sampling over the emitters' cumulative weights, Kitagawa 1996), so the estimate
+/// Σ Le F V̂ / (N p) carries only the noise of visibility: a point that sees all of them
+/// unoccluded gets their light exactly. Next-event estimation over many lights (Shirley, Wang
+/// & Zimmerman, "Monte Carlo techniques for direct lighting calculations", TOG 1996).
+/// Before it, a hemisphere ray brought such an emitter's Le when it happened to hit one: in
+/// the generated hall (162 lights) the gather at the probes themselves (no interpolation,
+/// hierarchical ε 1e-4) was 13.7 % RMS at 256 rays and 7.2 % at 1024, the small bright
+/// lights' noise; with these rays 4.7 % at 256, of which −3.1 % is the solution's bias.
+pub const OTHER_LIGHT_SAMPLES: usize = 16;
+
+/// An emitter beyond a point's exact ones is sampled by [`OTHER_LIGHT_SAMPLES`] when its radius
+/// is at most this fraction of its distance (a cone of half-angle under 15°), else left to the
+/// hemisphere rays. One ray to a uniform point of a large near emitter weights its parts by
+/// area instead of by the kernel G, and is noisy: in the furnace room (every wall emits),
+/// sampling all of them gave a mean error of −0.23 % and an RMS of 1.4 % over the vertices,
+/// against −0.003 % and 0.1 % with this split.
+pub const SAMPLED_SPREAD: f64 = 0.25;
 
 /// Shadow rays start [`LIFT`] × the scene's extent above the surface point and end as far
 /// in front of the emitter point they aim at, so a ray that grazes a surface (from a point
@@ -265,7 +291,7 @@ impl<'a> Gatherer<'a> {
     /// normal `n`) divided by π, per channel (radiance units). `ignore` is the patch `x` lies
     /// on.
     pub fn direct(&self, x: DVec3, n: DVec3, ignore: u32, rng: &mut Rng) -> Rgb {
-        let rays = (SHADOW_RAYS, MAX_SHADOW_RAYS);
+        let rays = (SHADOW_RAYS, MAX_SHADOW_RAYS, OTHER_LIGHT_SAMPLES);
         self.direct_from(x, n, ignore, &self.exact_emitters(x), rays, rng)
             .0
     }
@@ -292,17 +318,17 @@ impl<'a> Gatherer<'a> {
         chosen
     }
 
-    /// [`Gatherer::direct`] from the emitters `exact` only, with `first` shadow rays per
-    /// emitter and, when any emitter's disagree, up to `max` in all for every emitter
-    /// (`rays = (first, max)`), and whether some emitter is partly hidden (`x` is in a
-    /// penumbra).
+    /// [`Gatherer::direct`]: the emitters `exact` with `first` shadow rays per emitter and,
+    /// when any emitter's disagree, up to `max` in all for every emitter, and the other
+    /// emitters by `others` shadow rays in all ([`OTHER_LIGHT_SAMPLES`]; `rays = (first, max,
+    /// others)`); and whether some exact emitter is partly hidden (`x` is in a penumbra).
     fn direct_from(
         &self,
         x: DVec3,
         n: DVec3,
         ignore: u32,
         exact: &[u32],
-        (first, max_rays): (usize, usize),
+        (first, max_rays, others): (usize, usize, usize),
         rng: &mut Rng,
     ) -> (Rgb, bool) {
         let mut targets = Vec::with_capacity(max_rays.max(first));
@@ -357,7 +383,98 @@ impl<'a> Gatherer<'a> {
                 *s += le * f * v;
             }
         }
+        if others > 0 && exact.len() < self.emitters.len() {
+            let other = self.others_direct(x, n, &from, ignore, exact, others, rng, &mut targets);
+            for (s, o) in sum.iter_mut().zip(other) {
+                *s += o;
+            }
+        }
         (sum, penumbra)
+    }
+
+    /// Whether the emitter `e`, if not computed exactly at `x`, is sampled by the others' shadow
+    /// rays there ([`OTHER_LIGHT_SAMPLES`]): when it is small as seen from `x` (its radius at
+    /// most [`SAMPLED_SPREAD`] × its distance). A larger one is left to the hemisphere rays,
+    /// which bring its Le: they hit it often, and one shadow ray to a uniform point of it
+    /// would weight its parts by area rather than by the kernel G. Each emitter is counted by
+    /// exactly one of the two estimators at a point, so their sum is unbiased.
+    fn sampled(&self, e: &Emitter, x: DVec3) -> bool {
+        e.radius <= SAMPLED_SPREAD * x.distance(e.centre)
+    }
+
+    /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays: emitters drawn
+    /// with probability p_e ∝ w_e by systematic sampling, one point of each drawn emitter
+    /// (area-uniform over its part above the horizon), each ray adding Le_e F V / (count p_e)
+    /// (see [`OTHER_LIGHT_SAMPLES`]). With `count` ≥ 2 (a gathering point) w_e = max(Le_e) F(x
+    /// → e), the exact unoccluded form factor, so an unoccluded point gets their light
+    /// exactly; with one ray (a near hit's point, of which a gather has many) the cheap bound
+    /// w_e = max(Le_e) A_e / (π d²) of [`Gatherer::exact_emitters`], zero only where F is
+    /// (behind the emitter, or the emitter wholly below the horizon). Unbiased up to V̄'s area
+    /// (not G) weighting within one emitter, negligible for the emitters that are not the
+    /// point's largest.
+    #[allow(clippy::too_many_arguments)]
+    fn others_direct(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        from: &crate::visibility::Point,
+        ignore: u32,
+        exact: &[u32],
+        count: usize,
+        rng: &mut Rng,
+        targets: &mut Vec<[f64; 3]>,
+    ) -> Rgb {
+        // (emitter, cumulative weight) of the emitters in front of x and above its horizon.
+        let mut candidates: Vec<(usize, f64)> = Vec::new();
+        let mut total = 0.0;
+        for (k, e) in self.emitters.iter().enumerate() {
+            if exact.binary_search(&(k as u32)).is_ok()
+                || !self.sampled(e, x)
+                || (x - e.corners[0]).dot(e.normal) <= 0.0
+            {
+                continue;
+            }
+            let w = if count >= 2 {
+                point_to_polygon(x, n, &e.corners) * e.le.iter().copied().fold(0.0, f64::max)
+            } else if e.corners.iter().any(|&c| (c - x).dot(n) > 0.0) {
+                let d = (x.distance(e.centre) - e.radius).max(1e-3 * e.radius);
+                e.power / (PI * d * d)
+            } else {
+                0.0
+            };
+            if w > 0.0 {
+                total += w;
+                candidates.push((k, total));
+            }
+        }
+        let mut sum = [0.0; 3];
+        if candidates.is_empty() {
+            return sum;
+        }
+        let offset = rng.next_f64();
+        let mut at = 0;
+        for j in 0..count {
+            let u = (j as f64 + offset) / count as f64 * total;
+            while at + 1 < candidates.len() && candidates[at].1 <= u {
+                at += 1;
+            }
+            let (k, upto) = candidates[at];
+            let before = if at == 0 { 0.0 } else { candidates[at - 1].1 };
+            let p = (upto - before) / total;
+            let e = &self.emitters[k];
+            let mut visible = false;
+            kernel_samples(&e.corners, e.normal, x, n, 1, rng, targets, |y, _| {
+                let to = self.vis.point(y + self.lift * e.normal);
+                visible = !self.vis.occluded_points(from, &to, [ignore, NONE]);
+            });
+            if visible {
+                let f = point_to_polygon(x, n, &e.corners);
+                for (s, le) in sum.iter_mut().zip(e.le) {
+                    *s += le * f / (count as f64 * p);
+                }
+            }
+        }
+        sum
     }
 
     /// ∫_Ω L_r(h(x, ω)) cosθ/π dω by `rays` stratified cosine-weighted rays: the reflected
@@ -386,8 +503,8 @@ impl<'a> Gatherer<'a> {
         // The gathering point's own exact emitters (`y` lies within a patch of it): its
         // direct term counts their emission, the ray at `y` the others'.
         let hi = h as u32;
-        let (direct, _) =
-            self.direct_from(y, ny, hi, exact, (NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS), rng);
+        let rays = (NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS);
+        let (direct, _) = self.direct_from(y, ny, hi, exact, rays, rng);
         let indirect = self.hemisphere(y, ny, hi, exact, NEAR_RAYS, false, rng);
         let rho = self.patches.reflectance[h];
         std::array::from_fn(|c| rho[c] * (direct[c] + indirect[c]))
@@ -426,9 +543,10 @@ impl<'a> Gatherer<'a> {
                 continue; // the back of a one-sided surface sends nothing
             }
             // The emitted part of what it sends was counted by the direct term if its emitter
-            // is one of `exact`.
+            // is one of `exact` or sampled from here (the others' rays).
             let e = self.emitter_of[self.patches.source_triangle[h] as usize];
-            let counted = e != NONE && exact.binary_search(&e).is_ok();
+            let counted = e != NONE
+                && (exact.binary_search(&e).is_ok() || self.sampled(&self.emitters[e as usize], x));
             let (l, le) = (self.radiance[h], self.patches.emission[h]);
             if near_bounce && hit.t < NEAR_HIT * self.patches.area[h].sqrt() {
                 // A near hit (a concave corner): the patch's mean is not the radiance at the
@@ -571,7 +689,7 @@ impl Gatherer<'_> {
             spot.n,
             spot.patch,
             &exact,
-            (SHADOW_RAYS, max_rays),
+            (SHADOW_RAYS, max_rays, OTHER_LIGHT_SAMPLES),
             rng,
         );
         let rho = self.patches.reflectance[spot.patch as usize];
@@ -616,6 +734,17 @@ impl Gatherer<'_> {
     /// [`MAX_EXACT_EMITTERS`].
     pub fn exact_per_point(&self) -> usize {
         self.emitters.len().min(MAX_EXACT_EMITTERS)
+    }
+
+    /// Shadow rays a gathering point casts at least: [`SHADOW_RAYS`] per exact emitter, and
+    /// [`OTHER_LIGHT_SAMPLES`] when there are more emitters.
+    pub fn shadow_rays_per_point(&self) -> usize {
+        let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
+            OTHER_LIGHT_SAMPLES
+        } else {
+            0
+        };
+        SHADOW_RAYS * self.exact_per_point() + others
     }
 
     /// The scene's extent (its bounding box diagonal), scene units.
@@ -820,16 +949,117 @@ mod tests {
         assert!(g.direct(y, patches.normal[blocker], blocker as u32, &mut rng)[0] > 0.0);
     }
 
+    /// A receiver point at the origin facing +z under a 4 × 4 grid of emitting squares in the
+    /// plane z = 1 (x, y in [0, 1]; 32 triangles, more than [`MAX_EXACT_EMITTERS`]), each
+    /// square its own grey Le (1 … 16), and optionally a blocker in the plane z = 1/2 over
+    /// x < 1/2 whose shadow edge, seen from (1/2, 1/2, 0), falls on the grid line x = 1/2.
+    /// Returns the gatherer's inputs and the point's exact direct light Σ Le F V (V is 0 or 1
+    /// per triangle: each lies wholly on one side of the shadow edge).
+    fn emitter_grid(blocked: bool) -> (Scene, Patches, f64) {
+        let mut b = SceneBuilder::new();
+        let rcv = b.material("receiver", [0.5; 3], [0.0; 3]);
+        let q = |x0: f64, y0: f64, s: f64, z: f64, up: bool| {
+            let c = [
+                DVec3::new(x0, y0, z),
+                DVec3::new(x0 + s, y0, z),
+                DVec3::new(x0 + s, y0 + s, z),
+                DVec3::new(x0, y0 + s, z),
+            ];
+            if up {
+                c
+            } else {
+                [c[0], c[3], c[2], c[1]]
+            }
+        };
+        let x = DVec3::new(0.5, 0.5, 0.0);
+        let mut exact = 0.0;
+        for i in 0..4 {
+            for j in 0..4 {
+                let le = (1 + 4 * i + j) as f64;
+                let m = b.material(&format!("light{i}{j}"), [0.0; 3], [le; 3]);
+                let c = q(0.25 * i as f64, 0.25 * j as f64, 0.25, 1.0, false);
+                b.quad(c, m);
+                if !(blocked && i < 2) {
+                    exact += le * point_to_polygon(x, DVec3::Z, &c);
+                }
+            }
+        }
+        b.quad(q(-1.0, -1.0, 3.0, 0.0, true), rcv);
+        if blocked {
+            let wall = b.material("blocker", [0.0; 3], [0.0; 3]);
+            b.quad(
+                [
+                    DVec3::new(-2.0, -2.0, 0.5),
+                    DVec3::new(-2.0, 3.0, 0.5),
+                    DVec3::new(0.5, 3.0, 0.5),
+                    DVec3::new(0.5, -2.0, 0.5),
+                ],
+                wall,
+            );
+        }
+        let scene = b.build().unwrap();
+        let patches = crate::mesh::subdivide(&scene, 0.25, 0.0).unwrap();
+        (scene, patches, exact)
+    }
+
+    #[test]
+    fn many_unoccluded_emitters_give_the_exact_direct_light() {
+        // Eight emitters are computed exactly, the other 24 by OTHER_LIGHT_SAMPLES rays drawn
+        // ∝ Le·F: with every ray visible, each adds Σ Le F / N over the others, whatever was
+        // drawn, so the sum is exact to rounding (1e-12 relative) for any seed.
+        let (scene, patches, exact) = emitter_grid(false);
+        assert!(scene.triangles.len() > 3 * MAX_EXACT_EMITTERS);
+        let radiance = vec![[0.0; 3]; patches.len()];
+        let g = Gatherer::new(&scene, &patches, &radiance, 1);
+        let x = DVec3::new(0.5, 0.5, 0.0);
+        let receiver = g.vis.closest_hit(x + DVec3::Z, -DVec3::Z, 2.0, NONE);
+        let receiver = receiver.unwrap().triangle;
+        for seed in 0..20 {
+            let d = g.direct(x, DVec3::Z, receiver, &mut Rng::new(&[seed]));
+            assert!((d[0] - exact).abs() < 1e-12 * exact, "{} vs {exact}", d[0]);
+        }
+    }
+
+    #[test]
+    fn many_partly_hidden_emitters_are_estimated_without_bias() {
+        // The blocker hides the grid's half x < 1/2 from the point (1/2, 1/2, 0): the exact
+        // emitters' visible shares are then exactly 0 or 1, and the others' sampled rays are
+        // each visible or not, so one call is noisy but its mean over many seeds must be the
+        // exact Σ Le F V. Bound: four standard errors of the mean over 400 calls (measured
+        // from the calls themselves), a chance of failure below 1e-4.
+        let (scene, patches, exact) = emitter_grid(true);
+        let radiance = vec![[0.0; 3]; patches.len()];
+        let g = Gatherer::new(&scene, &patches, &radiance, 1);
+        let x = DVec3::new(0.5, 0.5, 0.0);
+        let receiver = g.vis.closest_hit(x + 0.1 * DVec3::Z, -DVec3::Z, 1.0, NONE);
+        let receiver = receiver.unwrap().triangle;
+        let calls: Vec<f64> = (0..400)
+            .map(|seed| g.direct(x, DVec3::Z, receiver, &mut Rng::new(&[seed]))[0])
+            .collect();
+        let n = calls.len() as f64;
+        let mean = calls.iter().sum::<f64>() / n;
+        let var = calls.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        let se = (var / n).sqrt();
+        assert!(
+            var > 0.0,
+            "the sampled emitters' visibility varies between calls"
+        );
+        assert!(
+            (mean - exact).abs() < 4.0 * se,
+            "mean {mean} vs exact {exact} (standard error {se})"
+        );
+    }
+
     #[test]
     fn full_gather_in_the_furnace_is_le_over_one_minus_rho() {
         // Every surface emits Le = 1 and reflects ρ = 0.5 in a closed room with two boxes: the
-        // solved radiance is 2 everywhere, and the gather of it must give 2 back: the exact
-        // emitters' Le counted once (direct), the reflected L − Le of what the hemisphere rays
-        // hit, and the whole L of emitters beyond MAX_EXACT_EMITTERS (the room has more). The
-        // only error is noise: the shadow rays' estimate of each emitter's visible share where
-        // a box hides part of it, and the hemisphere rays over emitters not counted exactly
-        // (their Le differs from the others' L − Le). Unbiased: the mean error over the
-        // vertices is noise-sized.
+        // solved radiance is 2 everywhere, and the gather of it must give 2 back: each
+        // emitter's Le counted once, by the direct term (MAX_EXACT_EMITTERS exactly, the
+        // others small as seen from the point by OTHER_LIGHT_SAMPLES rays; the room has more)
+        // or by the hemisphere rays that hit it (the large near walls beyond the exact ones,
+        // whose whole L they bring), plus the reflected L − Le of the rest. The only error is
+        // noise: the shadow rays' estimate of each emitter's visible share where a box hides
+        // part of it. Unbiased: the mean error over the vertices is noise-sized.
         let scene = scenes::furnace_room(0.5, 1.0).unwrap();
         assert!(scene.triangles.len() > MAX_EXACT_EMITTERS);
         let out = pipeline::solve_scene(&scene, &gathered(Gather::Full)).unwrap();
@@ -843,7 +1073,10 @@ mod tests {
         let n = errors.len() as f64;
         let mean = errors.iter().sum::<f64>() / n;
         let rms = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
-        // Measured: mean 1.7e-4, RMS 1.0e-3 over 2,034 vertices (seed 1).
+        // Measured: mean -2.6e-5, RMS 1.05e-3 over 5,863 vertices (seed 1). With every
+        // emitter beyond the exact ones sampled by shadow rays, however large and near
+        // (SAMPLED_SPREAD unbounded), mean -2.3e-3 and RMS 1.4e-2: one ray to a uniform point
+        // of a large wall weights it by area, not by G, and is noisy.
         assert!(mean.abs() < 1e-3 && rms < 5e-3, "mean {mean}, rms {rms}");
     }
 

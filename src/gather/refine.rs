@@ -40,15 +40,15 @@ use crate::form_factor::sampling::Rng;
 /// triangle shows there by more than 2 % of the local luminance.
 pub const DEFAULT_TOLERANCE: f64 = 0.02;
 
-/// New vertices, at most, when each gets `rays` hemisphere rays and the direct light of
-/// `exact_emitters` emitters ([`super::SHADOW_RAYS`] shadow rays each, at least): as many as
+/// New vertices, at most, when each gets `rays` hemisphere rays and `shadow_rays` shadow rays
+/// at least ([`super::Gatherer::shadow_rays_per_point`]): as many as
 /// twice the gather's own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the
 /// refinement adds at most about twice as many rays again, whatever the scene's size and its
 /// number of lights. Measured on the Cornell box's 2,000 probes (displayed RMS; each budget was
 /// used up): half the gather's budget (1,946 vertices) 1.45 %, once (3,891) 1.31 %, twice
 /// (7,782) 1.13 %, for about 1.3 s more than half.
-pub fn budget(rays: usize, exact_emitters: usize) -> usize {
-    2 * super::AUTO_RAY_BUDGET / (rays + super::SHADOW_RAYS * exact_emitters).max(1)
+pub fn budget(rays: usize, shadow_rays: usize) -> usize {
+    2 * super::AUTO_RAY_BUDGET / (rays + shadow_rays).max(1)
 }
 
 /// Rounds of testing new triangles' edges, at most: each halves the edges it splits.
@@ -288,8 +288,10 @@ pub fn refine(
                     Some(spot) => {
                         let mut rng = gatherer.vertex_rng(v);
                         // Across a shadow edge the indirect light is smooth: the ends'
-                        // mean serves, unless it decided the split, or the ends computed
-                        // other emitters exactly (their indirect parts differ in kind).
+                        // mean serves, unless it decided the split, or the ends may count
+                        // other emitters' Le in it (beyond MAX_EXACT_EMITTERS each point
+                        // leaves some to its hemisphere rays: their indirect parts differ in
+                        // kind).
                         let own = own_indirect.contains(&endpoints) || !gatherer.all_exact();
                         if mode == Gather::Full && own {
                             gatherer.full(&spot, rays, &mut rng)

@@ -289,6 +289,85 @@ pub fn furnished_hall(triangles: usize) -> Result<Scene> {
     b.build()
 }
 
+/// A living room (metres, z up), made for the point-wise benchmark as a scene nothing was
+/// tuned to: a 5 × 4 × 2.6 m room with an off-white ceiling and walls, a blue wall (x = 5) and a
+/// wooden floor; two lights (a 1 × 0.5 m ceiling panel, Le = 12, and a warm 0.3 m wall lamp on
+/// the wall y = 0); a sofa against the wall y = 4 and a bookshelf against the blue wall (contact
+/// lines with the floor and the walls), a coffee table on 4 cm legs, and a ball of radius
+/// 0.25 m resting on the floor (320 faces). 432 triangles; every surface one-sided, facing
+/// into the room.
+pub fn living_room() -> Result<Scene> {
+    let mut b = SceneBuilder::new();
+    let white = b.material("plaster", [0.75, 0.72, 0.68], [0.0; 3]);
+    let blue = b.material("blue_wall", [0.25, 0.35, 0.6], [0.0; 3]);
+    let floor = b.material("floor", [0.45, 0.35, 0.25], [0.0; 3]);
+    let sofa = b.material("sofa", [0.2, 0.5, 0.3], [0.0; 3]);
+    let wood = b.material("wood", [0.7, 0.55, 0.35], [0.0; 3]);
+    let shelf = b.material("shelf", [0.5, 0.3, 0.2], [0.0; 3]);
+    let ball = b.material("ball", [0.8; 3], [0.0; 3]);
+    let panel = b.material("panel", [0.0; 3], [12.0; 3]);
+    let lamp = b.material("lamp", [0.0; 3], [8.0, 6.0, 4.0]);
+    let height = 2.6;
+    let size = DVec3::new(5.0, 4.0, height);
+    // The room, seen from inside; faces −x, +x, −y, +y, −z (floor), +z (ceiling).
+    for (k, mut q) in box_faces(DVec3::ZERO, size).into_iter().enumerate() {
+        q.reverse();
+        let m = match k {
+            1 => blue,
+            4 => floor,
+            _ => white,
+        };
+        b.quad(q, m);
+    }
+    let v = DVec3::new;
+    // The ceiling panel, 1 cm under the ceiling, facing down.
+    let (lx, ly, z) = (1.1, 1.95, height - 0.01);
+    b.quad(
+        [
+            v(lx, ly, z),
+            v(lx, ly + 0.5, z),
+            v(lx + 1.0, ly + 0.5, z),
+            v(lx + 1.0, ly, z),
+        ],
+        panel,
+    );
+    // The wall lamp, 2 cm in front of the wall y = 0, facing +y.
+    let (wx, wz, y) = (3.6, 1.7, 0.02);
+    b.quad(
+        [
+            v(wx, y, wz),
+            v(wx, y, wz + 0.3),
+            v(wx + 0.3, y, wz + 0.3),
+            v(wx + 0.3, y, wz),
+        ],
+        lamp,
+    );
+    let boxed = |b: &mut SceneBuilder, lo: DVec3, hi: DVec3, m: u32| add_box(b, lo, hi, false, m);
+    // Sofa: seat block and backrest against the wall y = 4.
+    boxed(&mut b, v(1.5, 3.1, 0.0), v(3.5, 4.0, 0.45), sofa);
+    boxed(&mut b, v(1.55, 3.75, 0.45), v(3.45, 4.0, 0.9), sofa);
+    // Bookshelf against the blue wall.
+    boxed(&mut b, v(4.6, 0.6, 0.0), v(5.0, 1.8, 2.0), shelf);
+    // Coffee table: 1.0 × 0.6 top at 0.40–0.44 m on four 4 cm legs.
+    let (tx, ty) = (2.0, 1.8);
+    boxed(&mut b, v(tx, ty, 0.40), v(tx + 1.0, ty + 0.6, 0.44), wood);
+    for (dx, dy) in [(0.0, 0.0), (0.96, 0.0), (0.0, 0.56), (0.96, 0.56)] {
+        let lo = v(tx + dx, ty + dy, 0.0);
+        boxed(&mut b, lo, lo + v(0.04, 0.04, 0.40), wood);
+    }
+    // The ball, resting on the floor (outward faces).
+    let (positions, faces) = icosphere(2);
+    let (centre, radius) = (v(3.9, 1.3, 0.25), 0.25);
+    let ids: Vec<u32> = positions
+        .iter()
+        .map(|p| b.vertex(centre + *p * radius))
+        .collect();
+    for f in faces {
+        b.triangle([ids[f[0]], ids[f[1]], ids[f[2]]], ball);
+    }
+    b.build()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -307,6 +386,31 @@ mod tests {
         }
         // The 30° cap covers (1 − cos 30°)/2 ≈ 6.7 % of the sphere: about 21 of 320 faces.
         assert!((15..=30).contains(&emitting), "{emitting}");
+    }
+
+    #[test]
+    fn living_room_faces_into_the_room() {
+        // 12 room + 2 + 2 lights + 2 × 12 sofa + 12 shelf + 12 table + 4 × 12 legs + 320 ball.
+        let s = living_room().unwrap();
+        assert_eq!(s.triangles.len(), 432);
+        let centre = DVec3::new(2.5, 2.0, 1.3);
+        let ball = DVec3::new(3.9, 1.3, 0.25);
+        for (t, tri) in s.triangles.iter().enumerate() {
+            let [a, b, c] = tri.vertices.map(|v| s.positions[v as usize]);
+            let n = (b - a).cross(c - a).normalize();
+            let centroid = (a + b + c) / 3.0;
+            let name = &s.materials[tri.material as usize].name;
+            match name.as_str() {
+                // The lights face the room's middle: the panel down, the lamp along +y.
+                "panel" => assert!(n.dot(DVec3::NEG_Z) > 0.999, "triangle {t}"),
+                "lamp" => assert!(n.dot(DVec3::Y) > 0.999, "triangle {t}"),
+                "ball" => assert!(n.dot(centroid - ball) > 0.0, "triangle {t} faces inward"),
+                "plaster" | "blue_wall" | "floor" => {
+                    assert!(n.dot(centre - centroid) > 0.0, "triangle {t} faces out")
+                }
+                _ => {}
+            }
+        }
     }
 
     #[test]

@@ -12,9 +12,10 @@
 //!   `pointwise_SCENE.png` (RMS relative error against seconds) to DIR (default
 //!   `target/pointwise`).
 //!
-//! Scenes: `cornell` (meshes/cornell_box.obj) and `hall` (the generated furnished hall,
-//! `radiosity generate hall --triangles 10000`: a room of tables and chairs under ceiling
-//! lights, a scene nothing here was tuned to).
+//! Scenes: `cornell` (meshes/cornell_box.obj), `hall` (the generated furnished hall,
+//! `radiosity generate hall --triangles 10000`: a room of tables and chairs under 162 ceiling
+//! lights) and `living_room` (`radiosity generate living-room`: two lights, furniture against
+//! the walls, a ball on the floor), the last two scenes nothing here was tuned to.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -30,7 +31,7 @@ use radiosity::validation::scenes;
 use radiosity_tools::{chart, harness_args, load_font, root, write_sections, Curve};
 
 const SECTIONS: [&str; 2] = ["reference", "curves"];
-const SCENES: [&str; 2] = ["cornell", "hall"];
+const SCENES: [&str; 3] = ["cornell", "hall", "living_room"];
 /// Probes per scene, and their seed.
 const PROBES: usize = 2000;
 const PROBE_SEED: u64 = 1;
@@ -67,6 +68,7 @@ fn load(name: &str) -> Result<Scene> {
     Ok(match name {
         "cornell" => Scene::load(&root().join("meshes/cornell_box.obj"))?,
         "hall" => scenes::furnished_hall(10_000)?,
+        "living_room" => scenes::living_room()?,
         _ => anyhow::bail!("unknown scene {name}"),
     })
 }
@@ -99,7 +101,7 @@ fn trace(name: &str) -> Result<String> {
 }
 
 /// The reference's stopping rule: 0.3 % standard error (at most 2²⁰ paths) on the Cornell
-/// box; 0.5 % (at most 2¹⁸) in the hall, whose dim corners under small lights would otherwise
+/// box and in the living room; 0.5 % (at most 2¹⁸) in the hall, whose dim corners under small lights would otherwise
 /// take hours (its bakes' errors are several per cent, far above either).
 fn reference_settings(name: &str) -> ReferenceSettings {
     match name {
@@ -116,8 +118,8 @@ fn reference() -> Result<String> {
     let mut md = String::from(
         "Probes: 2,000 points uniform by area (seed 1; emitters and buried points left out), \
          path-traced until the standard error of each one's luminance is ≤ 0.3 % of it on the \
-         Cornell box (at least 4,096 and at most 1,048,576 paths), ≤ 0.5 % in the hall (at \
-         most 262,144); 'capped' probes stopped at the limit.\n\n\
+         Cornell box and in the living room (at least 4,096 and at most 1,048,576 paths), \
+         ≤ 0.5 % in the hall (at most 262,144); 'capped' probes stopped at the limit.\n\n\
          | scene | probes | paths | seconds | capped |\n|---|---|---|---|---|\n",
     );
     for name in SCENES {
@@ -127,8 +129,10 @@ fn reference() -> Result<String> {
 }
 
 /// The bakes measured on each scene: (label, settings). On the Cornell box, the matrix
-/// method with and without each part (contact lines, final gather, display refinement) and the hierarchical
-/// solver; in the hall (where a matrix bake takes minutes) the hierarchical solver.
+/// method with and without each part (contact lines, final gather, display refinement) and the
+/// hierarchical solver; on the untuned scenes the defaults (what a user gets: the hierarchical
+/// solver in the hall, the matrix method in the living room) and the hierarchical solver
+/// with and without the gather.
 fn bakes(quick: bool, name: &str) -> Vec<(String, pipeline::Settings)> {
     let with = |method, discontinuities, gather, epsilon| {
         let mut s = pipeline::Settings {
@@ -186,6 +190,9 @@ fn bakes(quick: bool, name: &str) -> Vec<(String, pipeline::Settings)> {
             let s = with(Method::Matrix, d, g, 1e-4);
             runs.push((label.to_string(), if refine { s } else { unrefined(s) }));
         }
+    }
+    if name != "cornell" {
+        runs.push(("the defaults".to_string(), pipeline::Settings::default()));
     }
     let eps: &[f64] = if quick { &[1e-4] } else { &[1e-4, 1e-5] };
     for &e in eps {
