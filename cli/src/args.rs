@@ -327,8 +327,9 @@ pub struct SolveArgs {
     )]
     pub max_edge: Option<f64>,
     /// Crease angle in degrees: where faces meet at smaller angles the mesh samples one smooth
-    /// surface (its interpolated normal enters the form factors; output vertices are shared);
-    /// sharper edges stay creases. 0 = every face flat.
+    /// surface (its interpolated normal enters the form factors); sharper edges stay creases.
+    /// 0 = every face flat. Output vertices are shared only within a flat facet, whatever it
+    /// is: the output shows the faceted geometry as any renderer of the mesh does.
     #[arg(long, default_value_t = radiosity::mesh::DEFAULT_CREASE_DEGREES, value_name = "DEG", allow_negative_numbers = true, help_heading = "Discretisation")]
     pub crease: f64,
     /// Surfaces reflect and emit on both sides: every face gets a back face with the same

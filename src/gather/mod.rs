@@ -724,12 +724,6 @@ impl Gatherer<'_> {
         Rng::new(&[self.seed, v as u64, 0x6A7_4E6])
     }
 
-    /// Every emitter's direct light is computed exactly at every point (there are at most
-    /// [`MAX_EXACT_EMITTERS`]).
-    pub(crate) fn all_exact(&self) -> bool {
-        self.emitters.len() <= MAX_EXACT_EMITTERS
-    }
-
     /// Emitters whose direct light is computed exactly at each point: all of them, at most
     /// [`MAX_EXACT_EMITTERS`].
     pub fn exact_per_point(&self) -> usize {

@@ -188,7 +188,7 @@ pub fn refine(
         tests_left -= edges.len();
         done.tests += edges.len();
         let seed = gatherer.seed();
-        let deviations: Vec<(f64, bool)> = edges
+        let deviations: Vec<f64> = edges
             .par_iter()
             .map(|&(_, e, reference)| {
                 let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
@@ -201,17 +201,13 @@ pub fn refine(
                     let (dm, _, _) = gatherer.reflected_direct(&spot, TEST_SHADOW_RAYS, &mut rng);
                     (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference
                 });
-                (direct.max(indirect), indirect > direct)
+                direct.max(indirect)
             })
             .collect();
         let mut split: Vec<Split> = std::mem::take(&mut deferred);
-        for (&(_, edge, _), &(deviation, indirect)) in edges.iter().zip(&deviations) {
+        for (&(_, edge, _), &deviation) in edges.iter().zip(&deviations) {
             if deviation > tolerance {
-                split.push(Split {
-                    deviation,
-                    edge,
-                    indirect,
-                });
+                split.push(Split { deviation, edge });
             } else {
                 kept.insert(edge);
             }
@@ -226,8 +222,6 @@ pub fn refine(
         // rest wait for the next level. Every output edge at the same place (both sides of a
         // crease) splits with the one chosen.
         let mut chosen: Vec<Edge> = Vec::new();
-        // Chosen edges whose new vertex gathers its own indirect light.
-        let mut own_indirect: HashSet<Edge> = HashSet::new();
         // Chosen edges with other output edges at the same place: their midpoints are shared.
         let mut beside_others: HashSet<Edge> = HashSet::new();
         {
@@ -245,9 +239,6 @@ pub fn refine(
                 }
                 placed.insert(place);
                 chosen.extend(sides.iter().copied());
-                if s.indirect {
-                    own_indirect.extend(sides.iter().copied());
-                }
                 if sides.len() > 1 {
                     beside_others.extend(sides.iter().copied());
                 }
@@ -287,13 +278,14 @@ pub fn refine(
                     None => Gathered::buried(mid(va.radiance, vb.radiance)),
                     Some(spot) => {
                         let mut rng = gatherer.vertex_rng(v);
-                        // Across a shadow edge the indirect light is smooth: the ends'
-                        // mean serves, unless it decided the split, or the ends may count
-                        // other emitters' Le in it (beyond MAX_EXACT_EMITTERS each point
-                        // leaves some to its hemisphere rays: their indirect parts differ in
-                        // kind).
-                        let own = own_indirect.contains(&endpoints) || !gatherer.all_exact();
-                        if mode == Gather::Full && own {
+                        // `full`: the new vertex gathers its own indirect light too. The
+                        // ends' mean would do across a shadow edge, where the indirect light
+                        // is smooth, but not where it bends between them: beside a contact
+                        // or a concave corner (a floor point 6 mm from a sofa's side showed
+                        // +29 % from its ends' mean) or where the ends count different
+                        // emitters' Le in it (many lights). The budget pays for it: it
+                        // counts each new vertex at the gather's full rays.
+                        if mode == Gather::Full {
                             gatherer.full(&spot, rays, &mut rng)
                         } else {
                             let (direct, penumbra, _) =
@@ -329,9 +321,6 @@ struct Split {
     /// Its test's deviation, relative.
     deviation: f64,
     edge: Edge,
-    /// The indirect light's difference decided it (else the direct light's departure from
-    /// linear).
-    indirect: bool,
 }
 
 fn mid(a: Rgb, b: Rgb) -> Rgb {

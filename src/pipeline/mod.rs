@@ -241,7 +241,8 @@ fn bake_stage(
     report: &mut Report,
 ) -> BakedMesh {
     let t = Instant::now();
-    let (mut baked, sites) = bake::bake_sites(patches, radiance, settings.crease_degrees);
+    let display_crease = settings.crease_degrees.min(bake::FACET_DEGREES);
+    let (mut baked, sites) = bake::bake_sites(patches, radiance, display_crease);
     baked.camera = scene.camera;
     report.vertices = baked.positions.len();
     report.seconds.bake = t.elapsed().as_secs_f64();

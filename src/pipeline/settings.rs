@@ -87,7 +87,8 @@ pub struct Settings {
     /// Linear solve.
     pub solver: solve::Settings,
     /// Crease angle, degrees, in [0, 180]: where faces meet at smaller angles the mesh samples
-    /// one smooth surface (interpolated normals, shared output vertices); 0 = every face flat.
+    /// one smooth surface for the form factors (interpolated normals); 0 = every face flat.
+    /// Output vertices are shared only within a flat facet ([`crate::bake::FACET_DEGREES`]).
     pub crease_degrees: f64,
     /// Give every face a back side with its material ([`crate::scene::Scene::make_two_sided`]).
     pub two_sided: bool,
