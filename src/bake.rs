@@ -239,8 +239,8 @@ mod tests {
         // crease angle, so the form factors take it for one smooth surface), one patch per
         // facet: the output has a vertex per facet corner, 240, not the 42 the crease angle
         // would share; and a quad's two coplanar triangles still share their diagonal.
-        let sphere = crate::validation::scenes::integrating_sphere(1.0, 1, 30.0, 0.5, [1.0; 3])
-            .unwrap();
+        let sphere =
+            crate::validation::scenes::integrating_sphere(1.0, 1, 30.0, 0.5, [1.0; 3]).unwrap();
         assert_eq!(sphere.triangles.len(), 80);
         let settings = crate::pipeline::Settings {
             max_edge: Some(10.0),
@@ -254,7 +254,11 @@ mod tests {
         let plates = crate::validation::scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
         let out = crate::pipeline::solve_scene(&plates, &settings).unwrap();
         assert_eq!(out.patches.len(), 4);
-        assert_eq!(out.baked.positions.len(), 8, "two squares, four corners each");
+        assert_eq!(
+            out.baked.positions.len(),
+            8,
+            "two squares, four corners each"
+        );
     }
 
     #[test]
