@@ -421,16 +421,21 @@ impl<'a> Gatherer<'a> {
         e.radius <= SAMPLED_SPREAD * x.distance(e.centre)
     }
 
-    /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays: emitters drawn
-    /// with probability p_e ∝ w_e by systematic sampling, one point of each drawn emitter
-    /// (area-uniform over its part above the horizon), each ray adding Le_e F V / (count p_e)
-    /// (see [`OTHER_LIGHT_SAMPLES`]). With `count` ≥ 2 (a gathering point) w_e = max(Le_e) F(x
-    /// → e), the exact unoccluded form factor, so an unoccluded point gets their light
-    /// exactly; with one ray (a near hit's point, of which a gather has many) the cheap bound
-    /// w_e = max(Le_e) A_e / (π d²) of [`Gatherer::exact_emitters`], zero only where F is
-    /// (behind the emitter, or the emitter wholly below the horizon). Unbiased up to V̄'s area
-    /// (not G) weighting within one emitter, negligible for the emitters that are not the
-    /// point's largest.
+    /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays: emitters
+    /// drawn with probability p_e ∝ w_e by systematic sampling, one point of each drawn
+    /// emitter (area-uniform over its part above the horizon), each ray adding
+    /// Le_e F V / (count p_e) if the emitter is one of these others (see
+    /// [`OTHER_LIGHT_SAMPLES`]). The weights:
+    /// - with `count` ≥ 2 (a gathering point), w_e = max(Le_e) F(x → e), the exact unoccluded
+    ///   form factor, over the others only, so an unoccluded point gets their light exactly;
+    /// - with one ray (a near hit's point, of which a gather has many), the cheap bound
+    ///   w_e = max(Le_e) A_e / (π d²) of [`Gatherer::exact_emitters`], zero only where F is
+    ///   (behind the emitter, or the emitter wholly below the horizon);
+    /// - beyond [`MAX_WEIGHED_EMITTERS`] emitters, their power (Le_max × area) over all of
+    ///   them, a draw that is not one of the others adding nothing.
+    ///
+    /// Unbiased up to V̄'s area (not G) weighting within one emitter, negligible for the
+    /// emitters that are not the point's largest ([`SAMPLED_SPREAD`]).
     #[allow(clippy::too_many_arguments)]
     fn others_direct(
         &self,
@@ -443,92 +448,52 @@ impl<'a> Gatherer<'a> {
         rng: &mut Rng,
         targets: &mut Vec<[f64; 3]>,
     ) -> Rgb {
-        if self.emitters.len() > MAX_WEIGHED_EMITTERS {
-            return self.others_by_power(x, n, from, ignore, exact, count, rng, targets);
-        }
-        // (emitter, cumulative weight) of the emitters in front of x and above its horizon.
-        let mut candidates: Vec<(usize, f64)> = Vec::new();
-        let mut total = 0.0;
-        for (k, e) in self.emitters.iter().enumerate() {
-            if exact.binary_search(&(k as u32)).is_ok()
-                || !self.sampled(e, x)
-                || (x - e.corners[0]).dot(e.normal) <= 0.0
-            {
-                continue;
-            }
-            let w = if count >= 2 {
-                point_to_polygon(x, n, &e.corners) * e.le.iter().copied().fold(0.0, f64::max)
-            } else if e.corners.iter().any(|&c| (c - x).dot(n) > 0.0) {
-                let d = (x.distance(e.centre) - e.radius).max(1e-3 * e.radius);
-                e.power / (PI * d * d)
-            } else {
-                0.0
-            };
-            if w > 0.0 {
-                total += w;
-                candidates.push((k, total));
-            }
-        }
-        let mut sum = [0.0; 3];
-        if candidates.is_empty() {
-            return sum;
-        }
-        let offset = rng.next_f64();
-        let mut at = 0;
-        for j in 0..count {
-            let u = (j as f64 + offset) / count as f64 * total;
-            while at + 1 < candidates.len() && candidates[at].1 <= u {
-                at += 1;
-            }
-            let (k, upto) = candidates[at];
-            let before = if at == 0 { 0.0 } else { candidates[at - 1].1 };
-            let p = (upto - before) / total;
-            let e = &self.emitters[k];
-            let mut visible = false;
-            kernel_samples(&e.corners, e.normal, x, n, 1, rng, targets, |y, _| {
-                let to = self.vis.point(y + self.lift * e.normal);
-                visible = !self.vis.occluded_points(from, &to, [ignore, NONE]);
-            });
-            if visible {
-                let f = point_to_polygon(x, n, &e.corners);
-                for (s, le) in sum.iter_mut().zip(e.le) {
-                    *s += le * f / (count as f64 * p);
+        let is_other = |k: usize, e: &Emitter| {
+            exact.binary_search(&(k as u32)).is_err()
+                && self.sampled(e, x)
+                && (x - e.corners[0]).dot(e.normal) > 0.0
+        };
+        // The cumulative weights to draw from, and the emitter at each position (all of them
+        // in order for the power).
+        let weighed: (Vec<f64>, Vec<usize>);
+        let (cdf, keys): (&[f64], Option<&[usize]>) = if self.emitters.len() > MAX_WEIGHED_EMITTERS
+        {
+            (&self.power_cdf, None)
+        } else {
+            let (mut cdf, mut keys, mut total) = (Vec::new(), Vec::new(), 0.0);
+            for (k, e) in self.emitters.iter().enumerate() {
+                if !is_other(k, e) {
+                    continue;
+                }
+                let w = if count >= 2 {
+                    point_to_polygon(x, n, &e.corners) * e.le.iter().copied().fold(0.0, f64::max)
+                } else if e.corners.iter().any(|&c| (c - x).dot(n) > 0.0) {
+                    let d = (x.distance(e.centre) - e.radius).max(1e-3 * e.radius);
+                    e.power / (PI * d * d)
+                } else {
+                    0.0
+                };
+                if w > 0.0 {
+                    total += w;
+                    cdf.push(total);
+                    keys.push(k);
                 }
             }
-        }
-        sum
-    }
-
-    /// [`Gatherer::others_direct`] in a scene of more than [`MAX_WEIGHED_EMITTERS`] emitters:
-    /// each ray draws an emitter with probability p_e = power_e / Σ power (systematic
-    /// sampling of [`Gatherer::power_cdf`]), and adds Le_e F V / (count p_e) if it is one of
-    /// the others (not exact, sampled from `x`, in front), else nothing.
-    #[allow(clippy::too_many_arguments)]
-    fn others_by_power(
-        &self,
-        x: DVec3,
-        n: DVec3,
-        from: &crate::visibility::Point,
-        ignore: u32,
-        exact: &[u32],
-        count: usize,
-        rng: &mut Rng,
-        targets: &mut Vec<[f64; 3]>,
-    ) -> Rgb {
+            weighed = (cdf, keys);
+            (&weighed.0, Some(&weighed.1))
+        };
         let mut sum = [0.0; 3];
-        let total = *self.power_cdf.last().expect("more emitters than the bound");
+        let Some(&total) = cdf.last() else {
+            return sum;
+        };
         let offset = rng.next_f64();
         for j in 0..count {
             let u = (j as f64 + offset) / count as f64 * total;
-            let k = self
-                .power_cdf
-                .partition_point(|&c| c <= u)
-                .min(self.emitters.len() - 1);
+            let at = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+            let k = keys.map_or(at, |keys| keys[at]);
+            let p = (cdf[at] - if at == 0 { 0.0 } else { cdf[at - 1] }) / total;
             let e = &self.emitters[k];
-            if exact.binary_search(&(k as u32)).is_ok()
-                || !self.sampled(e, x)
-                || (x - e.corners[0]).dot(e.normal) <= 0.0
-            {
+            if !is_other(k, e) {
                 continue;
             }
             let f = point_to_polygon(x, n, &e.corners);
@@ -541,7 +506,6 @@ impl<'a> Gatherer<'a> {
                 visible = !self.vis.occluded_points(from, &to, [ignore, NONE]);
             });
             if visible {
-                let p = e.power / total;
                 for (s, le) in sum.iter_mut().zip(e.le) {
                     *s += le * f / (count as f64 * p);
                 }
