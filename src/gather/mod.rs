@@ -942,22 +942,9 @@ mod tests {
         let src = b.material("source", [0.0; 3], [1.0; 3]);
         let rcv = b.material("receiver", [0.5; 3], [0.0; 3]);
         let wall = b.material("blocker", [0.0; 3], [0.0; 3]);
-        let square = |z: f64, lo: f64, hi: f64, up: bool| {
-            let c = [
-                DVec3::new(lo, lo, z),
-                DVec3::new(hi, lo, z),
-                DVec3::new(hi, hi, z),
-                DVec3::new(lo, hi, z),
-            ];
-            if up {
-                c
-            } else {
-                [c[0], c[3], c[2], c[1]]
-            }
-        };
-        b.quad(square(0.0, 0.0, 1.0, true), src);
-        b.quad(square(1.0, 0.0, 1.0, false), rcv);
-        b.quad(square(0.5, -1.0, 2.0, false), wall);
+        b.quad(square(0.0, 0.0, 1.0, 0.0, true), src);
+        b.quad(square(0.0, 0.0, 1.0, 1.0, false), rcv);
+        b.quad(square(-1.0, -1.0, 3.0, 0.5, false), wall);
         let scene = b.build().unwrap();
         let patches = crate::mesh::subdivide(&scene, 0.25, 0.0).unwrap();
         let radiance = vec![[0.0; 3]; patches.len()];
@@ -980,6 +967,22 @@ mod tests {
         assert!(g.direct(y, patches.normal[blocker], blocker as u32, &mut rng)[0] > 0.0);
     }
 
+    /// The square [x0, x0 + side] × [y0, y0 + side] in the plane at height `z`, counter-clockwise
+    /// seen from above (`up`: its front faces +z) or from below.
+    fn square(x0: f64, y0: f64, side: f64, z: f64, up: bool) -> [DVec3; 4] {
+        let c = [
+            DVec3::new(x0, y0, z),
+            DVec3::new(x0 + side, y0, z),
+            DVec3::new(x0 + side, y0 + side, z),
+            DVec3::new(x0, y0 + side, z),
+        ];
+        if up {
+            c
+        } else {
+            [c[0], c[3], c[2], c[1]]
+        }
+    }
+
     /// A receiver plane z = 0 facing +z under an m × m grid (m even) of emitting squares in the
     /// plane z = 1 (x, y in [0, 1]; 2m² triangles), each square its own grey Le (1 … m²), and
     /// optionally a blocker in the plane z = 1/2 over x < 1/2 whose shadow edge, seen from
@@ -989,19 +992,6 @@ mod tests {
     fn emitter_grid(blocked: bool, m: usize) -> (Scene, Patches, f64) {
         let mut b = SceneBuilder::new();
         let rcv = b.material("receiver", [0.5; 3], [0.0; 3]);
-        let q = |x0: f64, y0: f64, s: f64, z: f64, up: bool| {
-            let c = [
-                DVec3::new(x0, y0, z),
-                DVec3::new(x0 + s, y0, z),
-                DVec3::new(x0 + s, y0 + s, z),
-                DVec3::new(x0, y0 + s, z),
-            ];
-            if up {
-                c
-            } else {
-                [c[0], c[3], c[2], c[1]]
-            }
-        };
         let x = DVec3::new(0.5, 0.5, 0.0);
         let mut exact = 0.0;
         let side = 1.0 / m as f64;
@@ -1009,14 +999,14 @@ mod tests {
             for j in 0..m {
                 let le = (1 + m * i + j) as f64;
                 let light = b.material(&format!("light{i}_{j}"), [0.0; 3], [le; 3]);
-                let c = q(side * i as f64, side * j as f64, side, 1.0, false);
+                let c = square(side * i as f64, side * j as f64, side, 1.0, false);
                 b.quad(c, light);
                 if !(blocked && 2 * i < m) {
                     exact += le * point_to_polygon(x, DVec3::Z, &c);
                 }
             }
         }
-        b.quad(q(-1.0, -1.0, 3.0, 0.0, true), rcv);
+        b.quad(square(-1.0, -1.0, 3.0, 0.0, true), rcv);
         if blocked {
             let wall = b.material("blocker", [0.0; 3], [0.0; 3]);
             b.quad(

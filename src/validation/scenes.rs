@@ -342,18 +342,23 @@ pub fn living_room() -> Result<Scene> {
         ],
         lamp,
     );
-    let boxed = |b: &mut SceneBuilder, lo: DVec3, hi: DVec3, m: u32| add_box(b, lo, hi, false, m);
     // Sofa: seat block and backrest against the wall y = 4.
-    boxed(&mut b, v(1.5, 3.1, 0.0), v(3.5, 4.0, 0.45), sofa);
-    boxed(&mut b, v(1.55, 3.75, 0.45), v(3.45, 4.0, 0.9), sofa);
+    add_box(&mut b, v(1.5, 3.1, 0.0), v(3.5, 4.0, 0.45), false, sofa);
+    add_box(&mut b, v(1.55, 3.75, 0.45), v(3.45, 4.0, 0.9), false, sofa);
     // Bookshelf against the blue wall.
-    boxed(&mut b, v(4.6, 0.6, 0.0), v(5.0, 1.8, 2.0), shelf);
+    add_box(&mut b, v(4.6, 0.6, 0.0), v(5.0, 1.8, 2.0), false, shelf);
     // Coffee table: 1.0 × 0.6 top at 0.40–0.44 m on four 4 cm legs.
     let (tx, ty) = (2.0, 1.8);
-    boxed(&mut b, v(tx, ty, 0.40), v(tx + 1.0, ty + 0.6, 0.44), wood);
+    add_box(
+        &mut b,
+        v(tx, ty, 0.40),
+        v(tx + 1.0, ty + 0.6, 0.44),
+        false,
+        wood,
+    );
     for (dx, dy) in [(0.0, 0.0), (0.96, 0.0), (0.0, 0.56), (0.96, 0.56)] {
         let lo = v(tx + dx, ty + dy, 0.0);
-        boxed(&mut b, lo, lo + v(0.04, 0.04, 0.40), wood);
+        add_box(&mut b, lo, lo + v(0.04, 0.04, 0.40), false, wood);
     }
     // The ball, resting on the floor (outward faces).
     let (positions, faces) = icosphere(2);
