@@ -355,6 +355,15 @@ pub struct SolveArgs {
         help_heading = "Discretisation"
     )]
     pub refine_threshold: f64,
+    /// The most patches adaptive refinement may make; a round that would pass it splits only
+    /// the largest jumps that fit [default: twice the initial patches, at most 12,000].
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Discretisation"
+    )]
+    pub refine_max_patches: Option<usize>,
     #[command(flatten)]
     pub estimator: FormFactorArgs,
     /// Form-factor cache directory: F (geometry only) is stored there and reused by later
@@ -485,6 +494,7 @@ impl SolveArgs {
             two_sided: self.two_sided,
             refine_rounds: self.refine,
             refine_threshold: self.refine_threshold,
+            refine_max_patches: self.refine_max_patches,
             cache: self.cache.clone(),
             discontinuities: self.discontinuities,
             gather: self.gather,

@@ -17,6 +17,8 @@ use std::collections::HashMap;
 
 use crate::color::Rgb;
 use crate::mesh::Patches;
+use crate::scene::Scene;
+use crate::Result;
 
 /// Default relative luminance jump between neighbours that marks both for splitting.
 pub const DEFAULT_THRESHOLD: f64 = 0.3;
@@ -34,9 +36,19 @@ pub fn marks(
     threshold: f64,
     crease_degrees: f64,
 ) -> Vec<bool> {
+    jumps(patches, radiance, crease_degrees)
+        .into_iter()
+        .map(|j| j > threshold)
+        .collect()
+}
+
+/// For each patch, the largest relative luminance jump to a neighbour on the same surface
+/// (|Lᵢ − Lⱼ| / max(Lᵢ, Lⱼ), in [0, 1]; 0 without such a neighbour): [`marks`] marks the
+/// patches whose jump exceeds the threshold, and [`within_budget`] splits the largest first.
+pub fn jumps(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> Vec<f64> {
     let cos_crease = crease_degrees.to_radians().cos();
     let mut by_edge: HashMap<(u32, u32), u32> = HashMap::new();
-    let mut marked = vec![false; patches.len()];
+    let mut jump = vec![0.0f64; patches.len()];
     for (i, t) in patches.triangles.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
@@ -53,13 +65,73 @@ pub fn marks(
             }
             let (li, lj) = (luminance(&radiance[i]), luminance(&radiance[j]));
             let scale = li.max(lj);
-            if scale > 0.0 && (li - lj).abs() > threshold * scale {
-                marked[i] = true;
-                marked[j] = true;
+            if scale > 0.0 {
+                let r = (li - lj).abs() / scale;
+                jump[i] = jump[i].max(r);
+                jump[j] = jump[j].max(r);
             }
         }
     }
-    marked
+    jump
+}
+
+/// The default bound on the patches adaptive refinement may make: twice the patches it
+/// starts from, but never more than [`REFINE_MAX_PATCHES`] (and never fewer than it starts
+/// from, which then allows no split). The matrix method's time and memory grow as patches²,
+/// so the bound keeps a default bake within 4× the work of its first solve, and its matrices
+/// below 12,000² × 32 B ≈ 4.3 GiB even where every patch sees every other (about 2 GiB at the
+/// Cornell box's fill of 0.45; the Cornell box: 4,004 → at most 8,008, its rounds make
+/// 6,481).
+pub fn default_budget(initial_patches: usize) -> usize {
+    (2 * initial_patches).min(REFINE_MAX_PATCHES.max(initial_patches))
+}
+
+/// The most patches the default refinement budget allows, whatever the scene.
+pub const REFINE_MAX_PATCHES: usize = 12_000;
+
+/// One round of adaptive refinement that keeps the patch count within `budget`: the patches
+/// whose [`jumps`] exceed `threshold` are split ([`crate::mesh::refine()`]); if that would
+/// make more than `budget` patches, only the largest jumps are split, as many as fit (a
+/// split patch becomes 4 and its neighbours along the split edges 2 each, so the count is
+/// found by trying). `None` when nothing is marked or not even the largest jump fits; the
+/// second value is true when marks were left out for the budget.
+pub fn within_budget(
+    scene: &Scene,
+    patches: &Patches,
+    jumps: &[f64],
+    threshold: f64,
+    crease_degrees: f64,
+    budget: usize,
+) -> Result<Option<(Vec<bool>, Patches, bool)>> {
+    let mut order: Vec<usize> = (0..patches.len())
+        .filter(|&i| jumps[i] > threshold)
+        .collect();
+    if order.is_empty() {
+        return Ok(None);
+    }
+    // Largest jump first; ties by index, so the choice is deterministic.
+    order.sort_by(|&a, &b| jumps[b].total_cmp(&jumps[a]).then(a.cmp(&b)));
+    let n = patches.len();
+    let mut keep = order.len();
+    loop {
+        let mut marked = vec![false; n];
+        for &i in &order[..keep] {
+            marked[i] = true;
+        }
+        let refined = crate::mesh::refine(scene, patches, &marked, crease_degrees)?;
+        if refined.len() <= budget {
+            return Ok(Some((marked, refined, keep < order.len())));
+        }
+        // Growth is about proportional to the marks: scale them to the room left, with a
+        // margin, and always shrink.
+        let room = budget.saturating_sub(n) as f64;
+        let grown = (refined.len() - n).max(1) as f64;
+        let next = ((keep as f64 * room / grown * 0.9).floor() as usize).min(keep - 1);
+        if next == 0 {
+            return Ok(None);
+        }
+        keep = next;
+    }
 }
 
 #[cfg(test)]

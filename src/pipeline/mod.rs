@@ -137,20 +137,29 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     let (mut form_factors, mut solution) =
         light_transport(scene, &patches, settings, None, &mut report)?;
 
-    // Adaptive refinement: split where neighbours' radiance jumps and solve again; pairs of
-    // patches a round leaves unchanged keep their form factors.
+    // Adaptive refinement: split where neighbours' radiance jumps and solve again, within
+    // a bound on the patches; pairs of patches a round leaves unchanged keep their form
+    // factors.
+    let budget = settings
+        .refine_max_patches
+        .unwrap_or_else(|| refine::default_budget(patches.len()));
+    report.refine_budget = budget;
     for _ in 0..settings.refine_rounds {
         let t = Instant::now();
-        let marked = refine::marks(
+        let jumps = refine::jumps(&patches, &solution.radiance, settings.crease_degrees);
+        let Some((marked, refined, capped)) = refine::within_budget(
+            scene,
             &patches,
-            &solution.radiance,
+            &jumps,
             settings.refine_threshold,
             settings.crease_degrees,
-        );
-        if !marked.contains(&true) {
+            budget,
+        )?
+        else {
+            report.refine_capped |= jumps.iter().any(|&j| j > settings.refine_threshold);
             break;
-        }
-        let refined = mesh::refine(scene, &patches, &marked, settings.crease_degrees)?;
+        };
+        report.refine_capped |= capped;
         report.refine_rounds += 1;
         crate::progress::note(|| report::refine_note(report.refine_rounds, &marked, &refined));
         report.seconds.patches += t.elapsed().as_secs_f64();
@@ -376,6 +385,8 @@ mod tests {
     use super::*;
     use crate::test_support::TestDir;
     use crate::validation::scenes;
+
+    const DEFAULT_CREASE: f64 = mesh::DEFAULT_CREASE_DEGREES;
     use crate::Error;
 
     /// The name of a setting error, or a panic.
@@ -467,6 +478,39 @@ mod tests {
             .summary()
             .starts_with(&format!("{} patches, {} vertices", r.patches, r.vertices)));
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+
+    #[test]
+    fn refinement_never_passes_its_budget() {
+        // The receiver's fall-off asks for a split at every round at a 1 % threshold: five
+        // rounds would multiply the patches many times over. Each budget bounds them, the
+        // report says when marks were left out, and a budget equal to the initial patches
+        // allows no round at all.
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let initial = mesh::subdivide(&scene, 0.25, DEFAULT_CREASE).unwrap().len();
+        for budget in [initial, initial + 7, 2 * initial, 5 * initial] {
+            let settings = Settings {
+                max_edge: Some(0.25),
+                refine_rounds: 5,
+                refine_threshold: 0.01,
+                refine_max_patches: Some(budget),
+                gather: Gather::None,
+                ..Settings::default()
+            };
+            let r = solve_scene(&scene, &settings).unwrap().report;
+            assert_eq!(r.refine_budget, budget);
+            assert!(r.patches <= budget, "{} patches > {budget}", r.patches);
+            assert!(r.refine_capped, "budget {budget}: marks were left out");
+            if budget == initial {
+                assert_eq!((r.refine_rounds, r.patches), (0, initial));
+            } else {
+                assert!(r.patches > initial && r.refine_rounds >= 1);
+            }
+        }
+        // The default budget: twice the initial patches, at most 12,000.
+        assert_eq!(refine::default_budget(4004), 8008);
+        assert_eq!(refine::default_budget(9000), refine::REFINE_MAX_PATCHES);
+        assert_eq!(refine::default_budget(20_000), 20_000);
     }
 
     #[test]

@@ -59,6 +59,11 @@ pub struct Report {
     pub patches: usize,
     /// Adaptive refinement rounds performed (each split patches and solved again).
     pub refine_rounds: u32,
+    /// The most patches refinement was allowed to make (`--refine-max-patches`, by default
+    /// [`crate::mesh::refine::default_budget`]); 0 with the hierarchical method.
+    pub refine_budget: usize,
+    /// True when refinement left marked patches unsplit to stay within `refine_budget`.
+    pub refine_capped: bool,
     /// Vertices of the output mesh (after splitting at creases and material borders, and the
     /// display refinement).
     pub vertices: usize,
@@ -107,6 +112,8 @@ impl Report {
             max_edge: 0.0,
             patches: 0,
             refine_rounds: 0,
+            refine_budget: 0,
+            refine_capped: false,
             vertices: 0,
             gather: crate::gather::Gather::None,
             display_refinement: crate::gather::Refined::default(),

@@ -98,6 +98,10 @@ pub struct Settings {
     pub refine_rounds: u32,
     /// Relative luminance jump that marks two neighbours for splitting; finite and > 0.
     pub refine_threshold: f64,
+    /// The most patches refinement may make, ≥ 1: a round that would pass it splits only the
+    /// largest jumps that fit ([`refine::within_budget`]); `None` =
+    /// [`refine::default_budget`] (twice the initial patches, at most 12,000).
+    pub refine_max_patches: Option<usize>,
     /// Form-factor cache directory: F is read from it when these patches and estimator
     /// settings were computed before, and stored otherwise ([`crate::form_factor::cache`]).
     pub cache: Option<PathBuf>,
@@ -126,6 +130,7 @@ impl Default for Settings {
             two_sided: false,
             refine_rounds: 2,
             refine_threshold: refine::DEFAULT_THRESHOLD,
+            refine_max_patches: None,
             cache: None,
             discontinuities: mesh::Discontinuities::Auto,
             gather: Gather::Auto,
@@ -198,6 +203,12 @@ impl Settings {
                 format!("{} is not a positive number", self.refine_threshold),
             ));
         }
+        if self.refine_max_patches == Some(0) {
+            return Err(Error::setting(
+                "refine_max_patches",
+                "0 is not a patch count >= 1",
+            ));
+        }
         if !(self.gather_tolerance >= 0.0 && self.gather_tolerance.is_finite()) {
             return Err(Error::setting(
                 "gather_tolerance",
@@ -254,7 +265,8 @@ mod tests {
     fn validate_names_the_first_bad_setting() {
         Settings::default().validate().unwrap();
         type Breakage = (fn(&mut Settings), &'static str);
-        let cases: [Breakage; 14] = [
+        let cases: [Breakage; 15] = [
+            (|s| s.refine_max_patches = Some(0), "refine_max_patches"),
             (|s| s.gather_rays = Some(0), "gather_rays"),
             (|s| s.gather_tolerance = -0.01, "gather_tolerance"),
             (|s| s.gather_tolerance = f64::INFINITY, "gather_tolerance"),
