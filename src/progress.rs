@@ -21,6 +21,8 @@ pub trait Observer: Send + Sync {
     fn finish(&self);
     /// A line of verbose detail (shown with `-v`).
     fn note(&self, message: &str);
+    /// A warning, shown as it happens (also with `--quiet`).
+    fn warning(&self, message: &str);
 }
 
 static OBSERVER: OnceLock<Box<dyn Observer>> = OnceLock::new();
@@ -91,6 +93,12 @@ pub fn note_status(message: impl FnOnce() -> String) {
     if let Some(o) = observer() {
         o.status(&message());
     }
+}
+
+/// A warning shown as it happens; false when nobody listens (the caller keeps it to show
+/// later).
+pub fn warning(message: &str) -> bool {
+    observer().map(|o| o.warning(message)).is_some()
 }
 
 /// A line of verbose detail; the message is only built when someone listens.

@@ -76,10 +76,11 @@ pub struct InfoArgs {
     /// Print JSON instead of text (the same facts; field names in the README).
     #[arg(long)]
     pub json: bool,
-    /// Describe the scene as `--two-sided` makes it for bake and render: every face with a
-    /// back face of its own (counts, area and emitted power include the back faces).
-    #[arg(long)]
-    pub two_sided: bool,
+    /// The bake's options (`--max-edge`, `--method`, `--refine`, `--epsilon`, …), for the
+    /// estimate of its patches, memory and time; `--two-sided` also describes the scene with
+    /// its back faces (counts, area and emitted power include them).
+    #[command(flatten)]
+    pub solve: SolveArgs,
     #[command(flatten)]
     pub materials: MaterialArgs,
 }
@@ -364,6 +365,11 @@ pub struct SolveArgs {
         help_heading = "Discretisation"
     )]
     pub refine_max_patches: Option<usize>,
+    /// Refuse, before it starts, a bake estimated to need more memory than this: bytes, or
+    /// with a binary unit (512M, 4G, 1.5GiB) [default: the memory available now]. `radiosity
+    /// info` with the same options prints the estimate.
+    #[arg(long, value_name = "SIZE", value_parser = parse_bytes, allow_hyphen_values = true, help_heading = "Limits")]
+    pub max_memory: Option<f64>,
     #[command(flatten)]
     pub estimator: FormFactorArgs,
     /// Form-factor cache directory: F (geometry only) is stored there and reused by later
@@ -495,6 +501,7 @@ impl SolveArgs {
             refine_rounds: self.refine,
             refine_threshold: self.refine_threshold,
             refine_max_patches: self.refine_max_patches,
+            max_memory: self.max_memory,
             cache: self.cache.clone(),
             discontinuities: self.discontinuities,
             gather: self.gather,
@@ -504,6 +511,31 @@ impl SolveArgs {
         settings.validate()?;
         Ok(settings)
     }
+}
+
+/// A size in bytes: a number, optionally followed by K, M, G or T (binary: 1024-based, with or
+/// without `iB` or `B`), e.g. `4G`, `512MiB`, `1.5g`, `1000000`.
+pub fn parse_bytes(text: &str) -> std::result::Result<f64, String> {
+    let t = text.trim();
+    let digits = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.' || c == 'e' || c == 'E'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(digits);
+    let power = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kb" | "kib" => 1,
+        "m" | "mb" | "mib" => 2,
+        "g" | "gb" | "gib" => 3,
+        "t" | "tb" | "tib" => 4,
+        other => return Err(format!("unknown unit '{other}' (use K, M, G or T)")),
+    };
+    let x: f64 = number
+        .parse()
+        .map_err(|_| format!("'{text}' is not a size such as 4G, 512M or 1000000"))?;
+    if !(x > 0.0 && x.is_finite()) {
+        return Err(format!("'{text}' is not a positive size"));
+    }
+    Ok(x * 1024f64.powi(power))
 }
 
 /// `--output` of a command that writes one kind of file must end in `.ext` (any case), and
@@ -595,6 +627,19 @@ mod tests {
         match Cli::try_parse_from(args).unwrap().command {
             Command::Bake(b) => b,
             other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn sizes_in_bytes_and_binary_units() {
+        let gib = 1024f64.powi(3);
+        assert_eq!(parse_bytes("1000000"), Ok(1e6));
+        assert_eq!(parse_bytes("4G"), Ok(4.0 * gib));
+        assert_eq!(parse_bytes("4GiB"), Ok(4.0 * gib));
+        assert_eq!(parse_bytes("1.5g"), Ok(1.5 * gib));
+        assert_eq!(parse_bytes("512 MB"), Ok(512.0 * 1024.0 * 1024.0));
+        for bad in ["", "G", "0", "-1G", "4Q", "1e999"] {
+            assert!(parse_bytes(bad).is_err(), "{bad}");
         }
     }
 

@@ -25,7 +25,7 @@ pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
     }
     let outcome = pipeline::run_with(&args.input, &args.output, &settings, &options, &overrides)?;
     let report = &outcome.report;
-    for w in &report.warnings {
+    for w in report.unshown_warnings() {
         eprintln!("warning: {w}");
     }
     if let Some(path) = &args.report {
@@ -123,7 +123,7 @@ pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
             let mut scene = Scene::load(&args.input)?;
             scene.apply_overrides(&overrides)?;
             let outcome = pipeline::solve_scene(&scene, &settings)?;
-            for w in &outcome.report.warnings {
+            for w in outcome.report.unshown_warnings() {
                 eprintln!("warning: {w}");
             }
             if !outcome.report.converged {
@@ -149,12 +149,15 @@ pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
 /// `radiosity info`: the scene described, as text or JSON.
 pub fn info(args: &InfoArgs) -> Result<u8, Failure> {
     let overrides = args.materials.overrides()?;
+    let settings = args.solve.settings()?;
     let mut scene = Scene::load(&args.input)?;
     scene.apply_overrides(&overrides)?;
-    if args.two_sided {
+    // The estimate describes the bake, which makes the back faces itself.
+    let estimate = pipeline::Estimate::of(&scene, &settings, rayon::current_num_threads())?;
+    if settings.two_sided {
         scene.make_two_sided();
     }
-    let info = SceneInfo::of(&scene)?;
+    let info = SceneInfo::of(&scene, estimate)?;
     if args.json {
         println!("{}", info.to_json());
     } else {

@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 30] = [
+pub const FLAGS: [(&str, &str); 31] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -28,6 +28,7 @@ pub const FLAGS: [(&str, &str); 30] = [
     ("refine_rounds", "--refine"),
     ("refine_threshold", "--refine-threshold"),
     ("refine_max_patches", "--refine-max-patches"),
+    ("max_memory", "--max-memory"),
     ("form_factors.estimator", "--form-factors"),
     ("form_factors.samples", "--samples"),
     ("form_factors.rays", "--rays"),

@@ -1,6 +1,7 @@
 //! The binary's progress display: `indicatif` bars on stderr for the library's long stages
 //! ([`radiosity::progress`]), drawn only when stderr is a terminal and `--quiet` is not given,
-//! and the verbose notes of `-v` (printed above the bar, or plainly when there is none).
+//! the verbose notes of `-v` and the warnings as they happen (printed above the bar, or
+//! plainly when there is none).
 
 use std::io::IsTerminal;
 use std::sync::Mutex;
@@ -9,16 +10,15 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use radiosity::progress::{set_observer, Observer};
 
-/// Installs the observer for this run.
+/// Installs the observer for this run (always: warnings are shown as they happen, also with
+/// `--quiet` and when stderr is not a terminal).
 pub fn install(quiet: bool, verbose: bool) {
     let bars = !quiet && std::io::stderr().is_terminal();
-    if bars || verbose {
-        set_observer(Box::new(Bars {
-            bars,
-            verbose,
-            current: Mutex::new(None),
-        }));
-    }
+    set_observer(Box::new(Bars {
+        bars,
+        verbose,
+        current: Mutex::new(None),
+    }));
 }
 
 struct Bars {
@@ -85,9 +85,19 @@ impl Observer for Bars {
     }
 
     fn note(&self, message: &str) {
-        if !self.verbose {
-            return;
+        if self.verbose {
+            self.line(message);
         }
+    }
+
+    fn warning(&self, message: &str) {
+        self.line(&format!("warning: {message}"));
+    }
+}
+
+impl Bars {
+    /// A line on stderr, above the bar when one is drawn.
+    fn line(&self, message: &str) {
         match self.current.lock().ok().as_deref() {
             Some(Some((_, bar))) => bar.println(message),
             _ => eprintln!("{message}"),

@@ -1,13 +1,12 @@
 //! What `radiosity info` prints: a summary of a loaded [`Scene`] (counts, bounding box,
 //! materials, emitters and their power, one or two sides, the camera, loader warnings, and
-//! the patch count the default discretisation would give), as text or JSON. This module owns the summary and its two
-//! renderings; it does no I/O, solves nothing and only subdivides to count patches.
+//! the estimate of a bake's patches, memory and time), as text or JSON. This module owns the
+//! summary and its two renderings; it does no I/O and solves nothing.
 
 use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use crate::mesh;
 use crate::scene::camera::Camera;
 use crate::scene::{Scene, NO_TWIN};
 use crate::Result;
@@ -82,21 +81,16 @@ pub struct SceneInfo {
     pub camera: Option<CameraInfo>,
     /// Warnings from loading (and cleaning) the scene.
     pub warnings: Vec<String>,
-    /// [`mesh::default_max_edge`], scene units.
-    pub default_max_edge: f64,
-    /// Number of patches [`crate::mesh::subdivide`] gives with [`SceneInfo::default_max_edge`],
-    /// after the default contact lines are made edges ([`crate::mesh::split_contacts`]), before
-    /// refinement.
-    pub default_patches: usize,
-    /// The method `bake` takes by default (`method = auto` resolved,
-    /// [`super::Settings::resolved`]: `matrix` up to [`super::AUTO_MATRIX_MAX_PATCHES`] patches,
-    /// `hierarchical` beyond).
-    pub default_method: super::Method,
+    /// What a bake with the options given will cost: method, patches, memory, time
+    /// ([`super::Estimate`]; `radiosity info` passes the bake's options, the defaults unless
+    /// others are given).
+    pub estimate: super::Estimate,
 }
 
 impl SceneInfo {
-    /// Summarises `scene` (which must satisfy the [`Scene`] invariants; it is validated).
-    pub fn of(scene: &Scene) -> Result<SceneInfo> {
+    /// Summarises `scene` (which must satisfy the [`Scene`] invariants; it is validated), with
+    /// the `estimate` of a bake of it ([`super::Estimate::of`]).
+    pub fn of(scene: &Scene, estimate: super::Estimate) -> Result<SceneInfo> {
         scene.validate()?;
         let mut materials: Vec<MaterialInfo> = scene
             .materials
@@ -125,11 +119,6 @@ impl SceneInfo {
             }
         }
         let (lo, hi) = scene.bounds();
-        let default_max_edge = mesh::default_max_edge(scene);
-        let (split, _) = mesh::split_contacts(scene);
-        let default_patches =
-            mesh::subdivide(&split, default_max_edge, mesh::DEFAULT_CREASE_DEGREES)?.len();
-        let default_method = super::Settings::default().resolved(scene)?.method;
         Ok(SceneInfo {
             source: scene.source.as_ref().map(|p| p.display().to_string()),
             vertices: scene.positions.len(),
@@ -144,9 +133,7 @@ impl SceneInfo {
             back_faces: scene.twin.iter().filter(|&&u| u != NO_TWIN).count() / 2,
             camera: scene.camera.map(CameraInfo::from),
             warnings: scene.warnings.clone(),
-            default_max_edge,
-            default_patches,
-            default_method,
+            estimate,
         })
     }
 
@@ -173,17 +160,48 @@ impl SceneInfo {
             g(self.diagonal)
         );
         let _ = writeln!(s, "area:         {} units²", g(self.area));
+        let e = &self.estimate;
         let _ = writeln!(
             s,
-            "patches:      {} with the default --max-edge {}",
-            self.default_patches,
-            g(self.default_max_edge)
-        );
-        let _ = writeln!(
-            s,
-            "method:       {} (the default, --method auto: matrix up to {} patches)",
-            self.default_method,
+            "method:       {} (--method auto: matrix up to {} patches)",
+            e.method,
             super::AUTO_MATRIX_MAX_PATCHES
+        );
+        let _ = match e.method {
+            super::Method::Hierarchical => writeln!(
+                s,
+                "patches:      {} root elements at --max-edge {}, about {} leaves at --epsilon",
+                e.patches,
+                g(e.max_edge),
+                e.max_patches
+            ),
+            _ if e.max_patches > e.patches => writeln!(
+                s,
+                "patches:      {} at --max-edge {}, refined to at most {}",
+                e.patches,
+                g(e.max_edge),
+                e.max_patches
+            ),
+            _ => writeln!(
+                s,
+                "patches:      {} at --max-edge {}",
+                e.patches,
+                g(e.max_edge)
+            ),
+        };
+        let _ = writeln!(
+            s,
+            "estimate:     {} peak memory, {} on {} thread{} (gather {}; {})",
+            super::estimate::bytes(e.memory_bytes),
+            super::estimate::duration(e.seconds),
+            e.threads,
+            if e.threads == 1 { "" } else { "s" },
+            e.gather,
+            if e.method == super::Method::Hierarchical {
+                "±50 %"
+            } else {
+                "an upper bound from the patches that face each other"
+            }
         );
         let _ = writeln!(s, "materials:    {}", self.materials.len());
         for m in &self.materials {
@@ -311,7 +329,9 @@ mod tests {
             ],
             wall,
         );
-        let info = SceneInfo::of(&b.build().unwrap()).unwrap();
+        let scene = b.build().unwrap();
+        let estimate = super::super::Estimate::of(&scene, &Default::default(), 2).unwrap();
+        let info = SceneInfo::of(&scene, estimate).unwrap();
         assert_eq!((info.vertices, info.triangles), (8, 4));
         assert_eq!(info.bounds_max, [2.0, 3.0, 1.0]);
         assert!((info.diagonal - 14f64.sqrt()).abs() < 1e-12);
@@ -322,8 +342,8 @@ mod tests {
         assert_eq!(info.emitted_power[2], 0.0);
         assert_eq!(info.materials[2].triangles, 0);
         assert_eq!(info.materials[2].power, [0.0; 3], "unused: no power");
-        assert!(info.default_patches >= 4);
-        assert!((info.default_max_edge - info.diagonal / 16.0).abs() < 1e-12);
+        assert!(info.estimate.patches >= 4);
+        assert!((info.estimate.max_edge - info.diagonal / 16.0).abs() < 1e-12);
         let text = info.text();
         assert!(text.contains("triangles:    4"), "{text}");
         assert!(text.contains("lamp"), "{text}");

@@ -9,10 +9,12 @@
 //! [`Settings::validate`] are in [`settings`], the [`Report`] of counts and seconds in
 //! [`report`], and the summary `radiosity info` prints in [`info`].
 
+pub mod estimate;
 pub mod info;
 pub mod report;
 pub mod settings;
 
+pub use estimate::Estimate;
 pub use report::{Report, Seconds};
 pub use settings::{Method, Settings, WriteOptions, AUTO_MATRIX_MAX_PATCHES};
 
@@ -79,6 +81,11 @@ pub fn run_with(
     scene.apply_overrides(overrides)?;
     let load_seconds = t.elapsed().as_secs_f64();
 
+    // What it will cost, before any of it is done: refused if it would not fit in memory,
+    // announced if it is long.
+    let estimate = Estimate::of(&scene, settings, rayon::current_num_threads())?;
+    check_estimate(input, &estimate, settings.max_memory)?;
+
     let mut outcome = solve_scene(&scene, settings)?;
 
     let t = Instant::now();
@@ -93,8 +100,51 @@ pub fn run_with(
     report.overrides = overrides.iter().map(Override::to_string).collect();
     report.seconds.load = load_seconds;
     report.seconds.write = t.elapsed().as_secs_f64();
+    report.estimate = Some(estimate);
+    report.stream_warnings();
     report.peak_memory_bytes = report::peak_memory_bytes();
     Ok(outcome)
+}
+
+/// Seconds past which a bake says, before it starts, how long it will take.
+pub const LONG_BAKE_SECONDS: f64 = 60.0;
+
+/// Refuses a bake whose estimated memory is more than `max_memory` bytes (`None`: the memory
+/// the machine has available, when it can be read), naming what would bring it down; a bake
+/// estimated to take longer than [`LONG_BAKE_SECONDS`] says so through
+/// [`crate::progress::warning`] before it starts.
+fn check_estimate(input: &Path, estimate: &Estimate, max_memory: Option<f64>) -> Result<()> {
+    let (limit, what) = match max_memory {
+        Some(m) => (Some(m), "--max-memory allows"),
+        None => (estimate::available_memory(), "is available now"),
+    };
+    if let Some(limit) = limit {
+        if estimate.memory_bytes > limit {
+            return Err(crate::Error::setting(
+                "max_memory",
+                format!(
+                    "{}: this bake would need {} ({}), more than the {} that {what}; try {}, \
+                     or raise --max-memory",
+                    input.display(),
+                    estimate::bytes(estimate.memory_bytes),
+                    estimate.what(),
+                    estimate::bytes(limit),
+                    estimate.remedies()
+                ),
+            ));
+        }
+    }
+    if estimate.seconds > LONG_BAKE_SECONDS {
+        crate::progress::warning(&format!(
+            "{}: this bake will take about {} ({}; {}); {} would make it faster",
+            input.display(),
+            estimate::duration(estimate.seconds),
+            estimate.what(),
+            estimate::bytes(estimate.memory_bytes),
+            estimate.remedies()
+        ));
+    }
+    Ok(())
 }
 
 /// patches → BVH → form factors → matrix → solve (→ refine, again) → bake, for a scene in
@@ -117,6 +167,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     scene.validate()?;
     let mut report = Report::new(settings);
     report.warnings.extend(scene.warnings.iter().cloned());
+    report.stream_warnings();
     report.input_triangles = input_triangles;
     report.contacts = split.as_ref().map(|(_, stats)| stats.clone());
     report.seconds.patches = contact_seconds;
@@ -211,6 +262,7 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
         report.warn_no_emitters();
     }
     report.warnings.extend(h.warnings);
+    report.stream_warnings();
     report.seconds.solve = t.elapsed().as_secs_f64();
     report.patches = h.patches.len();
     report.iterations = h.solution.iterations;
@@ -329,6 +381,7 @@ fn light_transport(
     report.residual = solution.residual;
     report.converged = solution.converged;
     report.seconds.solve += t.elapsed().as_secs_f64();
+    report.stream_warnings();
     Ok((form_factors, solution))
 }
 

@@ -59,6 +59,9 @@ pub struct Report {
     pub patches: usize,
     /// Adaptive refinement rounds performed (each split patches and solved again).
     pub refine_rounds: u32,
+    /// What the bake was estimated to cost before it started ([`super::Estimate`]; `None`
+    /// when the scene was solved in memory, without [`super::run`]).
+    pub estimate: Option<super::Estimate>,
     /// The most patches refinement was allowed to make (`--refine-max-patches`, by default
     /// [`crate::mesh::refine::default_budget`]); 0 with the hierarchical method.
     pub refine_budget: usize,
@@ -96,7 +99,12 @@ pub struct Report {
     pub peak_memory_bytes: Option<u64>,
     /// What the form-factor cache did (`--cache`), if one was used.
     pub cache: Option<crate::form_factor::cache::CacheReport>,
+    /// Everything the run warned of, in order (also shown as the run goes, see
+    /// [`Report::stream_warnings`]).
     pub warnings: Vec<String>,
+    /// How many of `warnings` were shown as the run went.
+    #[serde(skip)]
+    streamed: usize,
 }
 
 impl Report {
@@ -113,6 +121,7 @@ impl Report {
             patches: 0,
             refine_rounds: 0,
             refine_budget: 0,
+            estimate: None,
             refine_capped: false,
             vertices: 0,
             gather: crate::gather::Gather::None,
@@ -133,14 +142,33 @@ impl Report {
             peak_memory_bytes: None,
             cache: None,
             warnings: Vec::new(),
+            streamed: 0,
         }
     }
 
     /// Warns, once, that the scene has no emitters (L = 0 whatever else).
+    /// Shows the warnings not yet shown through [`crate::progress::warning`], as the run
+    /// goes (a 15-minute bake tells of a bad material at once, not at its end).
+    pub fn stream_warnings(&mut self) {
+        while self.streamed < self.warnings.len() {
+            if !crate::progress::warning(&self.warnings[self.streamed]) {
+                return;
+            }
+            self.streamed += 1;
+        }
+    }
+
+    /// The warnings [`Report::stream_warnings`] has not shown.
+    pub fn unshown_warnings(&self) -> &[String] {
+        &self.warnings[self.streamed..]
+    }
+
+    /// The warning that nothing emits, once.
     pub fn warn_no_emitters(&mut self) {
         let warning = "no emitters in the scene (no material has Ke > 0): the result is black";
         if !self.warnings.iter().any(|w| w == warning) {
             self.warnings.push(warning.into());
+            self.stream_warnings();
         }
     }
 

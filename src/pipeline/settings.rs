@@ -102,6 +102,10 @@ pub struct Settings {
     /// largest jumps that fit ([`refine::within_budget`]); `None` =
     /// [`refine::default_budget`] (twice the initial patches, at most 12,000).
     pub refine_max_patches: Option<usize>,
+    /// The most memory a bake may be estimated to need, bytes, finite and > 0
+    /// ([`super::Estimate`]): [`super::run`] refuses a larger one before it starts; `None` =
+    /// the memory the machine has available ([`super::estimate::available_memory`]).
+    pub max_memory: Option<f64>,
     /// Form-factor cache directory: F is read from it when these patches and estimator
     /// settings were computed before, and stored otherwise ([`crate::form_factor::cache`]).
     pub cache: Option<PathBuf>,
@@ -131,6 +135,7 @@ impl Default for Settings {
             refine_rounds: 2,
             refine_threshold: refine::DEFAULT_THRESHOLD,
             refine_max_patches: None,
+            max_memory: None,
             cache: None,
             discontinuities: mesh::Discontinuities::Auto,
             gather: Gather::Auto,
@@ -209,6 +214,14 @@ impl Settings {
                 "0 is not a patch count >= 1",
             ));
         }
+        if let Some(m) = self.max_memory {
+            if !(m > 0.0 && m.is_finite()) {
+                return Err(Error::setting(
+                    "max_memory",
+                    format!("{m} is not a positive number of bytes"),
+                ));
+            }
+        }
         if !(self.gather_tolerance >= 0.0 && self.gather_tolerance.is_finite()) {
             return Err(Error::setting(
                 "gather_tolerance",
@@ -265,7 +278,8 @@ mod tests {
     fn validate_names_the_first_bad_setting() {
         Settings::default().validate().unwrap();
         type Breakage = (fn(&mut Settings), &'static str);
-        let cases: [Breakage; 15] = [
+        let cases: [Breakage; 16] = [
+            (|s| s.max_memory = Some(0.0), "max_memory"),
             (|s| s.refine_max_patches = Some(0), "refine_max_patches"),
             (|s| s.gather_rays = Some(0), "gather_rays"),
             (|s| s.gather_tolerance = -0.01, "gather_tolerance"),

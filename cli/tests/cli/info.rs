@@ -45,8 +45,8 @@ fn info_prints_counts_materials_power_and_patches_as_text_and_json() {
     );
     // The same count a default bake starts from (contact lines made edges, then subdivided).
     let (patches, max_edge) = (
-        json["default_patches"].as_u64().unwrap(),
-        json["default_max_edge"].as_f64().unwrap(),
+        json["estimate"]["patches"].as_u64().unwrap(),
+        json["estimate"]["max_edge"].as_f64().unwrap(),
     );
     let scene = Scene::load(input.as_ref()).unwrap();
     let (scene, _) = radiosity::mesh::split_contacts(&scene);
@@ -71,5 +71,57 @@ fn info_prints_counts_materials_power_and_patches_as_text_and_json() {
     let o = radiosity(&["info", missing.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("nope.obj"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn info_estimates_the_bake_its_options_describe_and_bake_refuses_what_would_not_fit() {
+    // info with the bake's options counts the patches the bake starts from: a bake with the
+    // same options and no refinement reports that many.
+    let input = cornell();
+    let dir = temp_dir("estimate");
+    let out = dir.join("lit.ply");
+    let report = dir.join("report.json");
+    let options = ["--max-edge", "150", "--refine", "0", "--gather", "none"];
+    let mut args = vec!["info", &input, "--json"];
+    args.extend(options);
+    let o = radiosity(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let e = &json["estimate"];
+    assert_eq!(e["method"], "matrix");
+    assert_eq!(e["max_patches"], e["patches"], "no refinement");
+    assert_eq!(e["gather"], "none");
+    let (out_s, report_s) = (out.to_str().unwrap(), report.to_str().unwrap());
+    let mut args = vec!["bake", &input, "-o", out_s, "--report", report_s, "-q"];
+    args.extend(options);
+    let o = radiosity(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["patches"], e["patches"]);
+    assert_eq!(r["estimate"]["patches"], e["patches"]);
+    // The estimate is an upper bound on the matrix method's memory: the run stayed below it.
+    let peak = r["peak_memory_bytes"].as_f64().unwrap();
+    assert!(peak < e["memory_bytes"].as_f64().unwrap(), "{peak} {e}");
+
+    // A bound below the estimate: refused before any work, exit 2, nothing written, and the
+    // message names the input, the need and what would lower it.
+    std::fs::remove_file(&out).unwrap();
+    let mut args = vec!["bake", &input, "-o", out_s, "--max-memory", "1M"];
+    args.extend(options);
+    let o = radiosity(&args);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    for word in ["cornell_box.obj", "--max-memory", "--max-edge", "MiB"] {
+        assert!(err.contains(word), "{word}: {err}");
+    }
+    assert!(!out.exists());
+    // Sizes read with binary units; anything else is a usage error.
+    for bad in ["4Q", "-1G", "lots"] {
+        let o = radiosity(&["bake", &input, "-o", out_s, "--max-memory", bad]);
+        assert_eq!(o.status.code(), Some(2), "{bad}");
+        assert!(stderr(&o).contains("--max-memory"), "{}", stderr(&o));
+    }
     let _ = std::fs::remove_dir_all(dir);
 }

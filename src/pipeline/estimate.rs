@@ -1,0 +1,338 @@
+//! What a bake will cost, before any of it is done: the method `auto` picks, the patches, the
+//! memory and the time, from counts of the scene and a cost model measured on the benchmark
+//! machine (2 cores, 2026-11-26; the figures are in the constants below and BENCHMARKS.md,
+//! "Defaults that scale"). `bake` refuses, before it starts, a run whose estimated memory is
+//! more than `--max-memory` (by default the memory the machine has available), and says how
+//! long a long run will take; `radiosity info` prints the estimate for the options it is
+//! given. This module owns the model; it cuts the scene into patches to count them, and
+//! solves nothing.
+//!
+//! The model's two halves:
+//! - **Matrix**: memory and time grow with F's non-zeros. A pair of patches can have a
+//!   non-zero entry only if each is in front of the other; the share of such pairs is counted
+//!   on up to [`FILL_SAMPLES`] patches against all others, so the estimate is an upper bound
+//!   on the non-zeros (visibility removes more: the Cornell box keeps about 70 % of its facing
+//!   pairs). With refinement the patches are the refinement budget, the most it may make.
+//! - **Hierarchical**: memory and time grow with the root elements, and with ε as ε^-0.4
+//!   (the generated hall of 10⁴ triangles from ε = 10⁻⁴ to 10⁻⁵: memory ×2.2, links ×2.7,
+//!   time ×2.2); the leaves are not known before the solve, so this one is an estimate
+//!   within about ±50 %, not a bound.
+
+use serde::Serialize;
+
+use super::{Method, Settings};
+use crate::gather::{self, Gather};
+use crate::mesh::{self, refine, Patches};
+use crate::scene::Scene;
+use crate::Result;
+
+/// Patches whose facing pairs are counted to estimate F's fill (every patch when fewer).
+pub const FILL_SAMPLES: usize = 256;
+
+/// Bytes per non-zero of F at the peak of a matrix bake with refinement rounds: the matrix a
+/// round reuses and the one it builds are both alive (Cornell box, defaults: 397 MiB for
+/// 13.1·10⁶ non-zeros; at `--max-edge 40`, 1.70 GiB for 55.3·10⁶).
+const BYTES_PER_ENTRY_REFINED: f64 = 32.0;
+/// Bytes per non-zero without refinement (15,914 patches: 1.82 GiB for 118.5·10⁶).
+const BYTES_PER_ENTRY: f64 = 17.0;
+/// Seconds per non-zero on 2 cores, form factors and solve, with refinement rounds
+/// (Cornell box, defaults: 2.16 s for 13.1·10⁶; at `--max-edge 40`, 8.4 s for 55.3·10⁶).
+const SECONDS_PER_ENTRY_REFINED: f64 = 165e-9;
+/// The same without refinement (10,048 and 15,914 patches: 82 and 74 ns).
+const SECONDS_PER_ENTRY: f64 = 80e-9;
+/// Memory of the program, the scene and the patches apart from F, bytes.
+const BASE_BYTES: f64 = 40.0 * 1024.0 * 1024.0;
+/// Hierarchical bytes per root element at ε = 10⁻⁴ (generated halls: 73 MiB for 10,786 roots,
+/// 408 MiB for 104,284, 3.1 GiB for 10⁶).
+const HIERARCHICAL_BYTES_PER_ROOT: f64 = 3.7 * 1024.0;
+/// Hierarchical seconds on 2 cores: a fixed part (the direct light at the elements, the
+/// clusters) and a part per root at ε = 10⁻⁴ (the halls: 5.7 s, 15.3 s and 150 s).
+const HIERARCHICAL_SECONDS: f64 = 4.0;
+const HIERARCHICAL_SECONDS_PER_ROOT: f64 = 140e-6;
+/// Leaves per root at ε = 10⁻⁴ (the halls: 20,328 for 10,786 roots; 116,608 for 104,284).
+const LEAVES_PER_ROOT: f64 = 2.0;
+/// Seconds of a full final gather and its display refinement on 2 cores: 4·10⁶ rays and up
+/// to twice as many again, about 0.35 µs each (Cornell box 2.5 s; hall of 10⁴ triangles with
+/// 162 lights 8.5 s).
+const GATHER_SECONDS: f64 = 4.2;
+
+/// The estimate; see the module documentation.
+#[derive(Debug, Clone, Serialize)]
+pub struct Estimate {
+    /// The method the bake will take (`auto` resolved).
+    pub method: Method,
+    /// Longest patch edge, scene units (the matrix method's default, the diagonal / 16; the
+    /// hierarchical method's roots are the input triangles unless `--max-edge` is given).
+    pub max_edge: f64,
+    /// Matrix: patches of the first solve (counted exactly); hierarchical: root elements.
+    pub patches: usize,
+    /// Matrix: the most patches refinement may make (the budget; the patches without
+    /// refinement); hierarchical: leaves estimated.
+    pub max_patches: usize,
+    /// Matrix: the share of ordered pairs of patches that face each other, in [0, 1] (an upper
+    /// bound on F's fill); `None` for the hierarchical method.
+    pub facing_fraction: Option<f64>,
+    /// Matrix: the most non-zeros F can have at `max_patches`.
+    pub max_entries: Option<f64>,
+    /// The final gather `auto` will run.
+    pub gather: Gather,
+    /// Peak memory, bytes (matrix: an upper bound; hierarchical: ±50 %).
+    pub memory_bytes: f64,
+    /// Wall-clock seconds on `threads` threads (scaled from 2 cores; ±50 %).
+    pub seconds: f64,
+    /// Worker threads the estimate is for.
+    pub threads: usize,
+}
+
+impl Estimate {
+    /// The estimate of a bake of `scene` with `settings` on `threads` worker threads.
+    pub fn of(scene: &Scene, settings: &Settings, threads: usize) -> Result<Estimate> {
+        settings.validate()?;
+        let s = settings.resolved(scene)?;
+        let sides = if s.two_sided { 2 } else { 1 };
+        let per_core = 2.0 / threads.max(1) as f64;
+        let mut e = match s.method {
+            Method::Hierarchical => {
+                let (lo, hi) = scene.bounds();
+                let max_edge = s.max_edge.unwrap_or((hi - lo).length());
+                let roots = sides * mesh::subdivide(scene, max_edge, s.crease_degrees)?.len();
+                let finer = (1e-4 / s.hierarchical.epsilon).powf(0.4);
+                let leaves = (LEAVES_PER_ROOT * roots as f64 * finer) as usize;
+                Estimate {
+                    method: Method::Hierarchical,
+                    max_edge,
+                    patches: roots,
+                    max_patches: leaves,
+                    facing_fraction: None,
+                    max_entries: None,
+                    gather: s.gather.resolve(leaves, s.gather_rays.is_some()),
+                    memory_bytes: BASE_BYTES + HIERARCHICAL_BYTES_PER_ROOT * roots as f64 * finer,
+                    seconds: (HIERARCHICAL_SECONDS
+                        + HIERARCHICAL_SECONDS_PER_ROOT * roots as f64 * finer)
+                        * per_core,
+                    threads,
+                }
+            }
+            _ => {
+                let max_edge = s.max_edge.unwrap_or_else(|| mesh::default_max_edge(scene));
+                let contacts = s.discontinuities != mesh::Discontinuities::None;
+                let split = contacts.then(|| mesh::split_contacts(scene).0);
+                let cut = split.as_ref().unwrap_or(scene);
+                let patches = mesh::subdivide(cut, max_edge, s.crease_degrees)?;
+                let n = sides * patches.len();
+                let refined = s.refine_rounds > 0;
+                let max_patches = if refined {
+                    s.refine_max_patches
+                        .unwrap_or_else(|| refine::default_budget(n))
+                } else {
+                    n
+                };
+                let facing = facing_fraction(&patches);
+                let m = max_patches as f64;
+                let mut entries = facing * m * m;
+                if s.form_factors.estimator == crate::form_factor::Estimator::Hemisphere {
+                    entries = entries.min(m * s.form_factors.rays as f64);
+                }
+                let (bytes, secs) = if refined {
+                    (BYTES_PER_ENTRY_REFINED, SECONDS_PER_ENTRY_REFINED)
+                } else {
+                    (BYTES_PER_ENTRY, SECONDS_PER_ENTRY)
+                };
+                Estimate {
+                    method: Method::Matrix,
+                    max_edge,
+                    patches: n,
+                    max_patches,
+                    facing_fraction: Some(facing),
+                    max_entries: Some(entries),
+                    gather: s.gather.resolve(max_patches, s.gather_rays.is_some()),
+                    memory_bytes: BASE_BYTES + bytes * entries,
+                    seconds: secs * entries * per_core,
+                    threads,
+                }
+            }
+        };
+        let neumann = s.solver.method == crate::solve::Method::Neumann;
+        if neumann || !scene.has_emitters() {
+            e.gather = Gather::None;
+        }
+        if e.gather != Gather::None {
+            let rays = s.gather_rays.map_or(gather::AUTO_RAY_BUDGET as f64, |r| {
+                r as f64 * e.max_patches as f64
+            });
+            e.seconds += GATHER_SECONDS * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
+        }
+        Ok(e)
+    }
+
+    /// The method and its patches: "matrix, 4004 patches refined to at most 8008".
+    pub fn what(&self) -> String {
+        match self.method {
+            Method::Hierarchical => format!(
+                "hierarchical, {} root elements, about {} leaves",
+                self.patches, self.max_patches
+            ),
+            _ if self.max_patches > self.patches => format!(
+                "matrix, {} patches refined to at most {}",
+                self.patches, self.max_patches
+            ),
+            _ => format!("matrix, {} patches", self.patches),
+        }
+    }
+
+    /// One line: the method, the patches, the memory and the time.
+    pub fn summary(&self) -> String {
+        let bound = if self.method == Method::Hierarchical {
+            "about"
+        } else {
+            "at most about"
+        };
+        format!(
+            "{}; {bound} {} and {} on {} thread{}",
+            self.what(),
+            bytes(self.memory_bytes),
+            duration(self.seconds),
+            self.threads,
+            if self.threads == 1 { "" } else { "s" }
+        )
+    }
+
+    /// What would make this bake smaller, as options.
+    pub fn remedies(&self) -> &'static str {
+        match self.method {
+            Method::Hierarchical => "a larger --epsilon or --min-area, or a larger --max-edge",
+            _ => "a larger --max-edge, a smaller --refine-max-patches, or --method hierarchical",
+        }
+    }
+}
+
+/// The share of ordered pairs (i, j ≠ i) of patches that face each other (each centroid in
+/// front of the other's plane), counted from up to [`FILL_SAMPLES`] patches i spread evenly
+/// over the list, against every j: F_ij can be non-zero only for such pairs.
+pub fn facing_fraction(patches: &Patches) -> f64 {
+    let n = patches.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let step = n.div_ceil(FILL_SAMPLES).max(1);
+    let (mut facing, mut pairs) = (0u64, 0u64);
+    for i in (0..n).step_by(step) {
+        let (ci, ni) = (patches.centroid[i], patches.normal[i]);
+        for j in 0..n {
+            if j == i {
+                continue;
+            }
+            let d = patches.centroid[j] - ci;
+            if d.dot(ni) > 0.0 && d.dot(patches.normal[j]) < 0.0 {
+                facing += 1;
+            }
+        }
+        pairs += (n - 1) as u64;
+    }
+    facing as f64 / pairs as f64
+}
+
+/// The memory the machine has available now (Linux `MemAvailable`), bytes; `None` elsewhere.
+pub fn available_memory() -> Option<f64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024.0)
+}
+
+/// Bytes in binary units: "397 MiB", "3.1 GiB".
+pub fn bytes(b: f64) -> String {
+    const MIB: f64 = 1024.0 * 1024.0;
+    if b >= 1024.0 * MIB {
+        format!("{:.1} GiB", b / (1024.0 * MIB))
+    } else {
+        format!("{:.0} MiB", (b / MIB).max(1.0))
+    }
+}
+
+/// Seconds as "4 s", "2.5 min", "1.2 h".
+pub fn duration(s: f64) -> String {
+    if s < 90.0 {
+        format!("{:.0} s", s.max(1.0))
+    } else if s < 5400.0 {
+        format!("{:.1} min", s / 60.0)
+    } else {
+        format!("{:.1} h", s / 3600.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::validation::scenes;
+
+    #[test]
+    fn facing_pairs_of_a_closed_box_and_of_parallel_plates() {
+        // Two parallel plates facing each other: every pair across the gap faces, no pair
+        // within a plate does (coplanar: neither is in front of the other).
+        let plates = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let p = mesh::subdivide(&plates, 0.25, 30.0).unwrap();
+        let n = p.len() as f64;
+        let half = n / 2.0;
+        let expected = half * half * 2.0 / (n * (n - 1.0));
+        assert!((facing_fraction(&p) - expected).abs() < 1e-12);
+        // The furnace room without its boxes is a cube seen from inside: a pair faces unless
+        // both lie on the same wall, so 5/6 of the pairs face (less the same-wall pairs'
+        // share of the n - 1 partners).
+        let cube = scenes::furnace_room(0.5, 1.0).unwrap();
+        let p = mesh::subdivide(&cube, 0.3, 30.0).unwrap();
+        let f = facing_fraction(&p);
+        assert!(f > 0.3 && f < 5.0 / 6.0, "{f}");
+    }
+
+    #[test]
+    fn the_estimate_follows_the_method_and_the_budget() {
+        let scene = scenes::furnace_room(0.5, 1.0).unwrap();
+        let matrix = Settings {
+            method: Method::Matrix,
+            max_edge: Some(0.1),
+            ..Settings::default()
+        };
+        let e = Estimate::of(&scene, &matrix, 2).unwrap();
+        assert_eq!(e.method, Method::Matrix);
+        assert_eq!(e.max_patches, refine::default_budget(e.patches));
+        let entries = e.max_entries.unwrap();
+        let m = e.max_patches as f64;
+        assert!(entries > 0.0 && entries <= m * m);
+        // Twice the threads, half the time; no refinement, fewer patches and less memory.
+        let e4 = Estimate::of(&scene, &matrix, 4).unwrap();
+        assert!((e4.seconds - e.seconds / 2.0).abs() < 1e-9 * e.seconds);
+        let plain = Settings {
+            refine_rounds: 0,
+            ..matrix.clone()
+        };
+        let e0 = Estimate::of(&scene, &plain, 2).unwrap();
+        assert_eq!(e0.max_patches, e0.patches);
+        assert!(e0.memory_bytes < e.memory_bytes);
+        // The hierarchy: a smaller ε, more leaves, memory and time.
+        let h = |epsilon| Settings {
+            method: Method::Hierarchical,
+            hierarchical: crate::hierarchical::Settings {
+                epsilon,
+                ..Default::default()
+            },
+            ..Settings::default()
+        };
+        let coarse = Estimate::of(&scene, &h(1e-4), 2).unwrap();
+        let fine = Estimate::of(&scene, &h(1e-6), 2).unwrap();
+        assert_eq!(coarse.patches, scene.triangles.len());
+        assert!(coarse.facing_fraction.is_none());
+        assert!(fine.max_patches > coarse.max_patches);
+        assert!(fine.memory_bytes > coarse.memory_bytes && fine.seconds > coarse.seconds);
+        assert!(e.summary().contains("matrix") && fine.summary().contains("hierarchical"));
+    }
+
+    #[test]
+    fn units_read_as_people_write_them() {
+        assert_eq!(bytes(397.0 * 1024.0 * 1024.0), "397 MiB");
+        assert_eq!(bytes(3.1 * 1024.0 * 1024.0 * 1024.0), "3.1 GiB");
+        assert_eq!(duration(4.4), "4 s");
+        assert_eq!(duration(751.0), "12.5 min");
+        assert_eq!(duration(7200.0), "2.0 h");
+    }
+}
