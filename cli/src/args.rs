@@ -219,8 +219,9 @@ pub struct BakeArgs {
 /// without editing the scene's files. Applied in order; a later one wins.
 #[derive(Debug, Args)]
 pub struct MaterialArgs {
-    /// Set the reflectance ρ of MATERIAL (`*` = every material): R,G,B in [0, 1], or one
-    /// value for grey. Repeatable; later ones win.
+    /// Set the reflectance ρ of MATERIAL (a name, or a pattern: `*` any characters, `?` one;
+    /// `*` = every material): R,G,B in [0, 1], or one value for grey. Repeatable; later ones
+    /// win.
     #[arg(
         long,
         value_name = "MATERIAL=R,G,B",
@@ -228,8 +229,9 @@ pub struct MaterialArgs {
         help_heading = "Materials"
     )]
     pub reflectance: Vec<String>,
-    /// Set the emitted radiance Le of MATERIAL (`*` = every material), W·sr⁻¹·m⁻²: R,G,B ≥ 0,
-    /// or one value for grey. Repeatable; later ones win.
+    /// Set the emitted radiance Le of MATERIAL (a name, or a pattern such as `tlight*`; `*` =
+    /// every material), W·sr⁻¹·m⁻²: R,G,B ≥ 0, or one value for grey. Repeatable; later ones
+    /// win.
     #[arg(
         long,
         value_name = "MATERIAL=R,G,B",

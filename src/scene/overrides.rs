@@ -7,8 +7,11 @@
 //!
 //! Semantics: overrides apply in the order given, so a later one wins over an earlier one
 //! for the same material and property (`*=0.5` then `white=0.7` leaves white at 0.7; the
-//! other way round everything is 0.5). `*` names every material of the scene, including
-//! unused ones and the default material of faces without one.
+//! other way round everything is 0.5). A name may be a pattern: `*` stands for any run of
+//! characters and `?` for one (`tlight*` names every material whose name starts `tlight`, so
+//! a level's lights are one option); `*` alone names every material of the scene, including
+//! unused ones and the default material of faces without one. A name or pattern that names
+//! no material is an error.
 
 use super::Scene;
 use crate::{Error, Result};
@@ -45,11 +48,11 @@ impl Property {
     }
 }
 
-/// One override: set `property` of the material named `material` (`*` = every material)
-/// to `value` (per RGB channel).
+/// One override: set `property` of the materials `material` names (`*` = every material,
+/// see [`names`]) to `value` (per RGB channel).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Override {
-    /// A material name of the scene, or `*` for all of them.
+    /// A material name of the scene, or a pattern with `*` and `?` ([`names`]).
     pub material: String,
     /// What to replace.
     pub property: Property,
@@ -105,6 +108,34 @@ impl std::fmt::Display for Override {
     }
 }
 
+/// True if `pattern` names the material `name`: the name itself, or a match where `*` stands
+/// for any run of characters (also none) and `?` for exactly one.
+pub fn names(pattern: &str, name: &str) -> bool {
+    if pattern == name {
+        return true;
+    }
+    let (p, n): (Vec<char>, Vec<char>) = (pattern.chars().collect(), name.chars().collect());
+    // Greedy glob matching with one backtrack point (the last `*`): linear in practice.
+    let (mut i, mut j) = (0, 0);
+    let mut star: Option<(usize, usize)> = None;
+    while j < n.len() {
+        if i < p.len() && (p[i] == '?' || p[i] == n[j]) {
+            i += 1;
+            j += 1;
+        } else if i < p.len() && p[i] == '*' {
+            star = Some((i, j));
+            i += 1;
+        } else if let Some((si, sj)) = star {
+            i = si + 1;
+            j = sj + 1;
+            star = Some((si, sj + 1));
+        } else {
+            return false;
+        }
+    }
+    p[i..].iter().all(|&c| c == '*')
+}
+
 impl Scene {
     /// Applies `overrides` in order (later ones win). Checks each first: a material name the
     /// scene does not have is an [`Error::Setting`] named by the property, listing the scene's
@@ -116,15 +147,16 @@ impl Scene {
             o.property
                 .check(o.value)
                 .map_err(|why| Error::setting(option, format!("{}: {why}", o.material)))?;
-            if o.material != "*" && !self.materials.iter().any(|m| m.name == o.material) {
-                let names: Vec<&str> = self.materials.iter().map(|m| m.name.as_str()).collect();
+            if !self.materials.iter().any(|m| names(&o.material, &m.name)) {
+                let list: Vec<&str> = self.materials.iter().map(|m| m.name.as_str()).collect();
                 return Err(Error::setting(
                     option,
                     format!(
-                        "no material '{}' in {}; its materials are: {} (or * for all)",
+                        "no material '{}' in {}; its materials are: {} (or * for all, and \
+                         patterns such as light*)",
                         o.material,
                         super::source_path(&self.source).display(),
-                        names.join(", ")
+                        list.join(", ")
                     ),
                 ));
             }
@@ -133,7 +165,7 @@ impl Scene {
             for m in self
                 .materials
                 .iter_mut()
-                .filter(|m| o.material == "*" || m.name == o.material)
+                .filter(|m| names(&o.material, &m.name))
             {
                 match o.property {
                     Property::Reflectance => m.reflectance = o.value,
@@ -148,6 +180,48 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use glam::DVec3;
+
+    #[test]
+    fn patterns_name_materials() {
+        for (pattern, name) in [
+            ("*", "anything"),
+            ("*", ""),
+            ("tlight*", "tlight"),
+            ("tlight*", "tlight_blue2"),
+            ("*light", "skylight"),
+            ("t?ght", "tight"),
+            ("a*b*c", "aXXbYYbZc"),
+            ("white", "white"),
+            ("a*b", "a*b"),
+        ] {
+            assert!(names(pattern, name), "{pattern} {name}");
+        }
+        for (pattern, name) in [
+            ("tlight*", "light"),
+            ("*light", "lights"),
+            ("t?ght", "tght"),
+            ("a*b*c", "aXXbYYbZ"),
+            ("white", "whites"),
+            ("", "x"),
+        ] {
+            assert!(!names(pattern, name), "{pattern} {name}");
+        }
+        // Applied: a pattern sets every material it names and no other; one that names
+        // nothing is an error that changes nothing.
+        let mut scene = two_materials();
+        let o = Override::parse(Property::Emission, "?a*=5").unwrap();
+        scene.apply_overrides(&[o]).unwrap();
+        let le: Vec<[f64; 3]> = scene.materials.iter().map(|m| m.emission).collect();
+        assert_eq!(le, [[5.0; 3], [5.0; 3]], "lamp and wall");
+        let o = Override::parse(Property::Reflectance, "w*=0").unwrap();
+        scene.apply_overrides(&[o]).unwrap();
+        assert_eq!(scene.materials[0].reflectance, [0.5; 3], "lamp kept");
+        assert_eq!(scene.materials[1].reflectance, [0.0; 3]);
+        let o = Override::parse(Property::Reflectance, "x*=1").unwrap();
+        let e = scene.apply_overrides(&[o]).unwrap_err().to_string();
+        assert!(e.contains("no material 'x*'"), "{e}");
+        assert_eq!(scene.materials[1].reflectance, [0.0; 3]);
+    }
 
     use super::*;
     use crate::scene::SceneBuilder;
