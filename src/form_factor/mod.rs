@@ -117,6 +117,8 @@ pub struct Stats {
     pub row_sum_min: f64,
     pub row_sum_mean: f64,
     pub row_sum_max: f64,
+    /// The patch whose row sums to `row_sum_max` (the first such).
+    pub row_sum_max_patch: u64,
 }
 
 /// The form-factor matrix and its statistics.
@@ -360,7 +362,13 @@ pub fn compute_reusing(
     let sums = ff.row_sums();
     if !sums.is_empty() {
         ff.stats.row_sum_min = sums.iter().copied().fold(f64::INFINITY, f64::min);
-        ff.stats.row_sum_max = sums.iter().copied().fold(0.0, f64::max);
+        let (worst, max) =
+            sums.iter().copied().enumerate().fold(
+                (0, 0.0),
+                |(k, m), (i, x)| if x > m { (i, x) } else { (k, m) },
+            );
+        ff.stats.row_sum_max = max;
+        ff.stats.row_sum_max_patch = worst as u64;
         ff.stats.row_sum_mean = sums.iter().sum::<f64>() / sums.len() as f64;
     }
     Ok(ff)

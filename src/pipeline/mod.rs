@@ -220,6 +220,20 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
         patches = refined;
     }
     report.patches = patches.len();
+    if !patches.is_empty() && form_factors.stats.nnz > 0 {
+        let worst = report::WorstRow::of(scene, &patches, &form_factors.stats);
+        if worst.sum > report::ROW_SUM_WARNING {
+            let [x, y, z] = worst.centroid;
+            report.warnings.push(format!(
+                "the form factors of patch {} (material '{}', at {x:.4}, {y:.4}, {z:.4}) sum \
+                 to {:.3}: more than 1, so light is created there; coincident or \
+                 intersecting faces near it are the usual cause",
+                worst.patch, worst.material, worst.sum
+            ));
+        }
+        report.worst_row = Some(worst);
+    }
+    report.stream_warnings();
 
     let baked = bake_stage(
         scene,
@@ -564,6 +578,68 @@ mod tests {
         assert_eq!(refine::default_budget(4004), 8008);
         assert_eq!(refine::default_budget(9000), refine::REFINE_MAX_PATCHES);
         assert_eq!(refine::default_budget(20_000), 20_000);
+    }
+
+    #[test]
+    fn a_row_above_one_is_named_with_its_patch() {
+        // A flat open box (1 × 1 × 0.3, its y = 0 side open) lit by its ceiling, with a second
+        // floor on the first, split along the other diagonal (so not a duplicate face, and
+        // kept): the ceiling sees the floor twice, its rows sum to about 1.5, and the run says
+        // so, naming a ceiling patch. Without the second floor nothing is said.
+        let build = |second_floor: bool| {
+            let mut b = crate::scene::SceneBuilder::new();
+            let white = b.material("white", [0.5; 3], [0.0; 3]);
+            let light = b.material("light", [0.5; 3], [1.0; 3]);
+            let h = 0.3;
+            let p = |x: f64, y: f64, z: f64| glam::DVec3::new(x, y, z);
+            b.quad(
+                [p(0., 0., 0.), p(1., 0., 0.), p(1., 1., 0.), p(0., 1., 0.)],
+                white,
+            );
+            b.quad(
+                [p(0., 0., h), p(0., 1., h), p(1., 1., h), p(1., 0., h)],
+                light,
+            );
+            b.quad(
+                [p(0., 0., 0.), p(0., 1., 0.), p(0., 1., h), p(0., 0., h)],
+                white,
+            );
+            b.quad(
+                [p(1., 0., 0.), p(1., 0., h), p(1., 1., h), p(1., 1., 0.)],
+                white,
+            );
+            b.quad(
+                [p(0., 1., 0.), p(1., 1., 0.), p(1., 1., h), p(0., 1., h)],
+                white,
+            );
+            if second_floor {
+                b.quad(
+                    [p(1., 0., 0.), p(1., 1., 0.), p(0., 1., 0.), p(0., 0., 0.)],
+                    white,
+                );
+            }
+            b.build().unwrap()
+        };
+        let settings = Settings {
+            max_edge: Some(0.25),
+            refine_rounds: 0,
+            gather: Gather::None,
+            ..Settings::default()
+        };
+        let r = solve_scene(&build(false), &settings).unwrap().report;
+        let worst = r.worst_row.unwrap();
+        assert!(worst.sum <= report::ROW_SUM_WARNING, "{worst:?}");
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        let r = solve_scene(&build(true), &settings).unwrap().report;
+        let worst = r.worst_row.unwrap();
+        assert!(worst.sum > 1.3 && worst.material == "light", "{worst:?}");
+        assert!((worst.centroid[2] - 0.3).abs() < 1e-12, "on the ceiling");
+        let said = r
+            .warnings
+            .iter()
+            .find(|w| w.contains("form factors of patch"))
+            .expect("the row is named");
+        assert!(said.contains(&format!("patch {}", worst.patch)), "{said}");
     }
 
     #[test]

@@ -99,12 +99,46 @@ pub struct Report {
     pub peak_memory_bytes: Option<u64>,
     /// What the form-factor cache did (`--cache`), if one was used.
     pub cache: Option<crate::form_factor::cache::CacheReport>,
+    /// The form-factor row with the largest sum, and where its patch is (matrix method; the
+    /// last solve's): a row above 1 creates energy, and its patch leads to the geometry
+    /// behind it.
+    pub worst_row: Option<WorstRow>,
     /// Everything the run warned of, in order (also shown as the run goes, see
     /// [`Report::stream_warnings`]).
     pub warnings: Vec<String>,
     /// How many of `warnings` were shown as the run went.
     #[serde(skip)]
     streamed: usize,
+}
+
+/// A form-factor row sums past 1 by more than this before the run warns of it: above the
+/// contour estimator's error on the scenes measured (the Cornell box's largest row, 1.0075).
+pub const ROW_SUM_WARNING: f64 = 1.02;
+
+/// The form-factor row with the largest sum ([`Report::worst_row`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct WorstRow {
+    /// Σ_j F_ij.
+    pub sum: f64,
+    /// The patch i (an index into the final patches).
+    pub patch: usize,
+    /// Its material's name.
+    pub material: String,
+    /// Its centroid, scene units.
+    pub centroid: [f64; 3],
+}
+
+impl WorstRow {
+    /// The worst row of `stats` among `patches` of `scene`.
+    pub fn of(scene: &crate::scene::Scene, patches: &Patches, stats: &form_factor::Stats) -> Self {
+        let i = stats.row_sum_max_patch as usize;
+        WorstRow {
+            sum: stats.row_sum_max,
+            patch: i,
+            material: scene.materials[patches.material[i] as usize].name.clone(),
+            centroid: patches.centroid[i].to_array(),
+        }
+    }
 }
 
 impl Report {
@@ -141,6 +175,7 @@ impl Report {
             seconds: Seconds::default(),
             peak_memory_bytes: None,
             cache: None,
+            worst_row: None,
             warnings: Vec::new(),
             streamed: 0,
         }

@@ -16,8 +16,14 @@ use crate::{Error, Result};
 ///    wins, so the result does not depend on hashing;
 /// 3. drop triangles with |(b − a) × (c − a)| ≤ [`ZERO_AREA_RELATIVE`] · d², d the
 ///    bounding-box diagonal of the used positions, with one counted warning;
-/// 4. drop positions no triangle uses (keeping their order) and validate again;
-/// 5. warn (keeping every face) about coincident overlapping faces and inconsistent winding
+/// 4. merge duplicate faces: a triangle with the same three (welded) vertices in the same
+///    cyclic order as an earlier one, so facing the same way, is dropped and the earlier one
+///    kept, with one warning naming both (McGuire's Cornell box repeats a side face of each
+///    block as its "bottom": kept, the light it exchanges would be counted twice and its
+///    rows would sum past 1); the same vertices wound the other way are a surface's two
+///    sides and both are kept;
+/// 5. drop positions no triangle uses (keeping their order) and validate again;
+/// 6. warn (keeping every face) about coincident overlapping faces and inconsistent winding
 ///    between neighbours ([`checks`]), naming the triangles and, when `face_lines` gives the
 ///    source line of every raw triangle, the file and line of their faces.
 pub(crate) fn finish(
@@ -125,7 +131,63 @@ pub(crate) fn finish(
         ));
     }
 
-    // 4. Compact: keep used positions in their original order.
+    // 4. Merge duplicates: the same vertices in the same cyclic order as an earlier face.
+    let mut seen: HashMap<[u32; 3], usize> = HashMap::with_capacity(triangles.len());
+    let mut duplicates: Vec<(usize, usize)> = Vec::new();
+    let keep: Vec<bool> = triangles
+        .iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let v = tri.vertices;
+            let r = (0..3).min_by_key(|&k| v[k]).unwrap_or(0);
+            let key = [v[r], v[(r + 1) % 3], v[(r + 2) % 3]];
+            match seen.get(&key) {
+                Some(&first) => {
+                    duplicates.push((first, t));
+                    false
+                }
+                None => {
+                    seen.insert(key, t);
+                    true
+                }
+            }
+        })
+        .collect();
+    if !duplicates.is_empty() {
+        let name = |t: usize| match (&face_lines, &source) {
+            (Some(lines), Some(path)) => format!("{t} ({}:{})", path.display(), lines[t]),
+            _ => t.to_string(),
+        };
+        let n = duplicates.len();
+        let mut shown: Vec<String> = duplicates
+            .iter()
+            .take(MAX_LISTED_PAIRS)
+            .map(|&(kept, dropped)| format!("kept {} and dropped {}", name(kept), name(dropped)))
+            .collect();
+        if n > MAX_LISTED_PAIRS {
+            shown.push(format!("… {} more", n - MAX_LISTED_PAIRS));
+        }
+        warnings.push(format!(
+            "{n} duplicate face{} (the same vertices, facing the same way, as an earlier \
+             face) merged into the earlier one, so their light is counted once: {}",
+            if n == 1 { "" } else { "s" },
+            shown.join("; ")
+        ));
+    }
+    let triangles: Vec<SceneTriangle> = triangles
+        .into_iter()
+        .zip(&keep)
+        .filter_map(|(t, &k)| k.then_some(t))
+        .collect();
+    let face_lines: Option<Vec<usize>> = face_lines.map(|lines| {
+        lines
+            .into_iter()
+            .zip(&keep)
+            .filter_map(|(l, &k)| k.then_some(l))
+            .collect()
+    });
+
+    // 5. Compact: keep used positions in their original order.
     let mut new_index = vec![u32::MAX; positions.len()];
     for t in &triangles {
         for &v in &t.vertices {
@@ -158,7 +220,7 @@ pub(crate) fn finish(
     };
     scene.validate()?;
 
-    // 5. Likely modelling mistakes: warn, keep every face.
+    // 6. Likely modelling mistakes: warn, keep every face.
     let diagonal = (hi - lo).length();
     let name = |t: usize| match (&face_lines, &scene.source) {
         (Some(lines), Some(path)) => format!("{t} ({}:{})", path.display(), lines[t]),

@@ -357,6 +357,32 @@ fn likely_mistakes_are_counted_warnings_and_the_bake_succeeds() {
     );
 
     // The valid scene has no warnings at all.
+    // The floor's first triangle repeated, rotated but wound the same way (as McGuire's
+    // Cornell box repeats a side face of each block as its bottom): merged into the first,
+    // named by both lines. The same triangle wound the other way is its back side: kept.
+    let repeated = f.write("repeated.obj", &format!("{VALID}f 2 3 1\n"));
+    let json = f.path("repeated.json");
+    let (code, err) = f.bake(&repeated, "repeated", &["--report", &json]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("warning: 1 duplicate face")
+            && err.contains("kept 1 (")
+            && err.contains("repeated.obj:12) and dropped 3 (")
+            && err.contains("repeated.obj:14)"),
+        "{err}"
+    );
+    let report = std::fs::read_to_string(&json).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&report).unwrap();
+    assert_eq!(report["input_triangles"], 3);
+    let back = f.write("back.obj", &format!("{VALID}f 3 2 1\n"));
+    let json = f.path("back.json");
+    let (code, err) = f.bake(&back, "back", &["--report", &json]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!err.contains("duplicate"), "{err}");
+    let report = std::fs::read_to_string(&json).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&report).unwrap();
+    assert_eq!(report["input_triangles"], 4);
+
     let valid = f.write("valid.obj", VALID);
     let (code, err) = f.bake(&valid, "valid", &[]);
     assert_eq!(code, Some(0), "{err}");
