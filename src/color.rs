@@ -24,6 +24,16 @@ pub fn srgb_encode(x: f64) -> f64 {
     }
 }
 
+/// The inverse of [`srgb_encode`] for an encoded value `v` in [0, 1]: `v / 12.92` for
+/// `v ≤ 0.04045`, else `((v + 0.055) / 1.055)^2.4` (IEC 61966-2-1).
+pub fn srgb_decode(v: f64) -> f64 {
+    if v <= 0.040_45 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// One linear channel value (already multiplied by the exposure) to an 8-bit sRGB code:
 /// clamp to [0, 1] (NaN counts as 0), encode, scale by 255, round to nearest.
 pub fn channel_to_srgb8(linear: f64) -> u8 {
@@ -101,6 +111,17 @@ mod tests {
         assert_eq!(channel_to_srgb8(0.18), 118);
         // In the linear toe: 0.001 · 12.92 · 255 = 3.29 → 3.
         assert_eq!(channel_to_srgb8(0.001), 3);
+    }
+
+    #[test]
+    fn srgb_decode_inverts_encode() {
+        for i in 0..=1000 {
+            let x = i as f64 / 1000.0;
+            // The published constants meet to about 1e-8 at the toe (see below).
+            assert!((srgb_decode(srgb_encode(x)) - x).abs() < 1e-7, "{x}");
+        }
+        // 8-bit 188 is linear 0.5029 (the code 0.5 rounds to).
+        assert!((srgb_decode(188.0 / 255.0) - 0.502_886).abs() < 1e-6);
     }
 
     #[test]

@@ -1,6 +1,9 @@
 //! MTL material libraries: read and checked line by line (`newmtl`, `Kd` → ρ, `Ke` → Le; a
 //! single-value `Kd r` means `r r r`), handed to `tobj` as a normalised copy with the same line
-//! numbering, and its materials converted to ours.
+//! numbering, and its materials converted to ours. What the solver cannot use as it is, the
+//! scan records apart ([`Extras`]): a diffuse texture (`map_Kd`), whose mean colour times `Kd`
+//! becomes ρ ([`texture_mean`]; the colour does not vary across a face), and a specular `Ks`,
+//! which a diffuse solver drops (a material with `Kd 0` and `Ks > 0` bakes black, and says so).
 
 use std::path::Path;
 
@@ -9,9 +12,20 @@ use crate::io::parse_error;
 use crate::scene::Material;
 use crate::{Error, Result};
 
+/// What a material of an MTL file has beyond `Kd` and `Ke` that the loader acts on.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Extras {
+    /// The material's name.
+    pub name: String,
+    /// `map_Kd`: the texture's path as written (relative to the MTL's directory) and its line.
+    pub texture: Option<(String, usize)>,
+    /// `Ks`, the specular colour (ignored by the solver).
+    pub specular: Option<[f64; 3]>,
+}
+
 /// Reads the MTL file `mtl` named by the `mtllib` at `obj:line` and returns its normalised
-/// text for `tobj`.
-pub(super) fn read_mtl(obj: &Path, line: usize, mtl: &Path) -> Result<String> {
+/// text for `tobj` and each material's [`Extras`].
+pub(super) fn read_mtl(obj: &Path, line: usize, mtl: &Path) -> Result<(String, Vec<Extras>)> {
     let text = match std::fs::read(mtl) {
         Ok(bytes) => String::from_utf8(bytes).map_err(|_| "not UTF-8 text".to_string()),
         Err(e) => Err(e.to_string()),
@@ -35,10 +49,14 @@ pub(super) fn tobj_failure(path: &Path, e: tobj::LoadError) -> Error {
 }
 
 /// Checks `newmtl`, `Kd` and `Ke` (ρ in [0, 1], Le finite and ≥ 0, 3 numbers or 1 meaning
-/// grey) and returns the normalised copy for `tobj`: those statements only, same lines.
-fn scan_mtl(path: &Path, text: &str) -> Result<String> {
+/// grey) and returns the normalised copy for `tobj` (those statements only, same lines) and
+/// the [`Extras`] of every material: `map_Kd` (its last word is the file; options before it
+/// are ignored) and `Ks` (read leniently: a malformed one is ignored, as the solver does not
+/// use it).
+fn scan_mtl(path: &Path, text: &str) -> Result<(String, Vec<Extras>)> {
     let mut out = String::with_capacity(text.len());
     let mut current: Option<&str> = None;
+    let mut extras: Vec<Extras> = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let ln = i + 1;
         let line = raw.trim();
@@ -51,8 +69,27 @@ fn scan_mtl(path: &Path, text: &str) -> Result<String> {
                     return Err(parse_error(path, ln, "newmtl without a material name"));
                 }
                 current = Some(name);
+                extras.push(Extras {
+                    name: name.to_string(),
+                    ..Extras::default()
+                });
                 out.push_str("newmtl ");
                 out.push_str(name);
+            }
+            "map_Kd" => {
+                if let (Some(e), Some(file)) = (extras.last_mut(), words.last()) {
+                    e.texture = Some((file.to_string(), ln));
+                }
+            }
+            "Ks" => {
+                let v: Vec<f64> = words.filter_map(|w| w.parse().ok()).collect();
+                if let Some(e) = extras.last_mut() {
+                    e.specular = match v[..] {
+                        [x] => Some([x; 3]),
+                        [r, g, b, ..] => Some([r, g, b]),
+                        _ => None,
+                    };
+                }
             }
             "Kd" | "Ke" => {
                 // Outside a material tobj would drop the value too; ignore it likewise.
@@ -108,13 +145,49 @@ fn scan_mtl(path: &Path, text: &str) -> Result<String> {
         }
         out.push('\n');
     }
-    Ok(out)
+    Ok((out, extras))
 }
 
-/// `Kd` → ρ (0.5 grey with a warning when missing), `Ke` → Le (tobj ≥ 4.0.4 fills
-/// `emissive`; older versions left it in `unknown_param["Ke"]`), 0 when missing.
-pub(super) fn convert_material(m: &tobj::Material, warnings: &mut Vec<String>) -> Material {
+/// The mean colour of an image file as linear reflectance per RGB channel, in [0, 1]: each
+/// 8-bit (or 16-bit) sRGB value decoded to linear (IEC 61966-2-1) before averaging, alpha
+/// ignored. Reads PNG, JPEG, TGA and BMP; the error says why a file cannot be used.
+pub(super) fn texture_mean(file: &Path) -> std::result::Result<[f64; 3], String> {
+    let image = image::ImageReader::open(file)
+        .map_err(|e| e.to_string())?
+        .with_guessed_format()
+        .map_err(|e| e.to_string())?
+        .decode()
+        .map_err(|e| e.to_string())?
+        .into_rgb16();
+    let n = (image.width() as u64 * image.height() as u64) as f64;
+    if n == 0.0 {
+        return Err("the image has no pixels".into());
+    }
+    let linear: Vec<f64> = (0..=u16::MAX)
+        .map(|c| crate::color::srgb_decode(f64::from(c) / 65535.0))
+        .collect();
+    let mut sum = [0.0f64; 3];
+    for px in image.pixels() {
+        for (s, &c) in sum.iter_mut().zip(&px.0) {
+            *s += linear[c as usize];
+        }
+    }
+    Ok(sum.map(|s| (s / n).clamp(0.0, 1.0)))
+}
+
+/// `Kd` → ρ (when missing: 1 for a material with a texture, which [`apply_extras`] then
+/// multiplies by the texture's mean colour; otherwise 0.5 grey with a warning), `Ke` → Le
+/// (tobj ≥ 4.0.4 fills `emissive`; older versions left it in `unknown_param["Ke"]`), 0 when
+/// missing.
+pub(super) fn convert_material(
+    m: &tobj::Material,
+    textured: bool,
+    warnings: &mut Vec<String>,
+) -> Material {
     let reflectance = m.diffuse.map(|c| c.map(f64::from)).unwrap_or_else(|| {
+        if textured {
+            return [1.0; 3];
+        }
         warnings.push(format!("material '{}' has no Kd; using ρ = 0.5", m.name));
         [0.5; 3]
     });
@@ -136,5 +209,99 @@ pub(super) fn convert_material(m: &tobj::Material, warnings: &mut Vec<String>) -
         name: m.name.clone(),
         reflectance,
         emission,
+    }
+}
+
+/// At most this many materials are named in one warning (the rest are counted).
+const MAX_NAMED: usize = 5;
+
+/// Applies what the MTL files had beyond `Kd` and `Ke` to the converted `materials`:
+/// `extras` holds each material's [`Extras`] with its MTL file (the last definition of a name
+/// wins; texture paths are relative to the MTL's directory). A texture's mean colour ([`texture_mean`]) multiplies ρ; a
+/// texture that cannot be read is a warning (ρ stays `Kd`, or 0.5 without one). One warning
+/// lists the textured materials and their ρ, one the specular-only materials (ρ = 0 with
+/// `Ks` > 0), which bake black.
+pub(super) fn apply_extras(
+    materials: &mut [Material],
+    extras: &[(std::path::PathBuf, Extras)],
+    warnings: &mut Vec<String>,
+) {
+    let mut means: std::collections::HashMap<
+        std::path::PathBuf,
+        std::result::Result<[f64; 3], String>,
+    > = std::collections::HashMap::new();
+    let mut textured = Vec::new();
+    let mut specular_only = Vec::new();
+    for m in materials.iter_mut() {
+        let Some((mtl, e)) = extras.iter().rev().find(|(_, e)| e.name == m.name) else {
+            continue;
+        };
+        let dir = mtl.parent().unwrap_or(Path::new(""));
+        if let Some((file, line)) = &e.texture {
+            // Files written on Windows separate folders with backslashes.
+            let path = dir.join(file.replace('\\', "/"));
+            let mean = means
+                .entry(path.clone())
+                .or_insert_with(|| texture_mean(&path));
+            match mean {
+                Ok(mean) => {
+                    for (r, t) in m.reflectance.iter_mut().zip(mean.iter()) {
+                        *r = (*r * t).clamp(0.0, 1.0);
+                    }
+                    textured.push(m.name.clone());
+                }
+                Err(why) => {
+                    let kd = if m.reflectance == [1.0; 3] {
+                        m.reflectance = [0.5; 3];
+                        "0.5 (it has no Kd)"
+                    } else {
+                        "its Kd"
+                    };
+                    warnings.push(format!(
+                        "material '{}': its texture {} (map_Kd at {}:{line}) cannot be read \
+                         ({why}); ρ is {kd}",
+                        m.name,
+                        path.display(),
+                        mtl.display()
+                    ));
+                }
+            }
+        }
+        let shiny = e.specular.is_some_and(|ks| ks.iter().any(|&k| k > 0.0));
+        if shiny && m.reflectance.iter().all(|&r| r == 0.0) {
+            specular_only.push(m.name.clone());
+        }
+    }
+    let named = |names: &[String]| {
+        let mut list: Vec<String> = names
+            .iter()
+            .take(MAX_NAMED)
+            .map(|n| format!("'{n}'"))
+            .collect();
+        if names.len() > MAX_NAMED {
+            list.push(format!("… {} more", names.len() - MAX_NAMED));
+        }
+        list.join(", ")
+    };
+    if !textured.is_empty() {
+        let n = textured.len();
+        warnings.push(format!(
+            "{n} material{} with a texture (map_Kd) take{} its mean colour × Kd as ρ, the same \
+             over every face (the texture's pattern is not baked): {}",
+            if n == 1 { "" } else { "s" },
+            if n == 1 { "s" } else { "" },
+            named(&textured)
+        ));
+    }
+    if !specular_only.is_empty() {
+        let n = specular_only.len();
+        warnings.push(format!(
+            "{n} material{} specular only (Kd 0 with Ks > 0): the solver is diffuse and \
+             reads Kd as ρ, so {} black; give {} a reflectance with --reflectance NAME=R,G,B: {}",
+            if n == 1 { " is" } else { "s are" },
+            if n == 1 { "it bakes" } else { "they bake" },
+            if n == 1 { "it" } else { "them" },
+            named(&specular_only)
+        ));
     }
 }

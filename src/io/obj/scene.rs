@@ -19,7 +19,10 @@
 //!    which scans the MTL text the same way (keeping `newmtl`, `Kd`, `Ke`; a single-value
 //!    `Kd r` means `r r r`, as the MTL spec says, and is expanded because `tobj` would panic
 //!    on it) and records any failure. `tobj` keeps only the last material error and drops
-//!    it when another library loaded; we report the first one.
+//!    it when another library loaded; we report the first one. The scan also records each
+//!    material's `map_Kd` and `Ks` ([`super::mtl::Extras`]): a texture's mean colour
+//!    multiplies ρ, and a specular-only material (`Kd 0`, `Ks > 0`) is a warning, since a
+//!    diffuse solver bakes it black.
 //!
 //! Decisions: faces before any `usemtl` get [`Scene::default_material`]; a `usemtl` whose
 //! material no earlier `mtllib` defines is an error at that line (`tobj` would silently
@@ -33,11 +36,11 @@
 use std::cell::RefCell;
 use std::collections::HashSet;
 use std::io::Cursor;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
-use super::mtl::{convert_material, read_mtl, tobj_failure};
+use super::mtl::{apply_extras, convert_material, read_mtl, tobj_failure, Extras};
 use super::{parse_number, read_text};
 use crate::io::parse_error;
 use crate::scene::camera::{Camera, CameraLine};
@@ -61,12 +64,16 @@ pub fn load(path: &Path) -> Result<Scene> {
 
     // One record per `mtllib` line, in order (tobj calls the loader once per line).
     let libraries: RefCell<Vec<HashSet<String>>> = RefCell::new(Vec::new());
+    let extras: RefCell<Vec<(PathBuf, Extras)>> = RefCell::new(Vec::new());
     let first_error: RefCell<Option<Error>> = RefCell::new(None);
     let loader = |name: &Path| -> tobj::MTLLoadResult {
         let k = libraries.borrow().len();
         let line = scan.mtllib_lines.get(k).copied().unwrap_or(0);
         let mtl = dir.join(name);
-        let result = read_mtl(path, line, &mtl).and_then(|text| {
+        let result = read_mtl(path, line, &mtl).and_then(|(text, found)| {
+            extras
+                .borrow_mut()
+                .extend(found.into_iter().map(|e| (mtl.clone(), e)));
             tobj::load_mtl_buf(&mut Cursor::new(text.as_bytes())).map_err(|e| tobj_failure(&mtl, e))
         });
         match result {
@@ -117,10 +124,19 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
 
     let mut warnings = Vec::new();
+    let extras = extras.into_inner();
+    let textured = |name: &str| {
+        extras
+            .iter()
+            .rev()
+            .find(|(_, e)| e.name == name)
+            .is_some_and(|(_, e)| e.texture.is_some())
+    };
     let mut materials: Vec<Material> = tobj_materials
         .iter()
-        .map(|m| convert_material(m, &mut warnings))
+        .map(|m| convert_material(m, textured(&m.name), &mut warnings))
         .collect();
+    apply_extras(&mut materials, &extras, &mut warnings);
 
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
@@ -357,6 +373,70 @@ mod tests {
     fn normal(s: &Scene, t: usize) -> DVec3 {
         let [a, b, c] = s.triangles[t].vertices.map(|v| s.positions[v as usize]);
         (b - a).cross(c - a).normalize()
+    }
+
+    #[test]
+    fn textures_give_their_mean_colour_and_specular_only_materials_say_so() {
+        // A 2 × 1 texture: sRGB 188 (linear 0.502886) and 0 in red; 0 and 255 in green;
+        // 255 in blue. Mean linear colour (0.251443, 0.5, 1), times Kd 0.8 0.5 1.
+        let dir = TestDir::new("obj-texture");
+        let mut img = image::RgbImage::new(2, 1);
+        img.put_pixel(0, 0, image::Rgb([188, 0, 255]));
+        img.put_pixel(1, 0, image::Rgb([0, 255, 255]));
+        std::fs::create_dir_all(dir.path().join("maps")).unwrap();
+        img.save(dir.path().join("maps/brick.png")).unwrap();
+        dir.write(
+            "m.mtl",
+            "newmtl brick\nKd 0.8 0.5 1\nmap_Kd -s 1 1 1 maps\\brick.png\n\
+             newmtl plain\nmap_Kd maps/brick.png\n\
+             newmtl lost\nKd 0.3\nmap_Kd nowhere.png\n\
+             newmtl mirror\nKd 0 0 0\nKs 0.9 0.9 0.9\n\
+             newmtl glossy\nKd 0.4\nKs 0.5\n\
+             newmtl lamp\nKe 1 1 1\nKd 0.5\n",
+        );
+        let obj = format!(
+            "mtllib m.mtl\n{TRIANGLE}v 0 0 1\nusemtl brick\nf 1 2 3\nusemtl plain\nf 1 2 4\n\
+             usemtl lost\nf 1 3 4\nusemtl mirror\nf 2 3 4\nusemtl glossy\nf 1 4 2\n\
+             usemtl lamp\nf 1 4 3\n"
+        );
+        let s = Scene::load(&dir.write("scene.obj", &obj)).unwrap();
+        let rho = |name: &str| {
+            s.materials
+                .iter()
+                .find(|m| m.name == name)
+                .unwrap()
+                .reflectance
+        };
+        let mean = [0.502_886 / 2.0, 0.5, 1.0];
+        let close = |a: [f64; 3], b: [f64; 3]| a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5);
+        // The backslash path (as Windows exporters write it) and the options before it.
+        assert!(
+            close(rho("brick"), [0.8 * mean[0], 0.5 * mean[1], 1.0]),
+            "{:?}",
+            rho("brick")
+        );
+        // No Kd: the texture's mean alone, and no "has no Kd" warning.
+        assert!(close(rho("plain"), mean), "{:?}", rho("plain"));
+        assert!(close(rho("lost"), [0.3; 3]), "unreadable texture: Kd alone");
+        let w = s.warnings.join("\n");
+        assert!(!w.contains("has no Kd"), "{w}");
+        assert!(
+            w.contains("material 'lost': its texture") && w.contains("nowhere.png"),
+            "{w}"
+        );
+        assert!(
+            w.contains("2 materials with a texture") && w.contains("'brick', 'plain'"),
+            "{w}"
+        );
+        // Specular only: said once, naming it; a glossy material with a diffuse part is not.
+        assert!(
+            w.contains("1 material is specular only") && w.contains("'mirror'"),
+            "{w}"
+        );
+        assert!(!w.contains("'glossy'"), "{w}");
+        let about_materials = s.warnings.iter().filter(|w| !w.contains("winding")).count();
+        assert_eq!(about_materials, 3, "{w}");
+        assert!(w.contains("m.mtl:8"), "the line of its map_Kd: {w}");
     }
 
     #[test]
