@@ -16,7 +16,7 @@ use radiosity::hierarchical;
 use radiosity::mesh::Discontinuities;
 use radiosity::pipeline::{self, WriteOptions};
 use radiosity::render::{self, View};
-use radiosity::scene::{Camera, Override, Property};
+use radiosity::scene::{Camera, Override, Property, Up};
 use radiosity::solve::{self, Method};
 use radiosity::{Choice, Result};
 
@@ -132,6 +132,11 @@ pub struct ViewArgs {
         help_heading = "Picture"
     )]
     pub camera: Option<String>,
+    /// The scene's up axis, for the automatic framing when neither --camera nor the file gives
+    /// a camera: the picture looks level at the bounding box from the side (of four) that
+    /// shows the most front faces.
+    #[arg(long, value_parser = choice::<Up>(), default_value = "y", value_name = "AXIS", help_heading = "Picture")]
+    pub up: Up,
     /// Picture size in pixels, WIDTHxHEIGHT or one number for a square.
     #[arg(
         long,
@@ -570,12 +575,13 @@ impl BakeArgs {
 impl ViewArgs {
     /// The picture of `mesh` these options ask for at `exposure`, checked by the library
     /// ([`View::validate`]). The camera is [`render::camera_for`]'s: `--camera` if given, else
-    /// the one the scene file carries, else a framing of the mesh's bounding box.
+    /// the one the scene file carries, else the framing of the mesh's bounding box around
+    /// `--up` that shows the most front faces.
     pub fn view(&self, mesh: &BakedMesh, exposure: f64) -> Result<View, Failure> {
         let (width, height) = parse_size(&self.size)?;
         let given = self.camera.as_deref().map(Camera::parse).transpose()?;
         let view = View {
-            camera: render::camera_for(mesh, given),
+            camera: render::camera_for(mesh, given, self.up),
             width,
             height,
             spp: self.spp,

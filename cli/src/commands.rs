@@ -33,6 +33,7 @@ pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
     }
     if let Some(path) = &args.png {
         let view = args.scene.view.view(&outcome.baked, report.exposure)?;
+        warn_if_blank(&outcome.baked, &view);
         render::save(path, &render::render(&outcome.baked, &view))?;
     }
     if !quiet {
@@ -142,6 +143,7 @@ pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
     mesh.validate()?;
     let exposure = args.exposure.unwrap_or_else(|| mesh.auto_exposure());
     let view = args.scene.view.view(&mesh, exposure)?;
+    warn_if_blank(&mesh, &view);
     render::save(&args.output, &render::render(&mesh, &view))?;
     Ok(code)
 }
@@ -187,4 +189,16 @@ pub fn generate(args: &GenerateArgs) -> Result<u8, Failure> {
     };
     io::obj::save(&scene, &args.output)?;
     Ok(0)
+}
+
+/// Warns when the picture about to be rendered would be black: its camera sees no front face.
+fn warn_if_blank(mesh: &radiosity::bake::BakedMesh, view: &render::View) {
+    if render::sees_nothing(mesh, &view.camera) {
+        eprintln!(
+            "warning: the picture shows nothing: no ray from the camera ({}) meets the front \
+             of a face (backs and misses are black); give --camera, or --up for a scene whose \
+             up axis is not y",
+            view.camera
+        );
+    }
 }

@@ -151,7 +151,7 @@ pub fn rows(
 
 /// A right-handed orthonormal basis (t, b) with t × b = n (Duff et al., "Building an
 /// orthonormal basis, revisited", JCGT 2017).
-fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
     let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;

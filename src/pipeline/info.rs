@@ -79,6 +79,9 @@ pub struct SceneInfo {
     /// The camera the scene file carries, which pictures use unless `--camera` is given;
     /// `None` (JSON `null`) when it has none and pictures frame the bounding box.
     pub camera: Option<CameraInfo>,
+    /// When the file has no camera: the framing pictures take with `--up y`
+    /// ([`crate::render::best_framing`]).
+    pub framing: Option<CameraInfo>,
     /// Warnings from loading (and cleaning) the scene.
     pub warnings: Vec<String>,
     /// What a bake with the options given will cost: method, patches, memory, time
@@ -132,6 +135,14 @@ impl SceneInfo {
             two_sided: scene.is_two_sided(),
             back_faces: scene.twin.iter().filter(|&&u| u != NO_TWIN).count() / 2,
             camera: scene.camera.map(CameraInfo::from),
+            framing: scene.camera.is_none().then(|| {
+                let tris: Vec<[glam::DVec3; 3]> = scene
+                    .triangles
+                    .iter()
+                    .map(|t| t.vertices.map(|v| scene.positions[v as usize]))
+                    .collect();
+                CameraInfo::from(crate::render::best_framing(&tris, crate::scene::Up::Y))
+            }),
             warnings: scene.warnings.clone(),
             estimate,
         })
@@ -262,14 +273,17 @@ impl SceneInfo {
                 );
             }
             None => {
-                let c = Camera::framing(self.bounds_min.into(), self.bounds_max.into());
+                let c = self.framing.unwrap_or_else(|| {
+                    Camera::framing(self.bounds_min.into(), self.bounds_max.into()).into()
+                });
                 let _ = writeln!(
                     s,
-                    "camera:       none in the file; pictures frame the bounding box: eye ({}), \
-                     target ({}), up ({}), vertical field of view {}°",
-                    v(c.eye.to_array()),
-                    v(c.target.to_array()),
-                    v(c.up.to_array()),
+                    "camera:       none in the file; pictures look level at the bounding box from \
+                     the side that shows the most front faces (--up y): eye ({}), target ({}), \
+                     up ({}), vertical field of view {}°",
+                    v(c.eye),
+                    v(c.target),
+                    v(c.up),
                     g(c.vfov_degrees)
                 );
             }

@@ -167,6 +167,14 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     scene.validate()?;
     let mut report = Report::new(settings);
     report.warnings.extend(scene.warnings.iter().cloned());
+    for name in crate::scene::reach::unlit_emitters(scene, settings.form_factors.seed) {
+        report.warnings.push(format!(
+            "emitting material '{name}' lights nothing: none of {} rays from the front \
+             (counter-clockwise) side of its faces meets the front of a surface; if it faces \
+             away from the scene, reverse its winding or bake with --two-sided",
+            crate::scene::reach::PROBES
+        ));
+    }
     report.stream_warnings();
     report.input_triangles = input_triangles;
     report.contacts = split.as_ref().map(|(_, stats)| stats.clone());

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 use crate::bake::BakedMesh;
 use crate::color::{luminance, radiance_to_srgb8};
-pub use crate::scene::camera::Camera;
+pub use crate::scene::camera::{Camera, Up};
 use crate::visibility::{Visibility, NONE};
 use crate::{Error, Result};
 
@@ -69,27 +69,90 @@ impl View {
 }
 
 /// The camera a picture of `mesh` is taken with: `given` if there is one, else the camera the
-/// scene file carried ([`BakedMesh::camera`]), else one framing the mesh's bounding box
-/// ([`Camera::framing`]).
-pub fn camera_for(mesh: &BakedMesh, given: Option<Camera>) -> Camera {
-    given.or(mesh.camera).unwrap_or_else(|| {
-        let (lo, hi) = mesh
-            .positions
-            .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(DVec3::from_array(*p)), hi.max(DVec3::from_array(*p)))
-            });
-        Camera::framing(lo, hi)
-    })
+/// scene file carried ([`BakedMesh::camera`]), else the framing of the mesh's bounding box
+/// around `up` that sees the most front faces ([`best_framing`]).
+pub fn camera_for(mesh: &BakedMesh, given: Option<Camera>, up: Up) -> Camera {
+    given
+        .or(mesh.camera)
+        .unwrap_or_else(|| best_framing(&triangles(mesh), up))
+}
+
+/// The mesh's faces as corner triples, scene units.
+fn triangles(mesh: &BakedMesh) -> Vec<[DVec3; 3]> {
+    mesh.faces
+        .iter()
+        .map(|f| f.map(|v| DVec3::from_array(mesh.positions[v as usize])))
+        .collect()
+}
+
+/// Rays per side of the grid [`coverage`] casts.
+pub const COVERAGE_GRID: u32 = 24;
+
+/// Of the four framings of the bounding box of `triangles` around `up` ([`Camera::framings`]),
+/// the one whose picture shows the most front faces ([`coverage`]); the first on a tie. A box
+/// open on one side (McGuire's Cornell box opens toward +z) is looked into through its
+/// opening, and a z-up level is seen level with `Up::Z`.
+pub fn best_framing(triangles: &[[DVec3; 3]], up: Up) -> Camera {
+    let (lo, hi) = triangles
+        .iter()
+        .flatten()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let framings = Camera::framings(lo, hi, up);
+    if triangles.is_empty() {
+        return framings[0];
+    }
+    let vis = Visibility::build(triangles);
+    let mut best = (framings[0], -1.0);
+    for c in framings {
+        let seen = coverage(triangles, &vis, &c, COVERAGE_GRID);
+        if seen > best.1 {
+            best = (c, seen);
+        }
+    }
+    best.0
+}
+
+/// The share of a `grid` × `grid` set of primary rays of `camera` (square picture) that meet
+/// the front of a face of `triangles` (`vis` built over them): 0 when the picture would show
+/// only black (misses and backs).
+pub fn coverage(triangles: &[[DVec3; 3]], vis: &Visibility, camera: &Camera, grid: u32) -> f64 {
+    let forward = (camera.target - camera.eye).normalize();
+    let right = forward.cross(camera.up).normalize();
+    let up = right.cross(forward);
+    let tan_half = (0.5 * camera.vfov_degrees.to_radians()).tan();
+    let mut seen = 0u32;
+    for y in 0..grid {
+        for x in 0..grid {
+            let fx = (x as f64 + 0.5) / grid as f64;
+            let fy = (y as f64 + 0.5) / grid as f64;
+            let dir = forward
+                + right * ((2.0 * fx - 1.0) * tan_half)
+                + up * ((1.0 - 2.0 * fy) * tan_half);
+            if let Some(hit) = vis.closest_hit(camera.eye, dir, f64::INFINITY, NONE) {
+                let [a, b, c] = triangles[hit.triangle as usize];
+                if (b - a).cross(c - a).dot(dir) < 0.0 {
+                    seen += 1;
+                }
+            }
+        }
+    }
+    seen as f64 / (grid * grid) as f64
+}
+
+/// True if a picture of `mesh` with `camera` would show only black: no ray of a
+/// [`COVERAGE_GRID`]² grid meets the front of a face (a closed room seen from outside, or a
+/// framing that looks at the backs of walls).
+pub fn sees_nothing(mesh: &BakedMesh, camera: &Camera) -> bool {
+    let tris = triangles(mesh);
+    let vis = Visibility::build(&tris);
+    coverage(&tris, &vis, camera, COVERAGE_GRID) == 0.0
 }
 
 /// Render `mesh` as `view` says (a [`View::validate`]d view). Back faces and misses are black.
 pub fn render(mesh: &BakedMesh, view: &View) -> RgbImage {
-    let tris: Vec<[DVec3; 3]> = mesh
-        .faces
-        .iter()
-        .map(|f| f.map(|v| DVec3::from_array(mesh.positions[v as usize])))
-        .collect();
+    let tris = triangles(mesh);
     let vis = Visibility::build(&tris);
     let camera = &view.camera;
     let (width, height) = (view.width, view.height);

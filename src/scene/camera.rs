@@ -5,8 +5,9 @@
 //! files repeat it ([`crate::io`]), and [`crate::render`] renders with it. It casts no
 //! rays.
 //!
-//! Which camera a picture uses: `--camera` if given, else the scene file's camera, else
-//! [`Camera::framing`] of the bounding box.
+//! Which camera a picture uses: `--camera` if given, else the scene file's camera, else one of
+//! the four framings of the bounding box around the scene's up axis ([`Camera::framings`],
+//! `--up`; [`crate::render::camera_for`] takes the one that sees the most front faces).
 //!
 //! Text form: ten numbers `EX EY EZ TX TY TZ UX UY UZ FOV` (eye, target and up in scene units,
 //! the vertical field of view in degrees), separated by commas and/or whitespace. Written with
@@ -23,6 +24,57 @@ use crate::{Error, Result};
 /// a 25 mm film, 2·atan(12.5/35) ≈ 39.30765°.
 pub fn cornell_vfov_degrees() -> f64 {
     2.0 * (12.5f64 / 35.0).atan().to_degrees()
+}
+
+/// The scene's up axis, for the automatic framing (`--up`): Wavefront files from most tools
+/// are y-up, Blender's and Quake's native coordinates z-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Up {
+    X,
+    #[default]
+    Y,
+    Z,
+}
+
+impl Up {
+    /// The axis as a unit vector.
+    pub fn axis(self) -> DVec3 {
+        match self {
+            Up::X => DVec3::X,
+            Up::Y => DVec3::Y,
+            Up::Z => DVec3::Z,
+        }
+    }
+
+    /// The first horizontal direction a framing looks along: +z with y up (the Cornell box's
+    /// view), +y with z up (Blender's front view), +z with x up.
+    pub fn forward(self) -> DVec3 {
+        match self {
+            Up::X | Up::Y => DVec3::Z,
+            Up::Z => DVec3::Y,
+        }
+    }
+}
+
+impl crate::Choice for Up {
+    const SETTING: &'static str = "view.up";
+    const ALL: &'static [Up] = &[Up::X, Up::Y, Up::Z];
+
+    fn name(self) -> &'static str {
+        match self {
+            Up::X => "x",
+            Up::Y => "y",
+            Up::Z => "z",
+        }
+    }
+
+    fn description(self) -> &'static str {
+        match self {
+            Up::X => "+x is up",
+            Up::Y => "+y is up (most OBJ files)",
+            Up::Z => "+z is up (Blender, Quake levels)",
+        }
+    }
 }
 
 /// The marker that starts a camera line in a scene file: `# camera: …` (OBJ) and
@@ -128,23 +180,35 @@ impl Camera {
         n.map(|x| x.to_string()).join(" ")
     }
 
-    /// The default view: looking along +z at the centre of the bounding box [lo, hi] from in
-    /// front of it (its −z side), up +y, with the Cornell box's published lens
-    /// ([`cornell_vfov_degrees`]), far enough back that the box's front face fills the picture
-    /// height. For the Cornell box this puts the eye at about (278, 274, −770), close to the
-    /// published (278, 273, −800).
+    /// The first framing of [`Camera::framings`] with +y up: looking along +z at the centre of
+    /// the bounding box [lo, hi] from its −z side. For the Cornell box this puts the eye at
+    /// about (278, 274, −770), close to the published (278, 273, −800).
     pub fn framing(lo: DVec3, hi: DVec3) -> Camera {
+        Camera::framings(lo, hi, Up::Y)[0]
+    }
+
+    /// The four views of the bounding box [lo, hi] around the `up` axis: looking horizontally
+    /// at its centre from each side in turn (first along [`Up::forward`], then turning 90° at a
+    /// time), with the Cornell box's published lens ([`cornell_vfov_degrees`]), far enough back
+    /// that the box's near face fills the picture's height or width.
+    pub fn framings(lo: DVec3, hi: DVec3, up: Up) -> [Camera; 4] {
         let vfov_degrees = cornell_vfov_degrees();
         let centre = 0.5 * (lo + hi);
         let half = 0.5 * (hi - lo);
-        let half_extent = half.x.max(half.y);
-        let distance = half_extent / (0.5 * vfov_degrees.to_radians()).tan() + half.z;
-        Camera {
-            eye: centre - DVec3::Z * distance,
-            target: centre,
-            up: DVec3::Y,
-            vfov_degrees,
-        }
+        let (up, first) = (up.axis(), up.forward());
+        let side = first.cross(up);
+        [first, side, -first, -side].map(|forward| {
+            let right = forward.cross(up);
+            let across = half.dot(right.abs()).max(half.dot(up.abs()));
+            let distance =
+                across / (0.5 * vfov_degrees.to_radians()).tan() + half.dot(forward.abs());
+            Camera {
+                eye: centre - forward * distance,
+                target: centre,
+                up,
+                vfov_degrees,
+            }
+        })
     }
 }
 
@@ -256,6 +320,30 @@ mod tests {
         assert_eq!(from_comment("cameras: 1 2 3"), None);
         let err = from_comment("camera: 1 2 3").unwrap().unwrap_err();
         assert!(err.contains("expected 10 numbers"), "{err}");
+    }
+
+    #[test]
+    fn framings_look_level_at_the_centre_from_four_sides() {
+        let (lo, hi) = (DVec3::ZERO, DVec3::new(4.0, 2.0, 1.0));
+        for up in [Up::X, Up::Y, Up::Z] {
+            let cams = Camera::framings(lo, hi, up);
+            for (k, c) in cams.iter().enumerate() {
+                Camera::new(c.eye, c.target, c.up, c.vfov_degrees).unwrap();
+                let dir = (c.target - c.eye).normalize();
+                assert!(dir.dot(up.axis()).abs() < 1e-12, "level: {up:?} {k}");
+                assert_eq!(c.target, DVec3::new(2.0, 1.0, 0.5));
+                // Outside the box, on the side it looks from.
+                let outside = (0..3).any(|a| c.eye[a] < lo[a] || c.eye[a] > hi[a]);
+                assert!(outside, "{up:?} {k}: {}", c.eye);
+            }
+            assert!((cams[0].target - cams[0].eye)
+                .normalize()
+                .abs_diff_eq(up.forward(), 1e-12));
+            assert!(
+                (cams[2].eye - cams[0].eye).dot(up.forward()) > 0.0,
+                "opposite sides"
+            );
+        }
     }
 
     #[test]

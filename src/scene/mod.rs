@@ -29,11 +29,12 @@ mod build;
 pub mod camera;
 pub mod checks;
 pub mod overrides;
+pub mod reach;
 mod two_sided;
 
 pub(crate) use build::finish;
 pub use build::{SceneBuilder, MAX_LISTED_PAIRS};
-pub use camera::Camera;
+pub use camera::{Camera, Up};
 pub use overrides::{Override, Property};
 pub use two_sided::winding_key;
 

@@ -287,3 +287,71 @@ fn the_cornell_box_renders_from_its_published_camera_by_itself() {
     assert_ne!(render(&input, "f.png", Some(&framed_text)), by_itself);
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn without_a_camera_the_picture_looks_into_the_open_side_and_says_when_it_shows_nothing() {
+    let dir = temp_dir("framing");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    // An open box (y up) whose opening faces +z, as McGuire's Cornell box: the first framing
+    // (from −z) sees only the back of its back wall; the picture must look in from +z.
+    let open = dir.join("open.obj");
+    std::fs::write(dir.join("m.mtl"), MTL).unwrap();
+    std::fs::write(
+        &open,
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+         usemtl grey\n\
+         f 1 2 3 4\n\
+         f 1 5 6 2\n\
+         f 1 4 8 5\n\
+         f 2 6 7 3\n\
+         usemtl lamp\nf 4 3 7 8\n",
+    )
+    .unwrap();
+    let png = dir.join("open.png");
+    let o = radiosity(&["render", &s(&open), "-o", &s(&png), "--size", "32"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("shows nothing"), "{}", stderr(&o));
+    let o = radiosity(&["info", &s(&open), "--json"]);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let eye = json["framing"]["eye"][2].as_f64().unwrap();
+    assert!(eye > 1.0, "looks in from +z: eye z = {eye}");
+
+    // A closed room seen from outside: every side shows backs, and the run says so.
+    let furnace = dir.join("furnace.obj");
+    let o = radiosity(&["generate", "furnace", "-o", &s(&furnace)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let png = dir.join("furnace.png");
+    let o = radiosity(&[
+        "render",
+        &s(&furnace),
+        "-o",
+        &s(&png),
+        "--size",
+        "32",
+        "--refine",
+        "0",
+        "--gather",
+        "none",
+        "--max-edge",
+        "0.5",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: the picture shows nothing"),
+        "{}",
+        stderr(&o)
+    );
+    // --up names an axis: x, y or z.
+    let o = radiosity(&[
+        "render",
+        &s(&open),
+        "-o",
+        &s(&png),
+        "--size",
+        "32",
+        "--up",
+        "q",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -1,0 +1,125 @@
+//! Does each emitter light anything? A light wound the wrong way (a sky quad over an atrium
+//! facing up, away from the scene) emits into the void, and the bake is black with exit 0.
+//! This module casts a few probe rays from each emitting material's front sides and names the
+//! materials none of whose rays reaches the front of any surface; the pipeline turns them into
+//! warnings. It owns only that test; it changes nothing.
+
+use glam::DVec3;
+
+use super::Scene;
+use crate::form_factor::hemisphere::orthonormal_basis;
+use crate::form_factor::sampling::{malley, Rng};
+use crate::visibility::Visibility;
+
+/// Probe rays per emitting material: cosine-weighted from points spread over its triangles
+/// by area. An emitter that lights some surface with a share s of its light has all of them
+/// miss with probability (1 − s)^64: 0.2 % at s = 10 %. A light whose share is smaller than
+/// that may be named wrongly; the warning says what the probes saw.
+pub const PROBES: usize = 64;
+
+/// The names of the emitting materials (with their probe counts) none of whose [`PROBES`] rays
+/// meets the front of a surface: each ray leaves the scene or meets a back. Deterministic for
+/// a `seed`. `scene` must satisfy the [`Scene`] invariants.
+pub fn unlit_emitters(scene: &Scene, seed: u64) -> Vec<String> {
+    let emitting: Vec<usize> = (0..scene.materials.len())
+        .filter(|&m| scene.materials[m].is_emitter())
+        .collect();
+    if emitting.is_empty() {
+        return Vec::new();
+    }
+    let corners: Vec<[DVec3; 3]> = scene
+        .triangles
+        .iter()
+        .map(|t| t.vertices.map(|v| scene.positions[v as usize]))
+        .collect();
+    let vis = Visibility::build(&corners);
+    let mut unlit = Vec::new();
+    for m in emitting {
+        let tris: Vec<usize> = (0..scene.triangles.len())
+            .filter(|&t| scene.triangles[t].material as usize == m)
+            .collect();
+        let total: f64 = tris.iter().map(|&t| scene.triangle_area(t)).sum();
+        if tris.is_empty() || total <= 0.0 {
+            continue;
+        }
+        let mut rng = Rng::new(&[seed, m as u64, 0x11D7]);
+        let (mut cum, mut k) = (0.0, 0);
+        let lights_something = (0..PROBES).any(|p| {
+            // Stratified by area: the probe's target share of the total area picks its triangle.
+            let target = (p as f64 + rng.next_f64()) / PROBES as f64 * total;
+            while k + 1 < tris.len() && cum + scene.triangle_area(tris[k]) < target {
+                cum += scene.triangle_area(tris[k]);
+                k += 1;
+            }
+            let t = tris[k];
+            let [a, b, c] = corners[t];
+            let n = (b - a).cross(c - a).normalize();
+            let (u, v) = (rng.next_f64(), rng.next_f64());
+            let (u, v) = if u + v > 1.0 {
+                (1.0 - u, 1.0 - v)
+            } else {
+                (u, v)
+            };
+            let origin = a + u * (b - a) + v * (c - a);
+            let (tangent, bitangent) = orthonormal_basis(n);
+            let dir = malley(rng.next_f64(), rng.next_f64(), tangent, bitangent, n);
+            vis.closest_hit(origin, dir, f64::INFINITY, t as u32)
+                .is_some_and(|hit| {
+                    let [p, q, r] = corners[hit.triangle as usize];
+                    (q - p).cross(r - p).dot(dir) < 0.0
+                })
+        });
+        if !lights_something {
+            unlit.push(scene.materials[m].name.clone());
+        }
+    }
+    unlit
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::SceneBuilder;
+
+    /// A floor (0..1 at z = 0, facing up) and a lamp above it at z = 1, facing down (toward
+    /// the floor) or up (away from everything).
+    fn floor_and_lamp(lamp_faces_down: bool) -> Scene {
+        let mut b = SceneBuilder::new();
+        let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+        let lamp = b.material("lamp", [0.5; 3], [3.0; 3]);
+        let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+        b.quad(
+            [p(0., 0., 0.), p(1., 0., 0.), p(1., 1., 0.), p(0., 1., 0.)],
+            grey,
+        );
+        let up = [
+            p(0.3, 0.3, 1.),
+            p(0.7, 0.3, 1.),
+            p(0.7, 0.7, 1.),
+            p(0.3, 0.7, 1.),
+        ];
+        let down = [up[0], up[3], up[2], up[1]];
+        b.quad(if lamp_faces_down { down } else { up }, lamp);
+        b.build().unwrap()
+    }
+
+    #[test]
+    fn a_lamp_facing_away_lights_nothing_and_is_named() {
+        assert!(unlit_emitters(&floor_and_lamp(true), 1).is_empty());
+        assert_eq!(unlit_emitters(&floor_and_lamp(false), 1), ["lamp"]);
+        // Two-sided, its back faces the floor: lit.
+        let mut both = floor_and_lamp(false);
+        both.make_two_sided();
+        assert!(unlit_emitters(&both, 1).is_empty());
+    }
+
+    #[test]
+    fn a_lamp_that_sees_only_backs_lights_nothing() {
+        // The floor flipped (facing down): the lamp facing down meets only its back.
+        let mut s = floor_and_lamp(true);
+        for t in s.triangles.iter_mut().filter(|t| t.material == 0) {
+            t.vertices.swap(1, 2);
+        }
+        assert_eq!(unlit_emitters(&s, 7), ["lamp"]);
+    }
+}
