@@ -69,7 +69,7 @@ fn scene_files_carry_their_camera() {
     let o = radiosity(&["info", furnace.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(
-        text.contains("camera:       none in the file; pictures frame"),
+        text.contains("camera:       none in the file; pictures look level"),
         "{text}"
     );
 
