@@ -14,6 +14,7 @@
 //! |---|---|---|
 //! | load | [`io`] | scene files in (OBJ + MTL, PLY), baked meshes out (PLY, OBJ), atomic writes |
 //! | scene | [`scene`] | triangles, materials, the file's camera, overrides, two-sided twins |
+//! | lights outside the mesh | [`environment`] | sky and sun: their direct light at a point, with visibility |
 //! | patches | [`mesh`] | conforming subdivision, smooth normals, adaptive refinement |
 //! | BVH | [`visibility`] | watertight ray queries in a canonical frame |
 //! | form factors | [`form_factor`] | the estimators, their loop, shortcuts, the cache |
@@ -57,6 +58,7 @@
 pub mod bake;
 pub mod choice;
 pub mod color;
+pub mod environment;
 pub mod error;
 pub mod form_factor;
 pub mod gather;

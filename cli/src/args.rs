@@ -10,6 +10,7 @@ use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 
 use radiosity::bake::BakedMesh;
+use radiosity::environment::{Environment, SkyModel, Sun};
 use radiosity::form_factor::{self, Estimator};
 use radiosity::gather::Gather;
 use radiosity::hierarchical;
@@ -132,11 +133,6 @@ pub struct ViewArgs {
         help_heading = "Picture"
     )]
     pub camera: Option<String>,
-    /// The scene's up axis, for the automatic framing when neither --camera nor the file gives
-    /// a camera: the picture looks level at the bounding box from the side (of four) that
-    /// shows the most front faces.
-    #[arg(long, value_parser = choice::<Up>(), default_value = "y", value_name = "AXIS", help_heading = "Picture")]
-    pub up: Up,
     /// Picture size in pixels, WIDTHxHEIGHT or one number for a square.
     #[arg(
         long,
@@ -340,6 +336,33 @@ pub struct SolveArgs {
     /// is: the output shows the faceted geometry as any renderer of the mesh does.
     #[arg(long, default_value_t = radiosity::mesh::DEFAULT_CREASE_DEGREES, value_name = "DEG", allow_negative_numbers = true, help_heading = "Discretisation")]
     pub crease: f64,
+    /// The scene's up axis: the sky's horizon, the sun's elevation, and the automatic framing
+    /// of pictures (when neither --camera nor the file gives a camera, the picture looks level
+    /// at the bounding box from the side, of four, that shows the most front faces).
+    #[arg(long, value_parser = choice::<Up>(), default_value = "y", value_name = "AXIS", help_heading = "Light")]
+    pub up: Up,
+    /// A sky above the horizon with this radiance, W·sr⁻¹·m⁻² (R,G,B or one value for grey;
+    /// the zenith's with --sky-model overcast): rays leaving the scene upward gather it.
+    #[arg(
+        long,
+        value_name = "R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Light"
+    )]
+    pub sky: Option<String>,
+    /// How the sky's radiance varies with direction.
+    #[arg(long, value_parser = choice::<SkyModel>(), default_value = "uniform", help_heading = "Light")]
+    pub sky_model: SkyModel,
+    /// The sun: azimuth (degrees clockwise from north; north is +z with y up, +y with z up),
+    /// elevation (degrees above the horizon) and irradiance on a surface facing it, W·m⁻²
+    /// (R,G,B or one value), e.g. 135,40,900,850,800.
+    #[arg(
+        long,
+        value_name = "AZIMUTH,ELEVATION,R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Light"
+    )]
+    pub sun: Option<String>,
     /// Surfaces reflect and emit on both sides: every face gets a back face with the same
     /// material (ρ, Le) and its own radiance, and the output has both (twice the patches).
     #[arg(long, help_heading = "Discretisation")]
@@ -490,7 +513,7 @@ pub struct VerifyArgs {
 impl SolveArgs {
     /// The pipeline settings these options give, checked by the library
     /// ([`pipeline::Settings::validate`]) before any work.
-    pub fn settings(&self) -> Result<pipeline::Settings> {
+    pub fn settings(&self) -> std::result::Result<pipeline::Settings, Failure> {
         let settings = pipeline::Settings {
             method: self.method.method,
             hierarchical: self.method.hierarchical(),
@@ -504,6 +527,7 @@ impl SolveArgs {
                 omega: self.omega,
             },
             crease_degrees: self.crease,
+            environment: self.environment()?,
             two_sided: self.two_sided,
             refine_rounds: self.refine,
             refine_threshold: self.refine_threshold,
@@ -517,6 +541,58 @@ impl SolveArgs {
         };
         settings.validate()?;
         Ok(settings)
+    }
+}
+
+/// Numbers separated by commas: `what` names the option in errors.
+fn numbers(text: &str, option: &'static str) -> std::result::Result<Vec<f64>, Failure> {
+    text.split(',')
+        .map(|t| {
+            t.trim().parse::<f64>().map_err(|_| {
+                Failure::usage(option, format!("{text:?}: {:?} is not a number", t.trim()))
+            })
+        })
+        .collect()
+}
+
+impl SolveArgs {
+    /// The sky and the sun these options ask for (ranges checked by the library).
+    pub fn environment(&self) -> std::result::Result<Environment, Failure> {
+        let rgb = |v: &[f64], option: &'static str, text: &str| match *v {
+            [x] => Ok([x; 3]),
+            [r, g, b] => Ok([r, g, b]),
+            _ => Err(Failure::usage(
+                option,
+                format!("{text:?}: expected R,G,B or one value for grey"),
+            )),
+        };
+        let sky = match &self.sky {
+            Some(t) => rgb(&numbers(t, "--sky")?, "--sky", t)?,
+            None => [0.0; 3],
+        };
+        let sun = match &self.sun {
+            Some(t) => {
+                let v = numbers(t, "--sun")?;
+                if v.len() < 3 {
+                    return Err(Failure::usage(
+                        "--sun",
+                        format!("{t:?}: expected AZIMUTH,ELEVATION,R,G,B or AZIMUTH,ELEVATION,E"),
+                    ));
+                }
+                Some(Sun {
+                    azimuth_degrees: v[0],
+                    elevation_degrees: v[1],
+                    irradiance: rgb(&v[2..], "--sun", t)?,
+                })
+            }
+            None => None,
+        };
+        Ok(Environment {
+            sky,
+            sky_model: self.sky_model,
+            sun,
+            up: self.up,
+        })
     }
 }
 
@@ -577,11 +653,11 @@ impl ViewArgs {
     /// ([`View::validate`]). The camera is [`render::camera_for`]'s: `--camera` if given, else
     /// the one the scene file carries, else the framing of the mesh's bounding box around
     /// `--up` that shows the most front faces.
-    pub fn view(&self, mesh: &BakedMesh, exposure: f64) -> Result<View, Failure> {
+    pub fn view(&self, mesh: &BakedMesh, exposure: f64, up: Up) -> Result<View, Failure> {
         let (width, height) = parse_size(&self.size)?;
         let given = self.camera.as_deref().map(Camera::parse).transpose()?;
         let view = View {
-            camera: render::camera_for(mesh, given, self.up),
+            camera: render::camera_for(mesh, given, up),
             width,
             height,
             spp: self.spp,
@@ -598,7 +674,7 @@ impl ViewArgs {
     /// Checks these options before the long work: everything [`ViewArgs::view`] checks, on an
     /// empty mesh (its camera, never used, does not need one).
     pub fn check(&self, exposure: f64) -> Result<(), Failure> {
-        self.view(&BakedMesh::default(), exposure).map(drop)
+        self.view(&BakedMesh::default(), exposure, Up::Y).map(drop)
     }
 }
 
@@ -721,7 +797,7 @@ mod tests {
             .settings()
             .unwrap_err();
         assert_eq!(
-            Failure::from(e).to_string(),
+            e.to_string(),
             "invalid value for --samples: must be at least 1"
         );
     }

@@ -32,7 +32,10 @@ pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
         report.write_json(path)?;
     }
     if let Some(path) = &args.png {
-        let view = args.scene.view.view(&outcome.baked, report.exposure)?;
+        let view = args
+            .scene
+            .view
+            .view(&outcome.baked, report.exposure, args.scene.solve.up)?;
         warn_if_blank(&outcome.baked, &view);
         render::save(path, &render::render(&outcome.baked, &view))?;
     }
@@ -142,7 +145,7 @@ pub fn render(args: &RenderArgs, quiet: bool) -> Result<u8, Failure> {
     };
     mesh.validate()?;
     let exposure = args.exposure.unwrap_or_else(|| mesh.auto_exposure());
-    let view = args.scene.view.view(&mesh, exposure)?;
+    let view = args.scene.view.view(&mesh, exposure, args.scene.solve.up)?;
     warn_if_blank(&mesh, &view);
     render::save(&args.output, &render::render(&mesh, &view))?;
     Ok(code)

@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 31] = [
+pub const FLAGS: [(&str, &str); 35] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -29,6 +29,10 @@ pub const FLAGS: [(&str, &str); 31] = [
     ("refine_threshold", "--refine-threshold"),
     ("refine_max_patches", "--refine-max-patches"),
     ("max_memory", "--max-memory"),
+    ("environment.sky", "--sky"),
+    ("environment.sun", "--sun"),
+    ("environment.sky_model", "--sky-model"),
+    ("view.up", "--up"),
     ("form_factors.estimator", "--form-factors"),
     ("form_factors.samples", "--samples"),
     ("form_factors.rays", "--rays"),

@@ -48,6 +48,7 @@ use serde::Serialize;
 use crate::bake::Site;
 use crate::choice::Choice;
 use crate::color::Rgb;
+use crate::environment::{Environment, SkyModel};
 use crate::form_factor::kernel::point_to_polygon;
 use crate::form_factor::sampling::{gauss_rule, kernel_samples, malley, Rng};
 use crate::mesh::Patches;
@@ -254,11 +255,21 @@ pub struct Gatherer<'a> {
     /// scene's extent (see [`Gatherer::direct`]).
     lift: f64,
     seed: u64,
+    /// The sky and the sun ([`crate::environment`]): the sun is part of the direct term, the
+    /// sky comes through the hemisphere rays that leave the scene.
+    env: Environment,
 }
 
 impl<'a> Gatherer<'a> {
-    /// `radiance[i]` is patch i's solved radiance, W·sr⁻¹·m⁻² per channel.
-    pub fn new(scene: &Scene, patches: &'a Patches, radiance: &'a [Rgb], seed: u64) -> Self {
+    /// `radiance[i]` is patch i's solved radiance, W·sr⁻¹·m⁻² per channel; `env` the sky and
+    /// the sun that lit the solution.
+    pub fn new(
+        scene: &Scene,
+        patches: &'a Patches,
+        radiance: &'a [Rgb],
+        env: &Environment,
+        seed: u64,
+    ) -> Self {
         // The emitting triangles, and each scene triangle's index among them.
         let mut emitters = Vec::new();
         let mut emitter_of = vec![NONE; scene.triangles.len()];
@@ -303,6 +314,7 @@ impl<'a> Gatherer<'a> {
             vis: Visibility::build(&corners),
             lift: LIFT * (hi - lo).length(),
             seed,
+            env: *env,
         }
     }
 
@@ -405,6 +417,12 @@ impl<'a> Gatherer<'a> {
         if others > 0 && exact.len() < self.emitters.len() {
             let other = self.others_direct(x, n, &from, ignore, exact, others, rng, &mut targets);
             for (s, o) in sum.iter_mut().zip(other) {
+                *s += o;
+            }
+        }
+        if self.env.sun.is_some() {
+            let sun = self.env.sun_direct(&self.vis, x, n, ignore, self.lift, rng);
+            for (s, o) in sum.iter_mut().zip(sun) {
                 *s += o;
             }
         }
@@ -561,6 +579,9 @@ impl<'a> Gatherer<'a> {
     ) -> Rgb {
         let (t, b) = n.any_orthonormal_pair();
         let mut sum = [0.0; 3];
+        // The sky: rays above the horizon, and those of them that leave the scene.
+        let (mut above, mut open) = (0usize, 0usize);
+        let up = self.env.up.axis();
         // √rays × √rays strata of the unit square (Malley: uniform on the disc, lifted).
         let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
         let total = side * side;
@@ -569,10 +590,18 @@ impl<'a> Gatherer<'a> {
             let u = (i as f64 + rng.next_f64()) / side as f64;
             let v = (j as f64 + rng.next_f64()) / side as f64;
             let dir = malley(u, v, t, b, n);
+            above += usize::from(dir.dot(up) > 0.0);
             let Some(hit) = self
                 .vis
                 .closest_hit(x + self.lift * n, dir, f64::INFINITY, ignore)
             else {
+                // Left the scene: the sky's radiance from there (none below the horizon).
+                open += usize::from(dir.dot(up) > 0.0);
+                if self.env.sky_model != SkyModel::Uniform {
+                    for (s, l) in sum.iter_mut().zip(self.env.escaped(dir)) {
+                        *s += l;
+                    }
+                }
                 continue;
             };
             let h = hit.triangle as usize;
@@ -603,7 +632,16 @@ impl<'a> Gatherer<'a> {
                 };
             }
         }
-        sum.map(|s| s / total as f64)
+        let mut out = sum.map(|s| s / total as f64);
+        if self.env.sky_model == SkyModel::Uniform && above > 0 {
+            // A uniform sky by the ratio estimate (as [`Environment::sky_direct`]): its exact
+            // unoccluded light times the open share of the rays above the horizon.
+            let share = open as f64 / above as f64 * 0.5 * (1.0 + n.dot(up));
+            for (o, l) in out.iter_mut().zip(self.env.sky) {
+                *o += l * share;
+            }
+        }
+        out
     }
 
     /// True when the first surface along `n` from `x` is seen from behind: `x` is buried
@@ -948,7 +986,7 @@ mod tests {
         let scene = b.build().unwrap();
         let patches = crate::mesh::subdivide(&scene, 0.25, 0.0).unwrap();
         let radiance = vec![[0.0; 3]; patches.len()];
-        let g = Gatherer::new(&scene, &patches, &radiance, 1);
+        let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
         let mut rng = Rng::new(&[1]);
         let receiver = (0..patches.len())
             .find(|&i| patches.material[i] == rcv)
@@ -1032,7 +1070,7 @@ mod tests {
         let (scene, patches, exact) = emitter_grid(false, 4);
         assert!(scene.triangles.len() > 3 * MAX_EXACT_EMITTERS);
         let radiance = vec![[0.0; 3]; patches.len()];
-        let g = Gatherer::new(&scene, &patches, &radiance, 1);
+        let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
         let x = DVec3::new(0.5, 0.5, 0.0);
         let receiver = g.vis.closest_hit(x + DVec3::Z, -DVec3::Z, 2.0, NONE);
         let receiver = receiver.unwrap().triangle;
@@ -1055,7 +1093,7 @@ mod tests {
             let (scene, patches, exact) = emitter_grid(blocked, m);
             assert_eq!(scene.triangles.len() > MAX_WEIGHED_EMITTERS + 2, m == 12);
             let radiance = vec![[0.0; 3]; patches.len()];
-            let g = Gatherer::new(&scene, &patches, &radiance, 1);
+            let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
             let x = DVec3::new(0.5, 0.5, 0.0);
             let receiver = g.vis.closest_hit(x + 0.1 * DVec3::Z, -DVec3::Z, 1.0, NONE);
             let receiver = receiver.unwrap().triangle;
@@ -1129,7 +1167,13 @@ mod tests {
         let loaded = Scene::load(&root.join("meshes/cornell_box.obj")).unwrap();
         let (scene, _) = crate::mesh::split_contacts(&loaded);
         let out = pipeline::solve_scene(&loaded, &settings).unwrap();
-        let g = Gatherer::new(&scene, &out.patches, &out.solution.radiance, 1);
+        let g = Gatherer::new(
+            &scene,
+            &out.patches,
+            &out.solution.radiance,
+            &Environment::default(),
+            1,
+        );
         let exact: Vec<u32> = (0..g.emitters.len() as u32).collect();
         let lum = |c: Rgb| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
         let (mut with, mut without, mut count) = (0.0, 0.0, 0);
@@ -1172,7 +1216,7 @@ mod tests {
         let patches =
             crate::mesh::subdivide(&scene, crate::mesh::default_max_edge(&scene), 0.0).unwrap();
         let radiance = vec![[0.0; 3]; patches.len()];
-        let g = Gatherer::new(&scene, &patches, &radiance, 1);
+        let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
         let mut checked = 0;
         for (i, tri) in patches.triangles.iter().enumerate() {
             let n = patches.normal[i];

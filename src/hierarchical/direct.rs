@@ -44,6 +44,7 @@ use glam::DVec3;
 use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
+use crate::environment::{Environment, SKY_RAYS, SUN_RAYS};
 use crate::form_factor::kernel::point_to_polygon;
 use crate::form_factor::sampling::{kernel_samples, Rng};
 use crate::mesh::Patches;
@@ -158,19 +159,36 @@ pub struct Direct {
     /// The largest minus the smallest D(x) over those points (largest channel), W·sr⁻¹·m⁻²:
     /// how much the direct light varies over the element.
     pub spread: f64,
+    /// The part of `mean` from the sky and the sun ([`crate::environment`]), W·sr⁻¹·m⁻².
+    pub environment: Rgb,
     /// Shadow rays cast.
     pub rays: u64,
 }
 
-/// The direct light of element `e` from `emitters`, its rule points marked in `buried` left
-/// out. `occluders` answers the shadow rays (each ignores the element's root and the
-/// emitter's); `shadows` false means nothing can occlude (a convex enclosure): no ray is cast.
-/// Random numbers are keyed by (`seed`, `e`).
+/// The lights outside the mesh as the elements see them: the [`Environment`], the BVH over
+/// every root (a sky ray is stopped by any face, also the walls of the scene's hull that
+/// `occluders` leaves out) and how far rays start above the surface, scene units.
+#[derive(Clone, Copy)]
+pub struct Outside<'a> {
+    pub env: &'a Environment,
+    pub vis: &'a Visibility,
+    pub lift: f64,
+}
+
+/// The direct light of element `e` from `emitters` and from `outside` (the sky and the sun,
+/// [`Environment::direct`] with [`SKY_RAYS`] sky rays at each point), its rule points marked in
+/// `buried` left out. `occluders` answers the emitters' shadow rays (each ignores the element's
+/// root and the emitter's); `shadows` false means nothing can occlude (a convex enclosure): no
+/// such ray is cast. The spread counts the emitters and the sun, not the sky: the sky's light
+/// varies smoothly, and its rays' noise would split leaves for nothing. Random numbers are
+/// keyed by (`seed`, `e`).
+#[allow(clippy::too_many_arguments)]
 pub fn element_direct(
     tree: &Tree,
     occluders: &Visibility,
     shadows: bool,
     emitters: &[Emitter],
+    outside: Outside,
     e: usize,
     buried: u16,
     seed: u64,
@@ -179,7 +197,8 @@ pub fn element_direct(
     let weights = unburied_weights(buried);
     let total: f64 = weights.iter().sum();
     let mut out = Direct::default();
-    if total == 0.0 || emitters.is_empty() {
+    let lit = outside.env.is_lit();
+    if total == 0.0 || (emitters.is_empty() && !lit) {
         return out;
     }
     let root = tree.elements[e].root;
@@ -221,13 +240,32 @@ pub fn element_direct(
             }
         }
     }
+    // The sky and the sun, from a stream of their own (no other estimate changes with them).
+    let mut sky = [[0.0; 3]; RECEIVER_POINTS];
+    if lit {
+        let mut rng = Rng::new(&[seed, e as u64, 0x5C1E5]);
+        let Outside { env, vis, lift } = outside;
+        for (k, &(x, n)) in points.iter().enumerate() {
+            if weights[k] == 0.0 {
+                continue;
+            }
+            let sun = env.sun_direct(vis, x, n, root, lift, &mut rng);
+            let s = env.sky_direct(vis, x, n, root, lift, SKY_RAYS, &mut rng);
+            out.rays += (SUN_RAYS * usize::from(env.sun.is_some()) + SKY_RAYS) as u64;
+            sky[k] = s;
+            for c in 0..3 {
+                values[k][c] += sun[c];
+                out.environment[c] += weights[k] * (sun[c] + s[c]) / total;
+            }
+        }
+    }
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
     for (k, value) in values.iter().enumerate() {
         if weights[k] == 0.0 {
             continue;
         }
-        for (m, v) in out.mean.iter_mut().zip(value) {
-            *m += weights[k] * v / total;
+        for ((m, v), s) in out.mean.iter_mut().zip(value).zip(sky[k]) {
+            *m += weights[k] * (v + s) / total;
         }
         let largest = value.iter().copied().fold(0.0, f64::max);
         lo = lo.min(largest);

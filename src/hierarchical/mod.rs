@@ -53,6 +53,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::Rgb;
+use crate::environment::Environment;
 use crate::form_factor::{is_closed, is_hidden, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
 use crate::solve;
@@ -195,12 +196,14 @@ const PASS_SWEEPS: u32 = 2;
 pub fn solve(
     roots: &Patches,
     settings: &Settings,
+    env: &Environment,
     solver: &solve::Settings,
     seed: u64,
 ) -> Result<Hierarchical> {
     settings.validate()?;
     solver.validate()?;
-    let mut h = Hierarchy::new(roots, settings, seed);
+    env.validate()?;
+    let mut h = Hierarchy::new(roots, settings, env, seed);
     let mut warnings = Vec::new();
     let mut history = Vec::new();
     let emitted = h.emitted_power();
@@ -349,8 +352,12 @@ pub struct Hierarchy<'a> {
     /// Per root: its emission reaches other elements through their own direct light
     /// ([`direct`]), so links carry only its reflected radiance.
     exact: Vec<bool>,
-    /// Per element: its direct light from `emitters`.
+    /// Per element: its direct light from `emitters` and `env`.
     direct: Vec<direct::Direct>,
+    /// The sky and the sun ([`crate::environment`]), whose direct light every element computes.
+    env: Environment,
+    /// How far rays to the sky and the sun start above the surface: 10⁻⁶ of the scene's extent.
+    lift: f64,
     /// Absolute ε (radiance × area) and minimum area (scene units²).
     epsilon: f64,
     min_area: f64,
@@ -358,8 +365,13 @@ pub struct Hierarchy<'a> {
 }
 
 impl<'a> Hierarchy<'a> {
-    /// Hierarchies over `roots`, no links yet, L = Le.
-    pub fn new(roots: &'a Patches, settings: &Settings, seed: u64) -> Hierarchy<'a> {
+    /// Hierarchies over `roots`, no links yet, L = Le, lit also by `env`.
+    pub fn new(
+        roots: &'a Patches,
+        settings: &Settings,
+        env: &Environment,
+        seed: u64,
+    ) -> Hierarchy<'a> {
         let tree = Tree::new(roots);
         let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
         let vis = Visibility::build(&corners);
@@ -391,6 +403,16 @@ impl<'a> Hierarchy<'a> {
             },
             exact: vec![false; roots.len()],
             direct: Vec::new(),
+            env: *env,
+            lift: 1e-6 * {
+                let (lo, hi) = roots
+                    .positions
+                    .iter()
+                    .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+                        (lo.min(*p), hi.max(*p))
+                    });
+                (hi - lo).length()
+            },
             convex: false,
             epsilon: 0.0,
             min_area: settings.min_area * total_area,
@@ -409,11 +431,16 @@ impl<'a> Hierarchy<'a> {
         h
     }
 
-    /// Σ max-channel(Le)·A over the roots: the scale of ε.
+    /// Σ max-channel(Le)·A over the roots, and the light the sky and the sun bring to them,
+    /// Σ max-channel(ρ·D_env)·A (radiance × area, as Le·A): the scale of ε.
     pub fn emitted_power(&self) -> f64 {
         (0..self.roots.len())
             .map(|i| {
-                self.roots.emission[i].iter().copied().fold(0.0, f64::max) * self.roots.area[i]
+                let max = |v: Rgb| v.iter().copied().fold(0.0, f64::max);
+                let env = self.direct.get(i).map_or([0.0; 3], |d| d.environment);
+                let rho = self.roots.reflectance[i];
+                let reflected = [0, 1, 2].map(|c| rho[c] * env[c]);
+                (max(self.roots.emission[i]) + max(reflected)) * self.roots.area[i]
             })
             .sum()
     }
@@ -487,9 +514,18 @@ impl<'a> Hierarchy<'a> {
         }
         let (emitters, occluders, buried) = (&self.emitters, &self.occluders, &self.buried);
         let (shadows, seed) = (!convex, self.seed);
+        let outside = direct::Outside {
+            env: &self.env,
+            vis,
+            lift: self.lift,
+        };
         let new: Vec<direct::Direct> = (from..tree.elements.len())
             .into_par_iter()
-            .map(|e| direct::element_direct(tree, occluders, shadows, emitters, e, buried[e], seed))
+            .map(|e| {
+                direct::element_direct(
+                    tree, occluders, shadows, emitters, outside, e, buried[e], seed,
+                )
+            })
             .collect();
         for d in new {
             self.stats.rays_cast += d.rays;
@@ -512,7 +548,7 @@ impl<'a> Hierarchy<'a> {
     /// split: the direct light's own refinement, where a shadow edge or the fall-off next to
     /// a light crosses a leaf, whatever its links.
     fn direct_splits(&self) -> Vec<usize> {
-        if self.emitters.is_empty() {
+        if self.emitters.is_empty() && self.env.sun.is_none() {
             return Vec::new();
         }
         let t = &self.tree;
@@ -943,10 +979,17 @@ impl<'a> Hierarchy<'a> {
             if el.first_child != tree::NO_CHILD {
                 continue;
             }
-            let le = self.roots.emission[el.root as usize];
+            // The source term E = Le + ρ·D_env (the sky's and sun's light counts as emission).
+            let r = el.root as usize;
+            let (le, rho, env) = (
+                self.roots.emission[r],
+                self.roots.reflectance[r],
+                self.direct[e].environment,
+            );
             for c in 0..3 {
                 num += el.area * (self.elem_l[e][c] - old[e][c]).powi(2);
-                den += el.area * le[c] * le[c];
+                let source = le[c] + rho[c] * env[c];
+                den += el.area * source * source;
             }
         }
         if den > 0.0 {

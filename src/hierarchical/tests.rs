@@ -47,7 +47,7 @@ fn row_sums_of_a_closed_box_average_to_one() {
             min_area: 1e-6,
             ..Settings::default()
         };
-        let mut h = Hierarchy::new(&roots, &s, 1);
+        let mut h = Hierarchy::new(&roots, &s, &Default::default(), 1);
         refine(&mut h);
         let rs = h.row_sums();
         let (mut num, mut den) = (0.0, 0.0);
@@ -183,7 +183,7 @@ fn visibility_rays_aim_above_the_receiving_point_s_horizon() {
             .filter(|&i| roots.normal[i].dot(n) > 0.999)
             .collect()
     };
-    let h = Hierarchy::new(&roots, &Settings::default(), 1);
+    let h = Hierarchy::new(&roots, &Settings::default(), &Default::default(), 1);
     let mut pairs = 0;
     for r in facing(DVec3::X) {
         for s in facing(DVec3::NEG_Y) {
@@ -230,7 +230,7 @@ fn visibility_rays_aim_above_the_receiving_point_s_horizon() {
 fn quarters_integrate_an_edge_adjacent_pair_closer_than_one_rule() {
     let scene = scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
     let roots = mesh::subdivide(&scene, 10.0, 0.0).unwrap();
-    let h = Hierarchy::new(&roots, &Settings::default(), 1);
+    let h = Hierarchy::new(&roots, &Settings::default(), &Default::default(), 1);
     let t = &h.tree;
     // An element of each plate sharing an edge (two corners in common).
     let shares_edge = |a: usize, b: usize| {
@@ -290,7 +290,7 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
     } else {
         (1, 0)
     };
-    let mut h = Hierarchy::new(&roots, &Settings::default(), 1);
+    let mut h = Hierarchy::new(&roots, &Settings::default(), &Default::default(), 1);
     let link = links::estimate(
         &h.tree,
         &h.occluders,
@@ -468,7 +468,13 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
             .expect("the tiny triangle is a root");
         let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
         let vis = Visibility::build(&corners);
-        let d = direct::element_direct(&tree, &vis, true, &emitters, receiver, 0, 1);
+        let dark = crate::environment::Environment::default();
+        let outside = direct::Outside {
+            env: &dark,
+            vis: &vis,
+            lift: 0.0,
+        };
+        let d = direct::element_direct(&tree, &vis, true, &emitters, outside, receiver, 0, 1);
         let want = if blocked { 0.0 } else { 2.0 * f };
         for c in d.mean {
             assert!(
@@ -527,7 +533,7 @@ fn leaves_split_where_their_direct_light_varies() {
         min_area: 1e-5,
         ..Settings::default()
     };
-    let mut h = Hierarchy::new(&roots, &s, 1);
+    let mut h = Hierarchy::new(&roots, &s, &Default::default(), 1);
     assert!(!h.emitters.is_empty(), "the light qualifies");
     refine(&mut h);
     assert!(h.direct_splits().is_empty(), "no leaf left to split");

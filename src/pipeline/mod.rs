@@ -106,6 +106,11 @@ pub fn run_with(
     Ok(outcome)
 }
 
+/// True if anything lights the scene: an emitting material, the sky or the sun.
+fn lit(scene: &Scene, settings: &Settings) -> bool {
+    scene.has_emitters() || settings.environment.is_lit()
+}
+
 /// Seconds past which a bake says, before it starts, how long it will take.
 pub const LONG_BAKE_SECONDS: f64 = 60.0;
 
@@ -277,10 +282,11 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     let h = hierarchical::solve(
         &roots,
         &settings.hierarchical,
+        &settings.environment,
         &settings.solver,
         settings.form_factors.seed,
     )?;
-    if !scene.has_emitters() {
+    if !lit(scene, settings) {
         report.warn_no_emitters();
     }
     report.warnings.extend(h.warnings);
@@ -335,11 +341,17 @@ fn bake_stage(
     let mode = settings
         .gather
         .resolve(sites.len(), settings.gather_rays.is_some());
-    let gathers = mode != Gather::None && scene.has_emitters() && !neumann;
+    let gathers = mode != Gather::None && lit(scene, settings) && !neumann;
     report.gather = if gathers { mode } else { Gather::None };
     if gathers {
         let t = Instant::now();
-        let gatherer = gather::Gatherer::new(scene, patches, radiance, settings.form_factors.seed);
+        let gatherer = gather::Gatherer::new(
+            scene,
+            patches,
+            radiance,
+            &settings.environment,
+            settings.form_factors.seed,
+        );
         let rays = settings
             .gather_rays
             .map_or_else(|| gather::auto_rays(sites.len()), |r| r as usize);
@@ -381,7 +393,7 @@ fn light_transport(
     reuse: Option<&Reuse>,
     report: &mut Report,
 ) -> Result<(FormFactors, Solution)> {
-    let form_factors = if scene.has_emitters() {
+    let form_factors = if lit(scene, settings) {
         form_factors(patches, settings, reuse, report)?
     } else {
         // Without emitters L = 0 whatever F is: skip the BVH and the form factors.
@@ -391,10 +403,23 @@ fn light_transport(
     report.form_factors = form_factors.stats.clone();
 
     let t = Instant::now();
+    // E = Le + ρ·D_env: the sky's and the sun's direct light at each patch counts as emitted.
+    let env = &settings.environment;
+    let emission: Vec<crate::Rgb> = if env.is_lit() {
+        let d = crate::environment::patch_light(patches, env, settings.form_factors.seed);
+        (0..patches.len())
+            .map(|i| {
+                let (le, rho) = (patches.emission[i], patches.reflectance[i]);
+                [0, 1, 2].map(|c| le[c] + rho[c] * d[i][c])
+            })
+            .collect()
+    } else {
+        patches.emission.clone()
+    };
     let system = System {
         form_factors: &form_factors,
         reflectance: &patches.reflectance,
-        emission: &patches.emission,
+        emission: &emission,
     };
     let solution = solve::solve(&system, &settings.solver)?;
     crate::progress::note(|| report::solve_note(patches.len(), &form_factors.stats, &solution));
@@ -435,7 +460,10 @@ fn form_factors(
 
     let t = Instant::now();
     // A cached F must serve any materials: compute every entry then.
-    let needed = if settings.form_factors.shortcuts.skip_unneeded && key.is_none() {
+    let needed = if settings.form_factors.shortcuts.skip_unneeded
+        && key.is_none()
+        && !settings.environment.is_lit()
+    {
         let bounces =
             (settings.solver.method == solve::Method::Neumann).then_some(settings.solver.bounces);
         Needed::for_solve(patches, bounces)

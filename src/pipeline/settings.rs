@@ -90,6 +90,9 @@ pub struct Settings {
     /// one smooth surface for the form factors (interpolated normals); 0 = every face flat.
     /// Output vertices are shared only within a flat facet ([`crate::bake::FACET_DEGREES`]).
     pub crease_degrees: f64,
+    /// Light from outside the mesh: the sky and the sun ([`crate::environment`]); the default
+    /// has none.
+    pub environment: crate::environment::Environment,
     /// Give every face a back side with its material ([`crate::scene::Scene::make_two_sided`]).
     pub two_sided: bool,
     /// Adaptive refinement: rounds of splitting the patches whose radiance jumps against a
@@ -131,6 +134,7 @@ impl Default for Settings {
             form_factors: form_factor::Settings::default(),
             solver: solve::Settings::default(),
             crease_degrees: mesh::DEFAULT_CREASE_DEGREES,
+            environment: crate::environment::Environment::default(),
             two_sided: false,
             refine_rounds: 2,
             refine_threshold: refine::DEFAULT_THRESHOLD,
@@ -238,6 +242,7 @@ impl Settings {
         }
         self.form_factors.validate()?;
         self.solver.validate()?;
+        self.environment.validate()?;
         if self.method != Method::Matrix {
             self.hierarchical.validate()?;
         }

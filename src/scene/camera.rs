@@ -28,7 +28,8 @@ pub fn cornell_vfov_degrees() -> f64 {
 
 /// The scene's up axis, for the automatic framing (`--up`): Wavefront files from most tools
 /// are y-up, Blender's and Quake's native coordinates z-up.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Up {
     X,
     #[default]

@@ -8,9 +8,11 @@
 //!   (dense LU, brute-force visibility) and invariants (row sums, reciprocity, conformity);
 //! - `loaders`: hostile bytes through the scene loaders;
 //! - `hostile_geometry`: the unit of length and pathological meshes;
-//! - `materials`, `two_sided`: overrides and two-sided surfaces through the pipeline.
+//! - `materials`, `two_sided`: overrides and two-sided surfaces through the pipeline;
+//! - `environment`: the sky and the sun, closed forms and shadows, both methods.
 
 mod closed_forms;
+mod environment;
 mod form_factors;
 mod hierarchical;
 mod hostile_geometry;
