@@ -162,7 +162,7 @@ pub fn info(args: &InfoArgs) -> Result<u8, Failure> {
     if settings.two_sided {
         scene.make_two_sided();
     }
-    let info = SceneInfo::of(&scene, estimate)?;
+    let info = SceneInfo::of(&scene, &settings.environment, estimate)?;
     if args.json {
         println!("{}", info.to_json());
     } else {

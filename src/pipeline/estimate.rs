@@ -153,7 +153,7 @@ impl Estimate {
             }
         };
         let neumann = s.solver.method == crate::solve::Method::Neumann;
-        if neumann || !scene.has_emitters() {
+        if neumann || !(scene.has_emitters() || s.environment.is_lit()) {
             e.gather = Gather::None;
         }
         if e.gather != Gather::None {

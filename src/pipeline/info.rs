@@ -84,6 +84,8 @@ pub struct SceneInfo {
     pub framing: Option<CameraInfo>,
     /// Warnings from loading (and cleaning) the scene.
     pub warnings: Vec<String>,
+    /// The sky and the sun the options give (`None` when neither brings light).
+    pub environment: Option<crate::environment::Environment>,
     /// What a bake with the options given will cost: method, patches, memory, time
     /// ([`super::Estimate`]; `radiosity info` passes the bake's options, the defaults unless
     /// others are given).
@@ -93,7 +95,11 @@ pub struct SceneInfo {
 impl SceneInfo {
     /// Summarises `scene` (which must satisfy the [`Scene`] invariants; it is validated), with
     /// the `estimate` of a bake of it ([`super::Estimate::of`]).
-    pub fn of(scene: &Scene, estimate: super::Estimate) -> Result<SceneInfo> {
+    pub fn of(
+        scene: &Scene,
+        environment: &crate::environment::Environment,
+        estimate: super::Estimate,
+    ) -> Result<SceneInfo> {
         scene.validate()?;
         let mut materials: Vec<MaterialInfo> = scene
             .materials
@@ -144,6 +150,7 @@ impl SceneInfo {
                 CameraInfo::from(crate::render::best_framing(&tris, crate::scene::Up::Y))
             }),
             warnings: scene.warnings.clone(),
+            environment: environment.is_lit().then_some(*environment),
             estimate,
         })
     }
@@ -235,8 +242,13 @@ impl SceneInfo {
             .iter()
             .filter(|m| m.emitter && m.triangles > 0)
             .count();
-        if emitters == 0 {
+        if emitters == 0 && self.environment.is_none() {
             let _ = writeln!(s, "emitters:     none (a bake would be black)");
+        } else if emitters == 0 {
+            let _ = writeln!(
+                s,
+                "emitters:     none in the mesh (the sky and the sun below light it)"
+            );
         } else {
             let _ = writeln!(
                 s,
@@ -244,6 +256,9 @@ impl SceneInfo {
                 v(self.emitted_power),
                 if emitters == 1 { "" } else { "s" }
             );
+        }
+        if let Some(env) = &self.environment {
+            environment_lines(&mut s, env);
         }
         if self.two_sided {
             let _ = writeln!(
@@ -296,6 +311,41 @@ impl SceneInfo {
     }
 }
 
+/// The sky and the sun, one line each, with the irradiance they bring to an open surface.
+fn environment_lines(s: &mut String, env: &crate::environment::Environment) {
+    use crate::environment::SkyModel;
+    use std::f64::consts::PI;
+    let v = |a: [f64; 3]| format!("{} {} {}", g(a[0]), g(a[1]), g(a[2]));
+    let up = env.up.axis();
+    if env.sky.iter().any(|&l| l > 0.0) {
+        // Irradiance on an open horizontal surface: π L (uniform), 7π/9 L (overcast).
+        let (model, factor) = match env.sky_model {
+            SkyModel::Uniform => ("uniform", PI),
+            SkyModel::Overcast => ("CIE overcast, zenith", 7.0 * PI / 9.0),
+        };
+        let _ = writeln!(
+            s,
+            "sky:          {model} L = ({}) W·sr⁻¹·m⁻² above the horizon (up {}): E = ({}) W·m⁻² \
+             on an open surface facing up",
+            v(env.sky),
+            v(up.to_array()),
+            v(env.sky.map(|l| l * factor))
+        );
+    }
+    if let (Some(sun), Some(d)) = (env.sun, env.sun_direction()) {
+        let _ = writeln!(
+            s,
+            "sun:          azimuth {}°, elevation {}°, toward ({}): E = ({}) W·m⁻² facing it, \
+             ({}) on a surface facing up",
+            g(sun.azimuth_degrees),
+            g(sun.elevation_degrees),
+            v(d.to_array()),
+            v(sun.irradiance),
+            v(sun.irradiance.map(|e| e * d.dot(up)))
+        );
+    }
+}
+
 /// A number in at most 6 significant digits, without trailing zeros.
 fn g(x: f64) -> String {
     if x == 0.0 || !x.is_finite() {
@@ -345,7 +395,7 @@ mod tests {
         );
         let scene = b.build().unwrap();
         let estimate = super::super::Estimate::of(&scene, &Default::default(), 2).unwrap();
-        let info = SceneInfo::of(&scene, estimate).unwrap();
+        let info = SceneInfo::of(&scene, &Default::default(), estimate).unwrap();
         assert_eq!((info.vertices, info.triangles), (8, 4));
         assert_eq!(info.bounds_max, [2.0, 3.0, 1.0]);
         assert!((info.diagonal - 14f64.sqrt()).abs() < 1e-12);

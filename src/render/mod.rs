@@ -88,8 +88,9 @@ fn triangles(mesh: &BakedMesh) -> Vec<[DVec3; 3]> {
 /// Rays per side of the grid [`coverage`] casts.
 pub const COVERAGE_GRID: u32 = 24;
 
-/// Of the four framings of the bounding box of `triangles` around `up` ([`Camera::framings`]),
-/// the one whose picture shows the most front faces ([`coverage`]); the first on a tie. A box
+/// Of the five framings of the bounding box of `triangles` for `up` ([`Camera::framings`]:
+/// four sides and above), the one whose picture shows the most front faces ([`coverage`]);
+/// the first on a tie. A box
 /// open on one side (McGuire's Cornell box opens toward +z) is looked into through its
 /// opening, and a z-up level is seen level with `Up::Z`.
 pub fn best_framing(triangles: &[[DVec3; 3]], up: Up) -> Camera {

@@ -6,8 +6,9 @@
 //! rays.
 //!
 //! Which camera a picture uses: `--camera` if given, else the scene file's camera, else one of
-//! the four framings of the bounding box around the scene's up axis ([`Camera::framings`],
-//! `--up`; [`crate::render::camera_for`] takes the one that sees the most front faces).
+//! the five framings of the bounding box for the scene's up axis ([`Camera::framings`]: four
+//! sides and above, `--up`; [`crate::render::camera_for`] takes the one that sees the most
+//! front faces).
 //!
 //! Text form: ten numbers `EX EY EZ TX TY TZ UX UY UZ FOV` (eye, target and up in scene units,
 //! the vertical field of view in degrees), separated by commas and/or whitespace. Written with
@@ -188,25 +189,34 @@ impl Camera {
         Camera::framings(lo, hi, Up::Y)[0]
     }
 
-    /// The four views of the bounding box [lo, hi] around the `up` axis: looking horizontally
-    /// at its centre from each side in turn (first along [`Up::forward`], then turning 90° at a
-    /// time), with the Cornell box's published lens ([`cornell_vfov_degrees`]), far enough back
-    /// that the box's near face fills the picture's height or width.
-    pub fn framings(lo: DVec3, hi: DVec3, up: Up) -> [Camera; 4] {
+    /// The five views of the bounding box [lo, hi] for the `up` axis: looking horizontally at
+    /// its centre from each side in turn (first along [`Up::forward`], then turning 90° at a
+    /// time), then looking straight down from above (a courtyard or a roofless model is seen
+    /// from there), with the Cornell box's published lens ([`cornell_vfov_degrees`]), far
+    /// enough back that the box's near face fills the picture's height or width.
+    pub fn framings(lo: DVec3, hi: DVec3, up: Up) -> [Camera; 5] {
         let vfov_degrees = cornell_vfov_degrees();
         let centre = 0.5 * (lo + hi);
         let half = 0.5 * (hi - lo);
         let (up, first) = (up.axis(), up.forward());
         let side = first.cross(up);
-        [first, side, -first, -side].map(|forward| {
-            let right = forward.cross(up);
-            let across = half.dot(right.abs()).max(half.dot(up.abs()));
+        // (view direction, the picture's up)
+        let views = [
+            (first, up),
+            (side, up),
+            (-first, up),
+            (-side, up),
+            (-up, first),
+        ];
+        views.map(|(forward, picture_up)| {
+            let right = forward.cross(picture_up);
+            let across = half.dot(right.abs()).max(half.dot(picture_up.abs()));
             let distance =
                 across / (0.5 * vfov_degrees.to_radians()).tan() + half.dot(forward.abs());
             Camera {
                 eye: centre - forward * distance,
                 target: centre,
-                up,
+                up: picture_up,
                 vfov_degrees,
             }
         })
@@ -324,14 +334,19 @@ mod tests {
     }
 
     #[test]
-    fn framings_look_level_at_the_centre_from_four_sides() {
+    fn framings_look_level_from_four_sides_and_down_from_above() {
         let (lo, hi) = (DVec3::ZERO, DVec3::new(4.0, 2.0, 1.0));
         for up in [Up::X, Up::Y, Up::Z] {
             let cams = Camera::framings(lo, hi, up);
+            let down = (cams[4].target - cams[4].eye).normalize();
+            assert!(down.abs_diff_eq(-up.axis(), 1e-12), "the fifth looks down");
             for (k, c) in cams.iter().enumerate() {
                 Camera::new(c.eye, c.target, c.up, c.vfov_degrees).unwrap();
                 let dir = (c.target - c.eye).normalize();
-                assert!(dir.dot(up.axis()).abs() < 1e-12, "level: {up:?} {k}");
+                assert!(
+                    k == 4 || dir.dot(up.axis()).abs() < 1e-12,
+                    "level: {up:?} {k}"
+                );
                 assert_eq!(c.target, DVec3::new(2.0, 1.0, 0.5));
                 // Outside the box, on the side it looks from.
                 let outside = (0..3).any(|a| c.eye[a] < lo[a] || c.eye[a] > hi[a]);

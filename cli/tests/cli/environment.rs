@@ -1,0 +1,74 @@
+//! `--sky`, `--sky-model`, `--sun` and `--up` from the command line: a scene without emitters
+//! lit from outside, what `info` says of them, and bad values.
+
+use crate::support::{radiosity, stderr, temp_dir};
+
+/// A floor (z up) and a wall along its north edge, no emitter: lit only from outside.
+const COURT: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 1 1\nv 1 1 1\n\
+                     usemtl grey\nf 1 2 3 4\nf 4 3 6 5\n";
+const MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\n";
+
+#[test]
+fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
+    let dir = temp_dir("environment");
+    std::fs::write(dir.join("m.mtl"), MTL).unwrap();
+    let input = dir.join("court.obj");
+    std::fs::write(&input, COURT).unwrap();
+    let (input, out) = (input.to_str().unwrap(), dir.join("lit.ply"));
+    let out = out.to_str().unwrap();
+    let light = ["--up", "z", "--sky", "1", "--sun", "0,45,800,700,600"];
+
+    // info names both, with what they bring to an open surface facing up.
+    let mut args = vec!["info", input];
+    args.extend(light);
+    let o = radiosity(&args);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(text.contains("emitters:     none in the mesh"), "{text}");
+    assert!(text.contains("sky:          uniform L = (1 1 1)"), "{text}");
+    assert!(
+        text.contains("sun:          azimuth 0°, elevation 45°"),
+        "{text}"
+    );
+
+    // A bake: no "no emitters" warning, and the floor gets at least the sky's direct light
+    // ρ·L·(1 + cos 0)/2 = 0.5 where nothing hides it (the wall hides part of its sky).
+    let mut args = vec!["bake", input, "-o", out, "-q"];
+    args.extend(light);
+    let o = radiosity(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("no emitters"), "{}", stderr(&o));
+    let baked = radiosity::io::ply::read(std::path::Path::new(out)).unwrap();
+    let radiance = baked.vertex_radiance.unwrap();
+    let brightest = radiance.iter().map(|l| l[0]).fold(0.0, f32::max);
+    assert!(brightest > 0.5, "{brightest}");
+
+    // Without them: black, and said.
+    let o = radiosity(&["bake", input, "-o", out, "-q"]);
+    assert!(
+        stderr(&o).contains("warning: no emitters"),
+        "{}",
+        stderr(&o)
+    );
+
+    // Bad values name their option; nothing is written.
+    std::fs::remove_file(out).unwrap();
+    for (option, value) in [
+        ("--sky", "-1"),
+        ("--sky", "1,2"),
+        ("--sun", "0,95,100"),
+        ("--sun", "0,45"),
+        ("--sun", "north,45,100"),
+        ("--up", "w"),
+        ("--sky-model", "cloudy"),
+    ] {
+        let o = radiosity(&["bake", input, "-o", out, option, value]);
+        assert_eq!(o.status.code(), Some(2), "{option} {value}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(option),
+            "{option} {value}: {}",
+            stderr(&o)
+        );
+        assert!(!std::path::Path::new(out).exists());
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
