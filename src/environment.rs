@@ -1,6 +1,6 @@
-//! Light from outside the mesh: a sky seen through the scene's openings and the sun, as real
-//! scenes are lit (an atrium under the sky, a sunlit floor). Neither is a surface of the
-//! scene, so neither has a patch: each adds its direct light to the emission vector of the
+//! Light from outside the mesh: a sky seen through the scene's openings, the sun, and point
+//! and spot lights, as real scenes are lit (an atrium under the sky, a sunlit floor, the
+//! lamps of a level). None is a surface of the scene, so none has a patch: each adds its direct light to the emission vector of the
 //! discrete rendering equation at every patch (or element, or output vertex), with
 //! visibility, and the bounces follow as for any light:
 //!
@@ -23,6 +23,9 @@
 //!   (degrees above the horizon), bringing the irradiance E_sun (W·m⁻², per channel) on a
 //!   surface facing it: E = E_sun cos θ on a surface at θ from the sun, times the visible
 //!   share of the disc (soft shadow edges: rays to uniform points of the disc).
+//! - **Point and spot lights** (`--point-light`, `--spot-light`; glTF's `KHR_lights_punctual`):
+//!   radiant intensity I (W·sr⁻¹) from a point; E = I cos θ / r² (times a spot's falloff,
+//!   glTF's) where nothing lies between, one shadow ray (hard shadows).
 //!
 //! Estimates at a point x (unit normal n), each ray starting `lift` above the surface:
 //! - sun: [`SUN_RAYS`] shadow rays to stratified points of the disc; D = E_sun cos θ V̄ / π;
@@ -106,8 +109,54 @@ pub struct Sun {
     pub irradiance: Rgb,
 }
 
+/// A point light, or a spot light when it has a cone: light from a point with no area (glTF's
+/// `KHR_lights_punctual` "point" and "spot"; a lamp's bulb seen from afar).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PointLight {
+    /// Where it is, scene units.
+    #[serde(serialize_with = "as_array")]
+    pub position: DVec3,
+    /// Radiant intensity, W·sr⁻¹ per channel, finite and ≥ 0 (power 4π·I for a point light):
+    /// a surface at distance r facing it receives E = I / r² (lengths in metres).
+    pub intensity: Rgb,
+    /// The cone of a spot light; `None` for a point light shining every way.
+    pub spot: Option<Spot>,
+}
+
+/// A spot light's cone, as glTF's: full intensity within `inner_degrees` of the axis, none
+/// beyond `outer_degrees`, between them the square of the linear ramp in the cosine.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Spot {
+    /// The axis the light shines along (unit).
+    #[serde(serialize_with = "as_array")]
+    pub direction: DVec3,
+    /// Half-angles from the axis, degrees: 0 ≤ inner < outer ≤ 90.
+    pub inner_degrees: f64,
+    pub outer_degrees: f64,
+}
+
+/// A vector as three numbers in JSON.
+fn as_array<S: serde::Serializer>(v: &DVec3, s: S) -> std::result::Result<S::Ok, S::Error> {
+    serde::Serialize::serialize(&v.to_array(), s)
+}
+
+impl PointLight {
+    /// The share of the intensity sent toward unit direction `d` (from the light): 1 for a
+    /// point light; for a spot, glTF's smooth falloff clamp((cos − cos_outer) / (cos_inner −
+    /// cos_outer), 0, 1)².
+    pub fn falloff(&self, d: DVec3) -> f64 {
+        let Some(s) = self.spot else { return 1.0 };
+        let (ci, co) = (
+            s.inner_degrees.to_radians().cos(),
+            s.outer_degrees.to_radians().cos(),
+        );
+        let t = ((d.dot(s.direction) - co) / (ci - co).max(1e-9)).clamp(0.0, 1.0);
+        t * t
+    }
+}
+
 /// The lights outside the mesh; [`Environment::default`] has none.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
 pub struct Environment {
     /// Sky radiance above the horizon (the zenith's for `overcast`), W·sr⁻¹·m⁻² per channel,
     /// finite and ≥ 0; 0 = no sky.
@@ -116,17 +165,28 @@ pub struct Environment {
     pub sky_model: SkyModel,
     /// The sun, if any.
     pub sun: Option<Sun>,
+    /// Point and spot lights.
+    pub lights: Vec<PointLight>,
     /// The scene's up axis: the horizon of the sky and of the sun's elevation.
     pub up: Up,
 }
 
 impl Environment {
-    /// True if the sky or the sun brings any light.
+    /// True if the sky, the sun or a point light brings any light.
     pub fn is_lit(&self) -> bool {
-        self.sky.iter().any(|&l| l > 0.0)
+        self.sky.iter().any(|&l| l > 0.0) || self.has_sharp()
+    }
+
+    /// True if the sun or a point light brings light: what casts sharp shadows, computed with
+    /// the direct light of emitters (and, like theirs, splitting the hierarchy's leaves where
+    /// it varies).
+    pub fn has_sharp(&self) -> bool {
+        self.sun
+            .is_some_and(|s| s.irradiance.iter().any(|&e| e > 0.0))
             || self
-                .sun
-                .is_some_and(|s| s.irradiance.iter().any(|&e| e > 0.0))
+                .lights
+                .iter()
+                .any(|l| l.intensity.iter().any(|&i| i > 0.0))
     }
 
     /// Checks the ranges: sky and sun values finite and ≥ 0, the sun's elevation in (0, 90]
@@ -157,6 +217,41 @@ impl Environment {
                         "azimuth {}°, elevation {}°: the elevation must be in (0, 90] degrees \
                          and the azimuth finite",
                         s.azimuth_degrees, s.elevation_degrees
+                    ),
+                ));
+            }
+        }
+        for (k, l) in self.lights.iter().enumerate() {
+            let finite =
+                l.position.is_finite() && l.intensity.iter().all(|i| i.is_finite() && *i >= 0.0);
+            let cone = l.spot.is_none_or(|s| {
+                s.direction.is_finite()
+                    && (s.direction.length() - 1.0).abs() < 1e-9
+                    && 0.0 <= s.inner_degrees
+                    && s.inner_degrees < s.outer_degrees
+                    && s.outer_degrees <= 90.0
+            });
+            if !finite || !cone {
+                let (name, what) = match l.spot {
+                    None => ("environment.point_lights", "point light"),
+                    Some(_) => ("environment.spot_lights", "spot light"),
+                };
+                let p = l.position;
+                return Err(Error::setting(
+                    name,
+                    format!(
+                        "{what} {} at ({}, {}, {}): its position and intensity {:?} (W·sr⁻¹) \
+                         must be finite and the intensity ≥ 0; a spot's direction must be a unit \
+                         vector and its half-angles 0 ≤ inner < outer ≤ 90 degrees ({})",
+                        k + 1,
+                        p.x,
+                        p.y,
+                        p.z,
+                        l.intensity,
+                        l.spot.map_or("none".into(), |s| format!(
+                            "{}°, {}°",
+                            s.inner_degrees, s.outer_degrees
+                        ))
                     ),
                 ));
             }
@@ -204,7 +299,7 @@ impl Environment {
         sky_rays: usize,
         rng: &mut Rng,
     ) -> Rgb {
-        let mut d = self.sun_direct(vis, x, n, ignore, lift, rng);
+        let mut d = self.sharp_direct(vis, x, n, ignore, lift, rng);
         if sky_rays > 0 {
             let s = self.sky_direct(vis, x, n, ignore, lift, sky_rays, rng);
             for (d, s) in d.iter_mut().zip(s) {
@@ -212,6 +307,61 @@ impl Environment {
             }
         }
         d
+    }
+
+    /// The sun's and the point lights' part of [`Environment::direct`].
+    pub fn sharp_direct(
+        &self,
+        vis: &Visibility,
+        x: DVec3,
+        n: DVec3,
+        ignore: u32,
+        lift: f64,
+        rng: &mut Rng,
+    ) -> Rgb {
+        let mut d = self.sun_direct(vis, x, n, ignore, lift, rng);
+        for l in &self.lights {
+            let p = self.point_direct(l, vis, x, n, ignore, lift);
+            for (d, p) in d.iter_mut().zip(p) {
+                *d += p;
+            }
+        }
+        d
+    }
+
+    /// One point light's part: I · falloff · cos θ / r² / π, 0 where something lies between
+    /// (one shadow ray: a point casts hard shadows).
+    #[allow(clippy::too_many_arguments)]
+    pub fn point_direct(
+        &self,
+        light: &PointLight,
+        vis: &Visibility,
+        x: DVec3,
+        n: DVec3,
+        ignore: u32,
+        lift: f64,
+    ) -> Rgb {
+        let origin = x + lift * n;
+        let to = light.position - origin;
+        let r2 = to.length_squared();
+        let cos = n.dot(to);
+        if cos <= 0.0 || r2 == 0.0 {
+            return [0.0; 3];
+        }
+        let r = r2.sqrt();
+        let (cos, d) = (cos / r, to / r);
+        let falloff = light.falloff(-d);
+        if falloff == 0.0 {
+            return [0.0; 3];
+        }
+        // The segment to the light, short of it by the lift (nothing stands on a point light).
+        if vis
+            .closest_hit(origin, to, 1.0 - lift / r, ignore)
+            .is_some()
+        {
+            return [0.0; 3];
+        }
+        light.intensity.map(|i| i * falloff * cos / (r2 * PI))
     }
 
     /// The sun's part of [`Environment::direct`]: E_sun cos θ V̄ / π.
@@ -491,6 +641,44 @@ mod tests {
     }
 
     #[test]
+    fn a_point_light_is_blocked_by_what_lies_between() {
+        // A light 2 above the origin; a square at height 1 between them shadows the origin
+        // and nothing beside it; the light's own position is never "behind" anything.
+        let env = Environment {
+            lights: vec![PointLight {
+                position: DVec3::new(0.0, 0.0, 2.0),
+                intensity: [4.0; 3],
+                spot: None,
+            }],
+            up: Up::Z,
+            ..Environment::default()
+        };
+        let q = |x: f64, y: f64| DVec3::new(x, y, 1.0);
+        let tris = [
+            [
+                DVec3::new(-5., -5., 0.),
+                DVec3::new(5., -5., 0.),
+                DVec3::new(5., 5., 0.),
+            ],
+            [q(-0.2, -0.2), q(0.2, -0.2), q(0.2, 0.2)],
+            [q(-0.2, -0.2), q(0.2, 0.2), q(-0.2, 0.2)],
+        ];
+        let vis = Visibility::build(&tris);
+        let l = &env.lights[0];
+        assert_eq!(
+            env.point_direct(l, &vis, DVec3::ZERO, DVec3::Z, 0, 1e-6),
+            [0.0; 3]
+        );
+        let x = DVec3::new(2.0, 0.0, 0.0);
+        let d = env.point_direct(l, &vis, x, DVec3::Z, 0, 1e-6);
+        // E = I cos θ / r² with r² = 8, cos θ = 2/√8.
+        let exact = 4.0 * (2.0 / 8f64.sqrt()) / 8.0 / PI;
+        assert!((d[0] - exact).abs() < 1e-5 * exact, "{d:?}");
+        // Facing away: nothing.
+        assert_eq!(env.point_direct(l, &vis, x, -DVec3::Z, 0, 1e-6), [0.0; 3]);
+    }
+
+    #[test]
     fn settings_are_checked() {
         Environment::default().validate().unwrap();
         assert!(!Environment::default().is_lit());
@@ -509,6 +697,22 @@ mod tests {
                 ..Environment::default()
             };
             assert!(e.validate().is_err(), "{az} {el}");
+        }
+        let spot = |inner: f64, outer: f64| Environment {
+            lights: vec![PointLight {
+                position: DVec3::ZERO,
+                intensity: [1.0; 3],
+                spot: Some(Spot {
+                    direction: DVec3::Z,
+                    inner_degrees: inner,
+                    outer_degrees: outer,
+                }),
+            }],
+            ..Environment::default()
+        };
+        spot(10.0, 20.0).validate().unwrap();
+        for (inner, outer) in [(20.0, 10.0), (-1.0, 10.0), (10.0, 91.0), (10.0, 10.0)] {
+            assert!(spot(inner, outer).validate().is_err(), "{inner} {outer}");
         }
     }
 }

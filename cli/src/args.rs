@@ -9,8 +9,9 @@ use std::path::PathBuf;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 
+use glam::DVec3;
 use radiosity::bake::BakedMesh;
-use radiosity::environment::{Environment, SkyModel, Sun};
+use radiosity::environment::{Environment, PointLight, SkyModel, Spot, Sun};
 use radiosity::form_factor::{self, Estimator};
 use radiosity::gather::Gather;
 use radiosity::hierarchical;
@@ -363,6 +364,24 @@ pub struct SolveArgs {
         help_heading = "Light"
     )]
     pub sun: Option<String>,
+    /// A point light: position (scene units) and radiant intensity, W·sr⁻¹ (R,G,B or one
+    /// value; a surface at distance r facing it receives I/r²). Repeatable.
+    #[arg(
+        long,
+        value_name = "X,Y,Z,R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Light"
+    )]
+    pub point_light: Vec<String>,
+    /// A spot light: position, the direction it shines, the inner and outer half-angles of its
+    /// cone (degrees, as glTF's) and its intensity on the axis, W·sr⁻¹. Repeatable.
+    #[arg(
+        long,
+        value_name = "X,Y,Z,DX,DY,DZ,INNER,OUTER,R,G,B",
+        allow_hyphen_values = true,
+        help_heading = "Light"
+    )]
+    pub spot_light: Vec<String>,
     /// Surfaces reflect and emit on both sides: every face gets a back face with the same
     /// material (ρ, Le) and its own radiance, and the output has both (twice the patches).
     #[arg(long, help_heading = "Discretisation")]
@@ -587,10 +606,51 @@ impl SolveArgs {
             }
             None => None,
         };
+        let mut lights = Vec::new();
+        for t in &self.point_light {
+            let v = numbers(t, "--point-light")?;
+            if v.len() < 4 {
+                return Err(Failure::usage(
+                    "--point-light",
+                    format!("{t:?}: expected X,Y,Z,R,G,B or X,Y,Z,I"),
+                ));
+            }
+            lights.push(PointLight {
+                position: DVec3::new(v[0], v[1], v[2]),
+                intensity: rgb(&v[3..], "--point-light", t)?,
+                spot: None,
+            });
+        }
+        for t in &self.spot_light {
+            let v = numbers(t, "--spot-light")?;
+            if v.len() < 9 {
+                return Err(Failure::usage(
+                    "--spot-light",
+                    format!("{t:?}: expected X,Y,Z,DX,DY,DZ,INNER,OUTER,R,G,B (or one I)"),
+                ));
+            }
+            let axis = DVec3::new(v[3], v[4], v[5]);
+            if !(axis.length() > 0.0 && axis.is_finite()) {
+                return Err(Failure::usage(
+                    "--spot-light",
+                    format!("{t:?}: the direction must not be zero"),
+                ));
+            }
+            lights.push(PointLight {
+                position: DVec3::new(v[0], v[1], v[2]),
+                intensity: rgb(&v[8..], "--spot-light", t)?,
+                spot: Some(Spot {
+                    direction: axis.normalize(),
+                    inner_degrees: v[6],
+                    outer_degrees: v[7],
+                }),
+            });
+        }
         Ok(Environment {
             sky,
             sky_model: self.sky_model,
             sun,
+            lights,
             up: self.up,
         })
     }

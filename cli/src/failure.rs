@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 35] = [
+pub const FLAGS: [(&str, &str); 37] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -32,6 +32,8 @@ pub const FLAGS: [(&str, &str); 35] = [
     ("environment.sky", "--sky"),
     ("environment.sun", "--sun"),
     ("environment.sky_model", "--sky-model"),
+    ("environment.point_lights", "--point-light"),
+    ("environment.spot_lights", "--spot-light"),
     ("view.up", "--up"),
     ("form_factors.estimator", "--form-factors"),
     ("form_factors.samples", "--samples"),

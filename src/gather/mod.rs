@@ -314,7 +314,7 @@ impl<'a> Gatherer<'a> {
             vis: Visibility::build(&corners),
             lift: LIFT * (hi - lo).length(),
             seed,
-            env: *env,
+            env: env.clone(),
         }
     }
 
@@ -420,8 +420,10 @@ impl<'a> Gatherer<'a> {
                 *s += o;
             }
         }
-        if self.env.sun.is_some() {
-            let sun = self.env.sun_direct(&self.vis, x, n, ignore, self.lift, rng);
+        if self.env.has_sharp() {
+            let sun = self
+                .env
+                .sharp_direct(&self.vis, x, n, ignore, self.lift, rng);
             for (s, o) in sum.iter_mut().zip(sun) {
                 *s += o;
             }

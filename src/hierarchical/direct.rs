@@ -249,9 +249,10 @@ pub fn element_direct(
             if weights[k] == 0.0 {
                 continue;
             }
-            let sun = env.sun_direct(vis, x, n, root, lift, &mut rng);
+            let sun = env.sharp_direct(vis, x, n, root, lift, &mut rng);
             let s = env.sky_direct(vis, x, n, root, lift, SKY_RAYS, &mut rng);
-            out.rays += (SUN_RAYS * usize::from(env.sun.is_some()) + SKY_RAYS) as u64;
+            out.rays +=
+                (SUN_RAYS * usize::from(env.sun.is_some()) + env.lights.len() + SKY_RAYS) as u64;
             sky[k] = s;
             for c in 0..3 {
                 values[k][c] += sun[c];

@@ -403,7 +403,7 @@ impl<'a> Hierarchy<'a> {
             },
             exact: vec![false; roots.len()],
             direct: Vec::new(),
-            env: *env,
+            env: env.clone(),
             lift: 1e-6 * {
                 let (lo, hi) = roots
                     .positions
@@ -548,7 +548,7 @@ impl<'a> Hierarchy<'a> {
     /// split: the direct light's own refinement, where a shadow edge or the fall-off next to
     /// a light crosses a leaf, whatever its links.
     fn direct_splits(&self) -> Vec<usize> {
-        if self.emitters.is_empty() && self.env.sun.is_none() {
+        if self.emitters.is_empty() && !self.env.has_sharp() {
             return Vec::new();
         }
         let t = &self.tree;

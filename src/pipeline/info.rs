@@ -150,7 +150,7 @@ impl SceneInfo {
                 CameraInfo::from(crate::render::best_framing(&tris, crate::scene::Up::Y))
             }),
             warnings: scene.warnings.clone(),
-            environment: environment.is_lit().then_some(*environment),
+            environment: environment.is_lit().then(|| environment.clone()),
             estimate,
         })
     }
@@ -247,7 +247,7 @@ impl SceneInfo {
         } else if emitters == 0 {
             let _ = writeln!(
                 s,
-                "emitters:     none in the mesh (the sky and the sun below light it)"
+                "emitters:     none in the mesh (the lights listed below light it)"
             );
         } else {
             let _ = writeln!(
@@ -311,7 +311,7 @@ impl SceneInfo {
     }
 }
 
-/// The sky and the sun, one line each, with the irradiance they bring to an open surface.
+/// The sky, the sun and the point lights, one line each, with what they bring.
 fn environment_lines(s: &mut String, env: &crate::environment::Environment) {
     use crate::environment::SkyModel;
     use std::f64::consts::PI;
@@ -343,6 +343,33 @@ fn environment_lines(s: &mut String, env: &crate::environment::Environment) {
             v(sun.irradiance),
             v(sun.irradiance.map(|e| e * d.dot(up)))
         );
+    }
+    for l in &env.lights {
+        let p = l.position.to_array();
+        let _ = match l.spot {
+            None => writeln!(
+                s,
+                "point light:  at ({}), I = ({}) W·sr⁻¹, power 4π·I = ({}) W",
+                v(p),
+                v(l.intensity),
+                v(l.intensity.map(|i| 4.0 * PI * i))
+            ),
+            Some(spot) => {
+                // The falloff is at most 1 within the outer cone and 0 beyond it.
+                let cone = 2.0 * PI * (1.0 - spot.outer_degrees.to_radians().cos());
+                writeln!(
+                    s,
+                    "spot light:   at ({}), toward ({}), cone {}°..{}°, I = ({}) W·sr⁻¹ on \
+                     its axis, power at most ({}) W",
+                    v(p),
+                    v(spot.direction.to_array()),
+                    g(spot.inner_degrees),
+                    g(spot.outer_degrees),
+                    v(l.intensity),
+                    v(l.intensity.map(|i| cone * i))
+                )
+            }
+        };
     }
 }
 

@@ -3,7 +3,7 @@
 //! the sun), a shadow where something is, and light that bounces.
 
 use glam::DVec3;
-use radiosity::environment::{Environment, SkyModel, Sun};
+use radiosity::environment::{Environment, PointLight, SkyModel, Spot, Sun};
 use radiosity::gather::Gather;
 use radiosity::pipeline::{self, Method, Outcome};
 use radiosity::scene::{Scene, SceneBuilder, Up};
@@ -51,7 +51,7 @@ fn a_tilted_plate_under_a_uniform_sky_has_the_closed_form() {
     };
     for method in [Method::Matrix, Method::Hierarchical] {
         for degrees in [0.0, 45.0, 100.0, 170.0] {
-            let out = run(&plate(degrees, 0.6), &lit_by(env, method));
+            let out = run(&plate(degrees, 0.6), &lit_by(env.clone(), method));
             let exact = 0.6 * 2.0 * (1.0 + f64::to_radians(degrees).cos()) / 2.0;
             let (patches, vertices) = values(&out);
             for (what, list) in [("patch", patches), ("vertex", vertices)] {
@@ -102,7 +102,7 @@ fn the_sun_lights_a_floor_and_an_occluder_casts_its_shadow() {
     let lit = 0.5 * 1000.0 * 60f64.to_radians().sin() / std::f64::consts::PI;
     let shadow_centre = p(0.0, -1.0 / 60f64.to_radians().tan(), 0.0);
     for method in [Method::Matrix, Method::Hierarchical] {
-        let out = run(&scene, &lit_by(env, method));
+        let out = run(&scene, &lit_by(env.clone(), method));
         let baked = &out.baked;
         let (mut in_light, mut in_shadow) = (0, 0);
         for (v, pos) in baked.positions.iter().enumerate() {
@@ -156,6 +156,7 @@ fn sky_and_sun_light_bounces_and_both_methods_agree() {
             irradiance: [30.0; 3],
         }),
         up: Up::Z,
+        lights: Vec::new(),
     };
     let mean_by_wall = |out: &Outcome| {
         let p = &out.patches;
@@ -174,8 +175,8 @@ fn sky_and_sun_light_bounces_and_both_methods_agree() {
         }
         sums.map(|(s, a)| s / a)
     };
-    let matrix = run(&scene, &lit_by(env, Method::Matrix));
-    let hierarchical = run(&scene, &lit_by(env, Method::Hierarchical));
+    let matrix = run(&scene, &lit_by(env.clone(), Method::Matrix));
+    let hierarchical = run(&scene, &lit_by(env.clone(), Method::Hierarchical));
     let (m, h) = (mean_by_wall(&matrix), mean_by_wall(&hierarchical));
     for k in 0..3 {
         assert_rel(&format!("surface {k}"), h[k], m[k], 0.03);
@@ -198,5 +199,85 @@ fn sky_and_sun_light_bounces_and_both_methods_agree() {
             m[k],
             zero_bounces[k]
         );
+    }
+}
+
+#[test]
+fn a_point_light_over_a_plane_gives_i_cos_over_r_squared_and_a_spot_its_cone() {
+    // A 2 × 2 floor (ρ = 0.5) and a point light 1 above (0.3, 0.2): every output vertex shows
+    // ρ I cos θ / (π r²). The rays start 10⁻⁶ of the scene's extent above the surface, which
+    // moves r and cos θ by about that much: 1e-5 relative.
+    let mut b = SceneBuilder::new();
+    let floor = b.material("floor", [0.5; 3], [0.0; 3]);
+    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    b.quad(
+        [
+            p(-1., -1., 0.),
+            p(1., -1., 0.),
+            p(1., 1., 0.),
+            p(-1., 1., 0.),
+        ],
+        floor,
+    );
+    let scene = b.build().unwrap();
+    let at = p(0.3, 0.2, 1.0);
+    let exact = |x: DVec3, i: f64| {
+        let d = at - x;
+        0.5 * i * (d.z / d.length()) / (d.length_squared() * std::f64::consts::PI)
+    };
+    let point = Environment {
+        lights: vec![PointLight {
+            position: at,
+            intensity: [10.0; 3],
+            spot: None,
+        }],
+        up: Up::Z,
+        ..Environment::default()
+    };
+    // A spot straight down from the same place, full within 20° of its axis, none past 30°.
+    let spot = Environment {
+        lights: vec![PointLight {
+            position: at,
+            intensity: [10.0; 3],
+            spot: Some(Spot {
+                direction: -DVec3::Z,
+                inner_degrees: 20.0,
+                outer_degrees: 30.0,
+            }),
+        }],
+        ..point.clone()
+    };
+    for method in [Method::Matrix, Method::Hierarchical] {
+        let out = run(&scene, &lit_by(point.clone(), method));
+        for (v, pos) in out.baked.positions.iter().enumerate() {
+            let x = DVec3::from_array(*pos);
+            let l = out.baked.vertex_radiance[v][0];
+            assert_rel(
+                &format!("{method} point light at {x}"),
+                l,
+                exact(x, 10.0),
+                1e-5,
+            );
+        }
+        let out = run(&scene, &lit_by(spot.clone(), method));
+        let (mut inside, mut outside) = (0, 0);
+        for (v, pos) in out.baked.positions.iter().enumerate() {
+            let x = DVec3::from_array(*pos);
+            let l = out.baked.vertex_radiance[v][0];
+            let angle = (at - x).normalize().dot(DVec3::Z).acos().to_degrees();
+            if angle < 20.0 {
+                assert_rel(
+                    &format!("{method} inside the cone at {x}"),
+                    l,
+                    exact(x, 10.0),
+                    1e-5,
+                );
+                inside += 1;
+            } else if angle > 30.0 {
+                assert_eq!(l, 0.0, "{method} outside the cone at {x}");
+                outside += 1;
+            }
+        }
+        assert!(inside > 3 && outside > 3, "{inside} {outside}");
     }
 }

@@ -16,7 +16,16 @@ fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
     std::fs::write(&input, COURT).unwrap();
     let (input, out) = (input.to_str().unwrap(), dir.join("lit.ply"));
     let out = out.to_str().unwrap();
-    let light = ["--up", "z", "--sky", "1", "--sun", "0,45,800,700,600"];
+    let light = [
+        "--up",
+        "z",
+        "--sky",
+        "1",
+        "--sun",
+        "0,45,800,700,600",
+        "--point-light",
+        "0.5,0.5,0.8,2",
+    ];
 
     // info names both, with what they bring to an open surface facing up.
     let mut args = vec!["info", input];
@@ -60,6 +69,10 @@ fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
         ("--sun", "north,45,100"),
         ("--up", "w"),
         ("--sky-model", "cloudy"),
+        ("--point-light", "0,0,1"),
+        ("--point-light", "0,0,1,-5"),
+        ("--spot-light", "0,0,1,0,0,0,10,20,5"),
+        ("--spot-light", "0,0,1,0,0,-1,30,20,5"),
     ] {
         let o = radiosity(&["bake", input, "-o", out, option, value]);
         assert_eq!(o.status.code(), Some(2), "{option} {value}: {}", stderr(&o));
