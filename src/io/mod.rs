@@ -8,6 +8,7 @@
 //! vertices ([`crate::bake`]) or draw pictures ([`crate::render`]).
 
 pub mod atomic;
+pub mod gltf;
 pub mod obj;
 pub mod ply;
 
@@ -63,11 +64,15 @@ pub enum Format {
     Ply { ascii: bool },
     /// Wavefront OBJ with `v x y z r g b` vertex colours (no radiance values).
     Obj,
+    /// glTF 2.0 binary: linear `COLOR_0` and the radiance as `_RADIANCE` ([`gltf`]), the
+    /// scene's `up` axis turned to glTF's +Y.
+    Glb { up: crate::scene::Up },
 }
 
 impl Format {
     /// The format named by the output path's extension (`.ply` / `.obj`, case-insensitive);
-    /// `ascii` selects ASCII PLY and is ignored for OBJ. Any other extension is an
+    /// `ascii` selects ASCII PLY and is ignored otherwise; `.glb` is glTF with +Y up (set
+    /// [`Format::Glb`]'s `up` to the scene's). Any other extension is an
     /// [`Error::Setting`] named `output`, naming the path and the supported extensions.
     pub fn from_path(path: &Path, ascii: bool) -> Result<Format> {
         let ext = path
@@ -77,10 +82,13 @@ impl Format {
         match ext.as_deref() {
             Some("ply") => Ok(Format::Ply { ascii }),
             Some("obj") => Ok(Format::Obj),
+            Some("glb") => Ok(Format::Glb {
+                up: crate::scene::Up::Y,
+            }),
             _ => Err(Error::setting(
                 "output",
                 format!(
-                    "{}: unsupported output extension (supported: .ply, .obj)",
+                    "{}: unsupported output extension (supported: .ply, .obj, .glb)",
                     path.display()
                 ),
             )),
@@ -102,6 +110,7 @@ pub fn write(path: &Path, mesh: &BakedMesh, format: Format, exposure: f64) -> Re
     atomic::write_atomically(path, |w| match format {
         Format::Ply { ascii } => ply::write_to(w, mesh, exposure, ascii),
         Format::Obj => obj::write_to(w, mesh, exposure),
+        Format::Glb { up } => gltf::write_to(w, mesh, exposure, up),
     })
 }
 

@@ -73,7 +73,13 @@ pub fn run_with(
     // Check every setting and the output before any work, so a typo costs nothing.
     settings.validate()?;
     options.validate()?;
-    let format = Format::from_path(output, options.ascii)?;
+    let format = match Format::from_path(output, options.ascii)? {
+        // glTF is +Y up: the scene's own up axis is turned to it.
+        Format::Glb { .. } => Format::Glb {
+            up: settings.environment.up,
+        },
+        format => format,
+    };
     io::check_output_dir(output)?;
 
     let t = Instant::now();
