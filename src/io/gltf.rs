@@ -130,10 +130,10 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64, up: Up) ->
     });
     let mut text = serde_json::to_vec(&document).map_err(io::Error::other)?;
     // Chunks are 4-byte aligned: JSON padded with spaces, BIN with zeros.
-    while text.len() % 4 != 0 {
+    while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let length = 12 + 8 + text.len() + 8 + bin.len();
@@ -173,7 +173,7 @@ mod tests {
         let mesh = quad();
         let mut bytes = Vec::new();
         write_to(&mut bytes, &mesh, 2.0, Up::Z).unwrap();
-        assert_eq!(bytes.len() % 4, 0);
+        assert!(bytes.len().is_multiple_of(4));
         let (doc, buffers, _) = gltf::import_slice(&bytes).unwrap();
         let prim = doc.meshes().next().unwrap().primitives().next().unwrap();
         let reader = prim.reader(|b| Some(&buffers[b.index()]));
