@@ -1,8 +1,21 @@
-//! glTF 2.0 binary (`.glb`) out: the baked mesh as one triangle primitive that engines and
-//! Blender read with its colours (Khronos, *glTF 2.0 Specification*, §3.7.2 "Meshes", §4.4
-//! "GLB File Format"). This module owns writing the file; baking is [`crate::bake`]'s.
+//! glTF 2.0 in and out (Khronos, *glTF 2.0 Specification*): scenes read with the `gltf`
+//! crate into a [`Scene`] ([`load`]), and baked meshes written as binary glTF (`.glb`, §4.4)
+//! that engines and Blender read with their colours ([`write_to`]). This module owns both;
+//! baking is [`crate::bake`]'s.
 //!
-//! What is written:
+//! What is read ([`load`], `.gltf` or `.glb`): the default scene (else the first), every node's
+//! mesh with the node's world transform (a transform that mirrors flips the winding back to
+//! counter-clockwise fronts), triangle primitives (`mode` 4; other modes are skipped with a
+//! warning); per material, ρ = (1 − metallicFactor) · baseColorFactor · the base-colour
+//! texture's mean linear colour (glTF's diffuse part; one warning lists metallic materials and
+//! one textured ones) and Le = emissiveFactor · `KHR_materials_emissive_strength` · the
+//! emissive texture's mean, taken as W·sr⁻¹·m⁻²; `KHR_lights_punctual` point and spot lights
+//! (candela ÷ 683 lm/W → W·sr⁻¹, the luminous efficacy Blender's exporter multiplies by) at
+//! their nodes, pointing along the node's −Z; a directional light as the sun (lux ÷ 683 →
+//! W·m⁻², azimuth and elevation for glTF's +Y up); the first perspective camera. Materials
+//! marked `doubleSided` are said to need `--two-sided`. Positions are metres, +Y up.
+//!
+//! What is written (`.glb`):
 //! - `POSITION` (float VEC3, with the `min`/`max` the specification requires), in metres as
 //!   glTF assumes (the scene's units are written as they are), turned so that the scene's up
 //!   axis becomes glTF's +Y: with `--up z`, (x, y, z) ↦ (x, z, −y), which Blender's importer
@@ -19,11 +32,336 @@
 //! solution is (a two-sided bake writes both sides as faces of their own).
 
 use std::io::{self, Write};
+use std::path::Path;
 
+use glam::{DMat4, DVec3};
 use serde_json::json;
 
 use crate::bake::BakedMesh;
-use crate::scene::Up;
+use crate::color::{srgb_decode, Rgb};
+use crate::environment::{PointLight, Spot, Sun};
+use crate::scene::{finish, Camera, Material, Scene, SceneTriangle, Up};
+use crate::{Error, Result};
+
+/// Lumens per watt at 555 nm: glTF's photometric light units (candela, lux) to radiometric
+/// ones (W·sr⁻¹, W·m⁻²), the factor Blender's glTF exporter uses the other way.
+pub const LUMENS_PER_WATT: f64 = 683.0;
+
+/// Loads a glTF 2.0 file (`.gltf` with its buffers and images, or `.glb`) into a [`Scene`];
+/// see the module documentation for what is read. Errors name the file.
+pub fn load(path: &Path) -> Result<Scene> {
+    let input = |message: String| Error::Input {
+        path: path.to_path_buf(),
+        message,
+    };
+    let (doc, buffers, images) =
+        gltf::import(path).map_err(|e| input(format!("not a readable glTF 2.0 file: {e}")))?;
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| input("the file has no scene".into()))?;
+    let mut loader = Loader {
+        buffers: &buffers,
+        images: &images,
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        materials: Vec::new(),
+        material_of: vec![None; doc.materials().len()],
+        default_material: None,
+        warnings: Vec::new(),
+        lights: Vec::new(),
+        sun: None,
+        camera: None,
+        skipped_modes: 0,
+        metallic: Vec::new(),
+        textured: Vec::new(),
+        double_sided: Vec::new(),
+    };
+    // Every material of the file, in its order (as an MTL's), used or not.
+    for m in doc.materials() {
+        loader.material(&m);
+    }
+    for node in scene.nodes() {
+        loader.node(&node, DMat4::IDENTITY);
+    }
+    let Loader {
+        positions,
+        triangles,
+        materials,
+        mut warnings,
+        lights,
+        sun,
+        camera,
+        skipped_modes,
+        metallic,
+        textured,
+        double_sided,
+        ..
+    } = loader;
+    let list = |names: &[String]| {
+        let mut shown: Vec<String> = names.iter().take(5).map(|n| format!("'{n}'")).collect();
+        if names.len() > 5 {
+            shown.push(format!("… {} more", names.len() - 5));
+        }
+        shown.join(", ")
+    };
+    if skipped_modes > 0 {
+        warnings.push(format!(
+            "skipped {skipped_modes} primitive(s) that are not triangle lists (points, lines, \
+             strips or fans)"
+        ));
+    }
+    if !metallic.is_empty() {
+        warnings.push(format!(
+            "{} metallic material(s) keep only their diffuse part, ρ = (1 − metallic) × base \
+             colour (the solver is diffuse): {}",
+            metallic.len(),
+            list(&metallic)
+        ));
+    }
+    if !textured.is_empty() {
+        warnings.push(format!(
+            "{} material(s) with a base-colour texture take its mean colour, the same over \
+             every face (the texture's pattern is not baked): {}",
+            textured.len(),
+            list(&textured)
+        ));
+    }
+    if !double_sided.is_empty() {
+        warnings.push(format!(
+            "{} material(s) are double-sided in the file; faces reflect on their front only \
+             unless baked with --two-sided: {}",
+            double_sided.len(),
+            list(&double_sided)
+        ));
+    }
+    let mut out = finish(
+        Some(path.to_path_buf()),
+        positions,
+        triangles,
+        materials,
+        warnings,
+        None,
+    )?;
+    out.lights = lights;
+    out.sun = sun;
+    out.camera = camera;
+    Ok(out)
+}
+
+/// The state of a glTF scene walk.
+struct Loader<'a> {
+    buffers: &'a [gltf::buffer::Data],
+    images: &'a [gltf::image::Data],
+    positions: Vec<DVec3>,
+    triangles: Vec<SceneTriangle>,
+    materials: Vec<Material>,
+    /// Our material index of each glTF material, once used.
+    material_of: Vec<Option<u32>>,
+    default_material: Option<u32>,
+    warnings: Vec<String>,
+    lights: Vec<PointLight>,
+    sun: Option<Sun>,
+    camera: Option<Camera>,
+    skipped_modes: usize,
+    metallic: Vec<String>,
+    textured: Vec<String>,
+    double_sided: Vec<String>,
+}
+
+impl Loader<'_> {
+    /// `node` and its children, under the world transform `parent`.
+    fn node(&mut self, node: &gltf::Node, parent: DMat4) {
+        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        let world = parent * local;
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                self.primitive(&prim, world);
+            }
+        }
+        if let Some(light) = node.light() {
+            self.light(&light, world);
+        }
+        if let (None, Some(camera)) = (self.camera, node.camera()) {
+            if let gltf::camera::Projection::Perspective(p) = camera.projection() {
+                let eye = world.transform_point3(DVec3::ZERO);
+                let forward = world.transform_vector3(-DVec3::Z);
+                let up = world.transform_vector3(DVec3::Y);
+                let fov = f64::from(p.yfov()).to_degrees();
+                self.camera = Camera::new(eye, eye + forward, up, fov).ok();
+            }
+        }
+        for child in node.children() {
+            self.node(&child, world);
+        }
+    }
+
+    /// One primitive's triangles, transformed to world coordinates.
+    fn primitive(&mut self, prim: &gltf::Primitive, world: DMat4) {
+        if prim.mode() != gltf::mesh::Mode::Triangles {
+            self.skipped_modes += 1;
+            return;
+        }
+        let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
+        let Some(positions) = reader.read_positions() else {
+            return;
+        };
+        let base = self.positions.len() as u32;
+        self.positions
+            .extend(positions.map(|p| world.transform_point3(DVec3::from_array(p.map(f64::from)))));
+        let count = self.positions.len() as u32 - base;
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(i) => i.into_u32().collect(),
+            None => (0..count).collect(),
+        };
+        let material = self.material(&prim.material());
+        let mirrored = world.determinant() < 0.0;
+        for t in indices.chunks_exact(3) {
+            // Indices past the positions are caught by `finish`'s validation.
+            let v = [t[0], t[1], t[2]].map(|i| base.saturating_add(i));
+            let vertices = if mirrored { [v[0], v[2], v[1]] } else { v };
+            self.triangles.push(SceneTriangle { vertices, material });
+        }
+    }
+
+    /// Our material for a glTF one (made on first use).
+    fn material(&mut self, m: &gltf::Material) -> u32 {
+        let Some(index) = m.index() else {
+            return *self.default_material.get_or_insert_with(|| {
+                self.materials.push(Scene::default_material());
+                (self.materials.len() - 1) as u32
+            });
+        };
+        if let Some(k) = self.material_of[index] {
+            return k;
+        }
+        let name = m
+            .name()
+            .map_or_else(|| format!("material_{index}"), str::to_string);
+        let pbr = m.pbr_metallic_roughness();
+        let base = pbr.base_color_factor();
+        let metallic = f64::from(pbr.metallic_factor()).clamp(0.0, 1.0);
+        let mut reflectance: Rgb = [0, 1, 2].map(|c| f64::from(base[c]) * (1.0 - metallic));
+        if let Some(mean) = pbr
+            .base_color_texture()
+            .and_then(|t| self.texture_mean(t.texture().source().index()))
+        {
+            reflectance = [0, 1, 2].map(|c| reflectance[c] * mean[c]);
+            self.textured.push(name.clone());
+        }
+        if metallic > 0.0 {
+            self.metallic.push(name.clone());
+        }
+        if m.double_sided() {
+            self.double_sided.push(name.clone());
+        }
+        let strength = f64::from(m.emissive_strength().unwrap_or(1.0));
+        let mut emission: Rgb = m.emissive_factor().map(|e| f64::from(e) * strength);
+        if let Some(mean) = m
+            .emissive_texture()
+            .and_then(|t| self.texture_mean(t.texture().source().index()))
+        {
+            emission = [0, 1, 2].map(|c| emission[c] * mean[c]);
+        }
+        self.materials.push(Material {
+            name,
+            reflectance: reflectance.map(|r| r.clamp(0.0, 1.0)),
+            emission: emission.map(|e| if e.is_finite() { e.max(0.0) } else { 0.0 }),
+        });
+        let k = (self.materials.len() - 1) as u32;
+        self.material_of[index] = Some(k);
+        k
+    }
+
+    /// The mean linear colour of image `i` (sRGB-encoded 8- or 16-bit, or float as it is).
+    fn texture_mean(&self, i: usize) -> Option<Rgb> {
+        use gltf::image::Format as F;
+        let image = self.images.get(i)?;
+        let (channels, bytes) = match image.format {
+            F::R8 => (1, 1),
+            F::R8G8 => (2, 1),
+            F::R8G8B8 => (3, 1),
+            F::R8G8B8A8 => (4, 1),
+            F::R16 => (1, 2),
+            F::R16G16 => (2, 2),
+            F::R16G16B16 => (3, 2),
+            F::R16G16B16A16 => (4, 2),
+            F::R32G32B32FLOAT => (3, 4),
+            F::R32G32B32A32FLOAT => (4, 4),
+        };
+        let stride = channels * bytes;
+        let n = image.pixels.len() / stride;
+        if n == 0 {
+            return None;
+        }
+        let mut sum = [0.0f64; 3];
+        for px in image.pixels.chunks_exact(stride) {
+            for (c, s) in sum.iter_mut().enumerate() {
+                let k = c.min(channels - 1) * bytes;
+                *s += match bytes {
+                    1 => srgb_decode(f64::from(px[k]) / 255.0),
+                    2 => srgb_decode(f64::from(u16::from_le_bytes([px[k], px[k + 1]])) / 65535.0),
+                    _ => f64::from(f32::from_le_bytes([px[k], px[k + 1], px[k + 2], px[k + 3]])),
+                };
+            }
+        }
+        Some(sum.map(|s| (s / n as f64).max(0.0)))
+    }
+
+    /// A `KHR_lights_punctual` light at a node with world transform `world`.
+    fn light(&mut self, light: &gltf::khr_lights_punctual::Light, world: DMat4) {
+        use gltf::khr_lights_punctual::Kind;
+        let colour = light.color().map(f64::from);
+        let value = f64::from(light.intensity()) / LUMENS_PER_WATT;
+        let rgb: Rgb = colour.map(|c| c * value);
+        let position = world.transform_point3(DVec3::ZERO);
+        let axis = world.transform_vector3(-DVec3::Z).normalize_or_zero();
+        match light.kind() {
+            Kind::Point => self.lights.push(PointLight {
+                position,
+                intensity: rgb,
+                spot: None,
+            }),
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => self.lights.push(PointLight {
+                position,
+                intensity: rgb,
+                spot: Some(Spot {
+                    direction: axis,
+                    inner_degrees: f64::from(inner_cone_angle).to_degrees(),
+                    outer_degrees: f64::from(outer_cone_angle).to_degrees().min(90.0),
+                }),
+            }),
+            Kind::Directional => {
+                // The sun: toward it is −axis; azimuth from north (+Z) toward east (−X) for
+                // glTF's +Y up ([`crate::environment::Sun`]).
+                let to = -axis;
+                let elevation = to.y.clamp(-1.0, 1.0).asin().to_degrees();
+                let (north, east) = (Up::Y.forward(), Up::Y.forward().cross(Up::Y.axis()));
+                let azimuth = to.dot(east).atan2(to.dot(north)).to_degrees();
+                if elevation <= 0.0 || self.sun.is_some() {
+                    self.warnings.push(format!(
+                        "directional light '{}' ignored: {}",
+                        light.name().unwrap_or("unnamed"),
+                        if elevation <= 0.0 {
+                            "it shines from below the horizon"
+                        } else {
+                            "the scene already has a sun"
+                        }
+                    ));
+                    return;
+                }
+                self.sun = Some(Sun {
+                    azimuth_degrees: azimuth,
+                    elevation_degrees: elevation,
+                    irradiance: rgb,
+                });
+            }
+        }
+    }
+}
 
 /// `GLB` magic, version 2, and the chunk types (little-endian ASCII "JSON" and "BIN\0").
 const MAGIC: u32 = 0x4654_6C67;
@@ -201,6 +539,156 @@ mod tests {
         assert_eq!(second, [1.0, 2.0, 0.0], "unclamped radiance");
         let material = prim.material();
         assert!(material.unlit());
+    }
+
+    /// A GLB with a floor (two triangles, material "clay": base colour (0.8, 0.6, 0.4),
+    /// metallic 0.25) under a node translated by (0, 0, −3) and mirrored in x (the winding
+    /// must be turned back), a lamp triangle (emissive (1, 0.5, 0.25) × strength 4), a point
+    /// light of 683 cd at (0, 2, 0), a spot and a directional light, and a camera.
+    fn scene_glb() -> Vec<u8> {
+        let floor: [[f32; 3]; 4] = [[-1., 0., -1.], [1., 0., -1.], [1., 0., 1.], [-1., 0., 1.]];
+        let lamp: [[f32; 3]; 3] = [[-0.2, 1., -0.2], [-0.2, 1., 0.2], [0.2, 1., 0.2]];
+        let mut bin = Vec::new();
+        for p in floor.iter().chain(&lamp) {
+            for c in p {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        // Counter-clockwise seen from +Y: (0, 3, 2), (0, 2, 1) face up.
+        for i in [0u32, 3, 2, 0, 2, 1, 0, 1, 2] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
+            "extensions": {"KHR_lights_punctual": {"lights": [
+                {"type": "point", "intensity": 683.0, "color": [1.0, 0.5, 0.25]},
+                {"type": "spot", "intensity": 1366.0,
+                 "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
+                {"type": "directional", "intensity": 68300.0},
+            ]}},
+            "scene": 0,
+            "scenes": [{"nodes": [0, 1, 2, 3, 4, 5]}],
+            "nodes": [
+                {"mesh": 0, "translation": [0.0, 0.0, -3.0], "scale": [-1.0, 1.0, 1.0]},
+                {"mesh": 1},
+                {"translation": [0.0, 2.0, 0.0],
+                 "extensions": {"KHR_lights_punctual": {"light": 0}}},
+                // Rotated −90° about X: its −Z axis points down (−Y).
+                {"translation": [1.0, 3.0, 0.0], "rotation": [-h, 0.0, 0.0, h],
+                 "extensions": {"KHR_lights_punctual": {"light": 1}}},
+                {"rotation": [-0.38268343, 0.0, 0.0, 0.92387953],
+                 "extensions": {"KHR_lights_punctual": {"light": 2}}},
+                {"camera": 0, "translation": [0.0, 1.0, 5.0]},
+            ],
+            "cameras": [{"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.1}}],
+            "meshes": [
+                {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]},
+                {"primitives": [{"attributes": {"POSITION": 2}, "indices": 3, "material": 1}]},
+            ],
+            "materials": [
+                {"name": "clay", "pbrMetallicRoughness":
+                    {"baseColorFactor": [0.8, 0.6, 0.4, 1.0], "metallicFactor": 0.25}},
+                {"name": "lamp", "emissiveFactor": [1.0, 0.5, 0.25],
+                 "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
+                 "pbrMetallicRoughness": {"metallicFactor": 0.0}},
+            ],
+            "buffers": [{"byteLength": bin.len()}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                {"buffer": 0, "byteOffset": 84, "byteLength": 24},
+                {"buffer": 0, "byteOffset": 48, "byteLength": 36},
+                {"buffer": 0, "byteOffset": 108, "byteLength": 12},
+            ],
+            "accessors": [
+                {"bufferView": 0, "componentType": FLOAT, "count": 4, "type": "VEC3",
+                 "min": [-1.0, 0.0, -1.0], "max": [1.0, 0.0, 1.0]},
+                {"bufferView": 1, "componentType": UNSIGNED_INT, "count": 6, "type": "SCALAR"},
+                {"bufferView": 2, "componentType": FLOAT, "count": 3, "type": "VEC3",
+                 "min": [-0.2, 1.0, -0.2], "max": [0.2, 1.0, 0.2]},
+                {"bufferView": 3, "componentType": UNSIGNED_INT, "count": 3, "type": "SCALAR"},
+            ],
+        });
+        let mut text = serde_json::to_vec(&doc).unwrap();
+        while !text.len().is_multiple_of(4) {
+            text.push(b' ');
+        }
+        let length = (12 + 8 + text.len() + 8 + bin.len()) as u32;
+        let mut out = Vec::new();
+        for w in [MAGIC, 2, length, text.len() as u32, CHUNK_JSON] {
+            out.extend_from_slice(&w.to_le_bytes());
+        }
+        out.extend_from_slice(&text);
+        for w in [bin.len() as u32, CHUNK_BIN] {
+            out.extend_from_slice(&w.to_le_bytes());
+        }
+        out.extend_from_slice(&bin);
+        out
+    }
+
+    #[test]
+    fn a_gltf_scene_loads_with_its_transforms_materials_lights_and_camera() {
+        let dir = crate::test_support::TestDir::new("gltf-in");
+        let path = dir.path().join("scene.glb");
+        std::fs::write(&path, scene_glb()).unwrap();
+        let s = Scene::load(&path).unwrap();
+        assert_eq!(s.triangles.len(), 3);
+        // The floor: translated to z = −3 ± 1, mirrored, and still facing up (+Y).
+        let floor: Vec<&SceneTriangle> = s.triangles.iter().filter(|t| t.material == 0).collect();
+        assert_eq!(floor.len(), 2);
+        for t in floor {
+            let [a, b, c] = t.vertices.map(|v| s.positions[v as usize]);
+            assert!((b - a)
+                .cross(c - a)
+                .normalize()
+                .abs_diff_eq(DVec3::Y, 1e-12));
+            assert!([a, b, c].iter().all(|p| (p.z + 3.0).abs() <= 1.0 + 1e-6));
+        }
+        let clay = &s.materials[0];
+        assert_eq!(clay.name, "clay");
+        // ρ = (1 − 0.25) × base colour.
+        for (r, b) in clay.reflectance.iter().zip([0.8, 0.6, 0.4]) {
+            assert!((r - 0.75 * b).abs() < 1e-6, "{:?}", clay.reflectance);
+        }
+        let lamp = &s.materials[1];
+        for (e, f) in lamp.emission.iter().zip([4.0, 2.0, 1.0]) {
+            assert!((e - f).abs() < 1e-6, "{:?}", lamp.emission);
+        }
+        // 683 cd = 1 W/sr, times the colour; the spot points down with its angles.
+        assert_eq!(s.lights.len(), 2);
+        let point = &s.lights[0];
+        assert!(point.position.abs_diff_eq(DVec3::new(0.0, 2.0, 0.0), 1e-6));
+        assert!((point.intensity[1] - 0.5).abs() < 1e-9 && point.spot.is_none());
+        let spot = s.lights[1].spot.unwrap();
+        assert!(
+            spot.direction.abs_diff_eq(-DVec3::Y, 1e-6),
+            "{}",
+            spot.direction
+        );
+        assert!((spot.inner_degrees - 0.2f64.to_degrees()).abs() < 1e-4);
+        assert!((s.lights[1].intensity[0] - 2.0).abs() < 1e-9);
+        // The directional light, its node turned −45° about X, shines down at 45°: the sun
+        // at elevation 45°, 68300 lux = 100 W/m².
+        let sun = s.sun.unwrap();
+        assert!((sun.elevation_degrees - 45.0).abs() < 1e-4, "{sun:?}");
+        assert!((sun.irradiance[2] - 100.0).abs() < 1e-6);
+        let camera = s.camera.unwrap();
+        assert!(camera.eye.abs_diff_eq(DVec3::new(0.0, 1.0, 5.0), 1e-6));
+        assert!((camera.vfov_degrees - 0.7f64.to_degrees()).abs() < 1e-4);
+        assert!(s
+            .warnings
+            .iter()
+            .any(|w| w.contains("metallic") && w.contains("'clay'")));
+    }
+
+    #[test]
+    fn a_broken_gltf_is_an_error_naming_the_file() {
+        let dir = crate::test_support::TestDir::new("gltf-bad");
+        let path = dir.path().join("broken.glb");
+        std::fs::write(&path, b"glTF not really").unwrap();
+        let e = Scene::load(&path).unwrap_err().to_string();
+        assert!(e.contains("broken.glb") && e.contains("glTF"), "{e}");
     }
 
     #[test]

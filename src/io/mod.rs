@@ -31,7 +31,7 @@ pub(crate) fn parse_error(path: &Path, line: usize, message: impl Into<String>) 
 
 impl Scene {
     /// Loads a scene file, dispatching on the extension: `.obj` (any case) goes to
-    /// [`obj::load`], `.ply` to [`ply::load`]. A missing path is [`Error::Io`], a directory or
+    /// [`obj::load`], `.ply` to [`ply::load`], `.gltf` and `.glb` to [`gltf::load`]. A missing path is [`Error::Io`], a directory or
     /// any other extension [`Error::Input`]; all name the path. (Defined here, with the
     /// readers, so that the scene model does not depend on the file formats.)
     pub fn load(path: &Path) -> Result<Scene> {
@@ -47,10 +47,13 @@ impl Scene {
             obj::load(path)
         } else if ext.eq_ignore_ascii_case("ply") {
             ply::load(path)
+        } else if ext.eq_ignore_ascii_case("gltf") || ext.eq_ignore_ascii_case("glb") {
+            gltf::load(path)
         } else {
             Err(Error::Input {
                 path: path.to_path_buf(),
-                message: "unsupported scene format (expected a .obj or .ply file)".into(),
+                message: "unsupported scene format (expected a .obj, .ply, .gltf or .glb file)"
+                    .into(),
             })
         }
     }

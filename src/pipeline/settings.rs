@@ -150,7 +150,8 @@ impl Default for Settings {
 }
 
 impl Settings {
-    /// These settings with `method = auto` resolved for `scene`: `matrix` when the scene cuts
+    /// These settings with the scene file's lights added to [`Settings::environment`] and
+    /// `method = auto` resolved for `scene`: `matrix` when the scene cuts
     /// into at most [`AUTO_MATRIX_MAX_PATCHES`] patches at the matrix method's `max_edge` (the
     /// given one, or [`mesh::default_max_edge`]), or when a form-factor cache is given (it
     /// stores a matrix); else `hierarchical`. Other methods are kept.
@@ -162,6 +163,11 @@ impl Settings {
     /// millions of patches only to count them.
     pub fn resolved(&self, scene: &crate::scene::Scene) -> Result<Settings> {
         let mut s = self.clone();
+        // The scene file's own lights join the settings' (its sun unless one is given).
+        s.environment.lights.extend(scene.lights.iter().copied());
+        if s.environment.sun.is_none() {
+            s.environment.sun = scene.sun;
+        }
         if s.method == Method::Auto {
             s.method = if s.cache.is_some() {
                 Method::Matrix

@@ -59,6 +59,8 @@ pub(crate) fn finish(
         warnings: Vec::new(),
         twin: Vec::new(),
         camera: None,
+        lights: Vec::new(),
+        sun: None,
     };
     raw.validate()?;
     let Scene {
@@ -217,6 +219,8 @@ pub(crate) fn finish(
         warnings,
         twin: Vec::new(),
         camera: None,
+        lights: Vec::new(),
+        sun: None,
     };
     scene.validate()?;
 

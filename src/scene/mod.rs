@@ -104,6 +104,11 @@ pub struct Scene {
     /// The camera the scene file carries (`# camera: …` in OBJ, `comment camera: …` in a PLY
     /// header; see [`crate::scene::camera`]); pictures use it unless `--camera` is given.
     pub camera: Option<Camera>,
+    /// Point and spot lights the scene file carries (glTF's `KHR_lights_punctual`); a bake
+    /// adds them to those of its settings ([`crate::environment`]).
+    pub lights: Vec<crate::environment::PointLight>,
+    /// The sun the scene file carries (a glTF directional light); a bake's `--sun` replaces it.
+    pub sun: Option<crate::environment::Sun>,
 }
 
 impl Scene {
@@ -423,6 +428,8 @@ mod tests {
             warnings: vec![],
             twin: vec![],
             camera: None,
+            lights: Vec::new(),
+            sun: None,
         };
         let e = s.validate().unwrap_err().to_string();
         assert!(e.starts_with("x.obj: triangle 1: vertex index 3"), "{e}");
