@@ -683,6 +683,74 @@ mod tests {
     }
 
     #[test]
+    fn a_base_colour_texture_gives_its_mean_linear_colour() {
+        // A 2 × 1 PNG inside the GLB (sRGB 188 and 0 in red, 255 in green and blue) under a
+        // base colour of 0.5: ρ = 0.5 × (0.502886 / 2, 1, 1), and a warning lists it.
+        let mut png = Vec::new();
+        let mut img = image::RgbImage::new(2, 1);
+        img.put_pixel(0, 0, image::Rgb([188, 255, 255]));
+        img.put_pixel(1, 0, image::Rgb([0, 255, 255]));
+        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        let mut bin = Vec::new();
+        for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 0., -1.]] {
+            for c in p {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        let png_at = bin.len();
+        bin.extend_from_slice(&png);
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+            "materials": [{"name": "brick", "pbrMetallicRoughness": {
+                "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0,
+                "baseColorTexture": {"index": 0}}}],
+            "textures": [{"source": 0}],
+            "images": [{"bufferView": 1, "mimeType": "image/png"}],
+            "buffers": [{"byteLength": bin.len()}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()},
+            ],
+            "accessors": [{"bufferView": 0, "componentType": FLOAT, "count": 3, "type": "VEC3",
+                           "min": [0.0, 0.0, -1.0], "max": [1.0, 0.0, 0.0]}],
+        });
+        let mut text = serde_json::to_vec(&doc).unwrap();
+        while !text.len().is_multiple_of(4) {
+            text.push(b' ');
+        }
+        let length = (12 + 8 + text.len() + 8 + bin.len()) as u32;
+        let mut glb = Vec::new();
+        for w in [MAGIC, 2, length, text.len() as u32, CHUNK_JSON] {
+            glb.extend_from_slice(&w.to_le_bytes());
+        }
+        glb.extend_from_slice(&text);
+        for w in [bin.len() as u32, CHUNK_BIN] {
+            glb.extend_from_slice(&w.to_le_bytes());
+        }
+        glb.extend_from_slice(&bin);
+        let dir = crate::test_support::TestDir::new("gltf-texture");
+        let path = dir.path().join("brick.glb");
+        std::fs::write(&path, glb).unwrap();
+        let s = Scene::load(&path).unwrap();
+        let rho = s.materials[0].reflectance;
+        let want = [0.5 * 0.502_886 / 2.0, 0.5, 0.5];
+        for (r, w) in rho.iter().zip(want) {
+            assert!((r - w).abs() < 1e-5, "{rho:?}");
+        }
+        assert!(s
+            .warnings
+            .iter()
+            .any(|w| w.contains("texture") && w.contains("'brick'")));
+    }
+
+    #[test]
     fn a_broken_gltf_is_an_error_naming_the_file() {
         let dir = crate::test_support::TestDir::new("gltf-bad");
         let path = dir.path().join("broken.glb");
