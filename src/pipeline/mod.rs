@@ -112,7 +112,7 @@ pub fn run_with(
     Ok(outcome)
 }
 
-/// True if anything lights the scene: an emitting material, the sky or the sun.
+/// True if anything lights the scene: an emitting material, the sky, the sun or a point light.
 fn lit(scene: &Scene, settings: &Settings) -> bool {
     scene.has_emitters() || settings.environment.is_lit()
 }
