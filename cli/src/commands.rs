@@ -159,10 +159,12 @@ pub fn info(args: &InfoArgs) -> Result<u8, Failure> {
     scene.apply_overrides(&overrides)?;
     // The estimate describes the bake, which makes the back faces itself.
     let estimate = pipeline::Estimate::of(&scene, &settings, rayon::current_num_threads())?;
+    // The lights a bake uses: the options' and the scene file's own (glTF's).
+    let environment = settings.resolved(&scene)?.environment;
     if settings.two_sided {
         scene.make_two_sided();
     }
-    let info = SceneInfo::of(&scene, &settings.environment, estimate)?;
+    let info = SceneInfo::of(&scene, &environment, estimate)?;
     if args.json {
         println!("{}", info.to_json());
     } else {

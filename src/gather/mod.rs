@@ -26,6 +26,10 @@
 //!   hit closer than the hit patch's size ([`NEAR_HIT`]: a concave corner) brings instead the
 //!   radiance at the hit point, one bounce further (its direct light by one shadow ray per
 //!   emitter, its indirect by one ray reading the patches).
+//! - **outside the mesh** ([`crate::environment`]): the sun and point lights join the direct
+//!   term (their shadow rays at x); the sky comes through the hemisphere rays that leave the
+//!   scene above the horizon (a uniform sky as its exact unoccluded light times the open share
+//!   of those rays, so an open surface gets it exactly).
 //! - `direct` keeps the solution's indirect light: at each patch, the solved radiance less its
 //!   emission and its own direct light (the same estimator at the patch's 7-point Gauss rule),
 //!   averaged to the vertices as the bake does, plus the exact direct light at the vertex.
@@ -255,14 +259,14 @@ pub struct Gatherer<'a> {
     /// scene's extent (see [`Gatherer::direct`]).
     lift: f64,
     seed: u64,
-    /// The sky and the sun ([`crate::environment`]): the sun is part of the direct term, the
-    /// sky comes through the hemisphere rays that leave the scene.
+    /// The lights outside the mesh ([`crate::environment`]): the sun and the point lights are
+    /// part of the direct term, the sky comes through the hemisphere rays that leave the scene.
     env: Environment,
 }
 
 impl<'a> Gatherer<'a> {
-    /// `radiance[i]` is patch i's solved radiance, W·sr⁻¹·m⁻² per channel; `env` the sky and
-    /// the sun that lit the solution.
+    /// `radiance[i]` is patch i's solved radiance, W·sr⁻¹·m⁻² per channel; `env` the lights
+    /// outside the mesh that lit the solution.
     pub fn new(
         scene: &Scene,
         patches: &'a Patches,

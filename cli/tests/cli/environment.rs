@@ -85,3 +85,41 @@ fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
     }
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn a_gltf_scene_brings_its_lights_and_bakes_to_glb() {
+    // A hand-written .gltf (cli/tests/data/lamp_floor.gltf): a 2 × 2 floor (ρ = 0.5) and a
+    // KHR_lights_punctual point light of 683 cd (1 W/sr) 1 above its centre. `info` lists the
+    // light; a bake to .glb needs no other light, and the floor's brightest vertex, right
+    // under the bulb, shows ρ·I/(π r²) = 0.5/π.
+    let input = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/lamp_floor.gltf");
+    let input = input.to_str().unwrap();
+    let o = radiosity(&["info", input]);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text.contains("point light:  at (0 1 0), I = (1 1 1) W·sr⁻¹"),
+        "{text}"
+    );
+    let dir = temp_dir("gltf-bake");
+    let (glb, ply) = (dir.join("lit.glb"), dir.join("lit.ply"));
+    for out in [&glb, &ply] {
+        let o = radiosity(&["bake", input, "-o", out.to_str().unwrap(), "-q"]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(!stderr(&o).contains("no emitters"), "{}", stderr(&o));
+    }
+    let bytes = std::fs::read(&glb).unwrap();
+    assert_eq!(&bytes[..4], b"glTF");
+    let baked = radiosity::io::ply::read(&ply).unwrap();
+    let brightest = baked
+        .vertex_radiance
+        .unwrap()
+        .iter()
+        .map(|l| l[0])
+        .fold(0.0, f32::max);
+    let exact = 0.5 / std::f32::consts::PI;
+    assert!(
+        (brightest - exact).abs() < 1e-4 * exact,
+        "{brightest} vs {exact}"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
