@@ -190,8 +190,9 @@ impl Environment {
     }
 
     /// Checks the ranges: sky and sun values finite and ≥ 0, the sun's elevation in (0, 90]
-    /// and its azimuth finite. Errors are [`Error::Setting`] named `environment.sky` or
-    /// `environment.sun`.
+    /// and its azimuth finite, point and spot lights finite with intensity ≥ 0 and a spot's
+    /// cone 0 ≤ inner < outer ≤ 90°. Errors are [`Error::Setting`] named `environment.sky`,
+    /// `environment.sun`, `environment.point_lights` or `environment.spot_lights`.
     pub fn validate(&self) -> Result<()> {
         if self.sky.iter().any(|l| !(l.is_finite() && *l >= 0.0)) {
             return Err(Error::setting(
