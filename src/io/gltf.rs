@@ -40,7 +40,7 @@ use serde_json::json;
 use crate::bake::BakedMesh;
 use crate::color::{srgb_decode, Rgb};
 use crate::environment::{PointLight, Spot, Sun};
-use crate::scene::{finish, Camera, Material, Scene, SceneTriangle, Up};
+use crate::scene::{finish, listed_names, Camera, Material, Scene, SceneTriangle, Up};
 use crate::{Error, Result};
 
 /// Lumens per watt at 555 nm: glTF's photometric light units (candela, lux) to radiometric
@@ -98,13 +98,6 @@ pub fn load(path: &Path) -> Result<Scene> {
         double_sided,
         ..
     } = loader;
-    let list = |names: &[String]| {
-        let mut shown: Vec<String> = names.iter().take(5).map(|n| format!("'{n}'")).collect();
-        if names.len() > 5 {
-            shown.push(format!("… {} more", names.len() - 5));
-        }
-        shown.join(", ")
-    };
     if skipped_modes > 0 {
         warnings.push(format!(
             "skipped {skipped_modes} primitive(s) that are not triangle lists (points, lines, \
@@ -116,7 +109,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             "{} metallic material(s) keep only their diffuse part, ρ = (1 − metallic) × base \
              colour (the solver is diffuse): {}",
             metallic.len(),
-            list(&metallic)
+            listed_names(&metallic)
         ));
     }
     if !textured.is_empty() {
@@ -124,7 +117,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             "{} material(s) with a base-colour texture take its mean colour, the same over \
              every face (the texture's pattern is not baked): {}",
             textured.len(),
-            list(&textured)
+            listed_names(&textured)
         ));
     }
     if !double_sided.is_empty() {
@@ -132,7 +125,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             "{} material(s) are double-sided in the file; faces reflect on their front only \
              unless baked with --two-sided: {}",
             double_sided.len(),
-            list(&double_sided)
+            listed_names(&double_sided)
         ));
     }
     let mut out = finish(

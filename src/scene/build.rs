@@ -107,18 +107,7 @@ pub(crate) fn finish(
             (b - a).cross(c - a).length() > threshold
         })
         .collect();
-    let triangles: Vec<SceneTriangle> = triangles
-        .into_iter()
-        .zip(&keep)
-        .filter_map(|(t, &k)| k.then_some(t))
-        .collect();
-    let face_lines: Option<Vec<usize>> = face_lines.map(|lines| {
-        lines
-            .into_iter()
-            .zip(&keep)
-            .filter_map(|(l, &k)| k.then_some(l))
-            .collect()
-    });
+    let (triangles, face_lines) = retain(triangles, face_lines, &keep);
     let dropped = total - triangles.len();
     if triangles.is_empty() {
         return Err(Error::Input {
@@ -156,38 +145,19 @@ pub(crate) fn finish(
         })
         .collect();
     if !duplicates.is_empty() {
-        let name = |t: usize| match (&face_lines, &source) {
-            (Some(lines), Some(path)) => format!("{t} ({}:{})", path.display(), lines[t]),
-            _ => t.to_string(),
-        };
+        let name = |t: usize| face_name(t, &face_lines, &source);
         let n = duplicates.len();
-        let mut shown: Vec<String> = duplicates
+        let shown = duplicates
             .iter()
-            .take(MAX_LISTED_PAIRS)
-            .map(|&(kept, dropped)| format!("kept {} and dropped {}", name(kept), name(dropped)))
-            .collect();
-        if n > MAX_LISTED_PAIRS {
-            shown.push(format!("… {} more", n - MAX_LISTED_PAIRS));
-        }
+            .map(|&(kept, dropped)| format!("kept {} and dropped {}", name(kept), name(dropped)));
         warnings.push(format!(
             "{n} duplicate face{} (the same vertices, facing the same way, as an earlier \
              face) merged into the earlier one, so their light is counted once: {}",
             if n == 1 { "" } else { "s" },
-            shown.join("; ")
+            listed(shown, "; ")
         ));
     }
-    let triangles: Vec<SceneTriangle> = triangles
-        .into_iter()
-        .zip(&keep)
-        .filter_map(|(t, &k)| k.then_some(t))
-        .collect();
-    let face_lines: Option<Vec<usize>> = face_lines.map(|lines| {
-        lines
-            .into_iter()
-            .zip(&keep)
-            .filter_map(|(l, &k)| k.then_some(l))
-            .collect()
-    });
+    let (triangles, face_lines) = retain(triangles, face_lines, &keep);
 
     // 5. Compact: keep used positions in their original order.
     let mut new_index = vec![u32::MAX; positions.len()];
@@ -226,20 +196,12 @@ pub(crate) fn finish(
 
     // 6. Likely modelling mistakes: warn, keep every face.
     let diagonal = (hi - lo).length();
-    let name = |t: usize| match (&face_lines, &scene.source) {
-        (Some(lines), Some(path)) => format!("{t} ({}:{})", path.display(), lines[t]),
-        _ => t.to_string(),
-    };
+    let name = |t: usize| face_name(t, &face_lines, &scene.source);
     let list = |pairs: &[(usize, usize)]| {
-        let mut shown: Vec<String> = pairs
+        let shown = pairs
             .iter()
-            .take(MAX_LISTED_PAIRS)
-            .map(|&(i, j)| format!("triangles {} and {}", name(i), name(j)))
-            .collect();
-        if pairs.len() > MAX_LISTED_PAIRS {
-            shown.push(format!("… {} more", pairs.len() - MAX_LISTED_PAIRS));
-        }
-        shown.join("; ")
+            .map(|&(i, j)| format!("triangles {} and {}", name(i), name(j)));
+        listed(shown, "; ")
     };
     let coincident = checks::coincident_faces(&scene.positions, &scene.triangles, diagonal);
     if !coincident.is_empty() {
@@ -266,8 +228,48 @@ pub(crate) fn finish(
     Ok(scene)
 }
 
-/// Warnings about pairs of faces list at most this many pairs (and count the rest).
+/// Warnings list at most this many of what they name (pairs of faces, faces, materials) and
+/// count the rest.
 pub const MAX_LISTED_PAIRS: usize = 5;
+
+/// `items` joined by `separator`, at most [`MAX_LISTED_PAIRS`] of them and then "… N more":
+/// how every warning lists what it names.
+pub(crate) fn listed(items: impl ExactSizeIterator<Item = String>, separator: &str) -> String {
+    let n = items.len();
+    let mut shown: Vec<String> = items.take(MAX_LISTED_PAIRS).collect();
+    if n > MAX_LISTED_PAIRS {
+        shown.push(format!("… {} more", n - MAX_LISTED_PAIRS));
+    }
+    shown.join(separator)
+}
+
+/// Names (of materials) as a warning lists them: quoted, at most [`MAX_LISTED_PAIRS`].
+pub(crate) fn listed_names(names: &[String]) -> String {
+    listed(names.iter().map(|n| format!("'{n}'")), ", ")
+}
+
+/// Triangle `t` as a warning names it: with its file and line when the loader gave them.
+fn face_name(t: usize, face_lines: &Option<Vec<usize>>, source: &Option<PathBuf>) -> String {
+    match (face_lines, source) {
+        (Some(lines), Some(path)) => format!("{t} ({}:{})", path.display(), lines[t]),
+        _ => t.to_string(),
+    }
+}
+
+/// The triangles (and their source lines, when known) whose `keep` is true, in order.
+fn retain(
+    triangles: Vec<SceneTriangle>,
+    face_lines: Option<Vec<usize>>,
+    keep: &[bool],
+) -> (Vec<SceneTriangle>, Option<Vec<usize>>) {
+    fn kept<T>(v: Vec<T>, keep: &[bool]) -> Vec<T> {
+        v.into_iter()
+            .zip(keep)
+            .filter_map(|(x, &k)| k.then_some(x))
+            .collect()
+    }
+    (kept(triangles, keep), face_lines.map(|l| kept(l, keep)))
+}
 
 /// Builder for procedural scenes used by the verification suite and tests.
 ///

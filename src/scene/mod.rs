@@ -32,7 +32,7 @@ pub mod overrides;
 pub mod reach;
 mod two_sided;
 
-pub(crate) use build::finish;
+pub(crate) use build::{finish, listed_names};
 pub use build::{SceneBuilder, MAX_LISTED_PAIRS};
 pub use camera::{Camera, Up};
 pub use overrides::{Override, Property};

@@ -9,6 +9,7 @@ use std::path::Path;
 
 use super::parse_number;
 use crate::io::parse_error;
+use crate::scene::listed_names;
 use crate::scene::Material;
 use crate::{Error, Result};
 
@@ -212,9 +213,6 @@ pub(super) fn convert_material(
     }
 }
 
-/// At most this many materials are named in one warning (the rest are counted).
-const MAX_NAMED: usize = 5;
-
 /// Applies what the MTL files had beyond `Kd` and `Ke` to the converted `materials`:
 /// `extras` holds each material's [`Extras`] with its MTL file (the last definition of a name
 /// wins; texture paths are relative to the MTL's directory). A texture's mean colour ([`texture_mean`]) multiplies ρ; a
@@ -272,17 +270,6 @@ pub(super) fn apply_extras(
             specular_only.push(m.name.clone());
         }
     }
-    let named = |names: &[String]| {
-        let mut list: Vec<String> = names
-            .iter()
-            .take(MAX_NAMED)
-            .map(|n| format!("'{n}'"))
-            .collect();
-        if names.len() > MAX_NAMED {
-            list.push(format!("… {} more", names.len() - MAX_NAMED));
-        }
-        list.join(", ")
-    };
     if !textured.is_empty() {
         let n = textured.len();
         warnings.push(format!(
@@ -290,7 +277,7 @@ pub(super) fn apply_extras(
              over every face (the texture's pattern is not baked): {}",
             if n == 1 { "" } else { "s" },
             if n == 1 { "s" } else { "" },
-            named(&textured)
+            listed_names(&textured)
         ));
     }
     if !specular_only.is_empty() {
@@ -301,7 +288,7 @@ pub(super) fn apply_extras(
             if n == 1 { " is" } else { "s are" },
             if n == 1 { "it bakes" } else { "they bake" },
             if n == 1 { "it" } else { "them" },
-            named(&specular_only)
+            listed_names(&specular_only)
         ));
     }
 }
