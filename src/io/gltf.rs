@@ -38,7 +38,7 @@ use glam::{DMat4, DVec3};
 use serde_json::json;
 
 use crate::bake::BakedMesh;
-use crate::color::{srgb_decode, Rgb};
+use crate::color::Rgb;
 use crate::environment::{PointLight, Spot, Sun};
 use crate::scene::{finish, listed_names, Camera, Material, Scene, SceneTriangle, Up};
 use crate::{Error, Result};
@@ -266,39 +266,56 @@ impl Loader<'_> {
         k
     }
 
-    /// The mean linear colour of image `i` (sRGB-encoded 8- or 16-bit, or float as it is).
+    /// The mean linear colour of image `i`: sRGB-encoded 8- or 16-bit images through
+    /// [`crate::io::texture_mean`], float ones (linear) by their plain mean; `None` without
+    /// pixels.
     fn texture_mean(&self, i: usize) -> Option<Rgb> {
         use gltf::image::Format as F;
-        let image = self.images.get(i)?;
-        let (channels, bytes) = match image.format {
-            F::R8 => (1, 1),
-            F::R8G8 => (2, 1),
-            F::R8G8B8 => (3, 1),
-            F::R8G8B8A8 => (4, 1),
-            F::R16 => (1, 2),
-            F::R16G16 => (2, 2),
-            F::R16G16B16 => (3, 2),
-            F::R16G16B16A16 => (4, 2),
-            F::R32G32B32FLOAT => (3, 4),
-            F::R32G32B32A32FLOAT => (4, 4),
+        use image::{DynamicImage as D, ImageBuffer};
+        let data = self.images.get(i)?;
+        let (w, h, p) = (data.width, data.height, data.pixels.clone());
+        // 16-bit samples come as little-endian byte pairs.
+        let wide = || -> Vec<u16> {
+            data.pixels
+                .chunks_exact(2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]]))
+                .collect()
         };
-        let stride = channels * bytes;
-        let n = image.pixels.len() / stride;
-        if n == 0 {
-            return None;
-        }
-        let mut sum = [0.0f64; 3];
-        for px in image.pixels.chunks_exact(stride) {
-            for (c, s) in sum.iter_mut().enumerate() {
-                let k = c.min(channels - 1) * bytes;
-                *s += match bytes {
-                    1 => srgb_decode(f64::from(px[k]) / 255.0),
-                    2 => srgb_decode(f64::from(u16::from_le_bytes([px[k], px[k + 1]])) / 65535.0),
-                    _ => f64::from(f32::from_le_bytes([px[k], px[k + 1], px[k + 2], px[k + 3]])),
+        let image = match data.format {
+            F::R8 => D::ImageLuma8(ImageBuffer::from_raw(w, h, p)?),
+            F::R8G8 => D::ImageLumaA8(ImageBuffer::from_raw(w, h, p)?),
+            F::R8G8B8 => D::ImageRgb8(ImageBuffer::from_raw(w, h, p)?),
+            F::R8G8B8A8 => D::ImageRgba8(ImageBuffer::from_raw(w, h, p)?),
+            F::R16 => D::ImageLuma16(ImageBuffer::from_raw(w, h, wide())?),
+            F::R16G16 => D::ImageLumaA16(ImageBuffer::from_raw(w, h, wide())?),
+            F::R16G16B16 => D::ImageRgb16(ImageBuffer::from_raw(w, h, wide())?),
+            F::R16G16B16A16 => D::ImageRgba16(ImageBuffer::from_raw(w, h, wide())?),
+            // Float samples are linear already: their plain mean.
+            F::R32G32B32FLOAT | F::R32G32B32A32FLOAT => {
+                let channels = if data.format == F::R32G32B32FLOAT {
+                    3
+                } else {
+                    4
                 };
+                let floats: Vec<f32> = data
+                    .pixels
+                    .chunks_exact(4)
+                    .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                    .collect();
+                let n = floats.len() / channels;
+                if n == 0 {
+                    return None;
+                }
+                let mut sum = [0.0f64; 3];
+                for px in floats.chunks_exact(channels) {
+                    for (s, &c) in sum.iter_mut().zip(px) {
+                        *s += f64::from(c);
+                    }
+                }
+                return Some(sum.map(|s| (s / n as f64).max(0.0)));
             }
-        }
-        Some(sum.map(|s| (s / n as f64).max(0.0)))
+        };
+        crate::io::texture_mean(image)
     }
 
     /// A `KHR_lights_punctual` light at a node with world transform `world`.
@@ -459,8 +476,13 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64, up: Up) ->
             {"bufferView": 3, "componentType": UNSIGNED_INT, "count": mesh.faces.len() * 3, "type": "SCALAR"},
         ],
     });
-    let mut text = serde_json::to_vec(&document).map_err(io::Error::other)?;
-    // Chunks are 4-byte aligned: JSON padded with spaces, BIN with zeros.
+    w.write_all(&glb(&document, bin)?)
+}
+
+/// The GLB container (§4.4) of a glTF document and its binary buffer: the 12-byte header,
+/// then the JSON chunk padded with spaces and the BIN chunk padded with zeros to 4 bytes.
+fn glb(document: &serde_json::Value, mut bin: Vec<u8>) -> io::Result<Vec<u8>> {
+    let mut text = serde_json::to_vec(document).map_err(io::Error::other)?;
     while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
@@ -479,7 +501,7 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64, up: Up) ->
         out.extend_from_slice(&word.to_le_bytes());
     }
     out.extend_from_slice(&bin);
-    w.write_all(&out)
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -603,21 +625,7 @@ mod tests {
                 {"bufferView": 3, "componentType": UNSIGNED_INT, "count": 3, "type": "SCALAR"},
             ],
         });
-        let mut text = serde_json::to_vec(&doc).unwrap();
-        while !text.len().is_multiple_of(4) {
-            text.push(b' ');
-        }
-        let length = (12 + 8 + text.len() + 8 + bin.len()) as u32;
-        let mut out = Vec::new();
-        for w in [MAGIC, 2, length, text.len() as u32, CHUNK_JSON] {
-            out.extend_from_slice(&w.to_le_bytes());
-        }
-        out.extend_from_slice(&text);
-        for w in [bin.len() as u32, CHUNK_BIN] {
-            out.extend_from_slice(&w.to_le_bytes());
-        }
-        out.extend_from_slice(&bin);
-        out
+        glb(&doc, bin).unwrap()
     }
 
     #[test]
@@ -714,23 +722,10 @@ mod tests {
             "accessors": [{"bufferView": 0, "componentType": FLOAT, "count": 3, "type": "VEC3",
                            "min": [0.0, 0.0, -1.0], "max": [1.0, 0.0, 0.0]}],
         });
-        let mut text = serde_json::to_vec(&doc).unwrap();
-        while !text.len().is_multiple_of(4) {
-            text.push(b' ');
-        }
-        let length = (12 + 8 + text.len() + 8 + bin.len()) as u32;
-        let mut glb = Vec::new();
-        for w in [MAGIC, 2, length, text.len() as u32, CHUNK_JSON] {
-            glb.extend_from_slice(&w.to_le_bytes());
-        }
-        glb.extend_from_slice(&text);
-        for w in [bin.len() as u32, CHUNK_BIN] {
-            glb.extend_from_slice(&w.to_le_bytes());
-        }
-        glb.extend_from_slice(&bin);
+        let file = glb(&doc, bin).unwrap();
         let dir = crate::test_support::TestDir::new("gltf-texture");
         let path = dir.path().join("brick.glb");
-        std::fs::write(&path, glb).unwrap();
+        std::fs::write(&path, file).unwrap();
         let s = Scene::load(&path).unwrap();
         let rho = s.materials[0].reflectance;
         let want = [0.5 * 0.502_886 / 2.0, 0.5, 0.5];

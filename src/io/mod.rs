@@ -20,6 +20,28 @@ use crate::bake::BakedMesh;
 use crate::scene::{Camera, Scene};
 use crate::{Error, Result};
 
+/// The mean colour of a texture as linear reflectance per RGB channel, in [0, 1]: each 8- or
+/// 16-bit sRGB value decoded to linear (IEC 61966-2-1, [`crate::color::srgb_decode`]) before
+/// averaging, alpha ignored, grey images read as grey. `None` for an image without pixels.
+/// The OBJ loader's `map_Kd` and the glTF loader's base-colour and emissive textures.
+pub(crate) fn texture_mean(image: image::DynamicImage) -> Option<crate::Rgb> {
+    let image = image.into_rgb16();
+    let n = image.width() as u64 * image.height() as u64;
+    if n == 0 {
+        return None;
+    }
+    let linear: Vec<f64> = (0..=u16::MAX)
+        .map(|c| crate::color::srgb_decode(f64::from(c) / 65535.0))
+        .collect();
+    let mut sum = [0.0f64; 3];
+    for px in image.pixels() {
+        for (s, &c) in sum.iter_mut().zip(&px.0) {
+            *s += linear[c as usize];
+        }
+    }
+    Some(sum.map(|s| (s / n as f64).clamp(0.0, 1.0)))
+}
+
 /// An [`Error::Parse`]: `message` about line `line` (1-based) of `path`.
 pub(crate) fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
     Error::Parse {

@@ -149,31 +149,16 @@ fn scan_mtl(path: &Path, text: &str) -> Result<(String, Vec<Extras>)> {
     Ok((out, extras))
 }
 
-/// The mean colour of an image file as linear reflectance per RGB channel, in [0, 1]: each
-/// 8-bit (or 16-bit) sRGB value decoded to linear (IEC 61966-2-1) before averaging, alpha
-/// ignored. Reads PNG, JPEG, TGA and BMP; the error says why a file cannot be used.
+/// The mean linear colour of an image file ([`crate::io::texture_mean`]); reads PNG, JPEG,
+/// TGA and BMP, and the error says why a file cannot be used.
 pub(super) fn texture_mean(file: &Path) -> std::result::Result<[f64; 3], String> {
     let image = image::ImageReader::open(file)
         .map_err(|e| e.to_string())?
         .with_guessed_format()
         .map_err(|e| e.to_string())?
         .decode()
-        .map_err(|e| e.to_string())?
-        .into_rgb16();
-    let n = (image.width() as u64 * image.height() as u64) as f64;
-    if n == 0.0 {
-        return Err("the image has no pixels".into());
-    }
-    let linear: Vec<f64> = (0..=u16::MAX)
-        .map(|c| crate::color::srgb_decode(f64::from(c) / 65535.0))
-        .collect();
-    let mut sum = [0.0f64; 3];
-    for px in image.pixels() {
-        for (s, &c) in sum.iter_mut().zip(&px.0) {
-            *s += linear[c as usize];
-        }
-    }
-    Ok(sum.map(|s| (s / n).clamp(0.0, 1.0)))
+        .map_err(|e| e.to_string())?;
+    crate::io::texture_mean(image).ok_or_else(|| "the image has no pixels".into())
 }
 
 /// `Kd` → ρ (when missing: 1 for a material with a texture, which [`apply_extras`] then
