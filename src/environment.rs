@@ -454,14 +454,24 @@ impl Environment {
         match self.sky_model {
             // Ratio estimate: the exact unoccluded value times the open share of the rays
             // above the horizon.
-            SkyModel::Uniform => {
-                let share = open as f64 / cast as f64;
-                self.sky.map(|l| l * unoccluded * share)
-            }
+            SkyModel::Uniform => self.uniform_sky(n, open, cast),
             // D = (1/π) ∫ L cos dω over the sky = P(above) · E[L · open | above], with
             // P(above) = (1 + n·up)/2 for cosine-weighted directions.
             SkyModel::Overcast => sum.map(|s| s / cast as f64 * unoccluded),
         }
+    }
+
+    /// A uniform sky's D at a surface of unit normal `n` by the ratio estimate: its exact
+    /// unoccluded value L_sky (1 + n·up)/2 times the share `open / above` of the rays above the
+    /// horizon that left the scene (0 when no ray was above it). [`Environment::sky_direct`]
+    /// and the final gather's hemisphere rays both estimate it so.
+    pub fn uniform_sky(&self, n: DVec3, open: usize, above: usize) -> Rgb {
+        if above == 0 {
+            return [0.0; 3];
+        }
+        let unoccluded = 0.5 * (1.0 + n.dot(self.up.axis()));
+        let share = open as f64 / above as f64;
+        self.sky.map(|l| l * unoccluded * share)
     }
 
     /// Light that a ray leaving the scene in direction `dir` brings (the gather's hemisphere

@@ -639,12 +639,10 @@ impl<'a> Gatherer<'a> {
             }
         }
         let mut out = sum.map(|s| s / total as f64);
-        if self.env.sky_model == SkyModel::Uniform && above > 0 {
-            // A uniform sky by the ratio estimate (as [`Environment::sky_direct`]): its exact
-            // unoccluded light times the open share of the rays above the horizon.
-            let share = open as f64 / above as f64 * 0.5 * (1.0 + n.dot(up));
-            for (o, l) in out.iter_mut().zip(self.env.sky) {
-                *o += l * share;
+        if self.env.sky_model == SkyModel::Uniform {
+            // A uniform sky by the ratio estimate: exact where nothing is in the way.
+            for (o, l) in out.iter_mut().zip(self.env.uniform_sky(n, open, above)) {
+                *o += l;
             }
         }
         out
