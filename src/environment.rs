@@ -552,6 +552,22 @@ mod tests {
         (tris, vis)
     }
 
+    /// Triangle 0: half of a 10 × 10 floor at z = 0 (the origin on its edge); triangles 1 and 2:
+    /// a square of half-side `half` centred at `centre`, across the unit `axis`: an occluder.
+    fn floor_and_square(centre: DVec3, axis: DVec3, half: f64) -> Visibility {
+        let (t, b) = orthonormal_basis(axis);
+        let q = |u: f64, v: f64| centre + u * half * t + v * half * b;
+        Visibility::build(&[
+            [
+                DVec3::new(-5., -5., 0.),
+                DVec3::new(5., -5., 0.),
+                DVec3::new(5., 5., 0.),
+            ],
+            [q(-1., -1.), q(1., -1.), q(1., 1.)],
+            [q(-1., -1.), q(1., 1.), q(-1., 1.)],
+        ])
+    }
+
     #[test]
     fn a_lone_plate_under_a_uniform_sky_gets_the_closed_form() {
         // E = π L (1 + cos θ)/2 for a plate tilted θ from up, nothing around: exact (the ratio
@@ -630,18 +646,7 @@ mod tests {
         );
         // An occluder between the point and the sun: a large square 1 unit toward the sun,
         // facing it: shadow, while a point beside the shadow stays lit.
-        let (t, b) = orthonormal_basis(s);
-        let q = |u: f64, v: f64| s + u * t + v * b;
-        let tris = [
-            [
-                DVec3::new(-5., -5., 0.),
-                DVec3::new(5., -5., 0.),
-                DVec3::new(5., 5., 0.),
-            ],
-            [q(-0.3, -0.3), q(0.3, -0.3), q(0.3, 0.3)],
-            [q(-0.3, -0.3), q(0.3, 0.3), q(-0.3, 0.3)],
-        ];
-        let vis = Visibility::build(&tris);
+        let vis = floor_and_square(s, s, 0.3);
         assert_eq!(
             env.direct(&vis, DVec3::ZERO, DVec3::Z, 0, 1e-4, 0, &mut rng),
             [0.0; 3]
@@ -664,17 +669,7 @@ mod tests {
             up: Up::Z,
             ..Environment::default()
         };
-        let q = |x: f64, y: f64| DVec3::new(x, y, 1.0);
-        let tris = [
-            [
-                DVec3::new(-5., -5., 0.),
-                DVec3::new(5., -5., 0.),
-                DVec3::new(5., 5., 0.),
-            ],
-            [q(-0.2, -0.2), q(0.2, -0.2), q(0.2, 0.2)],
-            [q(-0.2, -0.2), q(0.2, 0.2), q(-0.2, 0.2)],
-        ];
-        let vis = Visibility::build(&tris);
+        let vis = floor_and_square(DVec3::new(0.0, 0.0, 1.0), DVec3::Z, 0.2);
         let l = &env.lights[0];
         assert_eq!(
             env.point_direct(l, &vis, DVec3::ZERO, DVec3::Z, 0, 1e-6),

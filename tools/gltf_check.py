@@ -27,29 +27,9 @@ import subprocess
 import sys
 import tempfile
 
+import venv_module
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-VENV = os.path.join(ROOT, "target", "gltf-venv")
-
-
-def ensure_pygltflib():
-    """Re-run this script inside a venv that has pygltflib."""
-    try:
-        import pygltflib  # noqa: F401
-        return
-    except ImportError:
-        pass
-    py = os.path.join(VENV, "bin", "python")
-    try:
-        if not os.path.exists(py):
-            subprocess.check_call([sys.executable, "-m", "venv", VENV])
-        subprocess.check_call([py, "-c", "import pygltflib"], stderr=subprocess.DEVNULL)
-    except subprocess.CalledProcessError:
-        try:
-            subprocess.check_call([py, "-m", "pip", "install", "-q", "pygltflib"])
-        except (subprocess.CalledProcessError, OSError) as e:
-            print(f"gltf_check: cannot install pygltflib ({e}); glTF check not run")
-            sys.exit(3)
-    os.execv(py, [py] + sys.argv)
 
 
 def srgb8(x):
@@ -191,7 +171,7 @@ def round_trip(tmp):
 
 
 def main():
-    ensure_pygltflib()
+    venv_module.ensure("pygltflib", "gltf-venv", "gltf_check", "glTF check")
     import pygltflib
 
     failures = []

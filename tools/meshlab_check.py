@@ -20,30 +20,9 @@ import subprocess
 import sys
 import tempfile
 
+import venv_module
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-VENV = os.path.join(ROOT, "target", "meshlab-venv")
-
-
-def ensure_pymeshlab():
-    """Re-run this script inside a venv that has pymeshlab."""
-    try:
-        import pymeshlab  # noqa: F401
-        return
-    except ImportError:
-        pass
-    py = os.path.join(VENV, "bin", "python")
-    try:
-        if not os.path.exists(py):
-            subprocess.check_call([sys.executable, "-m", "venv", VENV])
-        subprocess.check_call([py, "-c", "import pymeshlab"], stderr=subprocess.DEVNULL)
-    except subprocess.CalledProcessError:
-        try:
-            subprocess.check_call([py, "-m", "pip", "install", "-q", "pymeshlab"])
-        except (subprocess.CalledProcessError, OSError) as e:
-            # Not a failure of our files: say so and let the caller decide (exit 3).
-            print(f"meshlab_check: cannot install pymeshlab ({e}); MeshLab check not run")
-            sys.exit(3)
-    os.execv(py, [py] + sys.argv)
 
 
 def read_ply(path):
@@ -132,7 +111,7 @@ def check(path, expected):
 
 
 def main():
-    ensure_pymeshlab()
+    venv_module.ensure("pymeshlab", "meshlab-venv", "meshlab_check", "MeshLab check")
     files = sys.argv[1:]
     if not files:
         tmp = tempfile.mkdtemp()

@@ -32,6 +32,13 @@ fn plate(degrees: f64, rho: f64) -> Scene {
     b.build().unwrap()
 }
 
+/// A 2 × 2 floor at z = 0 facing up (z up), ρ = 0.5, centred on the origin: material 0.
+fn floor(b: &mut SceneBuilder) {
+    let m = b.material("floor", [0.5; 3], [0.0; 3]);
+    let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+    b.quad([p(-1., -1.), p(1., -1.), p(1., 1.), p(-1., 1.)], m);
+}
+
 /// Every patch's and every output vertex's radiance (red channel).
 fn values(out: &Outcome) -> (Vec<f64>, Vec<f64>) {
     let patches = out.solution.radiance.iter().map(|l| l[0]).collect();
@@ -72,18 +79,9 @@ fn the_sun_lights_a_floor_and_an_occluder_casts_its_shadow() {
     // from the shadow's edge: ρ E sin 60° / π exactly (4 shadow rays, all open); points deep
     // in the shadow: 0 (the square is black, the floor flat: no other light).
     let mut b = SceneBuilder::new();
-    let floor = b.material("floor", [0.5; 3], [0.0; 3]);
+    floor(&mut b);
     let black = b.material("black", [0.0; 3], [0.0; 3]);
     let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-    b.quad(
-        [
-            p(-1., -1., 0.),
-            p(1., -1., 0.),
-            p(1., 1., 0.),
-            p(-1., 1., 0.),
-        ],
-        floor,
-    );
     let s = 0.3;
     b.quad(
         [p(-s, -s, 1.), p(-s, s, 1.), p(s, s, 1.), p(s, -s, 1.)],
@@ -208,17 +206,8 @@ fn a_point_light_over_a_plane_gives_i_cos_over_r_squared_and_a_spot_its_cone() {
     // ρ I cos θ / (π r²). The rays start 10⁻⁶ of the scene's extent above the surface, which
     // moves r and cos θ by about that much: 1e-5 relative.
     let mut b = SceneBuilder::new();
-    let floor = b.material("floor", [0.5; 3], [0.0; 3]);
+    floor(&mut b);
     let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-    b.quad(
-        [
-            p(-1., -1., 0.),
-            p(1., -1., 0.),
-            p(1., 1., 0.),
-            p(-1., 1., 0.),
-        ],
-        floor,
-    );
     let scene = b.build().unwrap();
     let at = p(0.3, 0.2, 1.0);
     let exact = |x: DVec3, i: f64| {
