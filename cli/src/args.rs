@@ -382,6 +382,11 @@ pub struct SolveArgs {
         help_heading = "Light"
     )]
     pub spot_light: Vec<String>,
+    /// A lights file (JSON): a sky, a sun and any number of point and spot lights, in the
+    /// units of the flags above (format in the README, "A lights file"). Its lights join
+    /// those of the flags and of the scene file; --sky and --sun replace the file's.
+    #[arg(long, value_name = "FILE.json", help_heading = "Light")]
+    pub lights: Option<PathBuf>,
     /// Surfaces reflect and emit on both sides: every face gets a back face with the same
     /// material (ρ, Le) and its own radiance, and the output has both (twice the patches).
     #[arg(long, help_heading = "Discretisation")]
@@ -585,9 +590,15 @@ impl SolveArgs {
                 format!("{text:?}: expected R,G,B or one value for grey"),
             )),
         };
-        let sky = match &self.sky {
-            Some(t) => rgb(&numbers(t, "--sky")?, "--sky", t)?,
-            None => [0.0; 3],
+        // The lights file first: the flags' sky and sun replace its own, their lights join.
+        let file = match &self.lights {
+            Some(path) => Some(radiosity::environment::file::read(path, self.up)?),
+            None => None,
+        };
+        let (sky, sky_model) = match (&self.sky, &file) {
+            (Some(t), _) => (rgb(&numbers(t, "--sky")?, "--sky", t)?, self.sky_model),
+            (None, Some(f)) if f.has_sky => (f.environment.sky, f.environment.sky_model),
+            (None, _) => ([0.0; 3], self.sky_model),
         };
         let sun = match &self.sun {
             Some(t) => {
@@ -604,9 +615,9 @@ impl SolveArgs {
                     irradiance: rgb(&v[2..], "--sun", t)?,
                 })
             }
-            None => None,
+            None => file.as_ref().and_then(|f| f.environment.sun),
         };
-        let mut lights = Vec::new();
+        let mut lights = file.map_or_else(Vec::new, |f| f.environment.lights);
         for t in &self.point_light {
             let v = numbers(t, "--point-light")?;
             if v.len() < 4 {
@@ -648,7 +659,7 @@ impl SolveArgs {
         }
         Ok(Environment {
             sky,
-            sky_model: self.sky_model,
+            sky_model,
             sun,
             lights,
             up: self.up,

@@ -123,3 +123,114 @@ fn a_gltf_scene_brings_its_lights_and_bakes_to_glb() {
     );
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn a_lights_file_gives_the_same_bake_as_the_flags_and_names_its_mistakes() {
+    let dir = temp_dir("lights_file");
+    std::fs::write(dir.join("m.mtl"), MTL).unwrap();
+    let input = dir.join("court.obj");
+    std::fs::write(&input, COURT).unwrap();
+    let input = input.to_str().unwrap();
+    let lights = dir.join("lights.json");
+    std::fs::write(
+        &lights,
+        r#"{ "sky": 1, "sun": { "azimuth": 0, "elevation": 45, "irradiance": [800, 700, 600] },
+             "lights": [ { "name": "lamp", "position": [0.5, 0.5, 0.8], "intensity": 2 },
+                         { "position": [0.2, 0.2, 0.9], "intensity": [3, 2, 1],
+                           "spot": { "direction": [0, 0, -1], "inner": 20, "outer": 40 } } ] }"#,
+    )
+    .unwrap();
+    let bake = |name: &str, light: &[&str]| {
+        let out = dir.join(name);
+        let mut args = vec![
+            "bake",
+            input,
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+            "--up",
+            "z",
+        ];
+        args.extend(light);
+        let o = radiosity(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        std::fs::read(out).unwrap()
+    };
+    // The file and the flags it stands for give the same bytes (same lights, same order).
+    let from_flags = bake(
+        "flags.ply",
+        &[
+            "--sky",
+            "1",
+            "--sun",
+            "0,45,800,700,600",
+            "--point-light",
+            "0.5,0.5,0.8,2",
+            "--spot-light",
+            "0.2,0.2,0.9,0,0,-1,20,40,3,2,1",
+        ],
+    );
+    let from_file = bake("file.ply", &["--lights", lights.to_str().unwrap()]);
+    assert!(from_flags == from_file, "the lights file's bake differs");
+    // --sun replaces the file's sun: a weaker sun gives a different bake.
+    let replaced = bake(
+        "replaced.ply",
+        &["--lights", lights.to_str().unwrap(), "--sun", "0,45,1"],
+    );
+    assert!(replaced != from_file);
+
+    // info lists the file's lights.
+    let o = radiosity(&[
+        "info",
+        input,
+        "--up",
+        "z",
+        "--lights",
+        lights.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text.contains("sun:          azimuth 0°, elevation 45°"),
+        "{text}"
+    );
+
+    // Mistakes name the file and the line or the light; exit 2; nothing written.
+    let out = dir.join("bad.ply");
+    for (text, wanted) in [
+        (
+            "{\n \"lights\": [\n {\"position\": [0,0,0], \"intensty\": 3} ] }",
+            ":3:",
+        ),
+        (
+            r#"{ "lights": [ { "name": "torch", "position": [0,0,1], "intensity": -1 } ] }"#,
+            "lights[0] (\"torch\")",
+        ),
+    ] {
+        std::fs::write(&lights, text).unwrap();
+        let o = radiosity(&[
+            "bake",
+            input,
+            "-o",
+            out.to_str().unwrap(),
+            "--lights",
+            lights.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains("lights.json") && stderr(&o).contains(wanted),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!out.exists());
+    }
+    let o = radiosity(&[
+        "bake",
+        input,
+        "-o",
+        out.to_str().unwrap(),
+        "--lights",
+        "missing.json",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("missing.json"), "{}", stderr(&o));
+}

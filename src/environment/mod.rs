@@ -48,6 +48,8 @@ use crate::scene::Up;
 use crate::visibility::Visibility;
 use crate::{Error, Result};
 
+pub mod file;
+
 /// The sun's angular diameter seen from the earth, degrees.
 pub const SUN_DIAMETER_DEGREES: f64 = 0.53;
 
@@ -141,6 +143,38 @@ fn as_array<S: serde::Serializer>(v: &DVec3, s: S) -> std::result::Result<S::Ok,
 }
 
 impl PointLight {
+    /// Checks the light's own ranges: position and intensity finite, intensity ≥ 0, a spot's
+    /// direction a unit vector and its half-angles 0 ≤ inner < outer ≤ 90°. The message names
+    /// the light by its position.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let finite =
+            self.position.is_finite() && self.intensity.iter().all(|i| i.is_finite() && *i >= 0.0);
+        let cone = self.spot.is_none_or(|s| {
+            s.direction.is_finite()
+                && (s.direction.length() - 1.0).abs() < 1e-9
+                && 0.0 <= s.inner_degrees
+                && s.inner_degrees < s.outer_degrees
+                && s.outer_degrees <= 90.0
+        });
+        if finite && cone {
+            return Ok(());
+        }
+        let p = self.position;
+        Err(format!(
+            "at ({}, {}, {}): its position and intensity {:?} (W·sr⁻¹) must be finite and the \
+             intensity ≥ 0; a spot's direction must be a unit vector and its half-angles \
+             0 ≤ inner < outer ≤ 90 degrees ({})",
+            p.x,
+            p.y,
+            p.z,
+            self.intensity,
+            self.spot.map_or("none".into(), |s| format!(
+                "{}°, {}°",
+                s.inner_degrees, s.outer_degrees
+            ))
+        ))
+    }
+
     /// The share of the intensity sent toward unit direction `d` (from the light): 1 for a
     /// point light; for a spot, glTF's smooth falloff clamp((cos − cos_outer) / (cos_inner −
     /// cos_outer), 0, 1)².
@@ -223,38 +257,17 @@ impl Environment {
             }
         }
         for (k, l) in self.lights.iter().enumerate() {
-            let finite =
-                l.position.is_finite() && l.intensity.iter().all(|i| i.is_finite() && *i >= 0.0);
-            let cone = l.spot.is_none_or(|s| {
-                s.direction.is_finite()
-                    && (s.direction.length() - 1.0).abs() < 1e-9
-                    && 0.0 <= s.inner_degrees
-                    && s.inner_degrees < s.outer_degrees
-                    && s.outer_degrees <= 90.0
-            });
-            if !finite || !cone {
-                let (name, what) = match l.spot {
-                    None => ("environment.point_lights", "point light"),
-                    Some(_) => ("environment.spot_lights", "spot light"),
+            if let Err(problem) = l.check() {
+                let name = match l.spot {
+                    None => "environment.point_lights",
+                    Some(_) => "environment.spot_lights",
                 };
-                let p = l.position;
-                return Err(Error::setting(
-                    name,
-                    format!(
-                        "{what} {} at ({}, {}, {}): its position and intensity {:?} (W·sr⁻¹) \
-                         must be finite and the intensity ≥ 0; a spot's direction must be a unit \
-                         vector and its half-angles 0 ≤ inner < outer ≤ 90 degrees ({})",
-                        k + 1,
-                        p.x,
-                        p.y,
-                        p.z,
-                        l.intensity,
-                        l.spot.map_or("none".into(), |s| format!(
-                            "{}°, {}°",
-                            s.inner_degrees, s.outer_degrees
-                        ))
-                    ),
-                ));
+                let what = if l.spot.is_none() {
+                    "point light"
+                } else {
+                    "spot light"
+                };
+                return Err(Error::setting(name, format!("{what} {} {problem}", k + 1)));
             }
         }
         Ok(())
