@@ -327,7 +327,7 @@ impl<'a> Gatherer<'a> {
     /// on.
     pub fn direct(&self, x: DVec3, n: DVec3, ignore: u32, rng: &mut Rng) -> Rgb {
         let rays = (SHADOW_RAYS, MAX_SHADOW_RAYS, OTHER_LIGHT_SAMPLES);
-        self.direct_from(x, n, ignore, &self.exact_emitters(x), rays, rng)
+        self.direct_from(x, n, ignore, &self.exact_emitters(x), rays, false, rng)
             .0
     }
 
@@ -356,7 +356,11 @@ impl<'a> Gatherer<'a> {
     /// [`Gatherer::direct`]: the emitters `exact` with `first` shadow rays per emitter and,
     /// when any emitter's disagree, up to `max` in all for every emitter, and the other
     /// emitters by `others` shadow rays in all ([`OTHER_LIGHT_SAMPLES`]; `rays = (first, max,
-    /// others)`); and whether some exact emitter is partly hidden (`x` is in a penumbra).
+    /// others)`); and whether some exact emitter is partly hidden (`x` is in a penumbra). The
+    /// point and spot lights outside the mesh get one shadow ray each, or, if `one_light` (a
+    /// near hit's point, of which a gather averages many), one shadow ray in all
+    /// ([`Environment::sharp_direct_sampled`]).
+    #[allow(clippy::too_many_arguments)]
     fn direct_from(
         &self,
         x: DVec3,
@@ -364,6 +368,7 @@ impl<'a> Gatherer<'a> {
         ignore: u32,
         exact: &[u32],
         (first, max_rays, others): (usize, usize, usize),
+        one_light: bool,
         rng: &mut Rng,
     ) -> (Rgb, bool) {
         let mut targets = Vec::with_capacity(max_rays.max(first));
@@ -425,9 +430,13 @@ impl<'a> Gatherer<'a> {
             }
         }
         if self.env.has_sharp() {
-            let sun = self
-                .env
-                .sharp_direct(&self.vis, x, n, ignore, self.lift, rng);
+            let sun = if one_light {
+                self.env
+                    .sharp_direct_sampled(&self.vis, x, n, ignore, self.lift, rng)
+            } else {
+                self.env
+                    .sharp_direct(&self.vis, x, n, ignore, self.lift, rng)
+            };
             for (s, o) in sum.iter_mut().zip(sun) {
                 *s += o;
             }
@@ -565,7 +574,7 @@ impl<'a> Gatherer<'a> {
         // direct term counts their emission, the ray at `y` the others'.
         let hi = h as u32;
         let rays = (NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS);
-        let (direct, _) = self.direct_from(y, ny, hi, exact, rays, rng);
+        let (direct, _) = self.direct_from(y, ny, hi, exact, rays, true, rng);
         let indirect = self.hemisphere(y, ny, hi, exact, NEAR_RAYS, false, rng);
         let rho = self.patches.reflectance[h];
         std::array::from_fn(|c| rho[c] * (direct[c] + indirect[c]))
@@ -769,6 +778,7 @@ impl Gatherer<'_> {
             spot.patch,
             &exact,
             (SHADOW_RAYS, max_rays, OTHER_LIGHT_SAMPLES),
+            false,
             rng,
         );
         let rho = self.patches.reflectance[spot.patch as usize];
@@ -809,15 +819,21 @@ impl Gatherer<'_> {
         self.emitters.len().min(MAX_EXACT_EMITTERS)
     }
 
-    /// Shadow rays a gathering point casts at least: [`SHADOW_RAYS`] per exact emitter, and
-    /// [`OTHER_LIGHT_SAMPLES`] when there are more emitters.
+    /// Shadow rays a gathering point casts at least: [`SHADOW_RAYS`] per exact emitter,
+    /// [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and those of the lights outside
+    /// the mesh (one per point or spot light, [`crate::environment::SUN_RAYS`] for the sun).
     pub fn shadow_rays_per_point(&self) -> usize {
         let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
             OTHER_LIGHT_SAMPLES
         } else {
             0
         };
-        SHADOW_RAYS * self.exact_per_point() + others
+        let sun = if self.env.sun.is_some() {
+            crate::environment::SUN_RAYS
+        } else {
+            0
+        };
+        SHADOW_RAYS * self.exact_per_point() + others + self.env.lights.len() + sun
     }
 
     /// The scene's extent (its bounding box diagonal), scene units.
