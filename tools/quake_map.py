@@ -15,8 +15,9 @@ What it does (no compiler, no BSP: what an editor's OBJ export gives, so a test 
   out, as are the sky's brushes: their openings let the sun and the sky in, given in the lights
   file from worldspawn's _sunlight, _sun_mangle and _sunlight2 (sky) keys.
 - A texture's material is `Kd 1` with `map_Kd` its PNG (found by name under --textures, `*`
-  written `star_`, as LibreQuake's texture folders do), so radiosity takes ρ as the texture's mean
-  colour; without the PNG, Kd 0.5 grey.
+  written `star_`, as LibreQuake's texture folders do), and each face gets texture coordinates
+  (`vt`) from its plane's texture axes, offsets and scales (Valve 220 or the standard format),
+  so radiosity varies ρ with the texture under each patch; without the PNG, Kd 0.5 grey.
 - Each `light*` entity becomes a point light at its origin (a spot where it has a target or
   mangle and a _cone), intensity I = light/300 × --intensity W/sr (Quake's default light is
   300), coloured by _color. Quake's own falloff is linear; radiosity's is physical, 1/r². A
@@ -49,7 +50,16 @@ def is_sky(texture):
 FACE = re.compile(
     r"\(\s*([-\d.eE+]+)\s+([-\d.eE+]+)\s+([-\d.eE+]+)\s*\)\s*"
     r"\(\s*([-\d.eE+]+)\s+([-\d.eE+]+)\s+([-\d.eE+]+)\s*\)\s*"
-    r"\(\s*([-\d.eE+]+)\s+([-\d.eE+]+)\s+([-\d.eE+]+)\s*\)\s*(\S+)")
+    r"\(\s*([-\d.eE+]+)\s+([-\d.eE+]+)\s+([-\d.eE+]+)\s*\)\s*(\S+)\s*(.*)$")
+NUMBER = r"([-\d.eE+]+)"
+VALVE = re.compile(r"\[\s*" + r"\s+".join([NUMBER] * 4) + r"\s*\]\s*\[\s*" + r"\s+".join([NUMBER] * 4)
+                   + r"\s*\]\s*" + r"\s+".join([NUMBER] * 3))
+STANDARD = re.compile(r"\s+".join([NUMBER] * 5))
+# Quake's TextureAxisFromPlane: for the axis nearest the face's normal, the texture's s and t
+# axes (qbsp, textures.c).
+BASE_AXES = [((0, 0, 1), (1, 0, 0), (0, -1, 0)), ((0, 0, -1), (1, 0, 0), (0, -1, 0)),
+             ((1, 0, 0), (0, 1, 0), (0, 0, -1)), ((-1, 0, 0), (0, 1, 0), (0, 0, -1)),
+             ((0, 1, 0), (1, 0, 0), (0, 0, -1)), ((0, -1, 0), (1, 0, 0), (0, 0, -1))]
 KEY = re.compile(r'^\s*"([^"]*)"\s+"([^"]*)"\s*$')
 
 
@@ -85,10 +95,54 @@ def parse(path):
                 if not m:
                     sys.exit(f"{path}:{number}: expected a brush plane ( x y z ) ( x y z ) ( x y z ) TEXTURE")
                 v = [float(x) for x in m.groups()[:9]]
-                brush.append(((v[0:3], v[3:6], v[6:9]), m.group(10)))
+                brush.append(((v[0:3], v[3:6], v[6:9]), m.group(10), texture_axes(m.group(11))))
     if depth != 0:
         sys.exit(f"{path}: unbalanced braces at the end of the file")
     return entities
+
+
+def texture_axes(rest):
+    """The texture projection after the name: ('valve', U, uoff, V, voff, su, sv) or
+    ('standard', uoff, voff, rotation, su, sv); None if neither parses."""
+    m = VALVE.match(rest)
+    if m:
+        g = [float(x) for x in m.groups()]
+        return ("valve", g[0:3], g[3], g[4:7], g[7], g[9] or 1.0, g[10] or 1.0)
+    m = STANDARD.match(rest)
+    if m:
+        g = [float(x) for x in m.groups()]
+        return ("standard", g[0], g[1], g[2], g[3] or 1.0, g[4] or 1.0)
+    return None
+
+
+def texel(p, normal, axes):
+    """Texture coordinates of point p in texels (s right, t down the image), as qbsp maps."""
+    if axes is None:
+        return None
+    if axes[0] == "valve":
+        _, u, uoff, v, voff, su, sv = axes
+        return (dot(p, u) / su + uoff, dot(p, v) / sv + voff)
+    _, uoff, voff, rotation, su, sv = axes
+    best = max(range(6), key=lambda i: dot(normal, BASE_AXES[i][0]))
+    s_axis, t_axis = BASE_AXES[best][1], BASE_AXES[best][2]
+    a = math.radians(rotation)
+    c, s_ = math.cos(a), math.sin(a)
+    # Rotate within the axis plane (qbsp rotates the two non-zero components).
+    def rot(v):
+        out = list(v)
+        sv_, tv_ = [k for k in range(3) if s_axis[k] != 0][0], [k for k in range(3) if t_axis[k] != 0][0]
+        out[sv_], out[tv_] = c * v[sv_] - s_ * v[tv_], s_ * v[sv_] + c * v[tv_]
+        return out
+    s_rot, t_rot = rot(s_axis), rot(t_axis)
+    return (dot(p, s_rot) / su + uoff, dot(p, t_rot) / sv + voff)
+
+
+def png_size(path):
+    with open(path, "rb") as f:
+        head = f.read(24)
+    if head[:8] != b"\x89PNG\r\n\x1a\n":
+        return None
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
 
 
 def sub(a, b):
@@ -117,10 +171,10 @@ def plane(points):
 
 
 def brush_faces(brush, eps=1e-3):
-    planes = [(plane(p), t) for p, t in brush]
-    planes = [(p, t) for p, t in planes if p is not None]
+    planes = [(plane(p), t, axes) for p, t, axes in brush]
+    planes = [(p, t, axes) for p, t, axes in planes if p is not None]
     faces = []
-    for i, ((n, d), texture) in enumerate(planes):
+    for i, ((n, d), texture, axes) in enumerate(planes):
         # A large square in the plane, counter-clockwise about n.
         a = (1.0, 0.0, 0.0) if abs(n[0]) < 0.9 else (0.0, 1.0, 0.0)
         u = normalise(cross(a, n))
@@ -129,7 +183,7 @@ def brush_faces(brush, eps=1e-3):
         r = 1e5
         poly = [tuple(c[k] + r * (su * u[k] + sv * v[k]) for k in range(3))
                 for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
-        for j, ((m, e), _) in enumerate(planes):
+        for j, ((m, e), _, _) in enumerate(planes):
             if j == i or not poly:
                 continue
             out = []
@@ -143,7 +197,7 @@ def brush_faces(brush, eps=1e-3):
                     out.append(tuple(p[k2] + t * (q[k2] - p[k2]) for k2 in range(3)))
             poly = out if len(out) >= 3 else []
         if poly:
-            faces.append((poly, texture))
+            faces.append((poly, texture, [texel(p, n, axes) for p in poly]))
     return faces
 
 
@@ -213,40 +267,49 @@ def main():
             skipped["omitted layer"] += len(brushes)
             continue
         for brush in brushes:
-            if any(is_sky(t) for _, t in brush):
+            if any(is_sky(t) for _, t, _ in brush):
                 skipped["sky"] += 1
                 continue
-            for poly, texture in brush_faces(brush):
+            for poly, texture, uv in brush_faces(brush):
                 if is_tool(texture):
                     skipped["tool"] += 1
                     continue
-                faces.append((poly, texture))
+                faces.append((poly, texture, uv))
 
     base = os.path.splitext(args.output)[0]
     mtl_path, lights_path = base + ".mtl", base + ".lights.json"
-    index, vertices, lines = {}, [], []
+    index, vertices, lines, uvs = {}, [], [], []
     by_texture = {}
-    for poly, texture in faces:
-        by_texture.setdefault(texture, []).append(poly)
+    for poly, texture, uv in faces:
+        by_texture.setdefault(texture, []).append((poly, uv))
     for texture in sorted(by_texture):
         lines.append(f"usemtl {material_name(texture)}")
-        for poly in by_texture[texture]:
+        png = textures.get(material_name(texture).lower())
+        size = png_size(png) if png else None
+        for poly, uv in by_texture[texture]:
             ids = []
-            for p in poly:
+            for p, t in zip(poly, uv):
                 key = tuple(round(x * s, 5) for x in p)
                 if key not in index:
                     index[key] = len(vertices) + 1
                     vertices.append(key)
-                if not ids or ids[-1] != index[key]:
-                    ids.append(index[key])
-            if len(ids) >= 3 and ids[0] == ids[-1]:
+                if not ids or ids[-1][0] != index[key]:
+                    vt = None
+                    if size and t is not None:
+                        # Texels to [0, 1] of the image; OBJ's v counts up from the bottom.
+                        uvs.append((t[0] / size[0], 1.0 - t[1] / size[1]))
+                        vt = len(uvs)
+                    ids.append((index[key], vt))
+            if len(ids) >= 3 and ids[0][0] == ids[-1][0]:
                 ids.pop()
-            if len(set(ids)) >= 3:
-                lines.append("f " + " ".join(map(str, ids)))
+            if len(set(i for i, _ in ids)) >= 3:
+                with_vt = all(vt is not None for _, vt in ids)
+                lines.append("f " + " ".join(f"{i}/{vt}" if with_vt else str(i) for i, vt in ids))
     with open(args.output, "w") as f:
         f.write(f"# {os.path.basename(args.map)} converted by tools/quake_map.py (z up, metres)\n")
         f.write(f"mtllib {os.path.basename(mtl_path)}\n")
         f.writelines(f"v {x:.5f} {y:.5f} {z:.5f}\n" for x, y, z in vertices)
+        f.writelines(f"vt {u:.6f} {v:.6f}\n" for u, v in uvs)
         f.write("\n".join(lines) + "\n")
     missing = []
     with open(mtl_path, "w") as f:

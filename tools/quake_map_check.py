@@ -7,9 +7,10 @@ Checked:
 - the converter's count: 6 brushes × 6 faces = 36 quads, 72 triangles;
 - the winding: the room is lit from inside (a wrong winding would face every wall outward and
   the bake would be black);
+- the texture: its PNG (64 × 64, every texel sRGB 188: linear 0.5029) is found under
+  --textures, every face gets texture coordinates (`vt`), and ρ is the texture's colour;
 - the units: at the floor's centre, straight under the light at r = 128 units = 4 m (1/32 m a
-  unit), the direct light is ρ I / (π r²) with I = 10 W/sr (a light of 300) and ρ = 0.5 (no
-  texture: grey). The bounces add at most ρ/(1 − ρ) of the largest direct light (a closed room:
+  unit), the direct light is ρ I / (π r²) with I = 10 W/sr (a light of 300) and ρ = 0.5029. The bounces add at most ρ/(1 − ρ) of the largest direct light (a closed room:
   the indirect light anywhere is ρ × a mean of radiances ≤ the largest, summed over bounces), so
   ρ I/(π r²) ≤ L ≤ ρ I/(π r²)/(1 − ρ).
 
@@ -23,6 +24,7 @@ import struct
 import subprocess
 import sys
 import tempfile
+import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -57,6 +59,16 @@ def room():
             '{\n"classname" "light"\n"origin" "0 0 0"\n"light" "300"\n}\n')
 
 
+def write_png(path, size, grey):
+    """A size × size 8-bit RGB PNG of one grey value (no imaging library needed)."""
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    rows = b"".join(b"\x00" + bytes([grey]) * 3 * size for _ in range(size))
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", size, size, 8, 2, 0, 0, 0))
+                + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
 def read_ply(path):
     with open(path, "rb") as f:
         header = b""
@@ -81,15 +93,26 @@ def main():
     with tempfile.TemporaryDirectory() as d:
         with open(os.path.join(d, "room.map"), "w") as f:
             f.write(room())
+        os.mkdir(os.path.join(d, "textures"))
+        write_png(os.path.join(d, "textures", "wall.png"), 64, 188)
         obj = os.path.join(d, "room.obj")
         subprocess.run([sys.executable, os.path.join(HERE, "quake_map.py"), os.path.join(d, "room.map"),
-                        "-o", obj], check=True)
+                        "-o", obj, "--textures", os.path.join(d, "textures")], check=True)
+        text = open(obj).read()
+        faces = [l for l in text.splitlines() if l.startswith("f ")]
         lights = os.path.join(d, "room.lights.json")
         info = json.loads(subprocess.run([exe, "info", obj, "--json", "--up", "z", "--lights", lights],
                                          check=True, capture_output=True, text=True).stdout)
         failures = []
         if info["triangles"] != 72:
             failures.append(f"{info['triangles']} triangles, expected 72 (6 brushes x 6 quads)")
+        if "\nvt " not in text or not all("/" in l for l in faces):
+            failures.append("faces without texture coordinates")
+        # sRGB 188 decoded (IEC 61966-2-1): ((188/255 + 0.055)/1.055)^2.4.
+        grey = ((188 / 255 + 0.055) / 1.055) ** 2.4
+        rho = info["materials"][0]["reflectance"]
+        if any(abs(r - grey) > 1e-4 for r in rho):
+            failures.append(f"wall reflectance {rho}, expected the texture's {grey:.5f}")
         ply = os.path.join(d, "room.ply")
         subprocess.run([exe, "bake", obj, "-o", ply, "-q", "--up", "z", "--lights", lights], check=True)
         vertices = read_ply(ply)
@@ -100,7 +123,7 @@ def main():
         floor = [v for v in vertices if abs(v["z"] + r) < 1e-3]
         centre = min(floor, key=lambda v: v["x"] ** 2 + v["y"] ** 2)
         d2 = centre["x"] ** 2 + centre["y"] ** 2
-        rho, intensity = 0.5, 10.0
+        rho, intensity = grey, 10.0
         dist2 = r * r + d2
         direct = rho * intensity * (r / math.sqrt(dist2)) / (math.pi * dist2)
         upper = rho * intensity / (math.pi * r * r) / (1 - rho)

@@ -76,6 +76,9 @@ pub fn load(path: &Path) -> Result<Scene> {
         metallic: Vec::new(),
         textured: Vec::new(),
         double_sided: Vec::new(),
+        textures: Vec::new(),
+        uv_maps: Vec::new(),
+        texture_of: std::collections::HashMap::new(),
     };
     // Every material of the file, in its order (as an MTL's), used or not.
     for m in doc.materials() {
@@ -96,6 +99,8 @@ pub fn load(path: &Path) -> Result<Scene> {
         metallic,
         textured,
         double_sided,
+        textures,
+        uv_maps,
         ..
     } = loader;
     if skipped_modes > 0 {
@@ -114,8 +119,9 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
     if !textured.is_empty() {
         warnings.push(format!(
-            "{} material(s) with a base-colour texture take its mean colour, the same over \
-             every face (the texture's pattern is not baked): {}",
+            "{} material(s) with a base-colour texture: ρ = base colour × the texture averaged \
+             over each patch of the faces with its texture coordinates, × its mean colour \
+             elsewhere; the texture's detail finer than a patch is not baked: {}",
             textured.len(),
             listed_names(&textured)
         ));
@@ -133,6 +139,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         positions,
         triangles,
         materials,
+        (textures, uv_maps),
         warnings,
         None,
     )?;
@@ -160,6 +167,11 @@ struct Loader<'a> {
     metallic: Vec<String>,
     textured: Vec<String>,
     double_sided: Vec<String>,
+    /// Base-colour textures read per texel (8- and 16-bit images), for ρ across faces.
+    textures: Vec<crate::scene::Texture>,
+    uv_maps: Vec<crate::scene::UvMap>,
+    /// Our material → its texture among `textures` and the texture coordinate set it reads.
+    texture_of: std::collections::HashMap<u32, (u32, u32)>,
 }
 
 impl Loader<'_> {
@@ -208,12 +220,48 @@ impl Loader<'_> {
             None => (0..count).collect(),
         };
         let material = self.material(&prim.material());
+        // The base-colour texture's coordinates (glTF's v counts down from the image's top).
+        let textured = self.texture_of.get(&material).copied();
+        let uvs: Vec<glam::DVec2> = textured
+            .and_then(|(_, set)| reader.read_tex_coords(set))
+            .map(|t| {
+                t.into_f32()
+                    .map(|[u, v]| glam::DVec2::new(f64::from(u), f64::from(v)))
+                    .collect()
+            })
+            .unwrap_or_default();
         let mirrored = world.determinant() < 0.0;
         for t in indices.chunks_exact(3) {
             // Indices past the positions are caught by `finish`'s validation.
-            let v = [t[0], t[1], t[2]].map(|i| base.saturating_add(i));
-            let vertices = if mirrored { [v[0], v[2], v[1]] } else { v };
-            self.triangles.push(SceneTriangle { vertices, material });
+            let local = if mirrored {
+                [t[0], t[2], t[1]]
+            } else {
+                [t[0], t[1], t[2]]
+            };
+            let vertices = local.map(|i| base.saturating_add(i));
+            let uv = textured
+                .zip(
+                    local
+                        .iter()
+                        .map(|&i| uvs.get(i as usize).copied())
+                        .collect::<Option<Vec<_>>>(),
+                )
+                .and_then(|((texture, _), c)| {
+                    let corners = vertices.map(|v| self.positions.get(v as usize).copied());
+                    let [Some(a), Some(b), Some(d)] = corners else {
+                        return None;
+                    };
+                    crate::scene::UvMap::new(texture, [a, b, d], [c[0], c[1], c[2]])
+                })
+                .map_or(crate::scene::NO_UV, |m| {
+                    self.uv_maps.push(m);
+                    (self.uv_maps.len() - 1) as u32
+                });
+            self.triangles.push(SceneTriangle {
+                vertices,
+                material,
+                uv,
+            });
         }
     }
 
@@ -235,12 +283,24 @@ impl Loader<'_> {
         let base = pbr.base_color_factor();
         let metallic = f64::from(pbr.metallic_factor()).clamp(0.0, 1.0);
         let mut reflectance: Rgb = [0, 1, 2].map(|c| f64::from(base[c]) * (1.0 - metallic));
-        if let Some(mean) = pbr
-            .base_color_texture()
-            .and_then(|t| self.texture_mean(t.texture().source().index()))
-        {
-            reflectance = [0, 1, 2].map(|c| reflectance[c] * mean[c]);
-            self.textured.push(name.clone());
+        let our = self.materials.len() as u32;
+        if let Some(info) = pbr.base_color_texture() {
+            let image = info.texture().source().index();
+            // 8- and 16-bit images vary ρ across faces; float ones give their mean only.
+            let mean = match self.texture(image) {
+                Some(t) => {
+                    let mean = t.mean;
+                    self.textures.push(t);
+                    let k = (self.textures.len() - 1) as u32;
+                    self.texture_of.insert(our, (k, info.tex_coord()));
+                    Some(mean)
+                }
+                None => self.texture_mean(image),
+            };
+            if let Some(mean) = mean {
+                reflectance = [0, 1, 2].map(|c| reflectance[c] * mean[c]);
+                self.textured.push(name.clone());
+            }
         }
         if metallic > 0.0 {
             self.metallic.push(name.clone());
@@ -266,13 +326,29 @@ impl Loader<'_> {
         k
     }
 
+    /// Image `i` as a linear texture ([`crate::io::linear_texture`]) when it is an sRGB-encoded
+    /// 8- or 16-bit image; `None` for float images and without pixels.
+    fn texture(&self, i: usize) -> Option<crate::scene::Texture> {
+        let image = self.decoded(i).ok()?;
+        crate::io::linear_texture(image, format!("image {i}"))
+    }
+
     /// The mean linear colour of image `i`: sRGB-encoded 8- or 16-bit images through
     /// [`crate::io::texture_mean`], float ones (linear) by their plain mean; `None` without
     /// pixels.
     fn texture_mean(&self, i: usize) -> Option<Rgb> {
+        match self.decoded(i) {
+            Ok(image) => crate::io::texture_mean(image),
+            Err(mean) => mean,
+        }
+    }
+
+    /// Image `i` as an `image` crate image, or for float images (linear already) their plain
+    /// mean colour instead (`Err`; `Err(None)` without pixels).
+    fn decoded(&self, i: usize) -> std::result::Result<image::DynamicImage, Option<Rgb>> {
         use gltf::image::Format as F;
         use image::{DynamicImage as D, ImageBuffer};
-        let data = self.images.get(i)?;
+        let data = self.images.get(i).ok_or(None)?;
         let (w, h, p) = (data.width, data.height, data.pixels.clone());
         // 16-bit samples come as little-endian byte pairs.
         let wide = || -> Vec<u16> {
@@ -282,14 +358,14 @@ impl Loader<'_> {
                 .collect()
         };
         let image = match data.format {
-            F::R8 => D::ImageLuma8(ImageBuffer::from_raw(w, h, p)?),
-            F::R8G8 => D::ImageLumaA8(ImageBuffer::from_raw(w, h, p)?),
-            F::R8G8B8 => D::ImageRgb8(ImageBuffer::from_raw(w, h, p)?),
-            F::R8G8B8A8 => D::ImageRgba8(ImageBuffer::from_raw(w, h, p)?),
-            F::R16 => D::ImageLuma16(ImageBuffer::from_raw(w, h, wide())?),
-            F::R16G16 => D::ImageLumaA16(ImageBuffer::from_raw(w, h, wide())?),
-            F::R16G16B16 => D::ImageRgb16(ImageBuffer::from_raw(w, h, wide())?),
-            F::R16G16B16A16 => D::ImageRgba16(ImageBuffer::from_raw(w, h, wide())?),
+            F::R8 => D::ImageLuma8(ImageBuffer::from_raw(w, h, p).ok_or(None)?),
+            F::R8G8 => D::ImageLumaA8(ImageBuffer::from_raw(w, h, p).ok_or(None)?),
+            F::R8G8B8 => D::ImageRgb8(ImageBuffer::from_raw(w, h, p).ok_or(None)?),
+            F::R8G8B8A8 => D::ImageRgba8(ImageBuffer::from_raw(w, h, p).ok_or(None)?),
+            F::R16 => D::ImageLuma16(ImageBuffer::from_raw(w, h, wide()).ok_or(None)?),
+            F::R16G16 => D::ImageLumaA16(ImageBuffer::from_raw(w, h, wide()).ok_or(None)?),
+            F::R16G16B16 => D::ImageRgb16(ImageBuffer::from_raw(w, h, wide()).ok_or(None)?),
+            F::R16G16B16A16 => D::ImageRgba16(ImageBuffer::from_raw(w, h, wide()).ok_or(None)?),
             // Float samples are linear already: their plain mean.
             F::R32G32B32FLOAT | F::R32G32B32A32FLOAT => {
                 let channels = if data.format == F::R32G32B32FLOAT {
@@ -304,7 +380,7 @@ impl Loader<'_> {
                     .collect();
                 let n = floats.len() / channels;
                 if n == 0 {
-                    return None;
+                    return Err(None);
                 }
                 let mut sum = [0.0f64; 3];
                 for px in floats.chunks_exact(channels) {
@@ -312,10 +388,10 @@ impl Loader<'_> {
                         *s += f64::from(c);
                     }
                 }
-                return Some(sum.map(|s| (s / n as f64).max(0.0)));
+                return Err(Some(sum.map(|s| (s / n as f64).max(0.0))));
             }
         };
-        crate::io::texture_mean(image)
+        Ok(image)
     }
 
     /// A `KHR_lights_punctual` light at a node with world transform `world`.
@@ -681,6 +757,72 @@ mod tests {
             .warnings
             .iter()
             .any(|w| w.contains("metallic") && w.contains("'clay'")));
+    }
+
+    #[test]
+    fn texture_coordinates_vary_rho_per_patch() {
+        // A 16 × 16 PNG, its left half red and its right half green, on a triangle whose
+        // TEXCOORD_0 lie in the red half: every patch of it is red, ρ = base colour 0.5 ×
+        // the colour under it (1, 0, 0), while the material lists 0.5 × the mean (0.5, 0.5, 0).
+        let mut png = Vec::new();
+        let img = image::RgbImage::from_fn(16, 16, |x, _| {
+            image::Rgb(if x < 8 { [255, 0, 0] } else { [0, 255, 0] })
+        });
+        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        let mut bin = Vec::new();
+        for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 0., -1.]] {
+            for c in p {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        for t in [[0.1f32, 0.2], [0.4, 0.2], [0.1, 0.8]] {
+            for c in t {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        let png_at = bin.len();
+        bin.extend_from_slice(&png);
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1},
+                                        "material": 0}]}],
+            "materials": [{"name": "halves", "pbrMetallicRoughness": {
+                "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0,
+                "baseColorTexture": {"index": 0}}}],
+            "textures": [{"source": 0}],
+            "images": [{"bufferView": 2, "mimeType": "image/png"}],
+            "buffers": [{"byteLength": bin.len()}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                {"buffer": 0, "byteOffset": 36, "byteLength": 24},
+                {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()},
+            ],
+            "accessors": [
+                {"bufferView": 0, "componentType": FLOAT, "count": 3, "type": "VEC3",
+                 "min": [0.0, 0.0, -1.0], "max": [1.0, 0.0, 0.0]},
+                {"bufferView": 1, "componentType": FLOAT, "count": 3, "type": "VEC2"},
+            ],
+        });
+        let dir = crate::test_support::TestDir::new("gltf-uv");
+        let path = dir.path().join("halves.glb");
+        std::fs::write(&path, glb(&doc, bin).unwrap()).unwrap();
+        let s = Scene::load(&path).unwrap();
+        let m = s.materials[0].reflectance;
+        assert!(
+            (m[0] - 0.25).abs() < 1e-6 && (m[1] - 0.25).abs() < 1e-6,
+            "{m:?}"
+        );
+        let p = crate::mesh::subdivide(&s, 0.2, 0.0).unwrap();
+        assert!(p.len() > 10);
+        for rho in &p.reflectance {
+            assert!((rho[0] - 0.5).abs() < 1e-3 && rho[1] < 1e-3, "{rho:?}");
+        }
     }
 
     #[test]

@@ -25,21 +25,48 @@ use crate::{Error, Result};
 /// averaging, alpha ignored, grey images read as grey. `None` for an image without pixels.
 /// The OBJ loader's `map_Kd` and the glTF loader's base-colour and emissive textures.
 pub(crate) fn texture_mean(image: image::DynamicImage) -> Option<crate::Rgb> {
+    linear_texture(image, String::new()).map(|t| t.mean)
+}
+
+/// A texture's linear colour ([`crate::scene::Texture`]), decoded as [`texture_mean`] does and
+/// box-filtered down, in linear values, to at most [`crate::scene::texture::MAX_SIDE`] texels a
+/// side as it is read (blocks of f × f pixels, f the smallest integer that fits), with the
+/// exact mean of the full image.
+pub(crate) fn linear_texture(
+    image: image::DynamicImage,
+    source: String,
+) -> Option<crate::scene::Texture> {
     let image = image.into_rgb16();
-    let n = image.width() as u64 * image.height() as u64;
-    if n == 0 {
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    if w == 0 || h == 0 {
         return None;
     }
     let linear: Vec<f64> = (0..=u16::MAX)
         .map(|c| crate::color::srgb_decode(f64::from(c) / 65535.0))
         .collect();
+    let side = crate::scene::texture::MAX_SIDE as usize;
+    let f = w.max(h).div_ceil(side);
+    let (rw, rh) = (w.div_ceil(f), h.div_ceil(f));
+    let mut blocks = vec![[0.0f64; 3]; rw * rh];
+    let mut counts = vec![0u32; rw * rh];
     let mut sum = [0.0f64; 3];
-    for px in image.pixels() {
-        for (s, &c) in sum.iter_mut().zip(&px.0) {
-            *s += linear[c as usize];
+    for (x, y, px) in image.enumerate_pixels() {
+        let b = (y as usize / f) * rw + x as usize / f;
+        counts[b] += 1;
+        for c in 0..3 {
+            let l = linear[px.0[c] as usize];
+            blocks[b][c] += l;
+            sum[c] += l;
         }
     }
-    Some(sum.map(|s| (s / n as f64).clamp(0.0, 1.0)))
+    let texels = blocks
+        .iter()
+        .zip(&counts)
+        .map(|(b, &n)| b.map(|v| (v / f64::from(n.max(1))) as f32))
+        .collect();
+    let n = (w * h) as f64;
+    let mean = sum.map(|s| (s / n).clamp(0.0, 1.0));
+    crate::scene::Texture::new(source, rw, rh, texels, mean)
 }
 
 /// An [`Error::Parse`]: `message` about line `line` (1-based) of `path`.

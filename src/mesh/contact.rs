@@ -205,7 +205,7 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
             };
             triangles.push(SceneTriangle {
                 vertices: [id(p), id(q), id(r)],
-                material: tri.material,
+                ..*tri
             });
         }
     }

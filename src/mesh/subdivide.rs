@@ -190,7 +190,9 @@ fn build(
         patches.corner_normal.push(corner);
         patches.area.push(area);
         patches.material.push(material);
-        patches.reflectance.push(mat.reflectance);
+        patches
+            .reflectance
+            .push(scene.reflectance_over(src as usize, [a, b, c]));
         patches.emission.push(mat.emission);
         patches.source_triangle.push(src);
         patches.twin.push(NO_TWIN);
@@ -230,7 +232,10 @@ fn mirror_twins(scene: &Scene, patches: &mut Patches) {
         patches.corner_normal.push([-m[0], -m[2], -m[1]]);
         patches.area.push(patches.area[i]);
         patches.material.push(material);
-        patches.reflectance.push(mat.reflectance);
+        let corners = [a, c, b].map(|v| patches.positions[v as usize]);
+        patches
+            .reflectance
+            .push(scene.reflectance_over(u as usize, corners));
         patches.emission.push(mat.emission);
         patches.source_triangle.push(u);
         patches.twin.push(i as u32);

@@ -7,7 +7,9 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 
-use super::{checks, source_path, Material, Scene, SceneTriangle, ZERO_AREA_RELATIVE};
+use super::{
+    checks, source_path, Material, Scene, SceneTriangle, Texture, UvMap, NO_UV, ZERO_AREA_RELATIVE,
+};
 use crate::{Error, Result};
 
 /// Finishes a scene from raw loader or builder output, in order:
@@ -31,6 +33,7 @@ pub(crate) fn finish(
     positions: Vec<DVec3>,
     triangles: Vec<SceneTriangle>,
     materials: Vec<Material>,
+    (textures, uv_maps): (Vec<Texture>, Vec<UvMap>),
     mut warnings: Vec<String>,
     face_lines: Option<Vec<usize>>,
 ) -> Result<Scene> {
@@ -61,6 +64,8 @@ pub(crate) fn finish(
         camera: None,
         lights: Vec::new(),
         sun: None,
+        textures,
+        uv_maps,
     };
     raw.validate()?;
     let Scene {
@@ -68,6 +73,8 @@ pub(crate) fn finish(
         positions,
         triangles,
         materials,
+        textures,
+        uv_maps,
         ..
     } = raw;
 
@@ -86,7 +93,7 @@ pub(crate) fn finish(
         .into_iter()
         .map(|t| SceneTriangle {
             vertices: t.vertices.map(|v| canon[v as usize]),
-            material: t.material,
+            ..t
         })
         .collect();
 
@@ -177,7 +184,7 @@ pub(crate) fn finish(
         .into_iter()
         .map(|t| SceneTriangle {
             vertices: t.vertices.map(|v| new_index[v as usize]),
-            material: t.material,
+            ..t
         })
         .collect();
 
@@ -191,6 +198,8 @@ pub(crate) fn finish(
         camera: None,
         lights: Vec::new(),
         sun: None,
+        textures,
+        uv_maps,
     };
     scene.validate()?;
 
@@ -311,6 +320,7 @@ impl SceneBuilder {
         self.triangles.push(SceneTriangle {
             vertices: v,
             material,
+            uv: NO_UV,
         });
     }
 
@@ -329,6 +339,7 @@ impl SceneBuilder {
             self.positions,
             self.triangles,
             self.materials,
+            (Vec::new(), Vec::new()),
             Vec::new(),
             None,
         )

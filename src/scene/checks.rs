@@ -170,6 +170,7 @@ mod tests {
         SceneTriangle {
             vertices: v,
             material: 0,
+            uv: crate::scene::NO_UV,
         }
     }
 

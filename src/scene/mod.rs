@@ -30,12 +30,14 @@ pub mod camera;
 pub mod checks;
 pub mod overrides;
 pub mod reach;
+pub mod texture;
 mod two_sided;
 
 pub(crate) use build::{finish, listed_names};
 pub use build::{SceneBuilder, MAX_LISTED_PAIRS};
 pub use camera::{Camera, Up};
 pub use overrides::{Override, Property};
+pub use texture::{Texture, UvMap, NO_UV};
 pub use two_sided::winding_key;
 
 use std::path::PathBuf;
@@ -78,6 +80,9 @@ pub struct SceneTriangle {
     pub vertices: [u32; 3],
     /// Index into [`Scene::materials`].
     pub material: u32,
+    /// Index into [`Scene::uv_maps`]: how the material's texture lies on the triangle; or
+    /// [`NO_UV`] (no texture, or no texture coordinates: ρ is the material's everywhere).
+    pub uv: u32,
 }
 
 /// A triangle mesh with Lambertian materials; see the module documentation for the
@@ -109,9 +114,35 @@ pub struct Scene {
     pub lights: Vec<crate::environment::PointLight>,
     /// The sun the scene file carries (a glTF directional light); a bake's `--sun` replaces it.
     pub sun: Option<crate::environment::Sun>,
+    /// Textures whose colour varies ρ across the faces that carry texture coordinates
+    /// ([`texture`]); empty for most scenes.
+    pub textures: Vec<Texture>,
+    /// Per textured triangle ([`SceneTriangle::uv`]): its map to texture space.
+    pub uv_maps: Vec<UvMap>,
 }
 
 impl Scene {
+    /// ρ over the part of triangle `t` with corners `corners` (points of its plane, scene
+    /// units): the material's ρ, times the texture averaged over that part divided by the
+    /// texture's mean where the triangle is textured ([`texture`]). Each channel in [0, 1].
+    pub fn reflectance_over(&self, t: usize, corners: [DVec3; 3]) -> [f64; 3] {
+        let tri = &self.triangles[t];
+        let rho = self.materials[tri.material as usize].reflectance;
+        if tri.uv == NO_UV {
+            return rho;
+        }
+        let map = &self.uv_maps[tri.uv as usize];
+        let texture = &self.textures[map.texture as usize];
+        let under = texture.mean_over(corners.map(|p| map.uv(p)));
+        std::array::from_fn(|c| {
+            if texture.mean[c] > 0.0 {
+                (rho[c] * under[c] / texture.mean[c]).clamp(0.0, 1.0)
+            } else {
+                rho[c]
+            }
+        })
+    }
+
     /// The material faces get when the OBJ file gives them none (no `usemtl` before them):
     /// named "default", ρ = 0.5 in every channel (a mid grey that neither absorbs nor
     /// reflects nearly everything), Le = 0.
@@ -156,6 +187,19 @@ impl Scene {
             if let Some(v) = tri.vertices.iter().find(|&&v| v as usize >= n) {
                 return fail(format!(
                     "triangle {t}: vertex index {v} out of range (the scene has {n} vertices)"
+                ));
+            }
+            let uv_ok = tri.uv == NO_UV
+                || self
+                    .uv_maps
+                    .get(tri.uv as usize)
+                    .is_some_and(|m| (m.texture as usize) < self.textures.len());
+            if !uv_ok {
+                return fail(format!(
+                    "triangle {t}: texture map {} out of range ({} maps, {} textures)",
+                    tri.uv,
+                    self.uv_maps.len(),
+                    self.textures.len()
                 ));
             }
             if tri.material as usize >= self.materials.len() {
@@ -418,10 +462,12 @@ mod tests {
                 SceneTriangle {
                     vertices: [0, 1, 2],
                     material: 0,
+                    uv: NO_UV,
                 },
                 SceneTriangle {
                     vertices: [0, 1, 3],
                     material: 0,
+                    uv: NO_UV,
                 },
             ],
             materials: vec![Scene::default_material()],
@@ -430,6 +476,8 @@ mod tests {
             camera: None,
             lights: Vec::new(),
             sun: None,
+            textures: Vec::new(),
+            uv_maps: Vec::new(),
         };
         let e = s.validate().unwrap_err().to_string();
         assert!(e.starts_with("x.obj: triangle 1: vertex index 3"), "{e}");

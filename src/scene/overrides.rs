@@ -162,6 +162,15 @@ impl Scene {
             }
         }
         for o in overrides {
+            if o.property == Property::Reflectance {
+                // A reflectance set by hand is the face's ρ everywhere: its texture no longer
+                // varies it.
+                for t in self.triangles.iter_mut() {
+                    if names(&o.material, &self.materials[t.material as usize].name) {
+                        t.uv = super::NO_UV;
+                    }
+                }
+            }
             for m in self
                 .materials
                 .iter_mut()

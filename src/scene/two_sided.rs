@@ -91,7 +91,7 @@ impl Scene {
             let [a, b, c] = tri.vertices;
             self.triangles.push(SceneTriangle {
                 vertices: [a, c, b],
-                material: tri.material,
+                ..tri
             });
             let u = self.triangles.len() - 1;
             self.twin.push(t as u32);

@@ -2,7 +2,8 @@
 //! single-value `Kd r` means `r r r`), handed to `tobj` as a normalised copy with the same line
 //! numbering, and its materials converted to ours. What the solver cannot use as it is, the
 //! scan records apart ([`Extras`]): a diffuse texture (`map_Kd`), whose mean colour times `Kd`
-//! becomes ρ ([`texture_mean`]; the colour does not vary across a face), and a specular `Ks`,
+//! becomes ρ ([`read_texture`]; across faces with texture coordinates, the texture's colour
+//! under each patch: [`crate::scene::texture`]), and a specular `Ks`,
 //! which a diffuse solver drops (a material with `Kd 0` and `Ks > 0` bakes black, and says so).
 
 use std::path::Path;
@@ -10,7 +11,7 @@ use std::path::Path;
 use super::parse_number;
 use crate::io::parse_error;
 use crate::scene::listed_names;
-use crate::scene::Material;
+use crate::scene::{Material, Texture};
 use crate::{Error, Result};
 
 /// What a material of an MTL file has beyond `Kd` and `Ke` that the loader acts on.
@@ -149,16 +150,17 @@ fn scan_mtl(path: &Path, text: &str) -> Result<(String, Vec<Extras>)> {
     Ok((out, extras))
 }
 
-/// The mean linear colour of an image file ([`crate::io::texture_mean`]); reads PNG, JPEG,
-/// TGA and BMP, and the error says why a file cannot be used.
-pub(super) fn texture_mean(file: &Path) -> std::result::Result<[f64; 3], String> {
+/// An image file as a linear texture with its mean colour ([`crate::io::linear_texture`]);
+/// reads PNG, JPEG, TGA and BMP, and the error says why a file cannot be used.
+pub(super) fn read_texture(file: &Path) -> std::result::Result<Texture, String> {
     let image = image::ImageReader::open(file)
         .map_err(|e| e.to_string())?
         .with_guessed_format()
         .map_err(|e| e.to_string())?
         .decode()
         .map_err(|e| e.to_string())?;
-    crate::io::texture_mean(image).ok_or_else(|| "the image has no pixels".into())
+    crate::io::linear_texture(image, file.display().to_string())
+        .ok_or_else(|| "the image has no pixels".into())
 }
 
 /// `Kd` → ρ (when missing: 1 for a material with a texture, which [`apply_extras`] then
@@ -200,22 +202,24 @@ pub(super) fn convert_material(
 
 /// Applies what the MTL files had beyond `Kd` and `Ke` to the converted `materials`:
 /// `extras` holds each material's [`Extras`] with its MTL file (the last definition of a name
-/// wins; texture paths are relative to the MTL's directory). A texture's mean colour ([`texture_mean`]) multiplies ρ; a
-/// texture that cannot be read is a warning (ρ stays `Kd`, or 0.5 without one). One warning
-/// lists the textured materials and their ρ, one the specular-only materials (ρ = 0 with
-/// `Ks` > 0), which bake black.
+/// wins; texture paths are relative to the MTL's directory). A texture's mean colour
+/// ([`read_texture`]) multiplies ρ; a texture that cannot be read is a warning (ρ stays `Kd`,
+/// or 0.5 without one). One warning lists the textured materials, one the specular-only
+/// materials (ρ = 0 with `Ks` > 0), which bake black. Returns the textures read (each file
+/// once) and, per material, the index of its texture among them: faces with texture
+/// coordinates vary ρ with it ([`crate::scene::texture`]).
 pub(super) fn apply_extras(
     materials: &mut [Material],
     extras: &[(std::path::PathBuf, Extras)],
     warnings: &mut Vec<String>,
-) {
-    let mut means: std::collections::HashMap<
-        std::path::PathBuf,
-        std::result::Result<[f64; 3], String>,
-    > = std::collections::HashMap::new();
+) -> (Vec<Texture>, Vec<Option<u32>>) {
+    let mut read: std::collections::HashMap<std::path::PathBuf, std::result::Result<u32, String>> =
+        std::collections::HashMap::new();
+    let mut textures = Vec::new();
+    let mut texture_of = vec![None; materials.len()];
     let mut textured = Vec::new();
     let mut specular_only = Vec::new();
-    for m in materials.iter_mut() {
+    for (k, m) in materials.iter_mut().enumerate() {
         let Some((mtl, e)) = extras.iter().rev().find(|(_, e)| e.name == m.name) else {
             continue;
         };
@@ -223,14 +227,19 @@ pub(super) fn apply_extras(
         if let Some((file, line)) = &e.texture {
             // Files written on Windows separate folders with backslashes.
             let path = dir.join(file.replace('\\', "/"));
-            let mean = means
-                .entry(path.clone())
-                .or_insert_with(|| texture_mean(&path));
-            match mean {
-                Ok(mean) => {
+            let index = read.entry(path.clone()).or_insert_with(|| {
+                read_texture(&path).map(|t| {
+                    textures.push(t);
+                    (textures.len() - 1) as u32
+                })
+            });
+            match index {
+                Ok(i) => {
+                    let mean = textures[*i as usize].mean;
                     for (r, t) in m.reflectance.iter_mut().zip(mean.iter()) {
                         *r = (*r * t).clamp(0.0, 1.0);
                     }
+                    texture_of[k] = Some(*i);
                     textured.push(m.name.clone());
                 }
                 Err(why) => {
@@ -258,10 +267,10 @@ pub(super) fn apply_extras(
     if !textured.is_empty() {
         let n = textured.len();
         warnings.push(format!(
-            "{n} material{} with a texture (map_Kd) take{} its mean colour × Kd as ρ, the same \
-             over every face (the texture's pattern is not baked): {}",
+            "{n} material{} with a texture (map_Kd): ρ = Kd × the texture averaged over each \
+             patch of the faces with texture coordinates (vt), Kd × its mean colour elsewhere; \
+             the texture's detail finer than a patch is not baked: {}",
             if n == 1 { "" } else { "s" },
-            if n == 1 { "s" } else { "" },
             listed_names(&textured)
         ));
     }
@@ -276,4 +285,5 @@ pub(super) fn apply_extras(
             listed_names(&specular_only)
         ));
     }
+    (textures, texture_of)
 }

@@ -136,7 +136,17 @@ pub fn load(path: &Path) -> Result<Scene> {
         .iter()
         .map(|m| convert_material(m, textured(&m.name), &mut warnings))
         .collect();
-    apply_extras(&mut materials, &extras, &mut warnings);
+    let (textures, texture_of) = apply_extras(&mut materials, &extras, &mut warnings);
+    // tobj keeps faces in file order and fan-triangulates a face of n vertices into n − 2
+    // triangles (corners 0, j + 1, j + 2), so triangle k comes from the k-th entry below
+    // (checked by the count).
+    let fans: Vec<(usize, usize)> = scan
+        .faces
+        .iter()
+        .enumerate()
+        .flat_map(|(f, &(_, n))| (0..n - 2).map(move |j| (f, j)))
+        .collect();
+    let mut uv_maps = Vec::new();
 
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
@@ -159,9 +169,34 @@ pub fn load(path: &Path) -> Result<Scene> {
         // Indices past u32::MAX saturate; `finish` rejects such a scene by its vertex count.
         let to_u32 = |i: usize| u32::try_from(i).unwrap_or(u32::MAX);
         for t in mesh.indices.chunks_exact(3) {
+            let vertices = [t[0], t[1], t[2]].map(|v| to_u32(base + v as usize));
+            // The texture's map on this triangle, when its material has a texture and its
+            // face texture coordinates (OBJ's v counts up from the image's bottom row).
+            let k = triangles.len();
+            let uv = texture_of
+                .get(material)
+                .copied()
+                .flatten()
+                .zip(
+                    fans.get(k)
+                        .and_then(|&(f, j)| scan.face_uvs[f].as_ref().map(|c| (c, j))),
+                )
+                .and_then(|(texture, (corners, j))| {
+                    let at = |i: usize| {
+                        let p = scan.uvs[corners[i] as usize];
+                        glam::DVec2::new(p.x, 1.0 - p.y)
+                    };
+                    let points = vertices.map(|v| positions[v as usize]);
+                    crate::scene::UvMap::new(texture, points, [at(0), at(j + 1), at(j + 2)])
+                })
+                .map_or(crate::scene::NO_UV, |m| {
+                    uv_maps.push(m);
+                    to_u32(uv_maps.len() - 1)
+                });
             triangles.push(SceneTriangle {
-                vertices: [t[0], t[1], t[2]].map(|v| to_u32(base + v as usize)),
+                vertices,
                 material: to_u32(material),
+                uv,
             });
         }
     }
@@ -183,6 +218,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         positions,
         triangles,
         materials,
+        (textures, uv_maps),
         warnings,
         Some(face_lines),
     )?;
@@ -205,6 +241,10 @@ struct ObjScan {
     mtllib_lines: Vec<usize>,
     /// Every `f` statement: its line and its number of vertices (≥ 3).
     faces: Vec<(usize, usize)>,
+    /// Per `f` statement: its vertices' `vt` indices (0-based), when every vertex has one.
+    face_uvs: Vec<Option<Vec<u32>>>,
+    /// The `vt` statements' coordinates (u, v), in file order.
+    uvs: Vec<glam::DVec2>,
     /// The `# camera: …` comment's camera (at most one such line).
     camera: Option<Camera>,
 }
@@ -216,6 +256,8 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
     let mut usemtl = Vec::new();
     let mut mtllib_lines = Vec::new();
     let mut faces = Vec::new();
+    let mut face_uvs = Vec::new();
+    let mut uvs: Vec<glam::DVec2> = Vec::new();
     let mut camera = CameraLine::default();
     let mut vertices = 0usize;
     for (i, raw) in text.lines().enumerate() {
@@ -272,8 +314,32 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
                 }
                 out.push('f');
                 faces.push((ln, rest.len()));
+                let mut texture_indices = Some(Vec::with_capacity(rest.len()));
                 for token in &rest {
                     let index = token.split('/').next().unwrap_or("");
+                    match token.split('/').nth(1).filter(|t| !t.is_empty()) {
+                        None => texture_indices = None,
+                        Some(t) => {
+                            let k: i64 = t.parse().map_err(|_| {
+                                parse_error(path, ln, format!("face: malformed vertex '{token}'"))
+                            })?;
+                            let absolute = if k < 0 { uvs.len() as i64 + k + 1 } else { k };
+                            if k == 0 || absolute < 1 || absolute > uvs.len() as i64 {
+                                return Err(parse_error(
+                                    path,
+                                    ln,
+                                    format!(
+                                        "face: texture coordinate index {k} out of range ({} vt \
+                                         defined before this line; indices start at 1)",
+                                        uvs.len()
+                                    ),
+                                ));
+                            }
+                            if let Some(list) = texture_indices.as_mut() {
+                                list.push((absolute - 1) as u32);
+                            }
+                        }
+                    }
                     let k: i64 = index.parse().map_err(|_| {
                         parse_error(path, ln, format!("face: malformed vertex '{token}'"))
                     })?;
@@ -298,6 +364,27 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
                     out.push(' ');
                     out.push_str(&absolute.to_string());
                 }
+                face_uvs.push(texture_indices);
+            }
+            "vt" => {
+                // u [v [w]]; v defaults to 0. Texture space is OBJ's: v up from the image's
+                // bottom (flipped to the image's rows by the loader).
+                if rest.is_empty() {
+                    return Err(parse_error(path, ln, "vt needs a coordinate u [v]"));
+                }
+                let u = parse_number(path, ln, "vt", rest[0])?;
+                let v = match rest.get(1) {
+                    Some(t) => parse_number(path, ln, "vt", t)?,
+                    None => 0.0,
+                };
+                if !(u.is_finite() && v.is_finite()) {
+                    return Err(parse_error(
+                        path,
+                        ln,
+                        format!("vt has a non-finite coordinate ({u}, {v})"),
+                    ));
+                }
+                uvs.push(glam::DVec2::new(f64::from(u), f64::from(v)));
             }
             _ if keyword.starts_with('#') => {
                 camera
@@ -333,6 +420,8 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
         usemtl,
         mtllib_lines,
         faces,
+        face_uvs,
+        uvs,
         camera: camera.camera(),
     })
 }
@@ -437,6 +526,121 @@ mod tests {
         let about_materials = s.warnings.iter().filter(|w| !w.contains("winding")).count();
         assert_eq!(about_materials, 3, "{w}");
         assert!(w.contains("m.mtl:8"), "the line of its map_Kd: {w}");
+    }
+
+    #[test]
+    fn texture_coordinates_vary_rho_per_patch() {
+        // A 16 × 16 texture, its left half red and its right half green (sRGB 255: linear 1),
+        // on a unit quad whose vt put the image's left at x = 0 (a quad line: fan-triangulated)
+        // and, in a second copy, mirrored (u = 1 at x = 0). OBJ's v counts up from the bottom
+        // row; the image is split left/right, so only u matters here.
+        let dir = TestDir::new("obj-uv");
+        let img = image::RgbImage::from_fn(16, 16, |x, _| {
+            if x < 8 {
+                image::Rgb([255, 0, 0])
+            } else {
+                image::Rgb([0, 255, 0])
+            }
+        });
+        img.save(dir.path().join("halves.png")).unwrap();
+        dir.write(
+            "m.mtl",
+            "newmtl halves\nKd 0.8 0.8 0.8\nmap_Kd halves.png\n",
+        );
+        let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                   v 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+                   vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl halves\n\
+                   f 1/1 2/2 3/3 4/4\nf 5/2 6/1 7/4 8/3\n";
+        let s = Scene::load(&dir.write("uv.obj", obj)).unwrap();
+        assert_eq!(s.textures.len(), 1);
+        assert!(s.triangles.iter().all(|t| t.uv != crate::scene::NO_UV));
+        let p = crate::mesh::subdivide(&s, 0.13, 0.0).unwrap();
+        let mut area = [0.0; 2];
+        let mut weighted = [[0.0; 3]; 2];
+        let mut sides = [0; 2];
+        for i in 0..p.len() {
+            let c = p.centroid[i];
+            let z = c.z.round() as usize;
+            let rho = p.reflectance[i];
+            // Patches clear of the middle line and of the edges (bilinear lookups blend within
+            // a texel of the middle, and wrap round at the edges, as a tiled texture does):
+            // the colour under them, times Kd; the mirrored copy the other way round.
+            let (left, right) = (c.x > 0.15 && c.x < 0.4, c.x > 0.6 && c.x < 0.85);
+            let red_side = (left && z == 0) || (right && z == 1);
+            let green_side = (right && z == 0) || (left && z == 1);
+            if red_side {
+                assert!(rho[0] > 0.79 && rho[1] < 0.01, "{c}: {rho:?}");
+                sides[0] += 1;
+            }
+            if green_side {
+                assert!(rho[1] > 0.79 && rho[0] < 0.01, "{c}: {rho:?}");
+                sides[1] += 1;
+            }
+            area[z] += p.area[i];
+            for k in 0..3 {
+                weighted[z][k] += p.area[i] * rho[k];
+            }
+        }
+        assert!(sides[0] > 20 && sides[1] > 20, "{sides:?}");
+        // Each face covers the texture once: its patches' ρ average, by area, to the
+        // material's ρ = Kd × the mean (0.4, 0.4, 0), to the 16-sample rule's error at the
+        // middle line (patches of 0.13 straddling it: a few per cent of their share).
+        for z in 0..2 {
+            let mean = weighted[z].map(|w| w / area[z]);
+            let material = s.materials[0].reflectance;
+            for k in 0..3 {
+                assert!(
+                    (mean[k] - material[k]).abs() < 0.01,
+                    "{mean:?} vs {material:?}"
+                );
+            }
+        }
+        // A reflectance set by hand is uniform again.
+        let mut plain = s.clone();
+        plain
+            .apply_overrides(&[crate::scene::Override {
+                material: "halves".into(),
+                property: crate::scene::Property::Reflectance,
+                value: [0.3; 3],
+            }])
+            .unwrap();
+        let q = crate::mesh::subdivide(&plain, 0.13, 0.0).unwrap();
+        assert!(q.reflectance.iter().all(|r| *r == [0.3; 3]));
+    }
+
+    #[test]
+    fn bad_texture_coordinates_are_errors_at_their_line() {
+        let dir = TestDir::new("obj-bad-vt");
+        for (obj, wanted) in [
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
+                "uv.obj:5: face: texture coordinate index 2 out of range (1 vt",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt x 0\nf 1 2 3\n",
+                "uv.obj:4: vt: malformed number 'x'",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt\nf 1 2 3\n",
+                "uv.obj:4: vt needs a coordinate",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/0 2/1 3/1\n",
+                "uv.obj:5: face: texture coordinate index 0",
+            ),
+        ] {
+            let e = Scene::load(&dir.write("uv.obj", obj))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(wanted), "{e}");
+        }
+        // Texture coordinates without a texture, or on some corners only: ρ is the material's.
+        let s = Scene::load(&dir.write(
+            "uv.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 2/1 4 3\n",
+        ))
+        .unwrap();
+        assert!(s.triangles.iter().all(|t| t.uv == crate::scene::NO_UV));
     }
 
     #[test]

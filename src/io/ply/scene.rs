@@ -407,6 +407,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             triangles.push(SceneTriangle {
                 vertices: [corners[0], corners[k], corners[k + 1]],
                 material,
+                uv: crate::scene::NO_UV,
             });
             if let Some(line) = at.line {
                 face_lines.push(line);
@@ -421,6 +422,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         positions,
         triangles,
         materials,
+        (Vec::new(), Vec::new()),
         Vec::new(),
         header.ascii.then_some(face_lines),
     )?;
