@@ -144,6 +144,20 @@ fn check_estimate(input: &Path, estimate: &Estimate, max_memory: Option<f64>) ->
                 ),
             ));
         }
+        let worst = estimate.memory_bytes * estimate::HIERARCHICAL_MEMORY_SPREAD;
+        if estimate.method == Method::Hierarchical && worst > limit {
+            crate::progress::warning(&format!(
+                "{}: this bake should need about {}, but detailed interiors have needed up to \
+                 {}× the estimate ({}), more than the {} that {what}; if it runs out of memory, \
+                 try {}",
+                input.display(),
+                estimate::bytes(estimate.memory_bytes),
+                estimate::HIERARCHICAL_MEMORY_SPREAD,
+                estimate::bytes(worst),
+                estimate::bytes(limit),
+                estimate.remedies()
+            ));
+        }
     }
     if estimate.seconds > LONG_BAKE_SECONDS {
         crate::progress::warning(&format!(

@@ -244,8 +244,10 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    fn rho(&self, t: usize) -> Rgb {
-        self.scene.materials[self.scene.triangles[t].material as usize].reflectance
+    /// ρ at the point `x` of triangle `t`: the material's, varied by its texture where the
+    /// triangle has texture coordinates ([`Scene::reflectance_over`] at a point).
+    fn rho(&self, t: usize, x: DVec3) -> Rgb {
+        self.scene.reflectance_over(t, [x; 3])
     }
 
     fn le(&self, t: usize) -> Rgb {
@@ -326,7 +328,7 @@ impl<'a> Tracer<'a> {
             return ([0.0; 3], true);
         }
         let mut l = self.le(t);
-        let mut weight = self.rho(t);
+        let mut weight = self.rho(t, x);
         let (mut t, mut x) = (t, x);
         let mut bounce = 0;
         loop {
@@ -363,7 +365,7 @@ impl<'a> Tracer<'a> {
             }
             x = y;
             t = h;
-            let rho = self.rho(t);
+            let rho = self.rho(t, x);
             for ch in 0..3 {
                 weight[ch] *= rho[ch];
             }

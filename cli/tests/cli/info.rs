@@ -117,6 +117,34 @@ fn info_estimates_the_bake_its_options_describe_and_bake_refuses_what_would_not_
         assert!(err.contains(word), "{word}: {err}");
     }
     assert!(!out.exists());
+    // Hierarchical: a bound above the estimate but below what detailed interiors have
+    // needed (HIERARCHICAL_MEMORY_SPREAD × it) runs, warned of before it starts; a bound above
+    // that runs without the warning.
+    let o = radiosity(&["info", &input, "--method", "hierarchical", "--json"]);
+    let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let need = info["estimate"]["memory_bytes"].as_f64().unwrap();
+    let spread = radiosity::pipeline::estimate::HIERARCHICAL_MEMORY_SPREAD;
+    for (bound, warned) in [(2.0 * need, true), (1.1 * spread * need, false)] {
+        let bound = format!("{}", bound.round());
+        let args = [
+            "bake",
+            &input,
+            "-o",
+            out_s,
+            "--method",
+            "hierarchical",
+            "--max-memory",
+            &bound,
+        ];
+        let o = radiosity(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert_eq!(
+            stderr(&o).contains("detailed interiors have needed up to"),
+            warned,
+            "{bound}: {}",
+            stderr(&o)
+        );
+    }
     // Sizes read with binary units; anything else is a usage error.
     for bad in ["4Q", "-1G", "lots"] {
         let o = radiosity(&["bake", &input, "-o", out_s, "--max-memory", bad]);
