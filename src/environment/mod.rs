@@ -62,6 +62,14 @@ pub const SUN_RAYS: usize = 4;
 /// points, so 112 rays a patch).
 pub const SKY_RAYS: usize = 16;
 
+/// Point lights computed exactly at a point when there are more than this and
+/// [`SAMPLED_LIGHTS`] together: the ones that would bring the most ([`Environment::sharp_direct`]).
+pub const EXACT_LIGHTS: usize = 16;
+
+/// Shadow rays shared by the other point lights, drawn in proportion to what each would
+/// bring ([`Environment::sharp_direct`]).
+pub const SAMPLED_LIGHTS: usize = 16;
+
 /// Directions drawn per sky ray at most, where most fall below the horizon: a surface tilted
 /// 179.9° from up still gets its rays (the share above is (1 + cos θ)/2 ≈ 10⁻⁶ there: some are
 /// then missing, and the estimate is the share of those cast).
@@ -143,6 +151,20 @@ fn as_array<S: serde::Serializer>(v: &DVec3, s: S) -> std::result::Result<S::Ok,
 }
 
 impl PointLight {
+    /// What the light would bring unoccluded to a surface at `origin` with unit normal `n`,
+    /// as a weight: the luminance of I · falloff · cos θ / r² (0 behind the surface or
+    /// outside a spot's cone). Chooses which lights get shadow rays.
+    pub fn potential(&self, origin: DVec3, n: DVec3) -> f64 {
+        let to = self.position - origin;
+        let r2 = to.length_squared();
+        let cos = n.dot(to);
+        if cos <= 0.0 || r2 == 0.0 {
+            return 0.0;
+        }
+        let r = r2.sqrt();
+        crate::color::luminance(self.intensity) * self.falloff(-to / r) * cos / (r * r2)
+    }
+
     /// Checks the light's own ranges: position and intensity finite, intensity ≥ 0, a spot's
     /// direction a unit vector and its half-angles 0 ≤ inner < outer ≤ 90°. The message names
     /// the light by its position.
@@ -323,7 +345,15 @@ impl Environment {
         d
     }
 
-    /// The sun's and the point lights' part of [`Environment::direct`].
+    /// The sun's and the point lights' part of [`Environment::direct`]. Point lights that
+    /// can bring nothing to `x` (behind its surface, outside a spot's cone) are skipped; of
+    /// the others, up to [`EXACT_LIGHTS`] + [`SAMPLED_LIGHTS`] get a shadow ray each. Beyond
+    /// that (a level's thousand lamps), the [`EXACT_LIGHTS`] that would bring the most
+    /// unoccluded light get one each, and the rest share [`SAMPLED_LIGHTS`] shadow rays drawn
+    /// in proportion to what each would bring, each weighted by the inverse of its chance: an
+    /// unbiased estimate of their sum whose noise is confined to the weakest lights (the
+    /// many-light scheme of Shirley, Wang & Zimmerman 1996, with the strongest lights split
+    /// off as in Ward 1991, "Adaptive shadow testing for ray tracing").
     pub fn sharp_direct(
         &self,
         vis: &Visibility,
@@ -334,10 +364,56 @@ impl Environment {
         rng: &mut Rng,
     ) -> Rgb {
         let mut d = self.sun_direct(vis, x, n, ignore, lift, rng);
-        for l in &self.lights {
-            let p = self.point_direct(l, vis, x, n, ignore, lift);
+        let mut add = |p: Rgb, scale: f64| {
             for (d, p) in d.iter_mut().zip(p) {
-                *d += p;
+                *d += p * scale;
+            }
+        };
+        if self.lights.len() <= EXACT_LIGHTS + SAMPLED_LIGHTS {
+            for l in &self.lights {
+                add(self.point_direct(l, vis, x, n, ignore, lift), 1.0);
+            }
+            return d;
+        }
+        let origin = x + lift * n;
+        let mut candidates: Vec<(f64, usize)> = self
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(k, l)| (l.potential(origin, n), k))
+            .filter(|&(w, _)| w > 0.0)
+            .collect();
+        if candidates.len() > EXACT_LIGHTS + SAMPLED_LIGHTS {
+            // The strongest first (ties by index: the same choice on every run).
+            candidates.select_nth_unstable_by(EXACT_LIGHTS, |a, b| {
+                b.0.total_cmp(&a.0).then(a.1.cmp(&b.1))
+            });
+            let (strong, weak) = candidates.split_at(EXACT_LIGHTS);
+            for &(_, k) in strong {
+                add(
+                    self.point_direct(&self.lights[k], vis, x, n, ignore, lift),
+                    1.0,
+                );
+            }
+            let mut cdf = Vec::with_capacity(weak.len());
+            let mut total = 0.0;
+            for &(w, _) in weak {
+                total += w;
+                cdf.push(total);
+            }
+            for _ in 0..SAMPLED_LIGHTS {
+                let u = rng.next_f64() * total;
+                let j = cdf.partition_point(|&c| c <= u).min(weak.len() - 1);
+                let (w, k) = weak[j];
+                let p = self.point_direct(&self.lights[k], vis, x, n, ignore, lift);
+                add(p, total / (w * SAMPLED_LIGHTS as f64));
+            }
+        } else {
+            for &(_, k) in &candidates {
+                add(
+                    self.point_direct(&self.lights[k], vis, x, n, ignore, lift),
+                    1.0,
+                );
             }
         }
         d
@@ -369,36 +445,31 @@ impl Environment {
             return d;
         }
         let origin = x + lift * n;
-        let weight = |l: &PointLight| {
-            let to = l.position - origin;
-            let r2 = to.length_squared();
-            let cos = n.dot(to);
-            if cos <= 0.0 || r2 == 0.0 {
-                return 0.0;
-            }
-            let r = r2.sqrt();
-            crate::color::luminance(l.intensity) * l.falloff(-to / r) * cos / (r * r2)
-        };
-        let total: f64 = self.lights.iter().map(weight).sum();
+        let total: f64 = self.lights.iter().map(|l| l.potential(origin, n)).sum();
         if total.is_nan() || total <= 0.0 {
             return d;
         }
         let mut u = rng.next_f64() * total;
         let mut pick = self.lights.len() - 1;
         for (k, l) in self.lights.iter().enumerate() {
-            let w = weight(l);
+            let w = l.potential(origin, n);
             if u < w {
                 pick = k;
                 break;
             }
             u -= w;
         }
-        let w = weight(&self.lights[pick]);
+        let w = self.lights[pick].potential(origin, n);
         if w > 0.0 {
             let p = self.point_direct(&self.lights[pick], vis, x, n, ignore, lift);
             d = std::array::from_fn(|c| d[c] + p[c] * total / w);
         }
         d
+    }
+
+    /// Shadow rays a point casts to the point lights at most ([`Environment::sharp_direct`]).
+    pub fn light_rays(&self) -> usize {
+        self.lights.len().min(EXACT_LIGHTS + SAMPLED_LIGHTS)
     }
 
     /// One point light's part: I · falloff · cos θ / r² / π, 0 where something lies between
@@ -805,6 +876,77 @@ mod tests {
                     (mean - exact[c]).abs() <= 4.0 * sd + 1e-12,
                     "channel {c} at {x}: {mean} vs {} (sd {sd})",
                     exact[c]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn many_lights_the_strongest_exact_the_rest_sampled_without_bias() {
+        // 60 lights over the floor (more than EXACT_LIGHTS + SAMPLED_LIGHTS): some hidden
+        // from the origin by the square, some below the floor, some spots. The exact sum of
+        // their parts, one shadow ray each, against the mean of the hybrid estimate.
+        let lights: Vec<PointLight> = (0..60)
+            .map(|k| {
+                let a = k as f64 * 0.61;
+                let r = 0.3 + 0.15 * (k % 17) as f64;
+                let z = if k % 7 == 0 {
+                    -1.0
+                } else {
+                    0.5 + 0.1 * (k % 5) as f64
+                };
+                PointLight {
+                    position: DVec3::new(r * a.cos(), r * a.sin(), z),
+                    intensity: [1.0 + (k % 3) as f64, 1.0, 0.5 + (k % 4) as f64],
+                    spot: (k % 5 == 0).then(|| Spot {
+                        direction: DVec3::new(0.2, 0.0, -1.0).normalize(),
+                        inner_degrees: 20.0,
+                        outer_degrees: 50.0,
+                    }),
+                }
+            })
+            .collect();
+        let env = Environment {
+            lights,
+            up: Up::Z,
+            ..Environment::default()
+        };
+        let vis = floor_and_square(DVec3::new(0.0, 0.0, 0.3), DVec3::Z, 0.25);
+        let mut rng = Rng::new(&[9]);
+        for x in [DVec3::ZERO, DVec3::new(0.8, -0.4, 0.0)] {
+            let lit = env.lights.iter().filter(|l| l.potential(x, DVec3::Z) > 0.0);
+            assert!(
+                lit.count() > EXACT_LIGHTS + SAMPLED_LIGHTS,
+                "the sampled path is taken"
+            );
+            let mut exact = [0.0; 3];
+            for l in &env.lights {
+                let p = env.point_direct(l, &vis, x, DVec3::Z, 0, 1e-6);
+                exact = std::array::from_fn(|c| exact[c] + p[c]);
+            }
+            let draws = 4000;
+            let (mut sum, mut sum2) = ([0.0; 3], [0.0; 3]);
+            for _ in 0..draws {
+                let d = env.sharp_direct(&vis, x, DVec3::Z, 0, 1e-6, &mut rng);
+                for c in 0..3 {
+                    sum[c] += d[c];
+                    sum2[c] += d[c] * d[c];
+                }
+            }
+            for c in 0..3 {
+                let mean = sum[c] / draws as f64;
+                let sd = ((sum2[c] / draws as f64 - mean * mean).max(0.0) / draws as f64).sqrt();
+                // Unbiased: within 4 standard errors of the exact sum; and the strongest
+                // lights exact, so one estimate's spread is a small part of the whole.
+                assert!(exact[c] > 0.0);
+                assert!(
+                    (mean - exact[c]).abs() <= 4.0 * sd + 1e-12,
+                    "channel {c} at {x}: {mean} vs {} (sd {sd})",
+                    exact[c]
+                );
+                assert!(
+                    sd * (draws as f64).sqrt() < 0.5 * exact[c],
+                    "{sd} {exact:?}"
                 );
             }
         }

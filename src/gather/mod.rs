@@ -821,7 +821,7 @@ impl Gatherer<'_> {
 
     /// Shadow rays a gathering point casts at least: [`SHADOW_RAYS`] per exact emitter,
     /// [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and those of the lights outside
-    /// the mesh (one per point or spot light, [`crate::environment::SUN_RAYS`] for the sun).
+    /// the mesh ([`Environment::light_rays`], and [`crate::environment::SUN_RAYS`] for the sun).
     pub fn shadow_rays_per_point(&self) -> usize {
         let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
             OTHER_LIGHT_SAMPLES
@@ -833,7 +833,7 @@ impl Gatherer<'_> {
         } else {
             0
         };
-        SHADOW_RAYS * self.exact_per_point() + others + self.env.lights.len() + sun
+        SHADOW_RAYS * self.exact_per_point() + others + self.env.light_rays() + sun
     }
 
     /// The scene's extent (its bounding box diagonal), scene units.

@@ -318,9 +318,9 @@ pub struct Hierarchy<'a> {
     /// Where each receiver's run of `links` starts, and `links.len()` last.
     receiver_starts: Vec<usize>,
     /// Per link, once the links are final: the shares of its form factor through each of its
-    /// element source's 16 grandchildren ([`links::grandchild_shares`]); empty before, and for
-    /// links whose source has no split child all 0.
-    grandchild_shares: Vec<[u8; 16]>,
+    /// element source's 16 grandchildren ([`links::grandchild_shares`]); empty before, and
+    /// none for links whose source has no split child.
+    grandchild_shares: GrandchildShares,
     roots: &'a Patches,
     vis: Visibility,
     occluders: Visibility,
@@ -387,7 +387,7 @@ impl<'a> Hierarchy<'a> {
             tree,
             links: Vec::new(),
             receiver_starts: vec![0],
-            grandchild_shares: Vec::new(),
+            grandchild_shares: GrandchildShares::default(),
             roots,
             vis,
             occluders,
@@ -717,11 +717,18 @@ impl<'a> Hierarchy<'a> {
             }
         }
         self.update_new_elements();
-        let mut kept = Vec::with_capacity(self.links.len());
+        // The kept links compacted in place (a second list of them would double the peak
+        // memory at the largest scenes: 6·10⁷ links are 1.4 GB), the rest turned into pairs.
+        let mut kept = std::mem::take(&mut self.links);
+        let mut w = 0;
         let mut pairs = Vec::new();
-        for (l, &a) in self.links.iter().zip(&actions) {
-            match a {
-                Action::Keep => kept.push(*l),
+        for i in 0..kept.len() {
+            let l = kept[i];
+            match actions[i] {
+                Action::Keep => {
+                    kept[w] = l;
+                    w += 1;
+                }
                 Action::SplitReceiver => {
                     for c in self.tree.children(l.receiver) {
                         pairs.push((c, l.source));
@@ -742,6 +749,9 @@ impl<'a> Hierarchy<'a> {
                 }
             }
         }
+        kept.truncate(w);
+        kept.shrink_to_fit();
+        drop(actions);
         let rays = self.settings.rays as usize;
         let estimates: Vec<links::Estimate> = pairs
             .par_iter()
@@ -776,7 +786,7 @@ impl<'a> Hierarchy<'a> {
     /// Replaces the links, sorted by receiver (then source), and finds each receiver's run.
     fn set_links(&mut self, links: Vec<Link>) {
         debug_assert!(links.windows(2).all(|w| link_key(&w[0]) < link_key(&w[1])));
-        self.grandchild_shares = Vec::new();
+        self.grandchild_shares = GrandchildShares::default();
         self.receiver_starts.clear();
         for (i, l) in links.iter().enumerate() {
             if i == 0 || links[i - 1].receiver != l.receiver {
@@ -785,29 +795,42 @@ impl<'a> Hierarchy<'a> {
         }
         self.receiver_starts.push(links.len());
         self.links = links;
+        self.links.shrink_to_fit();
     }
 
     /// Finds [`Hierarchy::grandchild_shares`] for the current links.
     fn find_grandchild_shares(&mut self) {
         let t = &self.tree;
-        self.grandchild_shares = self
-            .links
+        // Only links from a source whose children are split have shares: a first pass finds
+        // them, so memory goes to those alone (4 bytes a link, 16 more for each such link).
+        let deep = |l: &Link| match (l.receiver.as_element(), l.source.as_element()) {
+            (Some(r), Some(s)) => {
+                let first = t.elements[s].first_child;
+                let split = first != tree::NO_CHILD
+                    && (first..first + 4)
+                        .any(|c| t.elements[c as usize].first_child != tree::NO_CHILD);
+                split.then_some((r, s))
+            }
+            _ => None,
+        };
+        let mut slot = Vec::with_capacity(self.links.len());
+        let mut which = Vec::new();
+        for (i, l) in self.links.iter().enumerate() {
+            if deep(l).is_some() {
+                slot.push(which.len() as u32);
+                which.push(i);
+            } else {
+                slot.push(NO_SHARES);
+            }
+        }
+        let shares = which
             .par_iter()
-            .map(|l| match (l.receiver.as_element(), l.source.as_element()) {
-                (Some(r), Some(s)) => {
-                    let first = t.elements[s].first_child;
-                    let deep = first != tree::NO_CHILD
-                        && (first..first + 4)
-                            .any(|c| t.elements[c as usize].first_child != tree::NO_CHILD);
-                    if deep {
-                        links::grandchild_shares(t, r, s)
-                    } else {
-                        [0; 16]
-                    }
-                }
-                _ => [0; 16],
+            .map(|&i| {
+                let (r, s) = deep(&self.links[i]).expect("chosen above");
+                links::grandchild_shares(t, r, s)
             })
             .collect();
+        self.grandchild_shares = GrandchildShares { slot, shares };
     }
 
     /// What each node gathers over its own links: Σ F·L per channel (`with_radiance`), or
@@ -1103,6 +1126,28 @@ impl ClusterGather {
     }
 }
 
+/// No shares for this link ([`GrandchildShares::slot`]).
+const NO_SHARES: u32 = u32::MAX;
+
+/// The shares of each link's form factor through its element source's 16 grandchildren
+/// ([`links::grandchild_shares`]), for the links whose source's children are split: per link
+/// its place among `shares`, or [`NO_SHARES`].
+#[derive(Debug, Default)]
+struct GrandchildShares {
+    slot: Vec<u32>,
+    shares: Vec<[u8; 16]>,
+}
+
+impl GrandchildShares {
+    /// Link `i`'s shares, if it has any.
+    fn get(&self, i: usize) -> Option<&[u8; 16]> {
+        match self.slot.get(i) {
+            Some(&k) if k != NO_SHARES => self.shares.get(k as usize),
+            _ => None,
+        }
+    }
+}
+
 /// The order of the links: by receiver, then source (each pair at most once).
 fn link_key(l: &Link) -> (Node, Node) {
     (l.receiver, l.source)
@@ -1112,6 +1157,9 @@ fn link_key(l: &Link) -> (Node, Node) {
 /// `a` reserves at its end, so no third list is made (at 10⁷ links a copy is 240 MB).
 fn merge_into(a: &mut Vec<Link>, b: Vec<Link>) {
     let (n, m) = (a.len(), b.len());
+    // Exactly the room needed: amortised doubling would leave up to as much again unused
+    // (at 6·10⁷ links, 1.4 GB).
+    a.reserve_exact(m);
     a.extend_from_slice(&b); // the room, overwritten below
     let (mut i, mut j, mut k) = (n, m, n + m);
     while j > 0 {

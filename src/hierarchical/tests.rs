@@ -354,7 +354,10 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
     at_centroids(&mut h);
     h.links = vec![link];
     h.find_grandchild_shares();
-    let shares = h.grandchild_shares[0];
+    let shares = *h
+        .grandchild_shares
+        .get(0)
+        .expect("the source's children are split");
     let total: u32 = shares.iter().map(|&c| c as u32).sum();
     assert!((247..=263).contains(&total), "shares {shares:?}");
     let deeper = h.link_radiance(0, &link)[0];

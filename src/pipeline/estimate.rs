@@ -17,8 +17,8 @@
 //!   (the generated hall of 10⁴ triangles from ε = 10⁻⁴ to 10⁻⁵: memory ×2.2, links ×2.7,
 //!   time ×2.2); the leaves and links are not known before the solve, so this one is an
 //!   estimate, not a bound: within about ±50 % on the generated halls (about 50–90 links per
-//!   root), but 3–5× low on the detailed interiors of LibreQuake's levels (200–340 links per
-//!   root: lq_e1m1, 44,833 roots, 1.06 GiB and 40 s against 202 MiB and 10 s estimated). What
+//!   root), but 2.5–4× low on the detailed interiors of LibreQuake's levels (200–340 links per
+//!   root: lq_e1m1, 44,833 roots, 775 MiB and 30 s against 202 MiB and 10 s estimated). What
 //!   sets the links per root before the solve is not modelled yet.
 
 use serde::Serialize;
@@ -52,10 +52,11 @@ const HIERARCHICAL_BYTES_PER_ROOT: f64 = 3.7 * 1024.0;
 /// clusters) and a part per root at ε = 10⁻⁴ (the halls: 5.7 s, 15.3 s and 150 s).
 const HIERARCHICAL_SECONDS: f64 = 4.0;
 const HIERARCHICAL_SECONDS_PER_ROOT: f64 = 140e-6;
-/// How far above its estimate the hierarchical method's peak memory has been measured: 5.2×
-/// on LibreQuake's lq_e1m1 (1,059 MiB against 202 MiB; detailed interiors link each element
-/// to many more than the generated halls the model was fitted to). A bake whose estimate
-/// fits but whose estimate times this does not is warned of before it starts.
+/// How far above its estimate the hierarchical method's peak memory may be: measured 3.8× on
+/// LibreQuake's lq_e1m1 (775 MiB against 202 MiB; 5.2× before the refinement compacted its
+/// links in place), since detailed interiors link each element to many more than the
+/// generated halls the model was fitted to; with a margin. A bake whose estimate fits but
+/// whose estimate times this does not is warned of before it starts.
 pub const HIERARCHICAL_MEMORY_SPREAD: f64 = 5.5;
 /// Leaves per root at ε = 10⁻⁴ (the halls: 20,328 for 10,786 roots; 116,608 for 104,284).
 const LEAVES_PER_ROOT: f64 = 2.0;
@@ -178,7 +179,7 @@ impl Estimate {
             // per patch or leaf) and at every vertex the display refinement adds (its budget
             // shares 2·AUTO_RAY_BUDGET out over the rays a vertex casts).
             let env = &s.environment;
-            let light_rays = env.lights.len()
+            let light_rays = env.light_rays()
                 + if env.sun.is_some() {
                     crate::environment::SUN_RAYS
                 } else {
