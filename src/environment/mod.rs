@@ -858,27 +858,36 @@ mod tests {
         let mut rng = Rng::new(&[5]);
         for x in [DVec3::ZERO, DVec3::new(0.5, -0.3, 0.0)] {
             let exact = env.sharp_direct(&vis, x, DVec3::Z, 0, 1e-6, &mut rng);
-            let draws = 40_000;
-            let (mut sum, mut sum2) = ([0.0; 3], [0.0; 3]);
-            for _ in 0..draws {
-                let d = env.sharp_direct_sampled(&vis, x, DVec3::Z, 0, 1e-6, &mut rng);
-                for c in 0..3 {
-                    sum[c] += d[c];
-                    sum2[c] += d[c] * d[c];
-                }
-            }
+            assert_unbiased(exact, 40_000, || {
+                env.sharp_direct_sampled(&vis, x, DVec3::Z, 0, 1e-6, &mut rng)
+            });
+        }
+    }
+
+    /// Asserts that the mean of `draws` values of `estimate` is within 4 standard errors of
+    /// `exact` (every channel positive: not trivially); returns one estimate's standard
+    /// deviation per channel.
+    fn assert_unbiased(exact: Rgb, draws: usize, mut estimate: impl FnMut() -> Rgb) -> Rgb {
+        let (mut sum, mut sum2) = ([0.0; 3], [0.0; 3]);
+        for _ in 0..draws {
+            let d = estimate();
             for c in 0..3 {
-                let mean = sum[c] / draws as f64;
-                let sd = ((sum2[c] / draws as f64 - mean * mean) / draws as f64).sqrt();
-                // Unbiased: within 4 standard errors of the exact value (and not trivially).
-                assert!(exact[c] > 0.0);
-                assert!(
-                    (mean - exact[c]).abs() <= 4.0 * sd + 1e-12,
-                    "channel {c} at {x}: {mean} vs {} (sd {sd})",
-                    exact[c]
-                );
+                sum[c] += d[c];
+                sum2[c] += d[c] * d[c];
             }
         }
+        std::array::from_fn(|c| {
+            let n = draws as f64;
+            let mean = sum[c] / n;
+            let sd = (sum2[c] / n - mean * mean).max(0.0).sqrt();
+            assert!(exact[c] > 0.0);
+            assert!(
+                (mean - exact[c]).abs() <= 4.0 * sd / n.sqrt() + 1e-12,
+                "channel {c}: {mean} vs {} (sd {sd})",
+                exact[c]
+            );
+            sd
+        })
     }
 
     #[test]
@@ -924,30 +933,12 @@ mod tests {
                 let p = env.point_direct(l, &vis, x, DVec3::Z, 0, 1e-6);
                 exact = std::array::from_fn(|c| exact[c] + p[c]);
             }
-            let draws = 4000;
-            let (mut sum, mut sum2) = ([0.0; 3], [0.0; 3]);
-            for _ in 0..draws {
-                let d = env.sharp_direct(&vis, x, DVec3::Z, 0, 1e-6, &mut rng);
-                for c in 0..3 {
-                    sum[c] += d[c];
-                    sum2[c] += d[c] * d[c];
-                }
-            }
+            // The strongest lights exact, so one estimate's spread is a small part of the whole.
+            let sd = assert_unbiased(exact, 4000, || {
+                env.sharp_direct(&vis, x, DVec3::Z, 0, 1e-6, &mut rng)
+            });
             for c in 0..3 {
-                let mean = sum[c] / draws as f64;
-                let sd = ((sum2[c] / draws as f64 - mean * mean).max(0.0) / draws as f64).sqrt();
-                // Unbiased: within 4 standard errors of the exact sum; and the strongest
-                // lights exact, so one estimate's spread is a small part of the whole.
-                assert!(exact[c] > 0.0);
-                assert!(
-                    (mean - exact[c]).abs() <= 4.0 * sd + 1e-12,
-                    "channel {c} at {x}: {mean} vs {} (sd {sd})",
-                    exact[c]
-                );
-                assert!(
-                    sd * (draws as f64).sqrt() < 0.5 * exact[c],
-                    "{sd} {exact:?}"
-                );
+                assert!(sd[c] < 0.5 * exact[c], "{sd:?} {exact:?}");
             }
         }
     }

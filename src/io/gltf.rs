@@ -759,15 +759,15 @@ mod tests {
             .any(|w| w.contains("metallic") && w.contains("'clay'")));
     }
 
-    #[test]
-    fn texture_coordinates_vary_rho_per_patch() {
-        // A 16 × 16 PNG, its left half red and its right half green, on a triangle whose
-        // TEXCOORD_0 lie in the red half: every patch of it is red, ρ = base colour 0.5 ×
-        // the colour under it (1, 0, 0), while the material lists 0.5 × the mean (0.5, 0.5, 0).
+    /// A GLB of one triangle, (0,0,0), (1,0,0), (0,0,−1), whose material `name` has base
+    /// colour 0.5 and the base-colour texture `img` (a PNG inside the file), with `texcoords`
+    /// as its TEXCOORD_0 if given. Returns the loaded scene.
+    fn textured_triangle(
+        name: &str,
+        img: &image::RgbImage,
+        texcoords: Option<[[f32; 2]; 3]>,
+    ) -> Scene {
         let mut png = Vec::new();
-        let img = image::RgbImage::from_fn(16, 16, |x, _| {
-            image::Rgb(if x < 8 { [255, 0, 0] } else { [0, 255, 0] })
-        });
         img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
             .unwrap();
         let mut bin = Vec::new();
@@ -776,43 +776,54 @@ mod tests {
                 bin.extend_from_slice(&c.to_le_bytes());
             }
         }
-        for t in [[0.1f32, 0.2], [0.4, 0.2], [0.1, 0.8]] {
-            for c in t {
+        let mut attributes = json!({"POSITION": 0});
+        let mut views = vec![json!({"buffer": 0, "byteOffset": 0, "byteLength": 36})];
+        let mut accessors = vec![json!({"bufferView": 0, "componentType": FLOAT, "count": 3,
+            "type": "VEC3", "min": [0.0, 0.0, -1.0], "max": [1.0, 0.0, 0.0]})];
+        if let Some(t) = texcoords {
+            for c in t.iter().flatten() {
                 bin.extend_from_slice(&c.to_le_bytes());
             }
+            attributes["TEXCOORD_0"] = json!(1);
+            views.push(json!({"buffer": 0, "byteOffset": 36, "byteLength": 24}));
+            accessors.push(json!({"bufferView": 1, "componentType": FLOAT, "count": 3,
+                "type": "VEC2"}));
         }
         let png_at = bin.len();
         bin.extend_from_slice(&png);
         while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
+        views.push(json!({"buffer": 0, "byteOffset": png_at, "byteLength": png.len()}));
         let doc = json!({
             "asset": {"version": "2.0"},
             "scenes": [{"nodes": [0]}],
             "nodes": [{"mesh": 0}],
-            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1},
-                                        "material": 0}]}],
-            "materials": [{"name": "halves", "pbrMetallicRoughness": {
+            "meshes": [{"primitives": [{"attributes": attributes, "material": 0}]}],
+            "materials": [{"name": name, "pbrMetallicRoughness": {
                 "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0,
                 "baseColorTexture": {"index": 0}}}],
             "textures": [{"source": 0}],
-            "images": [{"bufferView": 2, "mimeType": "image/png"}],
+            "images": [{"bufferView": views.len() - 1, "mimeType": "image/png"}],
             "buffers": [{"byteLength": bin.len()}],
-            "bufferViews": [
-                {"buffer": 0, "byteOffset": 0, "byteLength": 36},
-                {"buffer": 0, "byteOffset": 36, "byteLength": 24},
-                {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()},
-            ],
-            "accessors": [
-                {"bufferView": 0, "componentType": FLOAT, "count": 3, "type": "VEC3",
-                 "min": [0.0, 0.0, -1.0], "max": [1.0, 0.0, 0.0]},
-                {"bufferView": 1, "componentType": FLOAT, "count": 3, "type": "VEC2"},
-            ],
+            "bufferViews": views,
+            "accessors": accessors,
         });
-        let dir = crate::test_support::TestDir::new("gltf-uv");
-        let path = dir.path().join("halves.glb");
+        let dir = crate::test_support::TestDir::new("gltf-texture");
+        let path = dir.path().join(format!("{name}.glb"));
         std::fs::write(&path, glb(&doc, bin).unwrap()).unwrap();
-        let s = Scene::load(&path).unwrap();
+        Scene::load(&path).unwrap()
+    }
+
+    #[test]
+    fn texture_coordinates_vary_rho_per_patch() {
+        // A 16 × 16 PNG, its left half red and its right half green, on a triangle whose
+        // TEXCOORD_0 lie in the red half: every patch of it is red, ρ = base colour 0.5 ×
+        // the colour under it (1, 0, 0), while the material lists 0.5 × the mean (0.5, 0.5, 0).
+        let img = image::RgbImage::from_fn(16, 16, |x, _| {
+            image::Rgb(if x < 8 { [255, 0, 0] } else { [0, 255, 0] })
+        });
+        let s = textured_triangle("halves", &img, Some([[0.1, 0.2], [0.4, 0.2], [0.1, 0.8]]));
         let m = s.materials[0].reflectance;
         assert!(
             (m[0] - 0.25).abs() < 1e-6 && (m[1] - 0.25).abs() < 1e-6,
@@ -829,46 +840,10 @@ mod tests {
     fn a_base_colour_texture_gives_its_mean_linear_colour() {
         // A 2 × 1 PNG inside the GLB (sRGB 188 and 0 in red, 255 in green and blue) under a
         // base colour of 0.5: ρ = 0.5 × (0.502886 / 2, 1, 1), and a warning lists it.
-        let mut png = Vec::new();
         let mut img = image::RgbImage::new(2, 1);
         img.put_pixel(0, 0, image::Rgb([188, 255, 255]));
         img.put_pixel(1, 0, image::Rgb([0, 255, 255]));
-        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-            .unwrap();
-        let mut bin = Vec::new();
-        for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 0., -1.]] {
-            for c in p {
-                bin.extend_from_slice(&c.to_le_bytes());
-            }
-        }
-        let png_at = bin.len();
-        bin.extend_from_slice(&png);
-        while !bin.len().is_multiple_of(4) {
-            bin.push(0);
-        }
-        let doc = json!({
-            "asset": {"version": "2.0"},
-            "scenes": [{"nodes": [0]}],
-            "nodes": [{"mesh": 0}],
-            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
-            "materials": [{"name": "brick", "pbrMetallicRoughness": {
-                "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0,
-                "baseColorTexture": {"index": 0}}}],
-            "textures": [{"source": 0}],
-            "images": [{"bufferView": 1, "mimeType": "image/png"}],
-            "buffers": [{"byteLength": bin.len()}],
-            "bufferViews": [
-                {"buffer": 0, "byteOffset": 0, "byteLength": 36},
-                {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()},
-            ],
-            "accessors": [{"bufferView": 0, "componentType": FLOAT, "count": 3, "type": "VEC3",
-                           "min": [0.0, 0.0, -1.0], "max": [1.0, 0.0, 0.0]}],
-        });
-        let file = glb(&doc, bin).unwrap();
-        let dir = crate::test_support::TestDir::new("gltf-texture");
-        let path = dir.path().join("brick.glb");
-        std::fs::write(&path, file).unwrap();
-        let s = Scene::load(&path).unwrap();
+        let s = textured_triangle("brick", &img, None);
         let rho = s.materials[0].reflectance;
         let want = [0.5 * 0.502_886 / 2.0, 0.5, 0.5];
         for (r, w) in rho.iter().zip(want) {
@@ -878,6 +853,8 @@ mod tests {
             .warnings
             .iter()
             .any(|w| w.contains("texture") && w.contains("'brick'")));
+        // Without texture coordinates ρ is the material's on every patch.
+        assert!(s.triangles.iter().all(|t| t.uv == crate::scene::NO_UV));
     }
 
     #[test]

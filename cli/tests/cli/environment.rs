@@ -8,13 +8,19 @@ const COURT: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 1 1\n
                      usemtl grey\nf 1 2 3 4\nf 4 3 6 5\n";
 const MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\n";
 
-#[test]
-fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
-    let dir = temp_dir("environment");
+/// [`COURT`] and its MTL written into a new temporary folder: the folder and the OBJ's path.
+fn court(name: &str) -> (std::path::PathBuf, String) {
+    let dir = temp_dir(name);
     std::fs::write(dir.join("m.mtl"), MTL).unwrap();
     let input = dir.join("court.obj");
     std::fs::write(&input, COURT).unwrap();
-    let (input, out) = (input.to_str().unwrap(), dir.join("lit.ply"));
+    (dir, input.to_str().unwrap().to_string())
+}
+
+#[test]
+fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
+    let (dir, input) = court("environment");
+    let (input, out) = (input.as_str(), dir.join("lit.ply"));
     let out = out.to_str().unwrap();
     let light = [
         "--up",
@@ -126,11 +132,8 @@ fn a_gltf_scene_brings_its_lights_and_bakes_to_glb() {
 
 #[test]
 fn a_lights_file_gives_the_same_bake_as_the_flags_and_names_its_mistakes() {
-    let dir = temp_dir("lights_file");
-    std::fs::write(dir.join("m.mtl"), MTL).unwrap();
-    let input = dir.join("court.obj");
-    std::fs::write(&input, COURT).unwrap();
-    let input = input.to_str().unwrap();
+    let (dir, input) = court("lights_file");
+    let input = input.as_str();
     let lights = dir.join("lights.json");
     std::fs::write(
         &lights,
