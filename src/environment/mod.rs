@@ -352,8 +352,9 @@ impl Environment {
     /// unoccluded light get one each, and the rest share [`SAMPLED_LIGHTS`] shadow rays drawn
     /// in proportion to what each would bring, each weighted by the inverse of its chance: an
     /// unbiased estimate of their sum whose noise is confined to the weakest lights (the
-    /// many-light scheme of Shirley, Wang & Zimmerman 1996, with the strongest lights split
-    /// off as in Ward 1991, "Adaptive shadow testing for ray tracing").
+    /// many-light scheme of Shirley, Wang & Zimmerman 1996, "Monte Carlo techniques for direct
+    /// lighting calculations", with the strongest lights split off as in Ward 1991, "Adaptive
+    /// shadow testing for ray tracing").
     pub fn sharp_direct(
         &self,
         vis: &Visibility,
@@ -363,70 +364,14 @@ impl Environment {
         lift: f64,
         rng: &mut Rng,
     ) -> Rgb {
-        let mut d = self.sun_direct(vis, x, n, ignore, lift, rng);
-        let mut add = |p: Rgb, scale: f64| {
-            for (d, p) in d.iter_mut().zip(p) {
-                *d += p * scale;
-            }
-        };
-        if self.lights.len() <= EXACT_LIGHTS + SAMPLED_LIGHTS {
-            for l in &self.lights {
-                add(self.point_direct(l, vis, x, n, ignore, lift), 1.0);
-            }
-            return d;
-        }
-        let origin = x + lift * n;
-        let mut candidates: Vec<(f64, usize)> = self
-            .lights
-            .iter()
-            .enumerate()
-            .map(|(k, l)| (l.potential(origin, n), k))
-            .filter(|&(w, _)| w > 0.0)
-            .collect();
-        if candidates.len() > EXACT_LIGHTS + SAMPLED_LIGHTS {
-            // The strongest first (ties by index: the same choice on every run).
-            candidates.select_nth_unstable_by(EXACT_LIGHTS, |a, b| {
-                b.0.total_cmp(&a.0).then(a.1.cmp(&b.1))
-            });
-            let (strong, weak) = candidates.split_at(EXACT_LIGHTS);
-            for &(_, k) in strong {
-                add(
-                    self.point_direct(&self.lights[k], vis, x, n, ignore, lift),
-                    1.0,
-                );
-            }
-            let mut cdf = Vec::with_capacity(weak.len());
-            let mut total = 0.0;
-            for &(w, _) in weak {
-                total += w;
-                cdf.push(total);
-            }
-            for _ in 0..SAMPLED_LIGHTS {
-                let u = rng.next_f64() * total;
-                let j = cdf.partition_point(|&c| c <= u).min(weak.len() - 1);
-                let (w, k) = weak[j];
-                let p = self.point_direct(&self.lights[k], vis, x, n, ignore, lift);
-                add(p, total / (w * SAMPLED_LIGHTS as f64));
-            }
-        } else {
-            for &(_, k) in &candidates {
-                add(
-                    self.point_direct(&self.lights[k], vis, x, n, ignore, lift),
-                    1.0,
-                );
-            }
-        }
-        d
+        let rays = (EXACT_LIGHTS, SAMPLED_LIGHTS);
+        self.sharp_direct_with(vis, x, n, ignore, lift, rays, rng)
     }
 
-    /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together:
-    /// the sun as there, and one point light drawn with probability proportional to the light
-    /// it would bring unoccluded (luminance of I · falloff · cos θ / r²), its part divided by
-    /// that probability. Unbiased, and noisy alone: for the many points of a gather that are
+    /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together,
+    /// drawn as there: unbiased, and noisy alone. For the many points of a gather that are
     /// averaged (a near hit's reflected light), where a level's hundred lamps would otherwise
-    /// cost a hundred rays at every one (many-light next-event estimation, as in Shirley,
-    /// Wang & Zimmerman 1996, "Monte Carlo techniques for direct lighting calculations").
-    #[allow(clippy::too_many_arguments)]
+    /// cost a hundred rays at every one.
     pub fn sharp_direct_sampled(
         &self,
         vis: &Visibility,
@@ -436,33 +381,69 @@ impl Environment {
         lift: f64,
         rng: &mut Rng,
     ) -> Rgb {
+        self.sharp_direct_with(vis, x, n, ignore, lift, (0, 1), rng)
+    }
+
+    /// [`Environment::sharp_direct`] with `exact` strongest lights and `sampled` shadow rays
+    /// for the rest (all exactly when that many or fewer can bring light).
+    #[allow(clippy::too_many_arguments)]
+    fn sharp_direct_with(
+        &self,
+        vis: &Visibility,
+        x: DVec3,
+        n: DVec3,
+        ignore: u32,
+        lift: f64,
+        (exact, sampled): (usize, usize),
+        rng: &mut Rng,
+    ) -> Rgb {
         let mut d = self.sun_direct(vis, x, n, ignore, lift, rng);
-        if self.lights.len() <= 1 {
-            for l in &self.lights {
-                let p = self.point_direct(l, vis, x, n, ignore, lift);
-                d = std::array::from_fn(|c| d[c] + p[c]);
+        let mut add = |p: Rgb, scale: f64| {
+            for (d, p) in d.iter_mut().zip(p) {
+                *d += p * scale;
             }
-            return d;
-        }
+        };
         let origin = x + lift * n;
-        let total: f64 = self.lights.iter().map(|l| l.potential(origin, n)).sum();
-        if total.is_nan() || total <= 0.0 {
+        let mut candidates: Vec<(f64, usize)> = self
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(k, l)| (l.potential(origin, n), k))
+            .filter(|&(w, _)| w > 0.0)
+            .collect();
+        if candidates.len() <= exact + sampled {
+            for &(_, k) in &candidates {
+                add(
+                    self.point_direct(&self.lights[k], vis, x, n, ignore, lift),
+                    1.0,
+                );
+            }
             return d;
         }
-        let mut u = rng.next_f64() * total;
-        let mut pick = self.lights.len() - 1;
-        for (k, l) in self.lights.iter().enumerate() {
-            let w = l.potential(origin, n);
-            if u < w {
-                pick = k;
-                break;
-            }
-            u -= w;
+        // The strongest first (ties by index: the same choice on every run).
+        if exact > 0 {
+            candidates
+                .select_nth_unstable_by(exact, |a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         }
-        let w = self.lights[pick].potential(origin, n);
-        if w > 0.0 {
-            let p = self.point_direct(&self.lights[pick], vis, x, n, ignore, lift);
-            d = std::array::from_fn(|c| d[c] + p[c] * total / w);
+        let (strong, weak) = candidates.split_at(exact);
+        for &(_, k) in strong {
+            add(
+                self.point_direct(&self.lights[k], vis, x, n, ignore, lift),
+                1.0,
+            );
+        }
+        let mut cdf = Vec::with_capacity(weak.len());
+        let mut total = 0.0;
+        for &(w, _) in weak {
+            total += w;
+            cdf.push(total);
+        }
+        for _ in 0..sampled {
+            let u = rng.next_f64() * total;
+            let j = cdf.partition_point(|&c| c <= u).min(weak.len() - 1);
+            let (w, k) = weak[j];
+            let p = self.point_direct(&self.lights[k], vis, x, n, ignore, lift);
+            add(p, total / (w * sampled as f64));
         }
         d
     }
