@@ -155,14 +155,30 @@ impl PointLight {
     /// as a weight: the luminance of I · falloff · cos θ / r² (0 behind the surface or
     /// outside a spot's cone). Chooses which lights get shadow rays.
     pub fn potential(&self, origin: DVec3, n: DVec3) -> f64 {
+        self.toward(origin, n).map_or(0.0, |t| {
+            crate::color::luminance(self.intensity) * t.falloff * t.cos / t.r2
+        })
+    }
+
+    /// The light as seen from `origin` on a surface with unit normal `n`: `None` where it
+    /// can bring nothing (behind the surface, at the origin, outside a spot's cone).
+    fn toward(&self, origin: DVec3, n: DVec3) -> Option<Toward> {
         let to = self.position - origin;
         let r2 = to.length_squared();
         let cos = n.dot(to);
         if cos <= 0.0 || r2 == 0.0 {
-            return 0.0;
+            return None;
         }
         let r = r2.sqrt();
-        crate::color::luminance(self.intensity) * self.falloff(-to / r) * cos / (r * r2)
+        let (cos, d) = (cos / r, to / r);
+        let falloff = self.falloff(-d);
+        (falloff != 0.0).then_some(Toward {
+            to,
+            r,
+            r2,
+            cos,
+            falloff,
+        })
     }
 
     /// Checks the light's own ranges: position and intensity finite, intensity ≥ 0, a spot's
@@ -209,6 +225,17 @@ impl PointLight {
         let t = ((d.dot(s.direction) - co) / (ci - co).max(1e-9)).clamp(0.0, 1.0);
         t * t
     }
+}
+
+/// A point light seen from a receiving point ([`PointLight::toward`]).
+struct Toward {
+    /// From the point to the light, and its length and squared length.
+    to: DVec3,
+    r: f64,
+    r2: f64,
+    /// Cosine at the receiver, and the spot's falloff toward the point (> 0).
+    cos: f64,
+    falloff: f64,
 }
 
 /// The lights outside the mesh; [`Environment::default`] has none.
@@ -280,14 +307,9 @@ impl Environment {
         }
         for (k, l) in self.lights.iter().enumerate() {
             if let Err(problem) = l.check() {
-                let name = match l.spot {
-                    None => "environment.point_lights",
-                    Some(_) => "environment.spot_lights",
-                };
-                let what = if l.spot.is_none() {
-                    "point light"
-                } else {
-                    "spot light"
+                let (name, what) = match l.spot {
+                    None => ("environment.point_lights", "point light"),
+                    Some(_) => ("environment.spot_lights", "spot light"),
                 };
                 return Err(Error::setting(name, format!("{what} {} {problem}", k + 1)));
             }
@@ -403,6 +425,13 @@ impl Environment {
                 *d += p * scale;
             }
         };
+        if self.lights.len() <= exact + sampled {
+            // A ray each (one that can bring nothing returns 0 before casting).
+            for l in &self.lights {
+                add(self.point_direct(l, vis, x, n, ignore, lift), 1.0);
+            }
+            return d;
+        }
         let origin = x + lift * n;
         let mut candidates: Vec<(f64, usize)> = self
             .lights
@@ -448,9 +477,11 @@ impl Environment {
         d
     }
 
-    /// Shadow rays a point casts to the point lights at most ([`Environment::sharp_direct`]).
-    pub fn light_rays(&self) -> usize {
-        self.lights.len().min(EXACT_LIGHTS + SAMPLED_LIGHTS)
+    /// Shadow rays a point casts at most to the sun ([`SUN_RAYS`]) and the point lights
+    /// ([`Environment::sharp_direct`]).
+    pub fn sharp_rays(&self) -> usize {
+        let sun = if self.sun.is_some() { SUN_RAYS } else { 0 };
+        sun + self.lights.len().min(EXACT_LIGHTS + SAMPLED_LIGHTS)
     }
 
     /// One point light's part: I · falloff · cos θ / r² / π, 0 where something lies between
@@ -466,18 +497,16 @@ impl Environment {
         lift: f64,
     ) -> Rgb {
         let origin = x + lift * n;
-        let to = light.position - origin;
-        let r2 = to.length_squared();
-        let cos = n.dot(to);
-        if cos <= 0.0 || r2 == 0.0 {
+        let Some(Toward {
+            to,
+            r,
+            r2,
+            cos,
+            falloff,
+        }) = light.toward(origin, n)
+        else {
             return [0.0; 3];
-        }
-        let r = r2.sqrt();
-        let (cos, d) = (cos / r, to / r);
-        let falloff = light.falloff(-d);
-        if falloff == 0.0 {
-            return [0.0; 3];
-        }
+        };
         // The segment to the light, short of it by the lift (nothing stands on a point light).
         if vis
             .closest_hit(origin, to, 1.0 - lift / r, ignore)

@@ -821,19 +821,14 @@ impl Gatherer<'_> {
 
     /// Shadow rays a gathering point casts at least: [`SHADOW_RAYS`] per exact emitter,
     /// [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and those of the lights outside
-    /// the mesh ([`Environment::light_rays`], and [`crate::environment::SUN_RAYS`] for the sun).
+    /// the mesh ([`Environment::sharp_rays`]).
     pub fn shadow_rays_per_point(&self) -> usize {
         let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
             OTHER_LIGHT_SAMPLES
         } else {
             0
         };
-        let sun = if self.env.sun.is_some() {
-            crate::environment::SUN_RAYS
-        } else {
-            0
-        };
-        SHADOW_RAYS * self.exact_per_point() + others + self.env.light_rays() + sun
+        SHADOW_RAYS * self.exact_per_point() + others + self.env.sharp_rays()
     }
 
     /// The scene's extent (its bounding box diagonal), scene units.

@@ -814,21 +814,19 @@ impl<'a> Hierarchy<'a> {
             _ => None,
         };
         let mut slot = Vec::with_capacity(self.links.len());
-        let mut which = Vec::new();
-        for (i, l) in self.links.iter().enumerate() {
-            if deep(l).is_some() {
-                slot.push(which.len() as u32);
-                which.push(i);
-            } else {
-                slot.push(NO_SHARES);
+        let mut pairs = Vec::new();
+        for l in &self.links {
+            match deep(l) {
+                Some(pair) => {
+                    slot.push(pairs.len() as u32);
+                    pairs.push(pair);
+                }
+                None => slot.push(NO_SHARES),
             }
         }
-        let shares = which
+        let shares = pairs
             .par_iter()
-            .map(|&i| {
-                let (r, s) = deep(&self.links[i]).expect("chosen above");
-                links::grandchild_shares(t, r, s)
-            })
+            .map(|&(r, s)| links::grandchild_shares(t, r, s))
             .collect();
         self.grandchild_shares = GrandchildShares { slot, shares };
     }

@@ -79,6 +79,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         textures: Vec::new(),
         uv_maps: Vec::new(),
         texture_of: std::collections::HashMap::new(),
+        texture_of_image: std::collections::HashMap::new(),
     };
     // Every material of the file, in its order (as an MTL's), used or not.
     for m in doc.materials() {
@@ -172,6 +173,8 @@ struct Loader<'a> {
     uv_maps: Vec<crate::scene::UvMap>,
     /// Our material → its texture among `textures` and the texture coordinate set it reads.
     texture_of: std::collections::HashMap<u32, (u32, u32)>,
+    /// Each image read as a base-colour texture ([`Loader::base_texture`]).
+    texture_of_image: std::collections::HashMap<usize, (Option<u32>, Option<Rgb>)>,
 }
 
 impl Loader<'_> {
@@ -287,16 +290,10 @@ impl Loader<'_> {
         if let Some(info) = pbr.base_color_texture() {
             let image = info.texture().source().index();
             // 8- and 16-bit images vary ρ across faces; float ones give their mean only.
-            let mean = match self.texture(image) {
-                Some(t) => {
-                    let mean = t.mean;
-                    self.textures.push(t);
-                    let k = (self.textures.len() - 1) as u32;
-                    self.texture_of.insert(our, (k, info.tex_coord()));
-                    Some(mean)
-                }
-                None => self.texture_mean(image),
-            };
+            let (texture, mean) = self.base_texture(image);
+            if let Some(k) = texture {
+                self.texture_of.insert(our, (k, info.tex_coord()));
+            }
             if let Some(mean) = mean {
                 reflectance = [0, 1, 2].map(|c| reflectance[c] * mean[c]);
                 self.textured.push(name.clone());
@@ -326,11 +323,27 @@ impl Loader<'_> {
         k
     }
 
-    /// Image `i` as a linear texture ([`crate::io::linear_texture`]) when it is an sRGB-encoded
-    /// 8- or 16-bit image; `None` for float images and without pixels.
-    fn texture(&self, i: usize) -> Option<crate::scene::Texture> {
-        let image = self.decoded(i).ok()?;
-        crate::io::linear_texture(image, format!("image {i}"))
+    /// Image `i` as a base-colour texture, read once for every material that uses it: its
+    /// index among `textures` when it is an sRGB-encoded 8- or 16-bit image
+    /// ([`crate::io::linear_texture`]; `None` for float images, whose colour is only averaged),
+    /// and its mean linear colour (`None` without pixels).
+    fn base_texture(&mut self, i: usize) -> (Option<u32>, Option<Rgb>) {
+        if let Some(&read) = self.texture_of_image.get(&i) {
+            return read;
+        }
+        let read = match self.decoded(i) {
+            Ok(image) => match crate::io::linear_texture(image, format!("image {i}")) {
+                Some(t) => {
+                    let mean = t.mean;
+                    self.textures.push(t);
+                    (Some((self.textures.len() - 1) as u32), Some(mean))
+                }
+                None => (None, None),
+            },
+            Err(mean) => (None, mean),
+        };
+        self.texture_of_image.insert(i, read);
+        read
     }
 
     /// The mean linear colour of image `i`: sRGB-encoded 8- or 16-bit images through

@@ -178,27 +178,20 @@ impl Estimate {
             // The lights outside the mesh: a shadow ray each at every output vertex (about one
             // per patch or leaf) and at every vertex the display refinement adds (its budget
             // shares 2·AUTO_RAY_BUDGET out over the rays a vertex casts).
-            let env = &s.environment;
-            let light_rays = env.light_rays()
-                + if env.sun.is_some() {
-                    crate::environment::SUN_RAYS
+            let light_rays = s.environment.sharp_rays();
+            if light_rays > 0 {
+                let vertices = e.max_patches;
+                let hemisphere = match e.gather {
+                    Gather::Full => gather::auto_rays(vertices),
+                    _ => 0,
+                };
+                let refined = if s.gather_tolerance > 0.0 {
+                    gather::refine::budget(hemisphere, light_rays)
                 } else {
                     0
                 };
-            if light_rays > 0 {
-                let vertices = e.max_patches as f64;
-                let hemisphere = match e.gather {
-                    Gather::Full => (gather::AUTO_RAY_BUDGET as f64 / vertices).clamp(64.0, 1024.0),
-                    _ => 0.0,
-                };
-                let refined = if s.gather_tolerance > 0.0 {
-                    2.0 * gather::AUTO_RAY_BUDGET as f64 / (hemisphere + light_rays as f64)
-                } else {
-                    0.0
-                };
                 e.seconds += GATHER_SECONDS_PER_LIGHT_RAY
-                    * light_rays as f64
-                    * (vertices + refined)
+                    * (light_rays * (vertices + refined)) as f64
                     * per_core;
             }
         }

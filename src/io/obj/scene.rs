@@ -138,7 +138,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         .collect();
     let (textures, texture_of) = apply_extras(&mut materials, &extras, &mut warnings);
     // tobj keeps faces in file order and fan-triangulates a face of n vertices into n − 2
-    // triangles (corners 0, j + 1, j + 2), so triangle k comes from the k-th entry below
+    // triangles (corners 0, j + 1, j + 2), so triangle k comes from the k-th (face, j) below
     // (checked by the count).
     let fans: Vec<(usize, usize)> = scan
         .faces
@@ -206,13 +206,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             message: "the mesh is empty: no faces with 3 or more vertices".into(),
         });
     }
-    // tobj keeps faces in file order and fan-triangulates a face of n vertices into n − 2
-    // triangles, so triangle k comes from the k-th face line below (checked by the count).
-    let face_lines: Vec<usize> = scan
-        .faces
-        .iter()
-        .flat_map(|&(line, n)| std::iter::repeat_n(line, n - 2))
-        .collect();
+    let face_lines: Vec<usize> = fans.iter().map(|&(f, _)| scan.faces[f].0).collect();
     let mut scene = finish(
         Some(path.to_path_buf()),
         positions,
@@ -247,6 +241,38 @@ struct ObjScan {
     uvs: Vec<glam::DVec2>,
     /// The `# camera: …` comment's camera (at most one such line).
     camera: Option<Camera>,
+}
+
+/// The 1-based absolute index that `text`, one index of the face vertex `token`, names among
+/// the `count` items (`what` = (its name, the items' name, count)) defined before line `ln`:
+/// positive indices count from 1, negative ones back from the latest item. 0 and indices out
+/// of range are errors at the line.
+fn face_index(
+    path: &Path,
+    ln: usize,
+    token: &str,
+    text: &str,
+    (name, items, count): (&str, &str, usize),
+) -> Result<i64> {
+    let k: i64 = text
+        .parse()
+        .map_err(|_| parse_error(path, ln, format!("face: malformed vertex '{token}'")))?;
+    let absolute = if k < 0 { count as i64 + k + 1 } else { k };
+    if k == 0 {
+        return Err(parse_error(
+            path,
+            ln,
+            format!("face: {name} 0 (OBJ indices start at 1)"),
+        ));
+    }
+    if absolute < 1 || absolute > count as i64 {
+        return Err(parse_error(
+            path,
+            ln,
+            format!("face: {name} {k} out of range ({count} {items} defined before this line)"),
+        ));
+    }
+    Ok(absolute)
 }
 
 /// Checks every OBJ statement the loader uses and produces the normalised copy for `tobj`
@@ -320,47 +346,20 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
                     match token.split('/').nth(1).filter(|t| !t.is_empty()) {
                         None => texture_indices = None,
                         Some(t) => {
-                            let k: i64 = t.parse().map_err(|_| {
-                                parse_error(path, ln, format!("face: malformed vertex '{token}'"))
-                            })?;
-                            let absolute = if k < 0 { uvs.len() as i64 + k + 1 } else { k };
-                            if k == 0 || absolute < 1 || absolute > uvs.len() as i64 {
-                                return Err(parse_error(
-                                    path,
-                                    ln,
-                                    format!(
-                                        "face: texture coordinate index {k} out of range ({} vt \
-                                         defined before this line; indices start at 1)",
-                                        uvs.len()
-                                    ),
-                                ));
-                            }
+                            let what = ("texture coordinate index", "vt", uvs.len());
+                            let absolute = face_index(path, ln, token, t, what)?;
                             if let Some(list) = texture_indices.as_mut() {
                                 list.push((absolute - 1) as u32);
                             }
                         }
                     }
-                    let k: i64 = index.parse().map_err(|_| {
-                        parse_error(path, ln, format!("face: malformed vertex '{token}'"))
-                    })?;
-                    // Positive indices count from 1; negative ones back from the latest vertex.
-                    let absolute = if k < 0 { vertices as i64 + k + 1 } else { k };
-                    if k == 0 {
-                        return Err(parse_error(
-                            path,
-                            ln,
-                            "face: vertex index 0 (OBJ indices start at 1)",
-                        ));
-                    }
-                    if absolute < 1 || absolute > vertices as i64 {
-                        return Err(parse_error(
-                            path,
-                            ln,
-                            format!(
-                                "face: vertex index {k} out of range ({vertices} vertices defined before this line)"
-                            ),
-                        ));
-                    }
+                    let absolute = face_index(
+                        path,
+                        ln,
+                        token,
+                        index,
+                        ("vertex index", "vertices", vertices),
+                    )?;
                     out.push(' ');
                     out.push_str(&absolute.to_string());
                 }
