@@ -51,7 +51,7 @@ use serde::Serialize;
 
 use crate::bake::Site;
 use crate::choice::Choice;
-use crate::color::Rgb;
+use crate::color::{luminance, Rgb};
 use crate::environment::{Environment, SkyModel};
 use crate::form_factor::kernel::point_to_polygon;
 use crate::form_factor::sampling::{gauss_rule, kernel_samples, malley, Rng};
@@ -560,7 +560,7 @@ impl<'a> Gatherer<'a> {
         rays: usize,
         rng: &mut Rng,
     ) -> Rgb {
-        self.hemisphere(x, n, ignore, exact, rays, true, rng)
+        self.hemisphere(x, n, ignore, exact, rays, true, rng).0
     }
 
     /// The reflected radiance ρ·(direct + indirect) leaving the point `y` of patch `h`, one
@@ -575,12 +575,14 @@ impl<'a> Gatherer<'a> {
         let hi = h as u32;
         let rays = (NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS);
         let (direct, _) = self.direct_from(y, ny, hi, exact, rays, true, rng);
-        let indirect = self.hemisphere(y, ny, hi, exact, NEAR_RAYS, false, rng);
+        let (indirect, _) = self.hemisphere(y, ny, hi, exact, NEAR_RAYS, false, rng);
         let rho = self.patches.reflectance[h];
         std::array::from_fn(|c| rho[c] * (direct[c] + indirect[c]))
     }
 
-    /// [`Gatherer::indirect`], with the near hits' further bounce only if `near_bounce`.
+    /// [`Gatherer::indirect`], with the near hits' further bounce only if `near_bounce`; and
+    /// the standard error of the estimate's luminance, from the rays' spread (an upper bound:
+    /// the rays are stratified).
     #[allow(clippy::too_many_arguments)]
     fn hemisphere(
         &self,
@@ -591,9 +593,11 @@ impl<'a> Gatherer<'a> {
         rays: usize,
         near_bounce: bool,
         rng: &mut Rng,
-    ) -> Rgb {
+    ) -> (Rgb, f64) {
         let (t, b) = n.any_orthonormal_pair();
         let mut sum = [0.0; 3];
+        // Σ Y² of what each ray brings, for the spread.
+        let mut squares = 0.0;
         // The sky: rays above the horizon, and those of them that leave the scene.
         let (mut above, mut open) = (0usize, 0usize);
         let up = self.env.up.axis();
@@ -606,55 +610,74 @@ impl<'a> Gatherer<'a> {
             let v = (j as f64 + rng.next_f64()) / side as f64;
             let dir = malley(u, v, t, b, n);
             above += usize::from(dir.dot(up) > 0.0);
-            let Some(hit) = self
-                .vis
-                .closest_hit(x + self.lift * n, dir, f64::INFINITY, ignore)
-            else {
-                // Left the scene: the sky's radiance from there (none below the horizon).
-                open += usize::from(dir.dot(up) > 0.0);
-                if self.env.sky_model != SkyModel::Uniform {
-                    for (s, l) in sum.iter_mut().zip(self.env.escaped(dir)) {
-                        *s += l;
-                    }
-                }
-                continue;
-            };
-            let h = hit.triangle as usize;
-            if self.patches.normal[h].dot(dir) >= 0.0 {
-                continue; // the back of a one-sided surface sends nothing
-            }
-            // The emitted part of what it sends was counted by the direct term if its emitter
-            // is one of `exact` or sampled from here (the others' rays).
-            let e = self.emitter_of[self.patches.source_triangle[h] as usize];
-            let counted = e != NONE
-                && (exact.binary_search(&e).is_ok() || self.sampled(&self.emitters[e as usize], x));
-            let (l, le) = (self.radiance[h], self.patches.emission[h]);
-            if near_bounce && hit.t < NEAR_HIT * self.patches.area[h].sqrt() {
-                // A near hit (a concave corner): the patch's mean is not the radiance at the
-                // hit point; evaluate it there, one bounce further (see NEAR_HIT).
-                let y = x + self.lift * n + hit.t * dir;
-                let reflected = self.reflected_at_hit(y, h, exact, rng);
-                for c in 0..3 {
-                    sum[c] += if counted { 0.0 } else { le[c] } + reflected[c];
-                }
-                continue;
-            }
-            for c in 0..3 {
-                sum[c] += if counted {
-                    (l[c] - le[c]).max(0.0)
-                } else {
-                    l[c]
-                };
+            let brought = self.along(x, n, dir, ignore, exact, near_bounce, &mut open, rng);
+            squares += luminance(brought).powi(2);
+            for (s, l) in sum.iter_mut().zip(brought) {
+                *s += l;
             }
         }
-        let mut out = sum.map(|s| s / total as f64);
+        let count = total as f64;
+        let mut out = sum.map(|s| s / count);
+        let spread = (squares / count - luminance(out).powi(2)).max(0.0);
         if self.env.sky_model == SkyModel::Uniform {
             // A uniform sky by the ratio estimate: exact where nothing is in the way.
             for (o, l) in out.iter_mut().zip(self.env.uniform_sky(n, open, above)) {
                 *o += l;
             }
         }
-        out
+        (out, (spread / count).sqrt())
+    }
+
+    /// What one hemisphere ray from `x` along `dir` brings (see [`Gatherer::hemisphere`]);
+    /// counts it in `open` if it leaves the scene above the horizon.
+    #[allow(clippy::too_many_arguments)]
+    fn along(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        dir: DVec3,
+        ignore: u32,
+        exact: &[u32],
+        near_bounce: bool,
+        open: &mut usize,
+        rng: &mut Rng,
+    ) -> Rgb {
+        let Some(hit) = self
+            .vis
+            .closest_hit(x + self.lift * n, dir, f64::INFINITY, ignore)
+        else {
+            // Left the scene: the sky's radiance from there (none below the horizon).
+            *open += usize::from(dir.dot(self.env.up.axis()) > 0.0);
+            return if self.env.sky_model == SkyModel::Uniform {
+                [0.0; 3]
+            } else {
+                self.env.escaped(dir)
+            };
+        };
+        let h = hit.triangle as usize;
+        if self.patches.normal[h].dot(dir) >= 0.0 {
+            return [0.0; 3]; // the back of a one-sided surface sends nothing
+        }
+        // The emitted part of what it sends was counted by the direct term if its emitter
+        // is one of `exact` or sampled from here (the others' rays).
+        let e = self.emitter_of[self.patches.source_triangle[h] as usize];
+        let counted = e != NONE
+            && (exact.binary_search(&e).is_ok() || self.sampled(&self.emitters[e as usize], x));
+        let (l, le) = (self.radiance[h], self.patches.emission[h]);
+        if near_bounce && hit.t < NEAR_HIT * self.patches.area[h].sqrt() {
+            // A near hit (a concave corner): the patch's mean is not the radiance at the
+            // hit point; evaluate it there, one bounce further (see NEAR_HIT).
+            let y = x + self.lift * n + hit.t * dir;
+            let reflected = self.reflected_at_hit(y, h, exact, rng);
+            return std::array::from_fn(|c| if counted { 0.0 } else { le[c] } + reflected[c]);
+        }
+        std::array::from_fn(|c| {
+            if counted {
+                (l[c] - le[c]).max(0.0)
+            } else {
+                l[c]
+            }
+        })
     }
 
     /// True when the first surface along `n` from `x` is seen from behind: `x` is buried
@@ -794,6 +817,26 @@ impl Gatherer<'_> {
         let rho = self.patches.reflectance[p];
         let indirect = std::array::from_fn(|c| rho[c] * indirect[c]);
         self.with_emission(p, direct, indirect, penumbra)
+    }
+
+    /// The reflected indirect light ρ·∫ L cosθ/π dω at `spot` by `rays` hemisphere rays (as
+    /// [`Gatherer::full`] computes it, `exact` the emitters its direct term counts), and a
+    /// bound on the standard error of its luminance (max ρ × the rays' spread): what the
+    /// display refinement tests a midpoint with.
+    pub(crate) fn reflected_indirect(
+        &self,
+        spot: &Spot,
+        exact: &[u32],
+        rays: usize,
+        rng: &mut Rng,
+    ) -> (Rgb, f64) {
+        let (indirect, error) = self.hemisphere(spot.x, spot.n, spot.patch, exact, rays, true, rng);
+        let rho = self.patches.reflectance[spot.patch as usize];
+        let rho_max = rho.iter().copied().fold(0.0, f64::max);
+        (
+            std::array::from_fn(|c| rho[c] * indirect[c]),
+            rho_max * error,
+        )
     }
 
     /// Le of patch `p` plus the reflected parts.
@@ -1205,7 +1248,7 @@ mod tests {
             let mut rng = Rng::new(&[1, k as u64]);
             let direct = g.direct(x, n, patch, &mut rng);
             let mut shown = |near: bool| {
-                let ind = g.hemisphere(x, n, patch, &exact, 4096, near, &mut rng);
+                let (ind, _) = g.hemisphere(x, n, patch, &exact, 4096, near, &mut rng);
                 let l: Rgb = std::array::from_fn(|c| rho[c] * (direct[c] + ind[c]));
                 lum(l) / lum(p.radiance) - 1.0
             };

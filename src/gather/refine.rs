@@ -12,10 +12,15 @@
 //!
 //! Y the luminance, τ the tolerance, Y_floor a tenth of the mean luminance of the non-emitting
 //! vertices (darker points are not worth vertices). The indirect light is smooth except near a
-//! contact, where it falls off towards the corner; an edge whose endpoints' reflected indirect
-//! light differs by more than 2τ · max(…) is split too (its midpoint would show the mean of two
-//! values that differ that much). A split edge gets a new output vertex at its midpoint with
-//! its own final gather, and the triangles around it are split conformingly (one, two or three
+//! contact or a narrow gap, where it falls off within the gap's width; an edge whose endpoints'
+//! reflected indirect light differs by more than 2τ · max(…) is split (its midpoint would show
+//! the mean of two values that differ that much), and so is one whose midpoint's indirect light,
+//! estimated by [`TEST_RAYS`] hemisphere rays (`full` only), departs from its ends' mean by more
+//! than τ · max(…) plus [`SIGNIFICANCE`] standard errors of that estimate: a dark middle between
+//! lit ends, which neither the ends nor the direct light show (a table's underside above a
+//! leg's top 5 mm below it, the floor under a seat).
+//!
+//! A split edge gets a new output vertex at its midpoint with its own final gather, and the triangles around it are split conformingly (one, two or three
 //! split edges give two, three or four triangles; a split edge is split in every triangle that
 //! has it, on both sides of a crease), so no T-junction appears. New triangles' edges are
 //! tested again, up to [`MAX_LEVELS`] times and down to [`MIN_EDGE`] of the scene's extent.
@@ -23,7 +28,8 @@
 //! The work is bounded: at most `budget` new vertices in all (the edges with the largest
 //! deviation first, at most half the remaining budget per level, the rest waiting for the next),
 //! and at most [`TESTS_PER_NEW_VERTEX`] × the budget midpoint tests in all (the edges whose
-//! endpoints differ most, or lie in a penumbra, first). Every choice
+//! endpoints differ most, or lie in a penumbra, first), each of at most [`TEST_SHADOW_RAYS`]
+//! shadow rays per emitter and [`TEST_RAYS`] hemisphere rays. Every choice
 //! is ordered by the edges' vertex indices, so a fixed seed gives the same mesh for any thread
 //! count.
 
@@ -62,6 +68,14 @@ pub const MIN_EDGE: f64 = 1e-3;
 /// the light departs from linear by more than τ, not its value (a new vertex gets
 /// [`MAX_SHADOW_RAYS`]).
 pub const TEST_SHADOW_RAYS: usize = 64;
+
+/// Hemisphere rays of a midpoint test's indirect light (`full` only): enough to see a
+/// midpoint darker or brighter than its ends by a multiple of τ, not to value it.
+pub const TEST_RAYS: usize = 16;
+
+/// A midpoint's indirect light departs from its ends' mean only beyond this many of its
+/// standard errors (estimated from its [`TEST_RAYS`]' spread), so noise alone rarely splits.
+pub const SIGNIFICANCE: f64 = 2.0;
 
 /// Midpoint tests, in all, per vertex the budget allows.
 pub const TESTS_PER_NEW_VERTEX: usize = 4;
@@ -196,12 +210,26 @@ pub fn refine(
                 let indirect =
                     0.5 * (luminance(va.indirect) - luminance(vb.indirect)).abs() / reference;
                 let site = d.midpoint_site(e, &[]);
-                let direct = gatherer.spot(&site, visible_fraction).map_or(0.0, |spot| {
+                let at_midpoint = gatherer.spot(&site, visible_fraction).map_or(0.0, |spot| {
                     let mut rng = Rng::new(&[seed, e.0 as u64, e.1 as u64, 0x7E57]);
-                    let (dm, _, _) = gatherer.reflected_direct(&spot, TEST_SHADOW_RAYS, &mut rng);
-                    (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference
+                    let (dm, _, exact) =
+                        gatherer.reflected_direct(&spot, TEST_SHADOW_RAYS, &mut rng);
+                    let direct =
+                        (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference;
+                    if mode != Gather::Full {
+                        return direct;
+                    }
+                    // The indirect light at the midpoint, by a few rays: its departure from
+                    // the ends' mean beyond SIGNIFICANCE standard errors (a dark middle
+                    // between bright ends: above a table leg's top, 5 mm under the table).
+                    let (im, error) =
+                        gatherer.reflected_indirect(&spot, &exact, TEST_RAYS, &mut rng);
+                    let departure = (luminance(im) - luminance(mid(va.indirect, vb.indirect)))
+                        .abs()
+                        - SIGNIFICANCE * error;
+                    direct.max(departure.max(0.0) / reference)
                 });
-                direct.max(indirect)
+                at_midpoint.max(indirect)
             })
             .collect();
         let mut split: Vec<Split> = std::mem::take(&mut deferred);
@@ -597,6 +625,69 @@ mod tests {
             "RMS {before} → {after}"
         );
         fine.baked.validate().unwrap();
+    }
+
+    #[test]
+    fn a_dark_middle_between_lit_ends_is_split_by_its_indirect_light() {
+        // A unit receiver (z = 0, facing up) lit only indirectly: an emitter facing up at
+        // z = 0.95 lights a white ceiling at z = 1, which lights the receiver; nothing emits
+        // towards the receiver, so its direct light is 0 everywhere. A black plate 0.2 wide
+        // hovers 5 mm above the receiver's centre (not a contact: the contact tolerance is
+        // 1.7 mm here): under it the receiver sees only a slit 5 mm high, about cos²(87°) =
+        // 0.25 % of the ceiling, while the receiver's patch corners (one patch edge across the
+        // square) are all open. Only the midpoint test's indirect rays can see the dark middle
+        // of the diagonal: the direct light is 0 at its ends and its midpoint.
+        let mut b = SceneBuilder::new();
+        let white = b.material("white", [0.9; 3], [0.0; 3]);
+        let rcv = b.material("receiver", [RHO; 3], [0.0; 3]);
+        let src = b.material("source", [0.0; 3], [LE; 3]);
+        let black = b.material("black", [0.0; 3], [0.0; 3]);
+        let rect = |z: f64, (x0, x1): (f64, f64), up: bool| {
+            let c = [
+                DVec3::new(x0, x0, z),
+                DVec3::new(x1, x0, z),
+                DVec3::new(x1, x1, z),
+                DVec3::new(x0, x1, z),
+            ];
+            if up {
+                c
+            } else {
+                [c[0], c[3], c[2], c[1]]
+            }
+        };
+        b.quad(rect(0.0, (0.0, 1.0), true), rcv);
+        b.quad(rect(1.0, (-1.0, 2.0), false), white);
+        b.quad(rect(0.95, (0.3, 0.7), true), src);
+        b.quad(rect(0.005, (0.4, 0.6), false), black); // facing the receiver
+        let scene = b.build().unwrap();
+        let settings = Settings {
+            max_edge: Some(2.0),
+            refine_rounds: 0,
+            ..Settings::default()
+        };
+        let out = pipeline::solve_scene(&scene, &settings).unwrap();
+        let b = &out.baked;
+        let under = |p: &[f64; 3]| {
+            p[2] == 0.0 && (0.4..=0.6).contains(&p[0]) && (0.4..=0.6).contains(&p[1])
+        };
+        assert!(
+            b.positions.iter().any(under),
+            "no output vertex under the plate ({} added)",
+            out.report.display_refinement.vertices
+        );
+        let at = |x: f64, y: f64| Probe {
+            triangle: 0,
+            position: DVec3::new(x, y, 0.0),
+            normal: DVec3::Z,
+            radiance: [0.0; 3],
+            std_error: 0.0,
+            paths: 0,
+        };
+        let shown = Display::from_baked(b).at(&[at(0.5, 0.5), at(0.15, 0.85)]);
+        let y = |k: usize| luminance(shown[k].expect("displayed").interpolated);
+        // Under the plate's centre ~0.25 % of the open value (above); a quarter leaves room
+        // for the gather's noise and for a vertex a little off the centre.
+        assert!(y(0) < 0.25 * y(1), "centre {} against open {}", y(0), y(1));
     }
 
     #[test]
