@@ -238,6 +238,29 @@ struct Toward {
     falloff: f64,
 }
 
+/// A point where the lights outside the mesh are evaluated: the estimators' common arguments.
+#[derive(Clone, Copy)]
+pub struct Receiver<'a> {
+    /// The occluders its shadow rays are traced against.
+    pub vis: &'a Visibility,
+    /// The point, scene units.
+    pub x: DVec3,
+    /// Its unit normal (the front side).
+    pub n: DVec3,
+    /// The triangle of `vis` it lies on, which its rays ignore.
+    pub ignore: u32,
+    /// How far its rays start above the surface (and stop short of a point light), scene
+    /// units.
+    pub lift: f64,
+}
+
+impl Receiver<'_> {
+    /// Where its rays start: `lift` above the point along the normal.
+    fn origin(&self) -> DVec3 {
+        self.x + self.lift * self.n
+    }
+}
+
 /// The lights outside the mesh; [`Environment::default`] has none.
 #[derive(Debug, Clone, PartialEq, Serialize, Default)]
 pub struct Environment {
@@ -343,23 +366,13 @@ impl Environment {
         self.sky.map(|l| l * f)
     }
 
-    /// The direct light D(x) (radiance units: irradiance / π, before ρ) at the point `x` with
-    /// unit normal `n` on scene triangle `ignore` of `vis`, from the sun ([`SUN_RAYS`] shadow
-    /// rays) and the sky (`sky_rays` rays; 0 = no sky). Rays start `lift` above the surface.
-    #[allow(clippy::too_many_arguments)]
-    pub fn direct(
-        &self,
-        vis: &Visibility,
-        x: DVec3,
-        n: DVec3,
-        ignore: u32,
-        lift: f64,
-        sky_rays: usize,
-        rng: &mut Rng,
-    ) -> Rgb {
-        let mut d = self.sharp_direct(vis, x, n, ignore, lift, rng);
+    /// The direct light D(x) (radiance units: irradiance / π, before ρ) at the receiver `at`,
+    /// from the sun ([`SUN_RAYS`] shadow rays), the point lights and the sky (`sky_rays` rays;
+    /// 0 = no sky).
+    pub fn direct(&self, at: &Receiver, sky_rays: usize, rng: &mut Rng) -> Rgb {
+        let mut d = self.sharp_direct(at, rng);
         if sky_rays > 0 {
-            let s = self.sky_direct(vis, x, n, ignore, lift, sky_rays, rng);
+            let s = self.sky_direct(at, sky_rays, rng);
             for (d, s) in d.iter_mut().zip(s) {
                 *d += s;
             }
@@ -377,49 +390,27 @@ impl Environment {
     /// many-light scheme of Shirley, Wang & Zimmerman 1996, "Monte Carlo techniques for direct
     /// lighting calculations", with the strongest lights split off as in Ward 1991, "Adaptive
     /// shadow testing for ray tracing").
-    pub fn sharp_direct(
-        &self,
-        vis: &Visibility,
-        x: DVec3,
-        n: DVec3,
-        ignore: u32,
-        lift: f64,
-        rng: &mut Rng,
-    ) -> Rgb {
-        let rays = (EXACT_LIGHTS, SAMPLED_LIGHTS);
-        self.sharp_direct_with(vis, x, n, ignore, lift, rays, rng)
+    pub fn sharp_direct(&self, at: &Receiver, rng: &mut Rng) -> Rgb {
+        self.sharp_direct_with(at, (EXACT_LIGHTS, SAMPLED_LIGHTS), rng)
     }
 
     /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together,
     /// drawn as there: unbiased, and noisy alone. For the many points of a gather that are
     /// averaged (a near hit's reflected light), where a level's hundred lamps would otherwise
     /// cost a hundred rays at every one.
-    pub fn sharp_direct_sampled(
-        &self,
-        vis: &Visibility,
-        x: DVec3,
-        n: DVec3,
-        ignore: u32,
-        lift: f64,
-        rng: &mut Rng,
-    ) -> Rgb {
-        self.sharp_direct_with(vis, x, n, ignore, lift, (0, 1), rng)
+    pub fn sharp_direct_sampled(&self, at: &Receiver, rng: &mut Rng) -> Rgb {
+        self.sharp_direct_with(at, (0, 1), rng)
     }
 
     /// [`Environment::sharp_direct`] with `exact` strongest lights and `sampled` shadow rays
     /// for the rest (all exactly when that many or fewer can bring light).
-    #[allow(clippy::too_many_arguments)]
     fn sharp_direct_with(
         &self,
-        vis: &Visibility,
-        x: DVec3,
-        n: DVec3,
-        ignore: u32,
-        lift: f64,
+        at: &Receiver,
         (exact, sampled): (usize, usize),
         rng: &mut Rng,
     ) -> Rgb {
-        let mut d = self.sun_direct(vis, x, n, ignore, lift, rng);
+        let mut d = self.sun_direct(at, rng);
         let mut add = |p: Rgb, scale: f64| {
             for (d, p) in d.iter_mut().zip(p) {
                 *d += p * scale;
@@ -428,24 +419,21 @@ impl Environment {
         if self.lights.len() <= exact + sampled {
             // A ray each (one that can bring nothing returns 0 before casting).
             for l in &self.lights {
-                add(self.point_direct(l, vis, x, n, ignore, lift), 1.0);
+                add(self.point_direct(l, at), 1.0);
             }
             return d;
         }
-        let origin = x + lift * n;
+        let origin = at.origin();
         let mut candidates: Vec<(f64, usize)> = self
             .lights
             .iter()
             .enumerate()
-            .map(|(k, l)| (l.potential(origin, n), k))
+            .map(|(k, l)| (l.potential(origin, at.n), k))
             .filter(|&(w, _)| w > 0.0)
             .collect();
         if candidates.len() <= exact + sampled {
             for &(_, k) in &candidates {
-                add(
-                    self.point_direct(&self.lights[k], vis, x, n, ignore, lift),
-                    1.0,
-                );
+                add(self.point_direct(&self.lights[k], at), 1.0);
             }
             return d;
         }
@@ -456,10 +444,7 @@ impl Environment {
         }
         let (strong, weak) = candidates.split_at(exact);
         for &(_, k) in strong {
-            add(
-                self.point_direct(&self.lights[k], vis, x, n, ignore, lift),
-                1.0,
-            );
+            add(self.point_direct(&self.lights[k], at), 1.0);
         }
         let mut cdf = Vec::with_capacity(weak.len());
         let mut total = 0.0;
@@ -471,7 +456,7 @@ impl Environment {
             let u = rng.next_f64() * total;
             let j = cdf.partition_point(|&c| c <= u).min(weak.len() - 1);
             let (w, k) = weak[j];
-            let p = self.point_direct(&self.lights[k], vis, x, n, ignore, lift);
+            let p = self.point_direct(&self.lights[k], at);
             add(p, total / (w * sampled as f64));
         }
         d
@@ -486,30 +471,22 @@ impl Environment {
 
     /// One point light's part: I · falloff · cos θ / r² / π, 0 where something lies between
     /// (one shadow ray: a point casts hard shadows).
-    #[allow(clippy::too_many_arguments)]
-    pub fn point_direct(
-        &self,
-        light: &PointLight,
-        vis: &Visibility,
-        x: DVec3,
-        n: DVec3,
-        ignore: u32,
-        lift: f64,
-    ) -> Rgb {
-        let origin = x + lift * n;
+    pub fn point_direct(&self, light: &PointLight, at: &Receiver) -> Rgb {
+        let origin = at.origin();
         let Some(Toward {
             to,
             r,
             r2,
             cos,
             falloff,
-        }) = light.toward(origin, n)
+        }) = light.toward(origin, at.n)
         else {
             return [0.0; 3];
         };
         // The segment to the light, short of it by the lift (nothing stands on a point light).
-        if vis
-            .closest_hit(origin, to, 1.0 - lift / r, ignore)
+        if at
+            .vis
+            .closest_hit(origin, to, 1.0 - at.lift / r, at.ignore)
             .is_some()
         {
             return [0.0; 3];
@@ -518,25 +495,18 @@ impl Environment {
     }
 
     /// The sun's part of [`Environment::direct`]: E_sun cos θ V̄ / π.
-    pub fn sun_direct(
-        &self,
-        vis: &Visibility,
-        x: DVec3,
-        n: DVec3,
-        ignore: u32,
-        lift: f64,
-        rng: &mut Rng,
-    ) -> Rgb {
+    pub fn sun_direct(&self, at: &Receiver, rng: &mut Rng) -> Rgb {
         let (Some(sun), Some(s)) = (self.sun, self.sun_direction()) else {
             return [0.0; 3];
         };
+        let n = at.n;
         let cos = n.dot(s);
         if cos <= 0.0 {
             return [0.0; 3];
         }
         let (t, b) = orthonormal_basis(s);
         let cos_max = (0.5 * SUN_DIAMETER_DEGREES).to_radians().cos();
-        let origin = x + lift * n;
+        let origin = at.origin();
         let mut seen = 0usize;
         for k in 0..SUN_RAYS {
             // Uniform over the disc's solid angle: cos uniform in [cos_max, 1], stratified.
@@ -545,8 +515,9 @@ impl Environment {
             let sin = (1.0 - c * c).max(0.0).sqrt();
             let dir = c * s + sin * (phi.cos() * t + phi.sin() * b);
             if dir.dot(n) > 0.0
-                && vis
-                    .closest_hit(origin, dir, f64::INFINITY, ignore)
+                && at
+                    .vis
+                    .closest_hit(origin, dir, f64::INFINITY, at.ignore)
                     .is_none()
             {
                 seen += 1;
@@ -561,24 +532,14 @@ impl Environment {
     /// for a surface facing nearly down the sky is a sliver of its hemisphere, and rays
     /// spent below the horizon would leave its estimate to chance. At most
     /// [`MAX_SKY_DRAWS`] × `rays` directions are drawn (no ray is cast for a rejected one).
-    #[allow(clippy::too_many_arguments)]
-    pub fn sky_direct(
-        &self,
-        vis: &Visibility,
-        x: DVec3,
-        n: DVec3,
-        ignore: u32,
-        lift: f64,
-        rays: usize,
-        rng: &mut Rng,
-    ) -> Rgb {
-        let up = self.up.axis();
+    pub fn sky_direct(&self, at: &Receiver, rays: usize, rng: &mut Rng) -> Rgb {
+        let (n, up) = (at.n, self.up.axis());
         let unoccluded = 0.5 * (1.0 + n.dot(up));
         if rays == 0 || self.sky.iter().all(|&l| l <= 0.0) || unoccluded <= 0.0 {
             return [0.0; 3];
         }
         let (t, b) = orthonormal_basis(n);
-        let origin = x + lift * n;
+        let origin = at.origin();
         let (mut cast, mut open, mut drawn) = (0usize, 0usize, 0usize);
         let mut sum = [0.0; 3];
         while cast < rays && drawn < MAX_SKY_DRAWS * rays {
@@ -589,8 +550,9 @@ impl Environment {
                 continue;
             }
             cast += 1;
-            if vis
-                .closest_hit(origin, dir, f64::INFINITY, ignore)
+            if at
+                .vis
+                .closest_hit(origin, dir, f64::INFINITY, at.ignore)
                 .is_some()
             {
                 continue;
@@ -666,7 +628,14 @@ pub fn patch_light(patches: &Patches, env: &Environment, seed: u64) -> Vec<Rgb> 
                     continue;
                 }
                 let n = patches.surface_normal(i, w);
-                let d = env.direct(&vis, x, n, i as u32, lift, SKY_RAYS, &mut rng);
+                let at = Receiver {
+                    vis: &vis,
+                    x,
+                    n,
+                    ignore: i as u32,
+                    lift,
+                };
+                let d = env.direct(&at, SKY_RAYS, &mut rng);
                 for (s, d) in sum.iter_mut().zip(d) {
                     *s += wt * d;
                 }
@@ -684,6 +653,17 @@ pub fn patch_light(patches: &Patches, env: &Environment, seed: u64) -> Vec<Rgb> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The receiver at `x` (normal `n`) on triangle 0 of `vis`, its rays lifted by `lift`.
+    fn at(vis: &Visibility, x: DVec3, n: DVec3, lift: f64) -> Receiver<'_> {
+        Receiver {
+            vis,
+            x,
+            n,
+            ignore: 0,
+            lift,
+        }
+    }
 
     /// A unit square at the origin with unit normal `n` (two triangles) as a visibility set.
     fn plate(n: DVec3) -> ([[DVec3; 3]; 2], Visibility) {
@@ -735,7 +715,7 @@ mod tests {
                 let n = theta.cos() * up.axis() + theta.sin() * up.forward();
                 let (_, vis) = plate(n);
                 let mut rng = Rng::new(&[3, degrees as u64]);
-                let d = env.direct(&vis, DVec3::ZERO, n, 0, 1e-4, 64, &mut rng);
+                let d = env.direct(&at(&vis, DVec3::ZERO, n, 1e-4), 64, &mut rng);
                 for c in 0..3 {
                     let exact = env.sky[c] * (1.0 + theta.cos()) / 2.0;
                     assert!((d[c] - exact).abs() < 1e-12, "{up:?} {degrees}°: {d:?}");
@@ -758,7 +738,7 @@ mod tests {
         let values: Vec<f64> = (0..400)
             .map(|s| {
                 let mut rng = Rng::new(&[s]);
-                env.sky_direct(&vis, DVec3::ZERO, DVec3::Z, 0, 1e-4, 64, &mut rng)[0]
+                env.sky_direct(&at(&vis, DVec3::ZERO, DVec3::Z, 1e-4), 64, &mut rng)[0]
             })
             .collect();
         let mean = values.iter().sum::<f64>() / values.len() as f64;
@@ -785,26 +765,26 @@ mod tests {
         assert!(s.dot(east) > 0.7 && (s.z - 40f64.to_radians().sin()).abs() < 1e-12);
         let mut rng = Rng::new(&[1]);
         let (_, vis) = plate(DVec3::Z);
-        let d = env.direct(&vis, DVec3::ZERO, DVec3::Z, 0, 1e-4, 0, &mut rng);
+        let d = env.direct(&at(&vis, DVec3::ZERO, DVec3::Z, 1e-4), 0, &mut rng);
         let expected = 1000.0 * 40f64.to_radians().sin() / PI;
         assert!((d[0] - expected).abs() < 1e-9 * expected, "{d:?}");
         let (_, vis) = plate(s);
-        let d = env.direct(&vis, DVec3::ZERO, s, 0, 1e-4, 0, &mut rng);
+        let d = env.direct(&at(&vis, DVec3::ZERO, s, 1e-4), 0, &mut rng);
         assert!((d[1] - 900.0 / PI).abs() < 1e-9, "{d:?}");
         let (_, vis) = plate(-s);
         assert_eq!(
-            env.direct(&vis, DVec3::ZERO, -s, 0, 1e-4, 0, &mut rng),
+            env.direct(&at(&vis, DVec3::ZERO, -s, 1e-4), 0, &mut rng),
             [0.0; 3]
         );
         // An occluder between the point and the sun: a large square 1 unit toward the sun,
         // facing it: shadow, while a point beside the shadow stays lit.
         let vis = floor_and_square(s, s, 0.3);
         assert_eq!(
-            env.direct(&vis, DVec3::ZERO, DVec3::Z, 0, 1e-4, 0, &mut rng),
+            env.direct(&at(&vis, DVec3::ZERO, DVec3::Z, 1e-4), 0, &mut rng),
             [0.0; 3]
         );
         let beside = DVec3::new(-3.0, 3.0, 0.0);
-        let d = env.direct(&vis, beside, DVec3::Z, 0, 1e-4, 0, &mut rng);
+        let d = env.direct(&at(&vis, beside, DVec3::Z, 1e-4), 0, &mut rng);
         assert!((d[0] - expected).abs() < 1e-9 * expected, "{d:?}");
     }
 
@@ -824,16 +804,16 @@ mod tests {
         let vis = floor_and_square(DVec3::new(0.0, 0.0, 1.0), DVec3::Z, 0.2);
         let l = &env.lights[0];
         assert_eq!(
-            env.point_direct(l, &vis, DVec3::ZERO, DVec3::Z, 0, 1e-6),
+            env.point_direct(l, &at(&vis, DVec3::ZERO, DVec3::Z, 1e-6)),
             [0.0; 3]
         );
         let x = DVec3::new(2.0, 0.0, 0.0);
-        let d = env.point_direct(l, &vis, x, DVec3::Z, 0, 1e-6);
+        let d = env.point_direct(l, &at(&vis, x, DVec3::Z, 1e-6));
         // E = I cos θ / r² with r² = 8, cos θ = 2/√8.
         let exact = 4.0 * (2.0 / 8f64.sqrt()) / 8.0 / PI;
         assert!((d[0] - exact).abs() < 1e-5 * exact, "{d:?}");
         // Facing away: nothing.
-        assert_eq!(env.point_direct(l, &vis, x, -DVec3::Z, 0, 1e-6), [0.0; 3]);
+        assert_eq!(env.point_direct(l, &at(&vis, x, -DVec3::Z, 1e-6)), [0.0; 3]);
     }
 
     #[test]
@@ -867,9 +847,9 @@ mod tests {
         let vis = floor_and_square(DVec3::new(0.0, 0.0, 1.0), DVec3::Z, 0.2);
         let mut rng = Rng::new(&[5]);
         for x in [DVec3::ZERO, DVec3::new(0.5, -0.3, 0.0)] {
-            let exact = env.sharp_direct(&vis, x, DVec3::Z, 0, 1e-6, &mut rng);
+            let exact = env.sharp_direct(&at(&vis, x, DVec3::Z, 1e-6), &mut rng);
             assert_unbiased(exact, 40_000, || {
-                env.sharp_direct_sampled(&vis, x, DVec3::Z, 0, 1e-6, &mut rng)
+                env.sharp_direct_sampled(&at(&vis, x, DVec3::Z, 1e-6), &mut rng)
             });
         }
     }
@@ -940,12 +920,12 @@ mod tests {
             );
             let mut exact = [0.0; 3];
             for l in &env.lights {
-                let p = env.point_direct(l, &vis, x, DVec3::Z, 0, 1e-6);
+                let p = env.point_direct(l, &at(&vis, x, DVec3::Z, 1e-6));
                 exact = std::array::from_fn(|c| exact[c] + p[c]);
             }
             // The strongest lights exact, so one estimate's spread is a small part of the whole.
             let sd = assert_unbiased(exact, 4000, || {
-                env.sharp_direct(&vis, x, DVec3::Z, 0, 1e-6, &mut rng)
+                env.sharp_direct(&at(&vis, x, DVec3::Z, 1e-6), &mut rng)
             });
             for c in 0..3 {
                 assert!(sd[c] < 0.5 * exact[c], "{sd:?} {exact:?}");

@@ -52,7 +52,7 @@ use serde::Serialize;
 use crate::bake::Site;
 use crate::choice::Choice;
 use crate::color::{luminance, Rgb};
-use crate::environment::{Environment, SkyModel};
+use crate::environment::{Environment, Receiver, SkyModel};
 use crate::form_factor::kernel::point_to_polygon;
 use crate::form_factor::sampling::{gauss_rule, kernel_samples, malley, Rng};
 use crate::mesh::Patches;
@@ -430,12 +430,17 @@ impl<'a> Gatherer<'a> {
             }
         }
         if self.env.has_sharp() {
+            let at = Receiver {
+                vis: &self.vis,
+                x,
+                n,
+                ignore,
+                lift: self.lift,
+            };
             let sun = if one_light {
-                self.env
-                    .sharp_direct_sampled(&self.vis, x, n, ignore, self.lift, rng)
+                self.env.sharp_direct_sampled(&at, rng)
             } else {
-                self.env
-                    .sharp_direct(&self.vis, x, n, ignore, self.lift, rng)
+                self.env.sharp_direct(&at, rng)
             };
             for (s, o) in sum.iter_mut().zip(sun) {
                 *s += o;
@@ -609,8 +614,20 @@ impl<'a> Gatherer<'a> {
             let u = (i as f64 + rng.next_f64()) / side as f64;
             let v = (j as f64 + rng.next_f64()) / side as f64;
             let dir = malley(u, v, t, b, n);
-            above += usize::from(dir.dot(up) > 0.0);
-            let brought = self.along(x, n, dir, ignore, exact, near_bounce, &mut open, rng);
+            let is_above = dir.dot(up) > 0.0;
+            above += usize::from(is_above);
+            let brought = self
+                .along(x, n, dir, ignore, exact, near_bounce, rng)
+                .unwrap_or_else(|| {
+                    // Left the scene: the sky's radiance from there (none below the horizon;
+                    // a uniform sky's comes by the ratio estimate below).
+                    open += usize::from(is_above);
+                    if self.env.sky_model == SkyModel::Uniform {
+                        [0.0; 3]
+                    } else {
+                        self.env.escaped(dir)
+                    }
+                });
             squares += luminance(brought).powi(2);
             for (s, l) in sum.iter_mut().zip(brought) {
                 *s += l;
@@ -628,8 +645,8 @@ impl<'a> Gatherer<'a> {
         (out, (spread / count).sqrt())
     }
 
-    /// What one hemisphere ray from `x` along `dir` brings (see [`Gatherer::hemisphere`]);
-    /// counts it in `open` if it leaves the scene above the horizon.
+    /// What one hemisphere ray from `x` along `dir` brings from the scene's surfaces (see
+    /// [`Gatherer::hemisphere`]); `None` when it leaves the scene.
     #[allow(clippy::too_many_arguments)]
     fn along(
         &self,
@@ -639,24 +656,14 @@ impl<'a> Gatherer<'a> {
         ignore: u32,
         exact: &[u32],
         near_bounce: bool,
-        open: &mut usize,
         rng: &mut Rng,
-    ) -> Rgb {
-        let Some(hit) = self
+    ) -> Option<Rgb> {
+        let hit = self
             .vis
-            .closest_hit(x + self.lift * n, dir, f64::INFINITY, ignore)
-        else {
-            // Left the scene: the sky's radiance from there (none below the horizon).
-            *open += usize::from(dir.dot(self.env.up.axis()) > 0.0);
-            return if self.env.sky_model == SkyModel::Uniform {
-                [0.0; 3]
-            } else {
-                self.env.escaped(dir)
-            };
-        };
+            .closest_hit(x + self.lift * n, dir, f64::INFINITY, ignore)?;
         let h = hit.triangle as usize;
         if self.patches.normal[h].dot(dir) >= 0.0 {
-            return [0.0; 3]; // the back of a one-sided surface sends nothing
+            return Some([0.0; 3]); // the back of a one-sided surface sends nothing
         }
         // The emitted part of what it sends was counted by the direct term if its emitter
         // is one of `exact` or sampled from here (the others' rays).
@@ -669,15 +676,17 @@ impl<'a> Gatherer<'a> {
             // hit point; evaluate it there, one bounce further (see NEAR_HIT).
             let y = x + self.lift * n + hit.t * dir;
             let reflected = self.reflected_at_hit(y, h, exact, rng);
-            return std::array::from_fn(|c| if counted { 0.0 } else { le[c] } + reflected[c]);
+            return Some(std::array::from_fn(|c| {
+                (if counted { 0.0 } else { le[c] }) + reflected[c]
+            }));
         }
-        std::array::from_fn(|c| {
+        Some(std::array::from_fn(|c| {
             if counted {
                 (l[c] - le[c]).max(0.0)
             } else {
                 l[c]
             }
-        })
+        }))
     }
 
     /// True when the first surface along `n` from `x` is seen from behind: `x` is buried

@@ -44,7 +44,7 @@ use glam::DVec3;
 use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
-use crate::environment::{Environment, SKY_RAYS};
+use crate::environment::{Environment, Receiver, SKY_RAYS};
 use crate::form_factor::kernel::point_to_polygon;
 use crate::form_factor::sampling::{kernel_samples, Rng};
 use crate::mesh::Patches;
@@ -249,8 +249,15 @@ pub fn element_direct(
             if weights[k] == 0.0 {
                 continue;
             }
-            let sun = env.sharp_direct(vis, x, n, root, lift, &mut rng);
-            let s = env.sky_direct(vis, x, n, root, lift, SKY_RAYS, &mut rng);
+            let at = Receiver {
+                vis,
+                x,
+                n,
+                ignore: root,
+                lift,
+            };
+            let sun = env.sharp_direct(&at, &mut rng);
+            let s = env.sky_direct(&at, SKY_RAYS, &mut rng);
             out.rays += (env.sharp_rays() + SKY_RAYS) as u64;
             sky[k] = s;
             for c in 0..3 {

@@ -17,25 +17,27 @@ fn court(name: &str) -> (std::path::PathBuf, String) {
     (dir, input.to_str().unwrap().to_string())
 }
 
+/// A uniform sky, a sun at 45° and a lamp above the court, as flags (the lights file of
+/// `a_lights_file_gives_the_same_bake_as_the_flags_and_names_its_mistakes` holds the same).
+const SKY_SUN_LAMP: [&str; 6] = [
+    "--sky",
+    "1",
+    "--sun",
+    "0,45,800,700,600",
+    "--point-light",
+    "0.5,0.5,0.8,2",
+];
+
 #[test]
 fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
     let (dir, input) = court("environment");
     let (input, out) = (input.as_str(), dir.join("lit.ply"));
     let out = out.to_str().unwrap();
-    let light = [
-        "--up",
-        "z",
-        "--sky",
-        "1",
-        "--sun",
-        "0,45,800,700,600",
-        "--point-light",
-        "0.5,0.5,0.8,2",
-    ];
+    let light = [["--up", "z"].as_slice(), &SKY_SUN_LAMP].concat();
 
     // info names both, with what they bring to an open surface facing up.
     let mut args = vec!["info", input];
-    args.extend(light);
+    args.extend(&light);
     let o = radiosity(&args);
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(text.contains("emitters:     none in the mesh"), "{text}");
@@ -48,7 +50,7 @@ fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
     // A bake: no "no emitters" warning, and the floor gets at least the sky's direct light
     // ρ·L·(1 + cos 0)/2 = 0.5 where nothing hides it (the wall hides part of its sky).
     let mut args = vec!["bake", input, "-o", out, "-q"];
-    args.extend(light);
+    args.extend(&light);
     let o = radiosity(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(!stderr(&o).contains("no emitters"), "{}", stderr(&o));
@@ -163,15 +165,10 @@ fn a_lights_file_gives_the_same_bake_as_the_flags_and_names_its_mistakes() {
     let from_flags = bake(
         "flags.ply",
         &[
-            "--sky",
-            "1",
-            "--sun",
-            "0,45,800,700,600",
-            "--point-light",
-            "0.5,0.5,0.8,2",
-            "--spot-light",
-            "0.2,0.2,0.9,0,0,-1,20,40,3,2,1",
-        ],
+            SKY_SUN_LAMP.as_slice(),
+            &["--spot-light", "0.2,0.2,0.9,0,0,-1,20,40,3,2,1"],
+        ]
+        .concat(),
     );
     let from_file = bake("file.ply", &["--lights", lights.to_str().unwrap()]);
     assert!(from_flags == from_file, "the lights file's bake differs");
