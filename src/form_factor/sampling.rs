@@ -201,6 +201,110 @@ pub fn point_above(
     Some(x + b[0] * clipped[0] + b[1] * clipped[i] + b[2] * clipped[i + 1])
 }
 
+/// A point y of the part of triangle `corners` above the horizon of the point `x` (unit normal
+/// `n`), drawn uniformly by the solid angle it subtends at x (the clipped polygon fanned into
+/// triangles from x's view, one chosen ∝ its solid angle by `u`, then Arvo's sampling of that
+/// spherical triangle with the rest of `u` and `v`: J. Arvo, "Stratified sampling of spherical
+/// triangles", SIGGRAPH 1995), with that total solid angle Ω in steradians. Stratifying `u`
+/// stratifies the points. The kernel G = cosθ_x cosθ_y / r² over a large or near source varies
+/// by orders of magnitude, and this density follows all of it but the cosθ_x: cosθ_x · Ω / (π F)
+/// (F the exact point-to-polygon form factor of the same part) is a sample's weight of mean 1.
+/// `None` when nothing is above the horizon or the solid angle is too small to sample
+/// robustly (under 10⁻⁹ sr: the source is then far against its size, and a uniform point by
+/// area, [`point_above`], does as well).
+pub fn point_by_solid_angle(
+    corners: &[DVec3; 3],
+    x: DVec3,
+    n: DVec3,
+    u: f64,
+    v: f64,
+) -> Option<(DVec3, f64)> {
+    let mut clipped = [DVec3::ZERO; 8];
+    let m = clip_above(n, &corners.map(|c| c - x), &mut clipped);
+    if m < 3 {
+        return None;
+    }
+    let dirs: Vec<DVec3> = clipped[..m].iter().map(|d| d.normalize_or_zero()).collect();
+    if dirs.contains(&DVec3::ZERO) {
+        return None;
+    }
+    let omega = |i: usize| spherical_triangle_area(dirs[0], dirs[i], dirs[i + 1]);
+    let total: f64 = (1..m - 1).map(omega).sum();
+    if total.is_nan() || total <= MIN_SAMPLED_SOLID_ANGLE {
+        return None;
+    }
+    // The fan triangle u falls in, and u rescaled within it.
+    let mut rest = u.clamp(0.0, 1.0) * total;
+    let mut i = m - 2;
+    for j in 1..m - 1 {
+        let a = omega(j);
+        if rest < a || j == m - 2 {
+            i = j;
+            rest = (rest / a).clamp(0.0, 1.0);
+            break;
+        }
+        rest -= a;
+    }
+    let dir = arvo(dirs[0], dirs[i], dirs[i + 1], rest, v)?;
+    // Where the direction meets the source's plane (every point of the fan triangle is on it).
+    let (a, b, c) = (clipped[0], clipped[i], clipped[i + 1]);
+    let plane = (b - a).cross(c - a);
+    let t = a.dot(plane) / dir.dot(plane);
+    (t.is_finite() && t > 0.0).then(|| (x + t * dir, total))
+}
+
+/// Below this solid angle (sr) [`point_by_solid_angle`] declines: Arvo's trigonometry loses
+/// its precision on spherical triangles this thin.
+const MIN_SAMPLED_SOLID_ANGLE: f64 = 1e-9;
+
+/// Solid angle of the spherical triangle with unit corners a, b, c, sr (Van Oosterom &
+/// Strackee, IEEE Trans. Biomed. Eng. 1983).
+fn spherical_triangle_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let num = a.dot(b.cross(c)).abs();
+    let den = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
+    2.0 * num.atan2(den)
+}
+
+/// The angle between unit vectors, robust near 0 and π.
+fn angle_between(a: DVec3, b: DVec3) -> f64 {
+    2.0 * (a - b).length().atan2((a + b).length())
+}
+
+/// A direction uniform by solid angle over the spherical triangle with unit corners a, b, c,
+/// from (u, v) ∈ [0, 1)² (Arvo 1995, §2: u picks the sub-triangle of area u·Ω through a, v the
+/// point along the arc from b). `None` for a degenerate triangle.
+fn arvo(a: DVec3, b: DVec3, c: DVec3, u: f64, v: f64) -> Option<DVec3> {
+    let (n_ab, n_bc, n_ca) = (
+        a.cross(b).try_normalize()?,
+        b.cross(c).try_normalize()?,
+        c.cross(a).try_normalize()?,
+    );
+    // The spherical triangle's angles at a, b and c.
+    let alpha = angle_between(n_ab, -n_ca);
+    let beta = angle_between(n_bc, -n_ab);
+    let gamma = angle_between(n_ca, -n_bc);
+    let area = alpha + beta + gamma - std::f64::consts::PI;
+    if area.is_nan() || area <= 0.0 {
+        return None;
+    }
+    let sub = u * area;
+    let (s, t) = (sub - alpha).sin_cos();
+    let (sin_a, cos_a) = alpha.sin_cos();
+    let cos_c = a.dot(b);
+    let uu = t - cos_a;
+    let vv = s + sin_a * cos_c;
+    let q = (((vv * t - uu * s) * cos_a - vv) / ((vv * s + uu * t) * sin_a)).clamp(-1.0, 1.0);
+    if !q.is_finite() {
+        return None;
+    }
+    let c_hat = q * a + (1.0 - q * q).max(0.0).sqrt() * (c - c.dot(a) * a).try_normalize()?;
+    let z = (1.0 - v * (1.0 - c_hat.dot(b))).clamp(-1.0, 1.0);
+    let along = (c_hat - c_hat.dot(b) * b)
+        .try_normalize()
+        .unwrap_or(DVec3::ZERO);
+    (z * b + (1.0 - z * z).max(0.0).sqrt() * along).try_normalize()
+}
+
 /// `count` stratified points y of the part of the triangle `corners` (unit front normal
 /// `normal`) above the horizon of the point `x` (unit normal `n`), each passed to `visit` with
 /// its point-pair kernel G = cosθ_x cosθ_y / r² ([`point_above`]; points where G = 0 are left
@@ -246,6 +350,67 @@ mod tests {
         w.iter()
             .map(|w| w[1] * DVec3::X + w[2] * DVec3::Y)
             .collect()
+    }
+
+    #[test]
+    fn solid_angle_points_weighted_by_the_cosine_give_the_exact_form_factor() {
+        // Ω · mean(cosθ_x) / π over points uniform in solid angle is the form factor; checked
+        // against Lambert's contour integral for a near large triangle cut by the horizon,
+        // a far small one, and one seen at a grazing angle. 20,000 stratified points: the
+        // estimate's relative standard error is under 0.5 %, so 2 % is four of them.
+        use crate::form_factor::kernel::point_to_polygon;
+        let cases = [
+            (
+                [
+                    DVec3::new(-5.0, -5.0, 0.0),
+                    DVec3::new(20.0, -5.0, 0.0),
+                    DVec3::new(0.0, 20.0, 0.0),
+                ],
+                DVec3::new(0.3, 0.2, 0.1),
+                DVec3::X,
+            ),
+            (
+                [
+                    DVec3::new(5.0, 0.0, 3.0),
+                    DVec3::new(5.0, 0.1, 3.0),
+                    DVec3::new(5.0, 0.0, 3.1),
+                ],
+                DVec3::ZERO,
+                DVec3::new(1.0, 0.0, 1.0).normalize(),
+            ),
+            (
+                [
+                    DVec3::new(0.0, 0.0, 0.0),
+                    DVec3::new(1.0, 0.0, 0.0),
+                    DVec3::new(0.0, 1.0, 0.0),
+                ],
+                DVec3::new(0.2, 0.2, 0.05),
+                DVec3::new(1.0, 0.0, -0.2).normalize(),
+            ),
+        ];
+        for (k, (corners, x, n)) in cases.into_iter().enumerate() {
+            let exact = point_to_polygon(x, n, &corners);
+            let mut rng = Rng::new(&[k as u64]);
+            let count = 20_000;
+            let (mut sum, mut omega) = (0.0, 0.0);
+            for i in 0..count {
+                let u = (i as f64 + rng.next_f64()) / count as f64;
+                let (y, w) = point_by_solid_angle(&corners, x, n, u, rng.next_f64())
+                    .expect("visible and not tiny");
+                let plane = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+                assert!(
+                    (y - corners[0]).dot(plane).abs() < 1e-9 * plane.length(),
+                    "on the plane"
+                );
+                sum += n.dot((y - x).normalize());
+                omega = w;
+            }
+            let estimate = omega * sum / count as f64 / std::f64::consts::PI;
+            assert!(
+                (estimate / exact - 1.0).abs() < 0.02,
+                "case {k}: {estimate} against {exact}"
+            );
+        }
     }
 
     #[test]

@@ -10,9 +10,7 @@ use glam::DVec3;
 
 use super::tree::{Node, Tree};
 use crate::form_factor::kernel::{point_to_point, point_to_polygon};
-use crate::form_factor::sampling::{
-    gauss_rule, point_above, stratified_triangle_barycentrics, Rng,
-};
+use crate::form_factor::sampling::{gauss_rule, point_above, point_by_solid_angle, Rng};
 use crate::visibility::Visibility;
 
 /// A link: `receiver` gathers `f · L(source)` (radiance units) per channel, before its
@@ -60,9 +58,10 @@ pub const CLUSTER_GAP: f64 = 0.0;
 /// - Element ← element (`element_pair_estimate`): the receiver rule (degree 5) over the
 ///   exact unoccluded point-to-polygon form factor to the source (Lambert's contour integral,
 ///   [`point_to_polygon`]; exact for unoccluded pairs as the elements are refined, also when
-///   they share an edge), times the visible fraction from `rays` rays, each from a rule point
-///   picked ∝ its share of F to a stratified point of the part of the source above that
-///   point's horizon.
+///   they share an edge), times the visible share of F from `rays` rays, each from a rule
+///   point picked ∝ its share of F to a point of the part of the source above that point's
+///   horizon drawn by solid angle, weighted by its cosine there (so the share follows the
+///   kernel, not the source's area).
 /// - With a cluster at either end: the Monte Carlo estimate of the area formulation,
 ///   F_rs ≈ A_s · mean_k G(x_k, y_k) V(x_k, y_k) with x_k uniform on the receiver's surfaces
 ///   (an element's unburied rule points, picked ∝ weight) and
@@ -204,11 +203,21 @@ struct Sums {
 }
 
 /// F_rs between elements: the receiver rule over its unburied points of the exact
-/// point-to-polygon form factor, times the visible fraction estimated by `rays` rays. Ray k
-/// starts at a rule point picked with probability ∝ w·F (systematic sampling), so the mean of
-/// the rays' visibilities estimates Σ w F V / Σ w F without bias, and aims at a stratified
-/// point of the part of the source above that point's horizon. `None` when every rule point
-/// is buried.
+/// point-to-polygon form factor, times the visible share of it estimated by `rays` rays. Ray
+/// k starts at a rule point x picked with probability ∝ w·F (systematic sampling) and aims at
+/// a point y of the part of the source above x's horizon, drawn uniformly by the solid angle
+/// it subtends at x (stratified; [`point_by_solid_angle`]), with weight w_k = cosθ_x · Ω /
+/// (π F(x)), whose mean is 1: Σ w_k V_k / Σ w_k estimates Σ w F V̄ / Σ w F, V̄(x) the share of
+/// F(x) that x sees, with a bias O(1/rays) and exactly 1 when every ray passes.
+///
+/// Why not points uniform by area: the visibility would then be the source's visible *area*
+/// share, not its share of F. The two differ wherever what is hidden is far and what is seen
+/// is near, which is the rule beside furniture: a chair leg sees the floor within a metre
+/// (most of its F), while the rest of a floor triangle metres across is hidden by other
+/// furniture. Measured on the generated hall (10⁴ triangles, ε = 1e-4): the legs' and seats'
+/// row sums Σ F were 0.79 and 0.88 where they see nothing but the fronts of surfaces (1 is
+/// right), and the solution 3–5 % dark everywhere against the path-traced probes; by solid
+/// angle the row sums are 0.99 and the bias −1 %. `None` when every rule point is buried.
 fn element_pair_estimate(
     tree: &Tree,
     vis: &Visibility,
@@ -251,21 +260,53 @@ fn element_pair_estimate(
     let Some(picks) = pick_proportional(&weighted, rays, rng.next_f64()) else {
         return Some(sums);
     };
-    let mut targets = Vec::with_capacity(rays);
-    stratified_triangle_barycentrics(rays, rng, &mut targets);
     let roots = [tree.elements[r].root, tree.elements[s].root];
-    let mut seen = 0;
-    for (k, b) in picks.into_iter().zip(targets) {
+    let corners = tree.corners(s);
+    let (mut seen, mut all) = (0.0, 0.0);
+    // The solid-angle strata in random order: picks come in rule order, so strata in order
+    // would give each rule point the same part of the source every time (measured: +2 %).
+    let mut strata: Vec<usize> = (0..rays).collect();
+    for j in (1..rays).rev() {
+        strata.swap(j, rng.below(j + 1));
+    }
+    for (&j, k) in strata.iter().zip(picks) {
         let rb = rule[k].0;
         let (x, n) = (tree.point(r, rb), tree.surface_normal(r, rb));
-        // F > 0 at a picked point, so some of the source is above its horizon.
-        let y = point_above(&tree.corners(s), x, n, b, rng).unwrap_or_else(|| tree.point(s, b));
+        // F > 0 at a picked point, so some of the source is above its horizon. The point is
+        // drawn by solid angle, so near parts of a large source (which carry most of F and
+        // are the likeliest seen) get their share of rays; its weight cosθ_x · Ω / (π F) has
+        // mean 1, and Σ w V / Σ w is the visible share of F at these points.
+        let u = (j as f64 + rng.next_f64()) / rays as f64;
+        let (y, w) = match point_by_solid_angle(&corners, x, n, u, rng.next_f64()) {
+            Some((y, omega)) => {
+                let f = point_form_factor(tree, x, n, s);
+                (
+                    y,
+                    n.dot((y - x).normalize_or_zero()).max(0.0) * omega / (PI * f),
+                )
+            }
+            None => {
+                // Uniform by area (a source this small against its distance).
+                let (su, v) = (u.sqrt(), rng.next_f64());
+                let b = [1.0 - su, su * (1.0 - v), su * v];
+                let y = point_above(&corners, x, n, b, rng).unwrap_or_else(|| tree.point(s, b));
+                (y, 1.0)
+            }
+        };
+        if !(w.is_finite() && w > 0.0) {
+            continue;
+        }
+        all += w;
         if !vis.occluded(x, y, roots) {
-            seen += 1;
+            seen += w;
         }
     }
     sums.cast = rays as u64;
-    sums.f = f_unoccluded * seen as f64 / rays as f64;
+    sums.f = if all > 0.0 {
+        f_unoccluded * seen / all
+    } else {
+        0.0
+    };
     Some(sums)
 }
 
