@@ -224,20 +224,25 @@ pub fn point_by_solid_angle(
     if m < 3 {
         return None;
     }
-    let dirs: Vec<DVec3> = clipped[..m].iter().map(|d| d.normalize_or_zero()).collect();
-    if dirs.contains(&DVec3::ZERO) {
-        return None;
+    let mut dirs = [DVec3::ZERO; 8];
+    for (d, c) in dirs.iter_mut().zip(&clipped[..m]) {
+        *d = c.normalize_or_zero();
+        if *d == DVec3::ZERO {
+            return None;
+        }
     }
-    let omega = |i: usize| spherical_triangle_area(dirs[0], dirs[i], dirs[i + 1]);
-    let total: f64 = (1..m - 1).map(omega).sum();
+    let mut omega = [0.0; 8];
+    for i in 1..m - 1 {
+        omega[i] = spherical_triangle_area(dirs[0], dirs[i], dirs[i + 1]);
+    }
+    let total: f64 = omega.iter().sum();
     if total.is_nan() || total <= MIN_SAMPLED_SOLID_ANGLE {
         return None;
     }
     // The fan triangle u falls in, and u rescaled within it.
     let mut rest = u.clamp(0.0, 1.0) * total;
     let mut i = m - 2;
-    for j in 1..m - 1 {
-        let a = omega(j);
+    for (j, &a) in omega.iter().enumerate().take(m - 1).skip(1) {
         if rest < a || j == m - 2 {
             i = j;
             rest = (rest / a).clamp(0.0, 1.0);

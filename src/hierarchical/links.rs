@@ -231,11 +231,13 @@ fn element_pair_estimate(
     let mut weighted = unburied_weights(buried);
     let visible: f64 = weighted.iter().sum();
     let (mut largest, mut smallest) = (0.0f64, f64::INFINITY);
+    let mut point_f = [0.0; RECEIVER_POINTS];
     for (k, &(b, _)) in rule.iter().enumerate() {
         if weighted[k] == 0.0 {
             continue;
         }
         let f = point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s);
+        point_f[k] = f;
         largest = largest.max(f);
         smallest = smallest.min(f);
         weighted[k] *= f;
@@ -279,11 +281,8 @@ fn element_pair_estimate(
         let u = (j as f64 + rng.next_f64()) / rays as f64;
         let (y, w) = match point_by_solid_angle(&corners, x, n, u, rng.next_f64()) {
             Some((y, omega)) => {
-                let f = point_form_factor(tree, x, n, s);
-                (
-                    y,
-                    n.dot((y - x).normalize_or_zero()).max(0.0) * omega / (PI * f),
-                )
+                let cos = n.dot((y - x).normalize_or_zero()).max(0.0);
+                (y, cos * omega / (PI * point_f[k]))
             }
             None => {
                 // Uniform by area (a source this small against its distance).
