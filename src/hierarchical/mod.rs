@@ -49,7 +49,7 @@
 //! their own links (the chair's occlusion counted) but the chair through an ancestor's (the
 //! chair seen from the whole floor: nearly nothing), and their row sums fell to 0.8 (the
 //! generated hall of 10⁴ triangles: the floor 2.8 % dark on average, the ceiling it lights
-//! 4 %; normalised, the hall's median displayed error 2.85 % → 2.15 % and its bias −1.0 % →
+//! 4 %; normalised, the hall's median displayed error 2.85 % → 2.02 % and its bias −1.0 % →
 //! +0.1 %). Normalising gives the missing share the mean radiance of what the leaf does
 //! see, so beside a dark underside the leaf comes out a little bright (the hall's undersides
 //! +3.7 % on average) rather than dark.
