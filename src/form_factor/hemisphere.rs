@@ -13,7 +13,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::sampling::{malley, Rng};
+use super::sampling::{malley, permutation, triangle_barycentrics, Rng};
 use crate::mesh::Patches;
 
 use crate::visibility::Visibility;
@@ -42,13 +42,7 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
     let mut rng = Rng::new(&[seed, i as u64, 0x4E4D]);
     // Latin-hypercube strata, independent permutations for position (u, v) and direction
     // (s, t): every 1D projection is stratified.
-    let perms: [Vec<usize>; 3] = std::array::from_fn(|_| {
-        let mut p: Vec<usize> = (0..n).collect();
-        for k in (1..n).rev() {
-            p.swap(k, rng.below(k + 1));
-        }
-        p
-    });
+    let perms: [Vec<usize>; 3] = std::array::from_fn(|_| permutation(n, &mut rng));
     let [a, b, c] = patches.corners(i);
     let facet = patches.normal[i];
     let mut hits: Vec<u32> = Vec::with_capacity(n);
@@ -57,12 +51,10 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
     for k in 0..n {
         let u = (k as f64 + rng.next_f64()) / n as f64;
         let v = (perms[0][k] as f64 + rng.next_f64()) / n as f64;
-        let su = u.sqrt();
         // Barycentrics pulled in by EDGE_MARGIN: an origin within f32 rounding of an edge
         // could otherwise "hit" the coplanar neighbour from behind at t ≈ 0, or start so
         // close to an adjacent wall that the hit falls below the minimum distance.
-        let w = [1.0 - su, su * (1.0 - v), su * v]
-            .map(|x| (x + EDGE_MARGIN) / (1.0 + 3.0 * EDGE_MARGIN));
+        let w = triangle_barycentrics(u, v).map(|x| (x + EDGE_MARGIN) / (1.0 + 3.0 * EDGE_MARGIN));
         let origin = w[0] * a + w[1] * b + w[2] * c;
         // Cosine-weighted about the surface normal at the origin (the facet's own normal on
         // flat surfaces; see [`Patches::surface_normal`]). The basis flips where n.z changes

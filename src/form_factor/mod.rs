@@ -208,7 +208,13 @@ impl FormFactors {
 pub fn is_closed(patches: &Patches, vis: &Visibility, probes: u32, seed: u64) -> bool {
     (0..patches.len())
         .into_par_iter()
-        .all(|i| hemisphere::row(patches, vis, i, probes, seed ^ 0xC105ED).escaped == 0)
+        .all(|i| closes(patches, vis, i, probes, seed))
+}
+
+/// Whether none of `probes` cosine-weighted rays from patch `i` escapes the scene or meets the
+/// back of a surface ([`is_closed`] for one patch).
+pub fn closes(patches: &Patches, vis: &Visibility, i: usize, probes: u32, seed: u64) -> bool {
+    hemisphere::row(patches, vis, i, probes, seed ^ 0xC105ED).escaped == 0
 }
 
 /// Estimate every F_ij of the patches, casting visibility rays through `vis` (built over the

@@ -58,16 +58,28 @@ impl Rng {
 /// map p = (1 − √u) a + √u (1 − v) b + √u v c (Shirley, "Nonuniform random point sets via
 /// warping", Graphics Gems III, 1992), so strata of equal area stay equal in area.
 pub fn stratified_triangle_barycentrics(n: usize, rng: &mut Rng, out: &mut Vec<[f64; 3]>) {
-    let mut perm: Vec<usize> = (0..n).collect();
-    for k in (1..n).rev() {
-        perm.swap(k, rng.below(k + 1));
-    }
+    let perm = permutation(n, rng);
     for (k, &pk) in perm.iter().enumerate() {
         let u = (k as f64 + rng.next_f64()) / n as f64;
         let v = (pk as f64 + rng.next_f64()) / n as f64;
-        let su = u.sqrt();
-        out.push([1.0 - su, su * (1.0 - v), su * v]);
+        out.push(triangle_barycentrics(u, v));
     }
+}
+
+/// A uniformly random permutation of 0..n (Fisher–Yates, n − 1 draws of `rng`).
+pub fn permutation(n: usize, rng: &mut Rng) -> Vec<usize> {
+    let mut p: Vec<usize> = (0..n).collect();
+    for k in (1..n).rev() {
+        p.swap(k, rng.below(k + 1));
+    }
+    p
+}
+
+/// Barycentrics of the point of a triangle at (u, v) ∈ [0, 1]² by the area-preserving map
+/// (1 − √u, √u (1 − v), √u v) (Shirley 1992): uniform (u, v) give points uniform by area.
+pub fn triangle_barycentrics(u: f64, v: f64) -> [f64; 3] {
+    let su = u.sqrt();
+    [1.0 - su, su * (1.0 - v), su * v]
 }
 
 /// Centroids of the n² congruent triangles of the regular n-fold split of a triangle, as
@@ -179,26 +191,32 @@ pub fn point_above(
     if m < 3 {
         return None;
     }
-    let fan_area = |i: usize| {
-        0.5 * (clipped[i] - clipped[0])
-            .cross(clipped[i + 1] - clipped[0])
-            .length()
-    };
-    let total: f64 = (1..m - 1).map(fan_area).sum();
+    let mut area = [0.0; 8];
+    for i in 1..m - 1 {
+        area[i] = 0.5
+            * (clipped[i] - clipped[0])
+                .cross(clipped[i + 1] - clipped[0])
+                .length();
+    }
+    let total: f64 = area.iter().sum();
     if total <= 0.0 {
         return None;
     }
-    let mut u = rng.next_f64() * total;
-    let mut i = m - 2;
-    for j in 1..m - 1 {
-        let a = fan_area(j);
-        if u < a {
-            i = j;
-            break;
-        }
-        u -= a;
-    }
+    let (i, _) = pick_fan(&area, m, total, rng.next_f64());
     Some(x + b[0] * clipped[0] + b[1] * clipped[i] + b[2] * clipped[i + 1])
+}
+
+/// The fan triangle (p₀, p_j, p_{j+1}), j in 1..m − 1, of an m-gon that `u` ∈ [0, 1] falls in
+/// when each takes `weight[j]` of `total` = Σ weight, and where u falls within it, in [0, 1].
+fn pick_fan(weight: &[f64; 8], m: usize, total: f64, u: f64) -> (usize, f64) {
+    let mut rest = u * total;
+    for (j, &w) in weight.iter().enumerate().take(m - 1).skip(1) {
+        if rest < w || j == m - 2 {
+            return (j, (rest / w).clamp(0.0, 1.0));
+        }
+        rest -= w;
+    }
+    (m - 2, 1.0)
 }
 
 /// A point y of the part of triangle `corners` above the horizon of the point `x` (unit normal
@@ -239,17 +257,7 @@ pub fn point_by_solid_angle(
     if total.is_nan() || total <= MIN_SAMPLED_SOLID_ANGLE {
         return None;
     }
-    // The fan triangle u falls in, and u rescaled within it.
-    let mut rest = u.clamp(0.0, 1.0) * total;
-    let mut i = m - 2;
-    for (j, &a) in omega.iter().enumerate().take(m - 1).skip(1) {
-        if rest < a || j == m - 2 {
-            i = j;
-            rest = (rest / a).clamp(0.0, 1.0);
-            break;
-        }
-        rest -= a;
-    }
+    let (i, rest) = pick_fan(&omega, m, total, u.clamp(0.0, 1.0));
     let dir = arvo(dirs[0], dirs[i], dirs[i + 1], rest, v)?;
     // Where the direction meets the source's plane (every point of the fan triangle is on it).
     let (a, b, c) = (clipped[0], clipped[i], clipped[i + 1]);

@@ -10,7 +10,9 @@ use glam::DVec3;
 
 use super::tree::{Node, Tree};
 use crate::form_factor::kernel::{point_to_point, point_to_polygon};
-use crate::form_factor::sampling::{gauss_rule, point_above, point_by_solid_angle, Rng};
+use crate::form_factor::sampling::{
+    gauss_rule, permutation, point_above, point_by_solid_angle, triangle_barycentrics, Rng,
+};
 use crate::visibility::Visibility;
 
 /// A link: `receiver` gathers `f · L(source)` (radiance units) per channel, before its
@@ -267,10 +269,7 @@ fn element_pair_estimate(
     let (mut seen, mut all) = (0.0, 0.0);
     // The solid-angle strata in random order: picks come in rule order, so strata in order
     // would give each rule point the same part of the source every time (measured: +2 %).
-    let mut strata: Vec<usize> = (0..rays).collect();
-    for j in (1..rays).rev() {
-        strata.swap(j, rng.below(j + 1));
-    }
+    let strata = permutation(rays, rng);
     for (&j, k) in strata.iter().zip(picks) {
         let rb = rule[k].0;
         let (x, n) = (tree.point(r, rb), tree.surface_normal(r, rb));
@@ -286,8 +285,7 @@ fn element_pair_estimate(
             }
             None => {
                 // Uniform by area (a source this small against its distance).
-                let (su, v) = (u.sqrt(), rng.next_f64());
-                let b = [1.0 - su, su * (1.0 - v), su * v];
+                let b = triangle_barycentrics(u, rng.next_f64());
                 let y = point_above(&corners, x, n, b, rng).unwrap_or_else(|| tree.point(s, b));
                 (y, 1.0)
             }

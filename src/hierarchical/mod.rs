@@ -65,7 +65,7 @@ use serde::Serialize;
 
 use crate::color::Rgb;
 use crate::environment::Environment;
-use crate::form_factor::{hemisphere, is_hidden, occluders, CLOSURE_PROBES};
+use crate::form_factor::{closes, is_hidden, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
 use crate::solve;
 use crate::visibility::Visibility;
@@ -513,7 +513,7 @@ impl<'a> Hierarchy<'a> {
         let (roots, vis, seed) = (self.roots, &self.vis, self.seed);
         self.closed_roots = (0..n)
             .into_par_iter()
-            .map(|i| hemisphere::row(roots, vis, i, probes, seed ^ 0xC105ED).escaped == 0)
+            .map(|i| closes(roots, vis, i, probes, seed))
             .collect();
         self.stats.rays_cast += n as u64 * probes as u64;
         self.stats.closed_roots = self.closed_roots.iter().filter(|&&c| c).count();

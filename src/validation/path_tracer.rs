@@ -31,7 +31,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::color::Rgb;
-use crate::form_factor::sampling::{malley, Rng};
+use crate::form_factor::sampling::{malley, triangle_barycentrics, Rng};
 use crate::scene::Scene;
 use crate::visibility::Visibility;
 
@@ -257,8 +257,8 @@ impl<'a> Tracer<'a> {
     /// Uniform point on triangle t from (u, v) ∈ [0, 1)² (area-preserving map).
     pub(crate) fn point(&self, t: usize, u: f64, v: f64) -> DVec3 {
         let [a, b, c] = self.corners[t];
-        let su = u.sqrt();
-        (1.0 - su) * a + su * (1.0 - v) * b + su * v * c
+        let [wa, wb, wc] = triangle_barycentrics(u, v);
+        wa * a + wb * b + wc * c
     }
 
     /// The estimate for surface `s`.
