@@ -18,11 +18,8 @@ use crate::visibility::Visibility;
 /// Such points receive no light and are seen by nobody, so they must not dilute their
 /// patch's radiance; their patch's rows are rescaled to its visible part.
 pub fn is_hidden(patches: &Patches, vis: &Visibility, i: usize, x: DVec3) -> bool {
-    let n = patches.normal[i];
-    match vis.closest_hit(x, n, f64::INFINITY, i as u32) {
-        Some(hit) => patches.normal[hit.triangle as usize].dot(n) > 0.0,
-        None => false,
-    }
+    vis.first_hit_from_behind(x, patches.normal[i], i as u32)
+        .unwrap_or(false)
 }
 
 /// The visible (unburied) fraction of a patch's area is measured at the centroids of its

@@ -43,7 +43,7 @@ pub mod cache;
 pub mod hemisphere;
 pub mod kernel;
 mod needed;
-mod occluders;
+pub(crate) mod occluders;
 mod pair;
 mod pairwise;
 mod reciprocity;

@@ -94,6 +94,12 @@ pub const HIT_MIN_DISTANCE_REL: f64 = 1e-9;
 /// extent). See the module documentation.
 const BOX_PAD: f32 = 1.0 / 64.0;
 
+/// Hits of [`Visibility::first_hit_from_behind`] within this fraction of the scene's largest
+/// extent of each other are at the same distance (coincident faces in contact): the
+/// tolerance of a touching face in [`crate::mesh::contact`] (`TOUCH`), far above the `f32`
+/// rounding of the canonical frame (~3e-8 of the extent).
+pub const CONTACT_TIE_REL: f64 = 1e-6;
+
 /// A point in scene coordinates with its canonical coordinates ([`Visibility::point`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Point {
@@ -448,6 +454,59 @@ impl Visibility {
             Some(best.map_or(t, |b| b.0))
         });
         best.map(|b| ray.hit(b, m))
+    }
+
+    /// Whether the first surface along the ray `origin + t·dir` (other than `ignore` and its
+    /// twin) is seen from behind: `None` when the ray meets nothing, else whether some triangle
+    /// hit within [`CONTACT_TIE_REL`] × the extent of the closest hit has its back to the ray
+    /// (of a twin pair, the side facing the ray is its front: never from behind).
+    ///
+    /// This is the burial test's question ([`crate::form_factor::is_hidden`]): a point inside a
+    /// closed object, or under a surface lying on it, sees a back first. Where two objects
+    /// touch along coincident faces (a table leg's top against the table's underside), a ray
+    /// from inside the leg meets the leg's top from behind and the underside from the front
+    /// at the same distance up to rounding; [`Visibility::closest_hit`] would report whichever
+    /// rounds nearer (or has the lower index), so a point inside the leg would pass for
+    /// visible or not by chance. Any back among such ties answers "from behind": the ray came
+    /// from inside the object whose face it is.
+    pub fn first_hit_from_behind(&self, origin: DVec3, dir: DVec3, ignore: u32) -> Option<bool> {
+        let (ray, _) = self.direction_ray(origin, dir, f64::INFINITY)?;
+        let tie = (self.min_distance * (CONTACT_TIE_REL / MIN_DISTANCE_REL)) as f32;
+        let mut best = f32::INFINITY;
+        // The hits near the best so far: (t, seen from behind); a few at most.
+        let mut near = [(0.0f32, false); 8];
+        let mut count = 0;
+        self.bvh.closest(&ray, |i| {
+            if self.ignored(i, [ignore, ignore]) {
+                return None;
+            }
+            let (t, _, _) = ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi)?;
+            if t > best + tie {
+                return Some(best + tie);
+            }
+            let [a, b, c] = self.tris[i].map(|p| p.as_dvec3());
+            let back = self.twins[i] == NONE && (b - a).cross(c - a).dot(ray.dir.as_dvec3()) > 0.0;
+            best = best.min(t);
+            // Keep the hits still within the tie of the best, and this one.
+            let mut kept = 0;
+            for k in 0..count {
+                if near[k].0 <= best + tie {
+                    near[kept] = near[k];
+                    kept += 1;
+                }
+            }
+            count = kept;
+            if count < near.len() {
+                near[count] = (t, back);
+                count += 1;
+            }
+            Some(best + tie)
+        });
+        (best < f32::INFINITY).then(|| {
+            near[..count]
+                .iter()
+                .any(|&(t, back)| back && t <= best + tie)
+        })
     }
 
     /// Oracle for tests: [`Visibility::closest_hit`] answered by testing every triangle with the

@@ -798,3 +798,54 @@ fn throughput() {
         segments.len() as f64 / secs / 1e6
     );
 }
+
+/// A leg (a closed box) under a table top (another) whose underside its top touches: a point
+/// on the floor inside the leg's footprint sees the leg's top from behind and the underside
+/// from the front at the same distance, and is buried whichever order the triangles come in
+/// (`closest_hit` reports whichever rounds nearer or comes first: the underside, at four of
+/// the six points inside); beside the leg it sees the underside's front.
+#[test]
+fn a_back_among_coincident_first_hits_is_seen_from_behind() {
+    let leg = grid_box(dvec3(0.0, 0.0, 0.0), dvec3(1.0, 1.0, 4.0), 1);
+    let table = grid_box(dvec3(-2.0, -2.0, 4.0), dvec3(3.0, 3.0, 5.0), 3);
+    for leg_first in [true, false] {
+        let tris: Vec<[DVec3; 3]> = if leg_first {
+            leg.iter().chain(&table).copied().collect()
+        } else {
+            table.iter().chain(&leg).copied().collect()
+        };
+        let vis = Visibility::build(&tris);
+        for (x, y) in [(0.5, 0.5), (0.2, 0.9), (0.999, 0.001)] {
+            let from = dvec3(x, y, 1e-6);
+            assert_eq!(
+                vis.first_hit_from_behind(from, DVec3::Z, NONE),
+                Some(true),
+                "inside the leg at ({x}, {y}), leg first: {leg_first}"
+            );
+        }
+        for (x, y) in [(1.5, 0.5), (-0.5, -0.5), (2.9, 2.9)] {
+            let from = dvec3(x, y, 1e-6);
+            assert_eq!(
+                vis.first_hit_from_behind(from, DVec3::Z, NONE),
+                Some(false),
+                "beside the leg at ({x}, {y}), leg first: {leg_first}"
+            );
+        }
+        assert_eq!(
+            vis.first_hit_from_behind(dvec3(9.0, 9.0, 0.0), DVec3::Z, NONE),
+            None
+        );
+        // Twins: a two-sided surface is never seen from behind.
+        let [a, b, c] = [
+            dvec3(0.0, 0.0, 1.0),
+            dvec3(1.0, 0.0, 1.0),
+            dvec3(0.0, 1.0, 1.0),
+        ];
+        let vis = Visibility::build(&[[a, b, c], [a, c, b]]);
+        assert_eq!(vis.twin_pairs(), 1);
+        for dir in [DVec3::Z, -DVec3::Z] {
+            let from = dvec3(0.2, 0.2, 1.0) - dir;
+            assert_eq!(vis.first_hit_from_behind(from, dir, NONE), Some(false));
+        }
+    }
+}
