@@ -121,17 +121,21 @@ impl fmt::Display for Gather {
 /// ceiling darkens the ceiling within about a millimetre of its edge), near enough that the
 /// value stands for the vertex. Measured on the Cornell box's 2,000 probes: displayed RMS
 /// 3.3 % at 0.001, 3.0 % at 0.01, 2.8 % at 0.05, 2.9 % at 0.2 (before the display
-/// refinement, which now follows that steep part: see [`NUDGE_MAX`]).
+/// refinement, which now follows that steep part where contact lines are mesh edges: see
+/// [`NUDGE_MAX`]).
 pub const NUDGE: f64 = 0.05;
 
-/// The gather point moves at most this fraction of the scene's extent off the vertex
-/// ([`NUDGE`]): three times [`TOUCH_REACH`], enough to see a surface through the vertex at an
-/// angle rather than edge-on. Since the display refinement splits edges down to a tenth of a
-/// millimetre beside the Cornell box's light, a vertex on the light's rim must show the rim's
-/// own light: nudged 5 % of the way to a patch centroid (about 1 mm) it showed the ceiling's
-/// value 0.2–1 mm out, and a probe 0.04 mm from the rim came out +46 % (at a second draw of
-/// probes, 1.55 % RMS; 1.02 % with this bound; the first draw 0.95 → 0.93 %; mean of three seeds
-/// of the bake; 1.08 % and 0.94 % at 10⁻⁴, 1.01 % and 0.95 % at 10⁻⁵).
+/// Where the contact lines are mesh edges ([`Gatherer::with_contact_edges`]), the gather
+/// point moves at most this fraction of the scene's extent off the vertex ([`NUDGE`]): three
+/// times the reach at which a surface through the vertex counts as touching it (1e-5 of the
+/// extent), enough to see that surface at an angle rather than edge-on. The display
+/// refinement splits edges down to a tenth of a millimetre beside the Cornell box's light, so a vertex on the light's rim must show the rim's own light: nudged
+/// 5 % of the way to a patch centroid (about 1 mm) it showed the ceiling's value 0.2–1 mm out,
+/// and a probe 0.04 mm from the rim came out +46 %. Measured on the Cornell box's two draws
+/// of 2,000 probes (mean of three seeds of the bake): 0.95 % and 1.55 % RMS unbounded, 0.93 %
+/// and 1.02 % with this bound (0.94 % and 1.08 % at 10⁻⁴, 0.95 % and 1.01 % at 10⁻⁵). Without
+/// contact edges (the hall's hierarchy: its elements straddle the lights' outlines and its
+/// display refinement runs out of budget) the bound took the hall from 10.0 % to 12.6 %.
 pub const NUDGE_MAX: f64 = 3e-5;
 
 /// Hemisphere rays of the whole `full` gather when the number per vertex is not given: the
@@ -276,6 +280,9 @@ pub struct Gatherer<'a> {
     radiance: &'a [Rgb],
     /// The patches as traced ([`trace`]).
     surfaces: Surfaces<'a>,
+    /// How far a contact vertex's gather point may move off it, scene units
+    /// ([`Gatherer::with_contact_edges`]; ∞ unless contact lines are mesh edges).
+    nudge_max: f64,
     /// How far rays start above the surface and end above an emitter: a millionth of the
     /// scene's extent (see [`Gatherer::direct`]).
     lift: f64,
@@ -336,10 +343,26 @@ impl<'a> Gatherer<'a> {
             patches,
             radiance,
             surfaces: Surfaces::new(patches),
+            nudge_max: f64::INFINITY,
             lift: LIFT * (hi - lo).length(),
             seed,
             env: env.clone(),
         }
+    }
+
+    /// Whether the contact lines are edges of the patch mesh ([`crate::mesh::split_contacts`]).
+    /// Then a vertex at a contact lies on the discontinuity itself, the display refinement
+    /// follows the steep light beside it, and its gather point moves at most [`NUDGE_MAX`] of
+    /// the extent off it. Otherwise (the hierarchical solver's default) a contact vertex is
+    /// wherever its element's corner falls, its patch straddles the contact, and the point
+    /// moves the whole [`NUDGE`] toward the patch's visible part.
+    pub fn with_contact_edges(mut self, yes: bool) -> Self {
+        self.nudge_max = if yes {
+            NUDGE_MAX / LIFT * self.lift
+        } else {
+            f64::INFINITY
+        };
+        self
     }
 
     /// Σ_e Le_e F(x → e) V̄(x, e): the irradiance from the emitters at the point `x` (unit
@@ -809,7 +832,7 @@ impl Gatherer<'_> {
             || self.touched(site.position, site.normal, best);
         let x = if contact {
             let d = NUDGE * (p.centroid[best as usize] - site.position);
-            let most = NUDGE_MAX / LIFT * self.lift;
+            let most = self.nudge_max;
             site.position + d * (most / d.length()).min(1.0)
         } else {
             site.position

@@ -371,7 +371,8 @@ fn bake_stage(
             radiance,
             &settings.environment,
             settings.form_factors.seed,
-        );
+        )
+        .with_contact_edges(report.contacts.is_some());
         let rays = settings
             .gather_rays
             .map_or_else(|| gather::auto_rays(sites.len()), |r| r as usize);
