@@ -372,7 +372,8 @@ fn bake_stage(
             &settings.environment,
             settings.form_factors.seed,
         )
-        .with_contact_edges(report.contacts.is_some());
+        // The nudge bound needs the display refinement to follow the light beside a contact.
+        .with_contact_edges(report.contacts.is_some() && settings.gather_tolerance > 0.0);
         let rays = settings
             .gather_rays
             .map_or_else(|| gather::auto_rays(sites.len()), |r| r as usize);
