@@ -1339,6 +1339,17 @@ mod tests {
         assert!(with.abs() < 0.01, "near hits at the hit point: {with:+.4}");
     }
 
+    /// The Cornell box split at its contact lines and cut into its default patches, with no
+    /// light on them (for tests of the gather's geometry).
+    fn cornell_unlit() -> (Scene, Patches, Vec<Rgb>) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
+        let (scene, _) = crate::mesh::split_contacts(&Scene::load(&path).unwrap());
+        let patches =
+            crate::mesh::subdivide(&scene, crate::mesh::default_max_edge(&scene), 0.0).unwrap();
+        let radiance = vec![[0.0; 3]; patches.len()];
+        (scene, patches, radiance)
+    }
+
     #[test]
     fn vertices_on_faces_off_the_axes_are_not_buried() {
         // The Cornell box's blocks are rotated: their sides' patch corners, shared by several
@@ -1346,11 +1357,7 @@ mod tests {
         // let a normal ray from the exact vertex meet a neighbouring patch from behind. No
         // point of a block's side above the floor is buried (nothing covers it); 129 such
         // vertices were taken for buried before the test's ray started above the surface.
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
-        let (scene, _) = crate::mesh::split_contacts(&Scene::load(&path).unwrap());
-        let patches =
-            crate::mesh::subdivide(&scene, crate::mesh::default_max_edge(&scene), 0.0).unwrap();
-        let radiance = vec![[0.0; 3]; patches.len()];
+        let (scene, patches, radiance) = cornell_unlit();
         let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
         let mut checked = 0;
         for (i, tri) in patches.triangles.iter().enumerate() {
@@ -1378,11 +1385,7 @@ mod tests {
         // without the nudge, half their hemisphere met the floor edge-on and the feet showed
         // 15 % too dark. Every such corner is touched; no patch's centroid (nothing passes
         // through the middle of a patch) is.
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
-        let (scene, _) = crate::mesh::split_contacts(&Scene::load(&path).unwrap());
-        let patches =
-            crate::mesh::subdivide(&scene, crate::mesh::default_max_edge(&scene), 0.0).unwrap();
-        let radiance = vec![[0.0; 3]; patches.len()];
+        let (scene, patches, radiance) = cornell_unlit();
         let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
         let mut feet = 0;
         for (i, tri) in patches.triangles.iter().enumerate() {
