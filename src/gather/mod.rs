@@ -129,11 +129,12 @@ pub const NUDGE: f64 = 0.05;
 /// point moves at most this fraction of the scene's extent off the vertex ([`NUDGE`]): three
 /// times the reach at which a surface through the vertex counts as touching it (1e-5 of the
 /// extent), enough to see that surface at an angle rather than edge-on. The display
-/// refinement splits edges down to a tenth of a millimetre beside the Cornell box's light, so a vertex on the light's rim must show the rim's own light: nudged
-/// 5 % of the way to a patch centroid (about 1 mm) it showed the ceiling's value 0.2–1 mm out,
-/// and a probe 0.04 mm from the rim came out +46 %. Measured on the Cornell box's two draws
-/// of 2,000 probes (mean of three seeds of the bake): 0.95 % and 1.55 % RMS unbounded, 0.93 %
-/// and 1.02 % with this bound (0.94 % and 1.08 % at 10⁻⁴, 0.95 % and 1.01 % at 10⁻⁵). Without
+/// refinement splits edges down to a tenth of a millimetre beside the Cornell box's light,
+/// so a vertex on the light's rim must show the rim's own light: nudged 5 % of the way to a
+/// patch centroid (about 1 mm) it showed the ceiling's value 0.2–1 mm out, and a probe
+/// 0.04 mm from the rim came out +46 %. Measured on the Cornell box's two draws of 2,000
+/// probes (mean of three seeds of the bake): 0.95 % and 1.55 % RMS unbounded, 0.93 % and
+/// 1.02 % with this bound (0.94 % and 1.08 % at 10⁻⁴, 0.95 % and 1.01 % at 10⁻⁵). Without
 /// contact edges (the hall's hierarchy: its elements straddle the lights' outlines and its
 /// display refinement runs out of budget) the bound took the hall from 10.0 % to 12.6 %.
 pub const NUDGE_MAX: f64 = 3e-5;
@@ -354,9 +355,10 @@ impl<'a> Gatherer<'a> {
     /// and the display refinement follows the light beside them (the pipeline passes both).
     /// Then a vertex at a contact lies on the discontinuity itself, and its gather point moves
     /// at most [`NUDGE_MAX`] of the extent off it (without the refinement, the rim's own light
-    /// would be spread over whole faces: Cornell box 2.26 → 3.13 % at `--gather-tolerance 0`). Otherwise (the hierarchical solver's default) a contact vertex is
-    /// wherever its element's corner falls, its patch straddles the contact, and the point
-    /// moves the whole [`NUDGE`] toward the patch's visible part.
+    /// would be spread over whole faces: Cornell box 2.26 → 3.13 % at `--gather-tolerance 0`).
+    /// Otherwise (the hierarchical solver's default) a contact vertex is wherever its
+    /// element's corner falls, its patch straddles the contact, and the point moves the whole
+    /// [`NUDGE`] toward the patch's visible part.
     pub fn with_contact_edges(mut self, yes: bool) -> Self {
         self.nudge_max = if yes {
             NUDGE_MAX / LIFT * self.lift
@@ -833,8 +835,7 @@ impl Gatherer<'_> {
             || self.touched(site.position, site.normal, best);
         let x = if contact {
             let d = NUDGE * (p.centroid[best as usize] - site.position);
-            let most = self.nudge_max;
-            site.position + d * (most / d.length()).min(1.0)
+            site.position + d * (self.nudge_max / d.length()).min(1.0)
         } else {
             site.position
         };
