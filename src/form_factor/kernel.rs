@@ -55,6 +55,43 @@ pub fn point_to_polygon(p: DVec3, np: DVec3, poly: &[DVec3]) -> f64 {
     (sum.abs() / (2.0 * PI)).min(1.0)
 }
 
+/// [`point_to_polygon`] for a planar convex polygon of any number of corners (the visible
+/// pieces of an emitter, [`crate::gather`]): clipped to the half-space above p's tangent plane,
+/// then Lambert's contour sum. Dimensionless, in [0, 1]; fewer than 3 corners give 0.
+pub fn point_to_convex_polygon(p: DVec3, np: DVec3, poly: &[DVec3]) -> f64 {
+    if (3..=4).contains(&poly.len()) {
+        return point_to_polygon(p, np, poly);
+    }
+    let r: Vec<DVec3> = poly.iter().map(|&v| v - p).collect();
+    let mut clipped = Vec::with_capacity(r.len() + 1);
+    clip_polygon(&r, |v| np.dot(v), &mut clipped);
+    (contour_sum(np, &clipped).abs() / (2.0 * PI)).min(1.0)
+}
+
+/// Sutherland–Hodgman: the part of the convex polygon `poly` where `dist ≥ 0`, into `out`
+/// (cleared first; empty or fewer than 3 corners when nothing of area is left).
+pub(crate) fn clip_polygon(poly: &[DVec3], dist: impl Fn(DVec3) -> f64, out: &mut Vec<DVec3>) {
+    out.clear();
+    let n = poly.len();
+    if n == 0 {
+        return;
+    }
+    let mut a = poly[n - 1];
+    let mut da = dist(a);
+    for &b in poly {
+        let db = dist(b);
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            out.push(a + t * (b - a));
+        }
+        if db >= 0.0 {
+            out.push(b);
+        }
+        a = b;
+        da = db;
+    }
+}
+
 /// Σ_k γ_k n·(R_k × R_{k+1}) / |R_k × R_{k+1}| over the closed polygon `r` (corners relative to
 /// the receiving point); fewer than 3 corners give 0.
 #[inline]

@@ -63,6 +63,7 @@ use trace::Surfaces;
 
 pub mod refine;
 mod trace;
+pub mod visible;
 
 pub use refine::{refine, Plan, Refined};
 
@@ -183,6 +184,10 @@ impl Gather {
 pub const SHADOW_RAYS: usize = 16;
 /// Shadow rays per emitter at a point when the first [`SHADOW_RAYS`] disagree.
 pub const MAX_SHADOW_RAYS: usize = 256;
+
+/// An emitter whose exactly computed visible share ([`visible`]) is within this of 0 or 1 is
+/// wholly hidden or wholly seen: it does not put its point in a penumbra.
+const VISIBLE_TIE: f64 = 1e-9;
 
 /// A hemisphere ray of the gather that hits a patch closer than this many times the square
 /// root of the patch's area brings the radiance at the hit point, evaluated one bounce further
@@ -440,8 +445,33 @@ impl<'a> Gatherer<'a> {
         // lights behind one occluder edge, share a penumbra: an emitter whose first rays
         // happened to agree would otherwise keep an all-or-nothing answer).
         let mut penumbra = false;
+        // Exactly where the shadow rays would be many (a gathering point or a test, not a near
+        // hit's point): the visible pieces of the emitter ([`visible`]). An emitter done so
+        // has `total_w` = 1 and is passed over by the rays; the rest get rays as before.
+        if first > 1 {
+            for (k, f, vis_w, total_w, _) in seen.iter_mut() {
+                let e = &self.emitters[*k];
+                let (lo, hi) = e.corners.iter().fold((x, x), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+                let fv = visible::visible_form_factor(
+                    x,
+                    n,
+                    &e.corners,
+                    e.normal,
+                    self.lift,
+                    |visit| self.surfaces.overlapping(lo, hi, ignore, visit),
+                );
+                if let Some(fv) = fv {
+                    let v = (fv / *f).clamp(0.0, 1.0);
+                    (*vis_w, *total_w) = (v, 1.0);
+                    penumbra |= v > VISIBLE_TIE && v < 1.0 - VISIBLE_TIE;
+                }
+            }
+        }
         for round in [first, max_rays.saturating_sub(first)] {
             for (k, _, vis_w, total_w, agree) in seen.iter_mut() {
+                if *total_w > 0.0 && agree == &[false, false] {
+                    continue; // computed exactly
+                }
                 let e = &self.emitters[*k];
                 let (c, nn) = (&e.corners, e.normal);
                 kernel_samples(c, nn, x, n, round, rng, &mut targets, |y, g| {

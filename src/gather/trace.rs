@@ -105,6 +105,8 @@ impl Grid {
 pub struct Surfaces<'a> {
     patches: &'a Patches,
     vis: Visibility,
+    /// The traced triangles, scene units (the BVH holds them in its canonical `f32` frame).
+    triangles: Vec<[DVec3; 3]>,
     /// Traced triangle of each patch (never [`NONE`]: every patch is traced).
     of_patch: Vec<u32>,
     /// The patches of each traced triangle, in index order; a triangle that is a patch itself
@@ -161,6 +163,7 @@ impl<'a> Surfaces<'a> {
         Surfaces {
             patches,
             vis,
+            triangles: coarse.triangles,
             of_patch: coarse.of_patch,
             members,
             grids,
@@ -182,6 +185,23 @@ impl<'a> Surfaces<'a> {
     /// [`Surfaces::traced`] of the patch.
     pub fn vis(&self) -> &Visibility {
         &self.vis
+    }
+
+    /// Calls `visit` with every traced triangle (scene units) whose box may overlap the box
+    /// `[lo, hi]`, but the triangle of the patch `ignore` (and its twin), until it returns
+    /// `false` ([`Visibility::overlapping`]); returns `false` if it was stopped.
+    pub fn overlapping(
+        &self,
+        lo: DVec3,
+        hi: DVec3,
+        ignore: u32,
+        visit: &mut dyn FnMut(&[DVec3; 3]) -> bool,
+    ) -> bool {
+        let ignore = self.traced(ignore);
+        let twin = if ignore == NONE { NONE } else { self.vis.twin(ignore) };
+        self.vis.overlapping(lo, hi, |id| {
+            id == ignore || id == twin || visit(&self.triangles[id as usize])
+        })
     }
 
     /// [`Visibility::point`].

@@ -405,6 +405,48 @@ impl Bvh4 {
         });
     }
 
+    /// Calls `visit(i)` for every triangle `i` whose padded box overlaps the box `[lo, hi]`
+    /// (canonical units; a superset of the triangles meeting it), each once, until `visit`
+    /// returns `false`. Returns `false` if it was stopped so.
+    pub fn overlapping(&self, lo: Vec3A, hi: Vec3A, mut visit: impl FnMut(usize) -> bool) -> bool {
+        if self.root == EMPTY {
+            return true;
+        }
+        let (lo4, hi4) = (lo.to_array().map(f32x4::splat), hi.to_array().map(f32x4::splat));
+        self.with_stack(|stack| {
+            let mut top = 0;
+            stack[top] = self.root;
+            top += 1;
+            while top > 0 {
+                top -= 1;
+                let c = stack[top];
+                if c & LEAF != 0 {
+                    let p = &self.packets[(c & !LEAF) as usize];
+                    for lane in 0..4 {
+                        if lane > 0 && p.prim[..lane].contains(&p.prim[lane]) {
+                            continue; // a repeated lane
+                        }
+                        if !visit(p.prim[lane] as usize) {
+                            return false;
+                        }
+                    }
+                    continue;
+                }
+                let node = &self.nodes[c as usize];
+                let mut mask = 0b1111;
+                for k in 0..3 {
+                    mask &= node.lo[k].simd_le(hi4[k]).to_bitmask()
+                        & lo4[k].simd_le(node.hi[k]).to_bitmask();
+                }
+                for i in lanes(mask) {
+                    stack[top] = node.child[i];
+                    top += 1;
+                }
+            }
+            true
+        })
+    }
+
     /// Runs `f` with a traversal stack deep enough for this tree.
     #[inline(always)]
     fn with_stack<R>(&self, f: impl FnOnce(&mut [u32]) -> R) -> R {

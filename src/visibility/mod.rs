@@ -534,6 +534,20 @@ impl Visibility {
         best.map(|b| ray.hit(b, m))
     }
 
+    /// Calls `visit(id)` with the input index of every triangle whose box may overlap the box
+    /// `[lo, hi]` (scene coordinates): a superset of those meeting it (the BVH's boxes are
+    /// padded), each once (of a twin pair, the earlier index only: the two are one surface),
+    /// until `visit` returns `false`. Returns `false` if it was stopped so.
+    pub fn overlapping(&self, lo: DVec3, hi: DVec3, mut visit: impl FnMut(u32) -> bool) -> bool {
+        if self.tris.is_empty() {
+            return true;
+        }
+        let pad = DVec3::splat(f64::from(BOX_PAD));
+        let lo = (self.to_canonical(lo) - pad).as_vec3a();
+        let hi = (self.to_canonical(hi) + pad).as_vec3a();
+        self.bvh.overlapping(lo, hi, |i| visit(self.ids[i]))
+    }
+
     /// Canonical coordinates of the scene point `x`.
     fn to_canonical(&self, x: DVec3) -> DVec3 {
         snap((x - self.centre) * self.scale, CANONICAL_GRID)

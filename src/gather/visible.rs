@@ -1,0 +1,213 @@
+//! The exact direct light of a triangular emitter at a point, shadows included: the part of
+//! the emitter the point sees, as convex polygons, and its form factor by Lambert's contour
+//! integral, in place of a visible fraction estimated by shadow rays.
+//!
+//! Every occluding triangle between the point x and the emitter E is clipped to the pyramid
+//! with apex x over E (the three planes through x and E's edges, E's plane, and x's horizon),
+//! and what is left is projected from x onto E's plane: the shadow it casts on E as x sees it.
+//! E less the union of these convex shadows is a set of convex pieces (each shadow subtracted
+//! edge by edge, as Sutherland–Hodgman clipping), and the unoccluded form factor of those
+//! pieces is the visible form factor F(x → E)·V̄(x, E) exactly, V̄ weighted by the kernel as
+//! the shadow rays' estimate is. This is how Nishita & Nakamae computed the light of polygonal
+//! sources with shadows ("Continuous tone representation of three-dimensional objects taking
+//! account of shadows and interreflection", SIGGRAPH 1985; the visible part of a source as
+//! seen from a point is the "backprojection" of Drettakis & Fiume, SIGGRAPH 1994, and
+//! Stewart & Ghali, SIGGRAPH 1994).
+//!
+//! Shadow rays answer a penumbra with noise of a few per cent at 256 rays, and where only a
+//! sliver of the emitter is visible their first 16 can all miss it and call the point wholly
+//! shadowed: in the Cornell box, a floor point in the tall block's penumbra came out with a
+//! direct light of 0 in half the seeds. The exact part has neither error. Its cost is a box
+//! query and a few clips a triangle, bounded by [`MAX_OCCLUDERS`] and [`MAX_PIECES`]: beyond
+//! them, the caller casts rays as before.
+
+use glam::{DVec2, DVec3};
+
+use crate::form_factor::kernel::{clip_polygon, point_to_convex_polygon};
+
+/// Triangles overlapping the pyramid's box that are tried, at most; with more (a point under a
+/// crowded scene), [`visible_form_factor`] gives up and the caller samples visibility by rays.
+pub const MAX_OCCLUDERS: usize = 96;
+
+/// Convex pieces the visible part of an emitter may be cut into, at most, before
+/// [`visible_form_factor`] gives up (the shadows of many small occluders).
+pub const MAX_PIECES: usize = 48;
+
+/// Pieces smaller than this fraction of the emitter's area are dropped: slivers left by the
+/// rounding of shadows that share an edge (two triangles of one occluder's face).
+const SLIVER: f64 = 1e-12;
+
+/// The form factor from the point `x` (unit normal `n`) to the part of the triangle `e`
+/// (unit front normal `e_normal`, x in front of it) not hidden by the triangles `occluders`
+/// offers: `Some(F·V̄)`, dimensionless in [0, F(x → e)], or `None` when more than
+/// [`MAX_OCCLUDERS`] triangles are offered or the visible part needs more than [`MAX_PIECES`]
+/// pieces.
+///
+/// `occluders` calls its argument with every triangle that may lie between x and e (scene
+/// units; a superset is fine: triangles outside the pyramid are clipped away), until it returns
+/// `false`, and returns `false` if it was stopped. `margin` (scene units, > 0) is the
+/// thickness kept clear above x's horizon, in front of e's plane and around x: the surface x
+/// lies on, e's own plane and a surface through x do not occlude, as the shadow rays' lift
+/// makes them not.
+pub fn visible_form_factor(
+    x: DVec3,
+    n: DVec3,
+    e: &[DVec3; 3],
+    e_normal: DVec3,
+    margin: f64,
+    occluders: impl FnOnce(&mut dyn FnMut(&[DVec3; 3]) -> bool) -> bool,
+) -> Option<f64> {
+    let dx = e_normal.dot(x - e[0]);
+    if dx <= 2.0 * margin {
+        return Some(crate::form_factor::kernel::point_to_polygon(x, n, e));
+    }
+    // The pyramid: keep m·(p − x) ≥ 0 for each side plane (through x and an edge of e).
+    let sides: [DVec3; 3] = std::array::from_fn(|k| {
+        let (a, b, c) = (e[k], e[(k + 1) % 3], e[(k + 2) % 3]);
+        let m = (a - x).cross(b - x);
+        if m.dot(c - x) < 0.0 {
+            -m
+        } else {
+            m
+        }
+    });
+    // Coordinates in e's plane.
+    let u = (e[1] - e[0]).normalize();
+    let v = e_normal.cross(u);
+    let to_2d = |y: DVec3| DVec2::new(u.dot(y - e[0]), v.dot(y - e[0]));
+    let mut emitter: Vec<DVec2> = e.iter().map(|&y| to_2d(y)).collect();
+    if area(&emitter) < 0.0 {
+        emitter.reverse();
+    }
+    let sliver = SLIVER * area(&emitter);
+    let mut pieces: Vec<Vec<DVec2>> = vec![emitter];
+
+    let (mut a, mut b) = (Vec::with_capacity(12), Vec::with_capacity(12));
+    let mut tried = 0;
+    let mut too_complex = false;
+    let finished = occluders(&mut |t: &[DVec3; 3]| {
+        tried += 1;
+        if tried > MAX_OCCLUDERS {
+            too_complex = true;
+            return false;
+        }
+        // The part of t inside the pyramid, clear of x and of e's plane.
+        a.clear();
+        a.extend_from_slice(t);
+        for m in &sides {
+            clip_polygon(&a, |p| m.dot(p - x), &mut b);
+            std::mem::swap(&mut a, &mut b);
+        }
+        clip_polygon(&a, |p| n.dot(p - x) - margin, &mut b);
+        clip_polygon(&b, |p| e_normal.dot(p - e[0]) - margin, &mut a);
+        clip_polygon(&a, |p| dx - margin - e_normal.dot(p - e[0]), &mut b);
+        if b.len() < 3 {
+            return true;
+        }
+        // Its shadow on e's plane, from x: p = x + s(y − x) with s = (dx − d_p)/dx ≥ margin/dx.
+        let mut shadow: Vec<DVec2> = b
+            .iter()
+            .map(|&p| {
+                let s = (dx - e_normal.dot(p - e[0])) / dx;
+                to_2d(x + (p - x) / s)
+            })
+            .collect();
+        let signed = area(&shadow);
+        if signed.abs() <= sliver {
+            return true;
+        }
+        if signed < 0.0 {
+            shadow.reverse();
+        }
+        pieces = subtract(std::mem::take(&mut pieces), &shadow, sliver);
+        if pieces.len() > MAX_PIECES {
+            too_complex = true;
+            return false;
+        }
+        !pieces.is_empty()
+    });
+    if too_complex || (!finished && !pieces.is_empty()) {
+        return None;
+    }
+    let to_3d = |p: DVec2| e[0] + p.x * u + p.y * v;
+    Some(
+        pieces
+            .iter()
+            .map(|piece| {
+                let corners: Vec<DVec3> = piece.iter().map(|&p| to_3d(p)).collect();
+                point_to_convex_polygon(x, n, &corners)
+            })
+            .sum(),
+    )
+}
+
+/// The signed area of a 2-D polygon (positive when counter-clockwise).
+fn area(p: &[DVec2]) -> f64 {
+    let mut s = 0.0;
+    let mut a = p[p.len() - 1];
+    for &b in p {
+        s += a.perp_dot(b);
+        a = b;
+    }
+    0.5 * s
+}
+
+/// The convex pieces `pieces` (counter-clockwise) less the convex polygon `hole`
+/// (counter-clockwise), as convex pieces: for each edge of the hole in turn, the part of what
+/// is left outside that edge is kept and the part inside goes on to the next edge; what is
+/// inside every edge is the hole's. Pieces of area at most `sliver` are dropped.
+fn subtract(pieces: Vec<Vec<DVec2>>, hole: &[DVec2], sliver: f64) -> Vec<Vec<DVec2>> {
+    let (lo, hi) = bounds(hole);
+    let mut out = Vec::with_capacity(pieces.len() + 2);
+    let (mut outside, mut inside) = (Vec::new(), Vec::new());
+    for piece in pieces {
+        let (plo, phi) = bounds(&piece);
+        if plo.x >= hi.x || plo.y >= hi.y || phi.x <= lo.x || phi.y <= lo.y {
+            out.push(piece);
+            continue;
+        }
+        let mut rest = piece;
+        for k in 0..hole.len() {
+            let (a, b) = (hole[k], hole[(k + 1) % hole.len()]);
+            let along = b - a;
+            clip_2d(&rest, |p| -along.perp_dot(p - a), &mut outside);
+            if outside.len() >= 3 && area(&outside) > sliver {
+                out.push(outside.clone());
+            }
+            clip_2d(&rest, |p| along.perp_dot(p - a), &mut inside);
+            std::mem::swap(&mut rest, &mut inside);
+            if rest.len() < 3 || area(&rest) <= sliver {
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// The bounding box of a 2-D polygon.
+fn bounds(p: &[DVec2]) -> (DVec2, DVec2) {
+    p.iter().fold(
+        (DVec2::INFINITY, DVec2::NEG_INFINITY),
+        |(lo, hi), &q| (lo.min(q), hi.max(q)),
+    )
+}
+
+/// Sutherland–Hodgman in the plane: the part of the convex `poly` where `dist ≥ 0`.
+fn clip_2d(poly: &[DVec2], dist: impl Fn(DVec2) -> f64, out: &mut Vec<DVec2>) {
+    out.clear();
+    let Some(&last) = poly.last() else {
+        return;
+    };
+    let (mut a, mut da) = (last, dist(last));
+    for &b in poly {
+        let db = dist(b);
+        if (da >= 0.0) != (db >= 0.0) {
+            out.push(a + (da / (da - db)) * (b - a));
+        }
+        if db >= 0.0 {
+            out.push(b);
+        }
+        a = b;
+        da = db;
+    }
+}
