@@ -451,15 +451,14 @@ impl<'a> Gatherer<'a> {
         if first > 1 {
             for (k, f, vis_w, total_w, _) in seen.iter_mut() {
                 let e = &self.emitters[*k];
-                let (lo, hi) = e.corners.iter().fold((x, x), |(lo, hi), &c| (lo.min(c), hi.max(c)));
-                let fv = visible::visible_form_factor(
-                    x,
-                    n,
-                    &e.corners,
-                    e.normal,
-                    self.lift,
-                    |visit| self.surfaces.overlapping(lo, hi, ignore, visit),
-                );
+                let (lo, hi) = e
+                    .corners
+                    .iter()
+                    .fold((x, x), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+                let fv =
+                    visible::visible_form_factor(x, n, &e.corners, e.normal, self.lift, |visit| {
+                        self.surfaces.overlapping(lo, hi, ignore, visit)
+                    });
                 if let Some(fv) = fv {
                     let v = (fv / *f).clamp(0.0, 1.0);
                     (*vis_w, *total_w) = (v, 1.0);

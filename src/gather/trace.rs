@@ -198,7 +198,11 @@ impl<'a> Surfaces<'a> {
         visit: &mut dyn FnMut(&[DVec3; 3]) -> bool,
     ) -> bool {
         let ignore = self.traced(ignore);
-        let twin = if ignore == NONE { NONE } else { self.vis.twin(ignore) };
+        let twin = if ignore == NONE {
+            NONE
+        } else {
+            self.vis.twin(ignore)
+        };
         self.vis.overlapping(lo, hi, |id| {
             id == ignore || id == twin || visit(&self.triangles[id as usize])
         })

@@ -412,7 +412,10 @@ impl Bvh4 {
         if self.root == EMPTY {
             return true;
         }
-        let (lo4, hi4) = (lo.to_array().map(f32x4::splat), hi.to_array().map(f32x4::splat));
+        let (lo4, hi4) = (
+            lo.to_array().map(f32x4::splat),
+            hi.to_array().map(f32x4::splat),
+        );
         self.with_stack(|stack| {
             let mut top = 0;
             stack[top] = self.root;
