@@ -12,10 +12,13 @@
 //!
 //! - **direct** (every emitting scene triangle e): F(x → e) the exact unoccluded
 //!   point-to-polygon form factor ([`point_to_polygon`], Lambert's contour integral, clipped to
-//!   x's horizon) and V̄ the fraction of shadow rays that reach stratified points of the part
-//!   of e above the horizon ([`kernel_samples`]). Adaptive: [`SHADOW_RAYS`] rays per emitter,
-//!   and when any emitter's rays disagree (x is in a penumbra) up to [`MAX_SHADOW_RAYS`] for
-//!   every emitter. With more than [`MAX_EXACT_EMITTERS`] emitters, the others that are small
+//!   x's horizon) and V̄ the visible share of it, F·V̄ being the form factor of the pieces of e
+//!   that the occluders' shadows leave ([`visible`]): exact, shadows included. Where those
+//!   would be too many (a crowded view), V̄ is the kernel-weighted fraction of shadow rays
+//!   that reach stratified points of the part of e above the horizon ([`kernel_samples`]),
+//!   adaptive: [`SHADOW_RAYS`] rays per emitter, and when any emitter's rays disagree (x is
+//!   in a penumbra) up to [`MAX_SHADOW_RAYS`] for every emitter. With more than
+//!   [`MAX_EXACT_EMITTERS`] emitters, the others that are small
 //!   as seen from x ([`SAMPLED_SPREAD`]) share [`OTHER_LIGHT_SAMPLES`] shadow rays, drawn in
 //!   proportion to Le·F (many-light next-event estimation), and the large near ones are left
 //!   to the hemisphere rays. Unoccluded, the direct term is exact to rounding.
@@ -180,7 +183,8 @@ impl Gather {
     }
 }
 
-/// Shadow rays per emitter at a point, before adapting.
+/// Shadow rays per emitter at a point, before adapting, where its visible pieces are too many
+/// to compute ([`visible`]).
 pub const SHADOW_RAYS: usize = 16;
 /// Shadow rays per emitter at a point when the first [`SHADOW_RAYS`] disagree.
 pub const MAX_SHADOW_RAYS: usize = 256;
