@@ -51,6 +51,7 @@ mod reuse;
 mod samples;
 pub mod sampling;
 pub mod settings;
+pub mod visible;
 
 pub use burial::{is_hidden, VISIBLE_AREA_LATTICE};
 pub use needed::Needed;

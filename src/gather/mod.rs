@@ -59,6 +59,7 @@ use crate::color::{luminance, Rgb};
 use crate::environment::{Environment, Receiver, SkyModel};
 use crate::form_factor::kernel::point_to_polygon;
 use crate::form_factor::sampling::{gauss_rule, kernel_samples, malley, Rng};
+use crate::form_factor::visible;
 use crate::mesh::Patches;
 use crate::scene::Scene;
 use crate::visibility::NONE;
@@ -66,7 +67,6 @@ use trace::Surfaces;
 
 pub mod refine;
 mod trace;
-pub mod visible;
 
 pub use refine::{refine, Plan, Refined};
 

@@ -6,8 +6,8 @@
 //! The test of an edge (a, b) is the radiance at its midpoint m against what the triangle shows
 //! there, (L_a + L_b)/2 (linear interpolation, Lischinski, Tampieri & Greenberg 1993 §5 refine
 //! the display mesh the same way). The sharp part is the direct light, so the test evaluates it
-//! exactly at m (the form factor of the emitters' visible pieces, [`super::visible`], cheap
-//! next to the hemisphere rays):
+//! exactly at m (the form factor of the emitters' visible pieces,
+//! [`crate::form_factor::visible`], cheap next to the hemisphere rays):
 //!
 //! split (a, b) when |Y(ρD_m) − Y(ρD_a + ρD_b)/2| > τ · max(Y((L_a + L_b)/2), Y_floor),
 //!

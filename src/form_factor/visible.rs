@@ -246,9 +246,7 @@ mod tests {
     const MARGIN: f64 = 1e-9;
 
     fn exact(x: DVec3, n: DVec3, e: &[DVec3; 3], occluders: &[[DVec3; 3]]) -> Option<f64> {
-        visible_form_factor(x, n, e, DOWN, MARGIN, |visit| {
-            occluders.iter().all(visit)
-        })
+        visible_form_factor(x, n, e, DOWN, MARGIN, |visit| occluders.iter().all(visit))
     }
 
     /// The oracle: F·V̄ by a fine grid of jittered points over `e`, each weighted by the
