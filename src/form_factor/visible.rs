@@ -20,8 +20,7 @@
 //! light whose standard deviation over seeds was 75 % of its mean (it was 0 in about half of
 //! them). The visible pieces have neither error. Their cost is a box query and a few clips a
 //! triangle, bounded by [`MAX_CANDIDATES`], [`MAX_OCCLUDERS`] and [`MAX_PIECES`]: beyond them,
-//! the caller casts rays as before (none of the living room's or the generated hall's points
-//! went beyond them).
+//! the caller casts rays as before.
 
 use glam::{DVec2, DVec3};
 
@@ -33,8 +32,11 @@ use crate::form_factor::kernel::{clip_polygon, point_to_convex_polygon};
 pub const MAX_OCCLUDERS: usize = 64;
 
 /// Triangles overlapping the pyramid's box that are clipped to it, at most (most of them miss
-/// it: the box of a slanted pyramid is far larger); beyond, [`visible_form_factor`] gives up.
-pub const MAX_CANDIDATES: usize = 1024;
+/// it: the box of a slanted pyramid is far larger); beyond, [`visible_form_factor`] gives up,
+/// so a point's cost stays within a few times its hemisphere rays' in a dense scene. Measured
+/// (boxes' triangles per point on average, and the points beyond): Cornell box 21, none;
+/// living room 91, none; the generated hall of 10⁴ triangles 78, 0.08 % (at 256: 9 % and 3 %).
+pub const MAX_CANDIDATES: usize = 512;
 
 /// Convex pieces the visible part of an emitter may be cut into, at most, before
 /// [`visible_form_factor`] gives up (the shadows of many small occluders).
