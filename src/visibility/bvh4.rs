@@ -310,7 +310,22 @@ impl Bvh4 {
         }
         let r4 = Ray4::new(ray);
         let (t_lo, t_hi) = (f32x4::splat(ray.t_lo), f32x4::splat(ray.t_hi));
-        let leaf = |p: &Packet| r4.blocked(p, ray.t_lo, ray.t_hi, &blocks);
+        self.walk(
+            |node| r4.enter(node, t_lo, t_hi).0,
+            |p| r4.blocked(p, ray.t_lo, ray.t_hi, &blocks),
+        )
+    }
+
+    /// Depth first over the tree until `leaf` returns true (then returns true): `enter(node)`
+    /// gives a bit per child to descend into, and `leaf(packet)` is called for every packet
+    /// reached, a node's leaf children before its inner children are opened (so a query that
+    /// a leaf can end, like [`Bvh4::any_hit`], opens no more nodes than it must).
+    #[inline(always)]
+    fn walk(
+        &self,
+        mut enter: impl FnMut(&Node) -> u32,
+        mut leaf: impl FnMut(&Packet) -> bool,
+    ) -> bool {
         self.with_stack(|stack| {
             let mut top = 0;
             stack[top] = self.root;
@@ -325,10 +340,8 @@ impl Bvh4 {
                     continue;
                 }
                 let node = &self.nodes[c as usize];
-                let (mask, _) = r4.enter(node, t_lo, t_hi);
-                for i in lanes(mask) {
+                for i in lanes(enter(node)) {
                     let child = node.child[i];
-                    // Leaves first: a hit there ends the query before more nodes are opened.
                     if child & LEAF != 0 {
                         if leaf(&self.packets[(child & !LEAF) as usize]) {
                             return true;
@@ -405,9 +418,9 @@ impl Bvh4 {
         });
     }
 
-    /// Calls `visit(i)` for every triangle `i` whose padded box overlaps the box `[lo, hi]`
-    /// (canonical units; a superset of the triangles meeting it), each once, until `visit`
-    /// returns `false`. Returns `false` if it was stopped so.
+    /// Calls `visit(i)` for every triangle `i` whose box overlaps the box `[lo, hi]` (canonical
+    /// units; a superset of the triangles meeting it), each once, until `visit` returns
+    /// `false`. Returns `false` if it was stopped so.
     pub fn overlapping(&self, lo: Vec3A, hi: Vec3A, mut visit: impl FnMut(usize) -> bool) -> bool {
         if self.root == EMPTY {
             return true;
@@ -416,38 +429,27 @@ impl Bvh4 {
             lo.to_array().map(f32x4::splat),
             hi.to_array().map(f32x4::splat),
         );
-        self.with_stack(|stack| {
-            let mut top = 0;
-            stack[top] = self.root;
-            top += 1;
-            while top > 0 {
-                top -= 1;
-                let c = stack[top];
-                if c & LEAF != 0 {
-                    let p = &self.packets[(c & !LEAF) as usize];
-                    for lane in 0..4 {
-                        if lane > 0 && p.prim[..lane].contains(&p.prim[lane]) {
-                            continue; // a repeated lane
-                        }
-                        if !visit(p.prim[lane] as usize) {
-                            return false;
-                        }
-                    }
-                    continue;
-                }
-                let node = &self.nodes[c as usize];
+        let stopped = self.walk(
+            |node| {
+                (0..3).fold(0b1111, |mask, k| {
+                    mask & node.lo[k].simd_le(hi4[k]).to_bitmask()
+                        & lo4[k].simd_le(node.hi[k]).to_bitmask()
+                })
+            },
+            |p| {
+                // The lanes whose triangle's own box overlaps, a repeated lane once.
                 let mut mask = 0b1111;
                 for k in 0..3 {
-                    mask &= node.lo[k].simd_le(hi4[k]).to_bitmask()
-                        & lo4[k].simd_le(node.hi[k]).to_bitmask();
+                    let tlo = p.v[0][k].fast_min(p.v[1][k]).fast_min(p.v[2][k]);
+                    let thi = p.v[0][k].fast_max(p.v[1][k]).fast_max(p.v[2][k]);
+                    mask &= tlo.simd_le(hi4[k]).to_bitmask() & lo4[k].simd_le(thi).to_bitmask();
                 }
-                for i in lanes(mask) {
-                    stack[top] = node.child[i];
-                    top += 1;
-                }
-            }
-            true
-        })
+                lanes(mask).any(|lane| {
+                    !p.prim[..lane].contains(&p.prim[lane]) && !visit(p.prim[lane] as usize)
+                })
+            },
+        );
+        !stopped
     }
 
     /// Runs `f` with a traversal stack deep enough for this tree.

@@ -534,9 +534,9 @@ impl Visibility {
         best.map(|b| ray.hit(b, m))
     }
 
-    /// Calls `visit(id)` with the input index of every triangle whose box may overlap the box
-    /// `[lo, hi]` (scene coordinates): a superset of those meeting it (the BVH's boxes are
-    /// padded), each once (of a twin pair, the earlier index only: the two are one surface),
+    /// Calls `visit(id)` with the input index of every triangle whose box overlaps the box
+    /// `[lo, hi]` (scene coordinates) padded by `BOX_PAD` canonical units (1.5e-5 of the
+    /// extent): a superset of those meeting it, each once (of a twin pair, the earlier index only: the two are one surface),
     /// until `visit` returns `false`. Returns `false` if it was stopped so.
     pub fn overlapping(&self, lo: DVec3, hi: DVec3, mut visit: impl FnMut(u32) -> bool) -> bool {
         if self.tris.is_empty() {

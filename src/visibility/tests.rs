@@ -849,3 +849,47 @@ fn a_back_among_coincident_first_hits_is_seen_from_behind() {
         }
     }
 }
+
+#[test]
+fn overlapping_visits_every_triangle_in_the_box_once() {
+    // The oracle: every triangle whose own box meets the query box must be visited, exactly
+    // once; the BVH's padded boxes may add a few more, never far ones (beyond the padding).
+    let mut rng = Rng(sampling::Rng::new(&[5]));
+    let tris = random_scene(&mut rng, 3000);
+    let vis = Visibility::build(&tris);
+    let (lo, hi) = tris
+        .iter()
+        .flatten()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    let pad = 1e-2 * (hi - lo).max_element();
+    let mut found_some = 0;
+    for _ in 0..200 {
+        let (a, b) = (rng.vec(lo.x, hi.x), rng.vec(lo.x, hi.x));
+        let (qlo, qhi) = (a.min(b), a.min(b) + 0.2 * (a.max(b) - a.min(b)));
+        let mut seen = vec![0u32; tris.len()];
+        assert!(vis.overlapping(qlo, qhi, |id| {
+            seen[id as usize] += 1;
+            true
+        }));
+        for (t, n) in tris.iter().zip(&seen) {
+            let (tlo, thi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            let meets = tlo.cmple(qhi).all() && qlo.cmple(thi).all();
+            let near = (tlo - DVec3::splat(pad)).cmple(qhi).all()
+                && (qlo - DVec3::splat(pad)).cmple(thi).all();
+            assert!(*n <= 1, "visited {n} times");
+            assert!(!meets || *n == 1, "a triangle in the box was not visited");
+            assert!(near || *n == 0, "a triangle far from the box was visited");
+        }
+        found_some += seen.iter().any(|&n| n > 0) as usize;
+        // Stopping early stops at once.
+        let mut calls = 0;
+        let finished = vis.overlapping(qlo, qhi, |_| {
+            calls += 1;
+            false
+        });
+        assert_eq!((finished, calls.min(1)), (calls == 0, calls));
+    }
+    assert!(found_some > 50, "only {found_some} boxes met triangles");
+}
