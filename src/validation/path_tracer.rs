@@ -427,12 +427,12 @@ impl<'a> Tracer<'a> {
     }
 
     /// True when the first surface straight along x's normal is seen from behind (`x` lies
-    /// inside a closed object or under a surface resting on it).
+    /// inside a closed object or under a surface resting on it): the test of
+    /// [`crate::form_factor::is_hidden`] and of the gather, [`Visibility::first_hit_from_behind`],
+    /// so a point inside objects that touch along coincident faces (a table leg under its
+    /// top) is buried whichever of the two faces the rounding puts first.
     pub(crate) fn buried(&self, t: usize, x: DVec3) -> bool {
-        let n = self.normal[t];
-        self.vis
-            .closest_hit(x, n, f64::INFINITY, t as u32)
-            .is_some_and(|h| self.normal[h.triangle as usize].dot(n) > 0.0)
+        self.vis.first_hit_from_behind(x, self.normal[t], t as u32) == Some(true)
     }
 }
 
@@ -448,6 +448,85 @@ fn cosine_direction(n: DVec3, rng: &mut Rng) -> DVec3 {
 mod tests {
     use super::*;
     use crate::validation::{closed_forms, scenes};
+
+    #[test]
+    fn the_floor_under_a_leg_touching_its_table_is_buried() {
+        // An open-bottomed leg stands on the floor under a closed table top; the leg's top and
+        // the top's underside coincide. From the floor inside the leg's footprint the ray up
+        // meets the leg's top from behind and the underside from the front at the same
+        // distance: buried, whichever rounds first (the gather's and the form factors' rule).
+        use crate::scene::SceneBuilder;
+        use glam::dvec3;
+        let mut b = SceneBuilder::new();
+        let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+        let light = b.material("light", [0.0; 3], [1.0; 3]);
+        let quad = |b: &mut SceneBuilder, c: [[f64; 3]; 4], m| b.quad(c.map(DVec3::from), m);
+        quad(
+            &mut b,
+            [
+                [-3.0, -3.0, 0.0],
+                [4.0, -3.0, 0.0],
+                [4.0, 4.0, 0.0],
+                [-3.0, 4.0, 0.0],
+            ],
+            grey,
+        );
+        quad(
+            &mut b,
+            [
+                [-3.0, -3.0, 8.0],
+                [-3.0, 4.0, 8.0],
+                [4.0, 4.0, 8.0],
+                [4.0, -3.0, 8.0],
+            ],
+            light,
+        );
+        // A box's faces, outward (counter-clockwise seen from outside); `bottom` or not.
+        let boxed = |b: &mut SceneBuilder, lo: DVec3, hi: DVec3, bottom: bool| {
+            let p = |x: usize, y: usize, z: usize| {
+                dvec3([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z])
+            };
+            let mut faces = vec![
+                [p(0, 0, 1), p(1, 0, 1), p(1, 1, 1), p(0, 1, 1)], // top
+                [p(0, 0, 0), p(1, 0, 0), p(1, 0, 1), p(0, 0, 1)], // −y
+                [p(1, 1, 0), p(0, 1, 0), p(0, 1, 1), p(1, 1, 1)], // +y
+                [p(0, 1, 0), p(0, 0, 0), p(0, 0, 1), p(0, 1, 1)], // −x
+                [p(1, 0, 0), p(1, 1, 0), p(1, 1, 1), p(1, 0, 1)], // +x
+            ];
+            if bottom {
+                faces.push([p(0, 0, 0), p(0, 1, 0), p(1, 1, 0), p(1, 0, 0)]);
+            }
+            for f in faces {
+                b.quad(f, grey);
+            }
+        };
+        boxed(&mut b, dvec3(0.0, 0.0, 0.0), dvec3(1.0, 1.0, 4.0), false);
+        boxed(&mut b, dvec3(-2.0, -2.0, 4.0), dvec3(3.0, 3.0, 5.0), true);
+        let scene = b.build().unwrap();
+        let tracer = Tracer::new(&scene);
+        let floor = |x: f64, y: f64| {
+            // The floor's triangle under (x, y): the first two triangles are the floor's.
+            let t = (0..2)
+                .find(|&t| {
+                    let [a, b, c] = scene.triangles[t]
+                        .vertices
+                        .map(|v| scene.positions[v as usize]);
+                    let q = dvec3(x, y, 0.0);
+                    let side = |u: DVec3, v: DVec3| (v - u).cross(q - u).z >= 0.0;
+                    side(a, b) && side(b, c) && side(c, a)
+                })
+                .unwrap();
+            (t, dvec3(x, y, 0.0))
+        };
+        for (x, y) in [(0.5, 0.5), (0.2, 0.9), (0.99, 0.01), (0.7, 0.3)] {
+            let (t, q) = floor(x, y);
+            assert!(tracer.buried(t, q), "inside the leg at ({x}, {y})");
+        }
+        for (x, y) in [(1.5, 0.5), (-0.5, -0.5), (2.9, 2.9), (3.5, 3.5)] {
+            let (t, q) = floor(x, y);
+            assert!(!tracer.buried(t, q), "beside the leg at ({x}, {y})");
+        }
+    }
 
     #[test]
     fn furnace_room_is_le_over_one_minus_rho() {
