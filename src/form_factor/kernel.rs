@@ -68,9 +68,16 @@ pub fn point_to_convex_polygon(p: DVec3, np: DVec3, poly: &[DVec3]) -> f64 {
     (contour_sum(np, &clipped).abs() / (2.0 * PI)).min(1.0)
 }
 
-/// Sutherland–Hodgman: the part of the convex polygon `poly` where `dist ≥ 0`, into `out`
-/// (cleared first; empty or fewer than 3 corners when nothing of area is left).
-pub(crate) fn clip_polygon(poly: &[DVec3], dist: impl Fn(DVec3) -> f64, out: &mut Vec<DVec3>) {
+/// Sutherland–Hodgman: the part of the convex polygon `poly` (in space or in a plane) where
+/// `dist ≥ 0`, into `out` (cleared first; empty or fewer than 3 corners when nothing of area
+/// is left).
+pub(crate) fn clip_polygon<P>(poly: &[P], dist: impl Fn(P) -> f64, out: &mut Vec<P>)
+where
+    P: Copy
+        + std::ops::Add<Output = P>
+        + std::ops::Sub<Output = P>
+        + std::ops::Mul<f64, Output = P>,
+{
     out.clear();
     let n = poly.len();
     if n == 0 {
@@ -82,7 +89,7 @@ pub(crate) fn clip_polygon(poly: &[DVec3], dist: impl Fn(DVec3) -> f64, out: &mu
         let db = dist(b);
         if (da >= 0.0) != (db >= 0.0) {
             let t = da / (da - db);
-            out.push(a + t * (b - a));
+            out.push(a + (b - a) * t);
         }
         if db >= 0.0 {
             out.push(b);

@@ -185,11 +185,11 @@ fn subtract(pieces: Vec<Vec<DVec2>>, hole: &[DVec2], sliver: f64) -> Vec<Vec<DVe
         for k in 0..hole.len() {
             let (a, b) = (hole[k], hole[(k + 1) % hole.len()]);
             let along = b - a;
-            clip_2d(&rest, |p| -along.perp_dot(p - a), &mut outside);
+            clip_polygon(&rest, |p| -along.perp_dot(p - a), &mut outside);
             if outside.len() >= 3 && area(&outside) > sliver {
                 out.push(outside.clone());
             }
-            clip_2d(&rest, |p| along.perp_dot(p - a), &mut inside);
+            clip_polygon(&rest, |p| along.perp_dot(p - a), &mut inside);
             std::mem::swap(&mut rest, &mut inside);
             if rest.len() < 3 || area(&rest) <= sliver {
                 break;
@@ -205,26 +205,6 @@ fn bounds(p: &[DVec2]) -> (DVec2, DVec2) {
         .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &q| {
             (lo.min(q), hi.max(q))
         })
-}
-
-/// Sutherland–Hodgman in the plane: the part of the convex `poly` where `dist ≥ 0`.
-fn clip_2d(poly: &[DVec2], dist: impl Fn(DVec2) -> f64, out: &mut Vec<DVec2>) {
-    out.clear();
-    let Some(&last) = poly.last() else {
-        return;
-    };
-    let (mut a, mut da) = (last, dist(last));
-    for &b in poly {
-        let db = dist(b);
-        if (da >= 0.0) != (db >= 0.0) {
-            out.push(a + (da / (da - db)) * (b - a));
-        }
-        if db >= 0.0 {
-            out.push(b);
-        }
-        a = b;
-        da = db;
-    }
 }
 
 #[cfg(test)]

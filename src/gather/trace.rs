@@ -197,15 +197,10 @@ impl<'a> Surfaces<'a> {
         ignore: u32,
         visit: &mut dyn FnMut(&[DVec3; 3]) -> bool,
     ) -> bool {
-        let ignore = self.traced(ignore);
-        let twin = if ignore == NONE {
-            NONE
-        } else {
-            self.vis.twin(ignore)
-        };
-        self.vis.overlapping(lo, hi, |id| {
-            id == ignore || id == twin || visit(&self.triangles[id as usize])
-        })
+        self.vis
+            .overlapping(lo, hi, [self.traced(ignore), NONE], |id| {
+                visit(&self.triangles[id as usize])
+            })
     }
 
     /// [`Visibility::point`].

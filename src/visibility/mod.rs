@@ -536,16 +536,24 @@ impl Visibility {
 
     /// Calls `visit(id)` with the input index of every triangle whose box overlaps the box
     /// `[lo, hi]` (scene coordinates) padded by `BOX_PAD` canonical units (1.5e-5 of the
-    /// extent): a superset of those meeting it, each once (of a twin pair, the earlier index only: the two are one surface),
-    /// until `visit` returns `false`. Returns `false` if it was stopped so.
-    pub fn overlapping(&self, lo: DVec3, hi: DVec3, mut visit: impl FnMut(u32) -> bool) -> bool {
+    /// extent), but those in `ignore` and their twins (pass [`NONE`] to ignore nothing): a
+    /// superset of those meeting it, each once (of a twin pair, the earlier index only: the
+    /// two are one surface), until `visit` returns `false`. Returns `false` if it was stopped.
+    pub fn overlapping(
+        &self,
+        lo: DVec3,
+        hi: DVec3,
+        ignore: [u32; 2],
+        mut visit: impl FnMut(u32) -> bool,
+    ) -> bool {
         if self.tris.is_empty() {
             return true;
         }
         let pad = DVec3::splat(f64::from(BOX_PAD));
         let lo = (self.to_canonical(lo) - pad).as_vec3a();
         let hi = (self.to_canonical(hi) + pad).as_vec3a();
-        self.bvh.overlapping(lo, hi, |i| visit(self.ids[i]))
+        self.bvh
+            .overlapping(lo, hi, |i| self.ignored(i, ignore) || visit(self.ids[i]))
     }
 
     /// Canonical coordinates of the scene point `x`.

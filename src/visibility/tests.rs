@@ -869,7 +869,7 @@ fn overlapping_visits_every_triangle_in_the_box_once() {
         let (a, b) = (rng.vec(lo.x, hi.x), rng.vec(lo.x, hi.x));
         let (qlo, qhi) = (a.min(b), a.min(b) + 0.2 * (a.max(b) - a.min(b)));
         let mut seen = vec![0u32; tris.len()];
-        assert!(vis.overlapping(qlo, qhi, |id| {
+        assert!(vis.overlapping(qlo, qhi, [NONE, NONE], |id| {
             seen[id as usize] += 1;
             true
         }));
@@ -885,7 +885,7 @@ fn overlapping_visits_every_triangle_in_the_box_once() {
         found_some += seen.iter().any(|&n| n > 0) as usize;
         // Stopping early stops at once.
         let mut calls = 0;
-        let finished = vis.overlapping(qlo, qhi, |_| {
+        let finished = vis.overlapping(qlo, qhi, [NONE, NONE], |_| {
             calls += 1;
             false
         });
