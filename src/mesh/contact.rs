@@ -28,17 +28,20 @@ use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
-use crate::scene::{Scene, SceneTriangle, ZERO_AREA_RELATIVE};
+use super::Patches;
+use crate::scene::{Scene, SceneTriangle, NO_TWIN, ZERO_AREA_RELATIVE};
 
 /// Which discontinuities of the radiance become mesh edges before patching.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Discontinuities {
-    /// `contacts` for the matrix method, `none` for the hierarchical one: its roots are the
-    /// input triangles, and contact lines inside a large face (a hall's floor under hundreds
-    /// of table legs) leave long thin triangles between them that cost it 2.6× the links
-    /// (measured on the generated hall of 10⁴ triangles: 0.73 M → 1.93 M links, 2.2× the
-    /// time).
+    /// `contacts` for the matrix method. For the hierarchical one, contact lines become
+    /// edges of the display only ([`split_patches`], after the solve, when the final gather
+    /// runs): its roots stay the input triangles, as contact lines inside a large face (a
+    /// hall's floor under hundreds of table legs) leave long thin triangles between them that
+    /// cost it 2.6× the links (measured on the generated hall of 10⁴ triangles: 0.73 M →
+    /// 1.93 M links, 2.2× the time), while the gather at the display's vertices needs only
+    /// the display's faces to stop at the contacts.
     Auto,
     /// None: patches follow the input triangles only.
     None,
@@ -64,7 +67,10 @@ impl crate::choice::Choice for Discontinuities {
 
     fn description(self) -> &'static str {
         match self {
-            Discontinuities::Auto => "contacts for the matrix method, none for the hierarchical",
+            Discontinuities::Auto => {
+                "contacts for the matrix method; for the hierarchical, contact lines cut the \
+                 display's faces only"
+            }
             Discontinuities::None => "patches follow the input triangles only",
             Discontinuities::Contacts => {
                 "where a face touches or crosses another's plane, the contact line becomes an edge"
@@ -97,16 +103,13 @@ pub struct ContactStats {
     pub triangles: usize,
 }
 
-/// The scene with its contact lines as edges (see the module documentation); the same scene
-/// when it has none, or when it is two-sided (twins must stay pairs of identical faces).
-pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
+/// The contact segments on each scene triangle (see the module documentation), in scene
+/// coordinates on the triangle's plane; `None` when the scene is two-sided (twins must stay
+/// pairs of identical faces), has fewer than two triangles, or has no contact.
+pub fn contact_lines(scene: &Scene) -> Option<Vec<Vec<[DVec3; 2]>>> {
     let n = scene.triangles.len();
-    let mut stats = ContactStats {
-        triangles: n,
-        ..ContactStats::default()
-    };
     if !scene.twin.is_empty() || n < 2 {
-        return (scene.clone(), stats);
+        return None;
     }
     let (lo, hi) = scene.bounds();
     let extent = (hi - lo).length();
@@ -141,9 +144,23 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
             found
         })
         .collect();
-    if segments.iter().all(|s| s.is_empty()) {
+    (!segments.iter().all(|s| s.is_empty())).then_some(segments)
+}
+
+/// The scene with its contact lines as edges (see the module documentation); the same scene
+/// when it has none, or when it is two-sided (twins must stay pairs of identical faces).
+pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
+    let n = scene.triangles.len();
+    let mut stats = ContactStats {
+        triangles: n,
+        ..ContactStats::default()
+    };
+    let Some(segments) = contact_lines(scene) else {
         return (scene.clone(), stats);
-    }
+    };
+    let (lo, hi) = scene.bounds();
+    let extent = (hi - lo).length();
+    let faces: Vec<Face> = (0..n).map(|t| Face::new(scene, t)).collect();
 
     // Points where segments end on a face's edge, registered on that edge (by its two vertex
     // indices) so the face across it gets them too.
@@ -186,7 +203,7 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
             triangles.push(*tri);
             continue;
         }
-        let pieces = faces[a].triangulate(&segments[a], &edge_points);
+        let pieces = faces[a].triangulate(&segments[a], &edge_points, false);
         let Some(pieces) = pieces else {
             triangles.push(*tri); // the triangulation failed: keep the face whole
             continue;
@@ -216,6 +233,180 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
     (out, stats)
 }
 
+/// The display's faces cut along the scene's contact lines (`lines`, from [`contact_lines`]),
+/// for a solve whose patches were not (the hierarchical one: its roots are the input
+/// triangles, see [`Discontinuities::Auto`]). Each patch crossed by a contact segment of its
+/// source triangle is re-triangulated with the segment's part inside it as a constrained
+/// edge, and the points where segments end on a patch's edge go into the patch across it too,
+/// so the display stays conforming. The pieces keep their patch's material, normal and
+/// source triangle; corner normals are interpolated in it. Returns the new patches, the
+/// patch each piece came from, and what was done (`segments`: the clipped pieces inserted).
+/// `None` for two-sided patches (twins must stay pairs).
+pub fn split_patches(
+    lines: &[Vec<[DVec3; 2]>],
+    patches: &Patches,
+    extent: f64,
+) -> Option<(Patches, Vec<u32>, ContactStats)> {
+    if patches.twin.iter().any(|&t| t != NO_TWIN) {
+        return None;
+    }
+    let touch = TOUCH * extent;
+    let n = patches.len();
+    // Each patch's part of its source triangle's segments.
+    let cut: Vec<(Face, Vec<[DVec3; 2]>)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let face = Face::from_corners(patches.corners(i));
+            let segs = lines
+                .get(patches.source_triangle[i] as usize)
+                .map(|segs| {
+                    segs.iter()
+                        .filter_map(|&[p, q]| {
+                            face.clip([face.to_2d(p), face.to_2d(q)], touch / face.size)
+                        })
+                        .map(|[p, q]| [face.point_at(p), face.point_at(q)])
+                        .collect()
+                })
+                .unwrap_or_default();
+            (face, segs)
+        })
+        .collect();
+    let mut on_edge: HashMap<(u32, u32), Vec<DVec3>> = HashMap::new();
+    for (i, (face, segs)) in cut.iter().enumerate() {
+        for s in segs {
+            for &p in s {
+                if let Some(e) = face.edge_through(p, touch) {
+                    let v = patches.triangles[i];
+                    let (a, b) = (v[e], v[(e + 1) % 3]);
+                    on_edge.entry((a.min(b), a.max(b))).or_default().push(p);
+                }
+            }
+        }
+    }
+    // Both patches on an edge find the points where segments cross it, each in its own frame:
+    // the same point up to rounding. One point stands for each cluster within `touch`, and
+    // segment ends move to it, so the two sides share it exactly.
+    for points in on_edge.values_mut() {
+        points.sort_by(|p, q| p.to_array().partial_cmp(&q.to_array()).unwrap_or(std::cmp::Ordering::Equal));
+        let mut kept: Vec<DVec3> = Vec::with_capacity(points.len());
+        for &p in points.iter() {
+            if kept.iter().all(|k| k.distance(p) > touch) {
+                kept.push(p);
+            }
+        }
+        *points = kept;
+    }
+    let shared = |i: usize, face: &Face, p: DVec3| -> DVec3 {
+        let Some(e) = face.edge_through(p, touch) else {
+            return p;
+        };
+        let v = patches.triangles[i];
+        let (a, b) = (v[e], v[(e + 1) % 3]);
+        on_edge
+            .get(&(a.min(b), a.max(b)))
+            .and_then(|pts| pts.iter().find(|k| k.distance(p) <= touch))
+            .copied()
+            .unwrap_or(p)
+    };
+    let mut stats = ContactStats {
+        triangles: n,
+        ..ContactStats::default()
+    };
+    let mut out = Patches::with_capacity(patches.positions.clone(), n);
+    let mut parent = Vec::with_capacity(n);
+    let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+    let min_area = ZERO_AREA_RELATIVE * extent * extent;
+    for (i, (face, segs)) in cut.iter().enumerate() {
+        let v = patches.triangles[i];
+        let edge_points: Vec<DVec3> = (0..3)
+            .flat_map(|e| {
+                let (a, b) = (v[e], v[(e + 1) % 3]);
+                on_edge.get(&(a.min(b), a.max(b))).into_iter().flatten().copied()
+            })
+            .collect();
+        let segs: Vec<[DVec3; 2]> = segs
+            .iter()
+            .map(|s| s.map(|p| shared(i, face, p)))
+            .collect();
+        let pieces = if segs.is_empty() && edge_points.is_empty() {
+            None
+        } else {
+            face.triangulate(&segs, &edge_points, true)
+        };
+        let Some(pieces) = pieces else {
+            push_piece(patches, i, v, &mut out);
+            parent.push(i as u32);
+            continue;
+        };
+        stats.faces_split += 1;
+        stats.segments += segs.len();
+        for [p, q, r] in pieces {
+            if 0.5 * (q - p).cross(r - p).length() <= min_area {
+                continue;
+            }
+            let mut id = |x: DVec3| {
+                if let Some(k) = face.corners.iter().position(|&c| c == x) {
+                    return v[k];
+                }
+                *index.entry(bits(x)).or_insert_with(|| {
+                    out.positions.push(x);
+                    (out.positions.len() - 1) as u32
+                })
+            };
+            let t = [id(p), id(q), id(r)];
+            push_piece(patches, i, t, &mut out);
+            parent.push(i as u32);
+        }
+    }
+    stats.triangles = out.len();
+    Some((out, parent, stats))
+}
+
+/// `q` moved onto the edge of the triangle `c` (2D, in units of its longest edge) within
+/// [`ONTO_EDGE`] of it, if any: a point where a contact segment crosses an edge, placed on it
+/// by the face across the edge in its own frame, lies off it here by the frames' rounding and
+/// snapping (up to ~1e-9), and would leave a sliver between itself and the edge.
+fn onto_edge(c: [[f64; 2]; 3], q: [f64; 2]) -> [f64; 2] {
+    for k in 0..3 {
+        let (a, b) = (c[k], c[(k + 1) % 3]);
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let l2 = e[0] * e[0] + e[1] * e[1];
+        let t = ((q[0] - a[0]) * e[0] + (q[1] - a[1]) * e[1]) / l2;
+        let on = [a[0] + t * e[0], a[1] + t * e[1]];
+        let off = (q[0] - on[0]).hypot(q[1] - on[1]);
+        if t > 0.0 && t < 1.0 && off <= ONTO_EDGE {
+            return on;
+        }
+    }
+    q
+}
+
+/// See [`onto_edge`]: 100 × the snapping grid of [`Face::to_2d`].
+const ONTO_EDGE: f64 = 1e-7;
+
+/// Appends triangle `t` (vertex indices into `out.positions`, inside patch `i` of `patches`)
+/// with patch `i`'s material and normal, its corner normals interpolated in patch `i`.
+fn push_piece(patches: &Patches, i: usize, t: [u32; 3], out: &mut Patches) {
+    let p = t.map(|v| out.positions[v as usize]);
+    let corners = patches.corners(i);
+    let m = patches.corner_normal[i];
+    let normal_at = |x: DVec3| {
+        let b = super::barycentric(x, corners);
+        b[0] * m[0] + b[1] * m[1] + b[2] * m[2]
+    };
+    out.triangles.push(t);
+    out.centroid.push((p[0] + p[1] + p[2]) / 3.0);
+    out.normal.push(patches.normal[i]);
+    out.corner_normal.push(p.map(normal_at));
+    out.area
+        .push(0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length());
+    out.material.push(patches.material[i]);
+    out.reflectance.push(patches.reflectance[i]);
+    out.emission.push(patches.emission[i]);
+    out.source_triangle.push(patches.source_triangle[i]);
+    out.twin.push(NO_TWIN);
+}
+
 /// The grid [`Face::to_2d`] snaps to: 2³⁰ steps per face size.
 const SNAP: f64 = (1u64 << 30) as f64;
 
@@ -237,9 +428,14 @@ struct Face {
 
 impl Face {
     fn new(scene: &Scene, t: usize) -> Face {
-        let corners = scene.triangles[t]
-            .vertices
-            .map(|v| scene.positions[v as usize]);
+        Face::from_corners(
+            scene.triangles[t]
+                .vertices
+                .map(|v| scene.positions[v as usize]),
+        )
+    }
+
+    fn from_corners(corners: [DVec3; 3]) -> Face {
         let normal = (corners[1] - corners[0])
             .cross(corners[2] - corners[0])
             .normalize();
@@ -410,13 +606,18 @@ impl Face {
         &self,
         segments: &[[DVec3; 2]],
         edge_points: &[DVec3],
+        onto_edges: bool,
     ) -> Option<Vec<[DVec3; 3]>> {
         let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
         // 3D position of each vertex the triangulation holds (by handle index): corners and
         // border points exactly as given, so the faces on either side share them.
         let mut at: HashMap<usize, DVec3> = HashMap::new();
+        let corners_2d = self.corners.map(|c| self.to_2d(c));
         let mut insert = |cdt: &mut ConstrainedDelaunayTriangulation<Point2<f64>>, p: DVec3| {
-            let q = self.to_2d(p);
+            let mut q = self.to_2d(p);
+            if onto_edges {
+                q = onto_edge(corners_2d, q);
+            }
             let h = cdt.insert(Point2::new(q[0], q[1])).ok()?;
             at.entry(h.index()).or_insert(p);
             Some(h)
@@ -579,6 +780,82 @@ mod tests {
             let c = out.patches.corners(i);
             c.iter().all(|x| x.z == 0.0) && straddles(&foot, &c)
         }));
+    }
+
+    #[test]
+    fn split_patches_cut_along_the_footprint_and_stay_conforming() {
+        let (scene, foot) = box_on_floor();
+        let patches = crate::mesh::subdivide(&scene, 0.7, 0.0).unwrap();
+        let lines = contact_lines(&scene).expect("the box touches the floor");
+        let (cut, parent, stats) = split_patches(&lines, &patches, 6.0).unwrap();
+        cut.validate().unwrap();
+        assert!(stats.faces_split > 0 && stats.triangles == cut.len(), "{stats:?}");
+        assert_eq!(parent.len(), cut.len());
+        // Each patch's pieces tile it: the same area, material, normal and source triangle.
+        let mut area = vec![0.0; patches.len()];
+        for (k, &i) in parent.iter().enumerate() {
+            let i = i as usize;
+            area[i] += cut.area[k];
+            assert_eq!(cut.source_triangle[k], patches.source_triangle[i]);
+            assert_eq!(cut.material[k], patches.material[i]);
+            assert!(cut.normal[k].dot(patches.normal[i]) > 1.0 - 1e-12, "piece {k}");
+        }
+        // Contact points are snapped to 1e-9 of the patch (`Face::to_2d`), so the pieces' area
+        // may differ from their patch's by a few times that.
+        for (i, a) in area.iter().enumerate() {
+            let want = patches.area[i];
+            assert!((a - want).abs() < 1e-8 * want, "patch {i}: {a} vs {want}");
+        }
+        // No floor piece straddles the footprint (some patch did before).
+        let on_floor = |p: &Patches, i: usize| p.corners(i).iter().all(|c| c.z == 0.0);
+        let straddling = |p: &Patches| {
+            (0..p.len()).any(|i| on_floor(p, i) && straddles(&foot, &p.corners(i)))
+        };
+        assert!(straddling(&patches));
+        assert!(!straddling(&cut));
+        // Conforming: an edge of one floor piece only is on the floor's border (a point
+        // inserted into one side of an edge and not the other would leave two such edges).
+        let mut edges: HashMap<(u32, u32), usize> = HashMap::new();
+        for i in (0..cut.len()).filter(|&i| on_floor(&cut, i)) {
+            let t = cut.triangles[i];
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        for ((a, b), n) in edges {
+            let (p, q) = (cut.positions[a as usize], cut.positions[b as usize]);
+            let border = |x: f64, y: f64| [x, y].iter().any(|&v| v == 0.0 || v == 4.0);
+            let on_border = (p.x == q.x && border(p.x, -1.0)) || (p.y == q.y && border(-1.0, p.y));
+            assert!(n == 2 || (n == 1 && on_border), "edge {p} – {q} in {n} pieces");
+        }
+    }
+
+    #[test]
+    fn the_hierarchical_display_is_cut_along_the_contact_lines() {
+        // The hierarchy's roots stay the input triangles; the gathered display's faces stop at
+        // the footprint, so no vertex's light is interpolated across it.
+        let (scene, foot) = box_on_floor();
+        let settings = |discontinuities| Settings {
+            method: pipeline::Method::Hierarchical,
+            discontinuities,
+            ..Settings::default()
+        };
+        let straddling = |out: &pipeline::Outcome| {
+            let b = &out.baked;
+            b.faces.iter().any(|f| {
+                let c = f.map(|v| DVec3::from(b.positions[v as usize]));
+                c.iter().all(|x| x.z == 0.0) && straddles(&foot, &c)
+            })
+        };
+        let out = pipeline::solve_scene(&scene, &settings(Discontinuities::Auto)).unwrap();
+        let stats = out.report.display_contacts.as_ref().expect("the display was cut");
+        assert!(stats.faces_split > 0, "{stats:?}");
+        assert!(out.report.contacts.is_none(), "the roots were not cut");
+        assert!(!straddling(&out));
+        let out = pipeline::solve_scene(&scene, &settings(Discontinuities::None)).unwrap();
+        assert!(out.report.display_contacts.is_none());
+        assert!(straddling(&out));
     }
 
     #[test]

@@ -23,7 +23,7 @@ pub mod refine;
 mod subdivide;
 
 pub(crate) use adjacency::{groups, VertexFaces};
-pub use contact::{split_contacts, ContactStats, Discontinuities};
+pub use contact::{contact_lines, split_contacts, split_patches, ContactStats, Discontinuities};
 pub use normals::corner_normals;
 pub(crate) use subdivide::barycentric;
 pub use subdivide::{refine, subdivide};

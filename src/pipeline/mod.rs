@@ -320,14 +320,31 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     crate::progress::note(|| report::hierarchical_note(&h.stats, &h.solution));
     report.hierarchical = Some(h.stats);
 
-    let baked = bake_stage(
-        scene,
-        &h.patches,
-        &h.radiance,
-        &h.visible_fraction,
-        settings,
-        &mut report,
-    );
+    // The display's faces cut along the contact lines, for the gather at their vertices.
+    let t = Instant::now();
+    let display = display_contacts(scene, &h.patches, &h.radiance, settings);
+    report.seconds.patches += t.elapsed().as_secs_f64();
+    let baked = match display {
+        Some((patches, parent, stats, gather)) => {
+            report.display_contacts = Some(stats);
+            let of_parent = |x: &[f64]| parent.iter().map(|&i| x[i as usize]).collect();
+            let radiance: Vec<crate::Rgb> = parent.iter().map(|&i| h.radiance[i as usize]).collect();
+            let visible: Vec<f64> = of_parent(&h.visible_fraction);
+            let settings = Settings {
+                gather,
+                ..settings.clone()
+            };
+            bake_stage(scene, &patches, &radiance, &visible, &settings, &mut report)
+        }
+        None => bake_stage(
+            scene,
+            &h.patches,
+            &h.radiance,
+            &h.visible_fraction,
+            settings,
+            &mut report,
+        ),
+    };
     Ok(Outcome {
         patches: h.patches,
         visible_fraction: h.visible_fraction,
@@ -336,6 +353,37 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
         baked,
         report,
     })
+}
+
+/// The hierarchical solution's output patches cut along the scene's contact lines
+/// ([`mesh::split_patches`]), with the patch each piece came from, what the cut did, and the
+/// gather resolved for the uncut output (so the cut's extra vertices never turn an `auto`
+/// gather off); `None` unless `discontinuities = auto`, the gather runs and the scene has
+/// contacts.
+fn display_contacts(
+    scene: &Scene,
+    patches: &Patches,
+    radiance: &[crate::Rgb],
+    settings: &Settings,
+) -> Option<(Patches, Vec<u32>, mesh::ContactStats, Gather)> {
+    if settings.discontinuities != mesh::Discontinuities::Auto {
+        return None;
+    }
+    let display_crease = settings.crease_degrees.min(bake::FACET_DEGREES);
+    let vertices = bake::bake_sites(patches, radiance, display_crease).1.len();
+    let gather = settings
+        .gather
+        .resolve(vertices, settings.gather_rays.is_some());
+    let gathers = gather != Gather::None
+        && lit(scene, settings)
+        && settings.solver.method != solve::Method::Neumann;
+    if !gathers {
+        return None;
+    }
+    let lines = mesh::contact_lines(scene)?;
+    let (lo, hi) = scene.bounds();
+    let (patches, parent, stats) = mesh::split_patches(&lines, patches, (hi - lo).length())?;
+    Some((patches, parent, stats, gather))
 }
 
 /// Bake: patch radiance → the output mesh's vertices (→ final gather at them, unless

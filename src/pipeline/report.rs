@@ -53,6 +53,10 @@ pub struct Report {
     pub input_triangles: usize,
     /// What making the contact lines edges did (`discontinuities = contacts`).
     pub contacts: Option<crate::mesh::ContactStats>,
+    /// What cutting the display's faces along the contact lines did (the hierarchical
+    /// method with `discontinuities = auto` and a final gather, [`crate::mesh::split_patches`]):
+    /// `triangles` counts the display's faces after the cut.
+    pub display_contacts: Option<crate::mesh::ContactStats>,
     /// Longest patch edge used, scene units.
     pub max_edge: f64,
     /// Patches of the final solve (after refinement).
@@ -151,6 +155,7 @@ impl Report {
             overrides: Vec::new(),
             input_triangles: 0,
             contacts: None,
+            display_contacts: None,
             max_edge: 0.0,
             patches: 0,
             refine_rounds: 0,
