@@ -287,7 +287,11 @@ pub fn split_patches(
     // the same point up to rounding. One point stands for each cluster within `touch`, and
     // segment ends move to it, so the two sides share it exactly.
     for points in on_edge.values_mut() {
-        points.sort_by(|p, q| p.to_array().partial_cmp(&q.to_array()).unwrap_or(std::cmp::Ordering::Equal));
+        points.sort_by(|p, q| {
+            p.to_array()
+                .partial_cmp(&q.to_array())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
         let mut kept: Vec<DVec3> = Vec::with_capacity(points.len());
         for &p in points.iter() {
             if kept.iter().all(|k| k.distance(p) > touch) {
@@ -321,13 +325,14 @@ pub fn split_patches(
         let edge_points: Vec<DVec3> = (0..3)
             .flat_map(|e| {
                 let (a, b) = (v[e], v[(e + 1) % 3]);
-                on_edge.get(&(a.min(b), a.max(b))).into_iter().flatten().copied()
+                on_edge
+                    .get(&(a.min(b), a.max(b)))
+                    .into_iter()
+                    .flatten()
+                    .copied()
             })
             .collect();
-        let segs: Vec<[DVec3; 2]> = segs
-            .iter()
-            .map(|s| s.map(|p| shared(i, face, p)))
-            .collect();
+        let segs: Vec<[DVec3; 2]> = segs.iter().map(|s| s.map(|p| shared(i, face, p))).collect();
         let pieces = if segs.is_empty() && edge_points.is_empty() {
             None
         } else {
@@ -789,7 +794,10 @@ mod tests {
         let lines = contact_lines(&scene).expect("the box touches the floor");
         let (cut, parent, stats) = split_patches(&lines, &patches, 6.0).unwrap();
         cut.validate().unwrap();
-        assert!(stats.faces_split > 0 && stats.triangles == cut.len(), "{stats:?}");
+        assert!(
+            stats.faces_split > 0 && stats.triangles == cut.len(),
+            "{stats:?}"
+        );
         assert_eq!(parent.len(), cut.len());
         // Each patch's pieces tile it: the same area, material, normal and source triangle.
         let mut area = vec![0.0; patches.len()];
@@ -798,7 +806,10 @@ mod tests {
             area[i] += cut.area[k];
             assert_eq!(cut.source_triangle[k], patches.source_triangle[i]);
             assert_eq!(cut.material[k], patches.material[i]);
-            assert!(cut.normal[k].dot(patches.normal[i]) > 1.0 - 1e-12, "piece {k}");
+            assert!(
+                cut.normal[k].dot(patches.normal[i]) > 1.0 - 1e-12,
+                "piece {k}"
+            );
         }
         // Contact points are snapped to 1e-9 of the patch (`Face::to_2d`), so the pieces' area
         // may differ from their patch's by a few times that.
@@ -808,9 +819,8 @@ mod tests {
         }
         // No floor piece straddles the footprint (some patch did before).
         let on_floor = |p: &Patches, i: usize| p.corners(i).iter().all(|c| c.z == 0.0);
-        let straddling = |p: &Patches| {
-            (0..p.len()).any(|i| on_floor(p, i) && straddles(&foot, &p.corners(i)))
-        };
+        let straddling =
+            |p: &Patches| (0..p.len()).any(|i| on_floor(p, i) && straddles(&foot, &p.corners(i)));
         assert!(straddling(&patches));
         assert!(!straddling(&cut));
         // Conforming: an edge of one floor piece only is on the floor's border (a point
@@ -827,7 +837,10 @@ mod tests {
             let (p, q) = (cut.positions[a as usize], cut.positions[b as usize]);
             let border = |x: f64, y: f64| [x, y].iter().any(|&v| v == 0.0 || v == 4.0);
             let on_border = (p.x == q.x && border(p.x, -1.0)) || (p.y == q.y && border(-1.0, p.y));
-            assert!(n == 2 || (n == 1 && on_border), "edge {p} – {q} in {n} pieces");
+            assert!(
+                n == 2 || (n == 1 && on_border),
+                "edge {p} – {q} in {n} pieces"
+            );
         }
     }
 
@@ -849,7 +862,11 @@ mod tests {
             })
         };
         let out = pipeline::solve_scene(&scene, &settings(Discontinuities::Auto)).unwrap();
-        let stats = out.report.display_contacts.as_ref().expect("the display was cut");
+        let stats = out
+            .report
+            .display_contacts
+            .as_ref()
+            .expect("the display was cut");
         assert!(stats.faces_split > 0, "{stats:?}");
         assert!(out.report.contacts.is_none(), "the roots were not cut");
         assert!(!straddling(&out));

@@ -328,7 +328,8 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
         Some((patches, parent, stats, gather)) => {
             report.display_contacts = Some(stats);
             let of_parent = |x: &[f64]| parent.iter().map(|&i| x[i as usize]).collect();
-            let radiance: Vec<crate::Rgb> = parent.iter().map(|&i| h.radiance[i as usize]).collect();
+            let radiance: Vec<crate::Rgb> =
+                parent.iter().map(|&i| h.radiance[i as usize]).collect();
             let visible: Vec<f64> = of_parent(&h.visible_fraction);
             let settings = Settings {
                 gather,
