@@ -367,6 +367,58 @@ pub fn split_patches(
     Some((out, parent, stats))
 }
 
+/// The 2D segments `segs` cut at their crossings: each pair that crosses (or where one ends on
+/// the other, within [`CROSSING`] of its ends) is split at one point shared by both pieces,
+/// an end of one of them where the crossing lies that near it, so the pieces meet only at
+/// their ends. Zero-length pieces are dropped. O(k²) in the segments of one face.
+fn split_at_crossings(segs: &[[[f64; 2]; 2]]) -> Vec<[[f64; 2]; 2]> {
+    let sub = |a: [f64; 2], b: [f64; 2]| [a[0] - b[0], a[1] - b[1]];
+    let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
+    let mut cuts: Vec<Vec<(f64, [f64; 2])>> = segs
+        .iter()
+        .map(|s| vec![(0.0, s[0]), (1.0, s[1])])
+        .collect();
+    for i in 0..segs.len() {
+        for j in i + 1..segs.len() {
+            let (p, r) = (segs[i][0], sub(segs[i][1], segs[i][0]));
+            let (q, s) = (segs[j][0], sub(segs[j][1], segs[j][0]));
+            let d = cross(r, s);
+            if d == 0.0 {
+                continue; // parallel: spade splits a constraint at vertices lying on it
+            }
+            let qp = sub(q, p);
+            let (t, u) = (cross(qp, s) / d, cross(qp, r) / d);
+            let inside = |x: f64| (-CROSSING..=1.0 + CROSSING).contains(&x);
+            if !inside(t) || !inside(u) {
+                continue;
+            }
+            let near_end = |x: f64| x.abs() <= CROSSING || (1.0 - x).abs() <= CROSSING;
+            let x = match (near_end(t), near_end(u)) {
+                (true, true) => continue, // they meet at their ends
+                (true, false) => segs[i][usize::from(t > 0.5)],
+                (false, true) => segs[j][usize::from(u > 0.5)],
+                (false, false) => [p[0] + t * r[0], p[1] + t * r[1]],
+            };
+            cuts[i].push((t.clamp(0.0, 1.0), x));
+            cuts[j].push((u.clamp(0.0, 1.0), x));
+        }
+    }
+    let mut out = Vec::new();
+    for mut c in cuts {
+        c.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for w in c.windows(2) {
+            if w[0].1 != w[1].1 {
+                out.push([w[0].1, w[1].1]);
+            }
+        }
+    }
+    out
+}
+
+/// See [`split_at_crossings`]: a crossing this near (a fraction of the segment) to an end is
+/// taken at that end.
+const CROSSING: f64 = 1e-9;
+
 /// `q` moved onto the edge of the triangle `c` (2D, in units of its longest edge) within
 /// [`ONTO_EDGE`] of it, if any: a point where a contact segment crosses an edge, placed on it
 /// by the face across the edge in its own frame, lies off it here by the frames' rounding and
@@ -618,11 +670,16 @@ impl Face {
         // border points exactly as given, so the faces on either side share them.
         let mut at: HashMap<usize, DVec3> = HashMap::new();
         let corners_2d = self.corners.map(|c| self.to_2d(c));
-        let mut insert = |cdt: &mut ConstrainedDelaunayTriangulation<Point2<f64>>, p: DVec3| {
-            let mut q = self.to_2d(p);
+        let place = |p: DVec3| {
+            let q = self.to_2d(p);
             if onto_edges {
-                q = onto_edge(corners_2d, q);
+                onto_edge(corners_2d, q)
+            } else {
+                q
             }
+        };
+        let mut insert = |cdt: &mut ConstrainedDelaunayTriangulation<Point2<f64>>, p: DVec3| {
+            let q = place(p);
             let h = cdt.insert(Point2::new(q[0], q[1])).ok()?;
             at.entry(h.index()).or_insert(p);
             Some(h)
@@ -634,10 +691,20 @@ impl Face {
             insert(&mut cdt, p)?;
         }
         for s in segments {
-            let a = insert(&mut cdt, s[0])?;
-            let b = insert(&mut cdt, s[1])?;
+            insert(&mut cdt, s[0])?;
+            insert(&mut cdt, s[1])?;
+        }
+        // The segments split where they cross one another, so that no constraint crosses
+        // another: spade's own splitting of crossing constraints (`add_constraint_and_split`)
+        // can fail an internal assertion where crossings nearly coincide (found on a real
+        // scene, LibreQuake's e1m2). A piece that still conflicts by rounding is left out
+        // (`try_add_constraint` refuses it): the face is cut along the rest.
+        let flat: Vec<[[f64; 2]; 2]> = segments.iter().map(|s| s.map(place)).collect();
+        for [a, b] in split_at_crossings(&flat) {
+            let a = cdt.insert(Point2::new(a[0], a[1])).ok()?;
+            let b = cdt.insert(Point2::new(b[0], b[1])).ok()?;
             if a != b {
-                cdt.add_constraint_and_split(a, b, |v| v);
+                cdt.try_add_constraint(a, b);
             }
         }
         let mut out = Vec::with_capacity(cdt.num_inner_faces());
@@ -873,6 +940,82 @@ mod tests {
         let out = pipeline::solve_scene(&scene, &settings(Discontinuities::None)).unwrap();
         assert!(out.report.display_contacts.is_none());
         assert!(straddling(&out));
+    }
+
+    #[test]
+    fn crossing_segments_are_cut_at_one_shared_point() {
+        // An X: four pieces meeting at the crossing.
+        let x = split_at_crossings(&[[[0.0, 0.0], [1.0, 1.0]], [[0.0, 1.0], [1.0, 0.0]]]);
+        assert_eq!(x.len(), 4, "{x:?}");
+        assert!(x.iter().all(|s| s.contains(&[0.5, 0.5])));
+        // A T (one ends on the other): the other is cut at that very end.
+        let t = split_at_crossings(&[[[0.0, 0.0], [1.0, 0.0]], [[0.3, 1.0], [0.3, 1e-12]]]);
+        assert_eq!(t.len(), 3, "{t:?}");
+        assert!(t.contains(&[[0.0, 0.0], [0.3, 1e-12]]));
+        // Parallel, and meeting at their ends: unchanged.
+        let p = [
+            [[0.0, 0.0], [1.0, 0.0]],
+            [[0.0, 0.5], [1.0, 0.5]],
+            [[1.0, 0.5], [0.2, 0.9]],
+        ];
+        assert_eq!(split_at_crossings(&p).len(), 3);
+    }
+
+    #[test]
+    fn nearly_coincident_contact_lines_triangulate_without_panicking() {
+        // One face of LibreQuake's e1m2 (in its own frame, longest edge 1): the same contact
+        // line found from several faces, as a chain of pieces and as one segment along it
+        // whose end is 1e-9 off the chain's. spade's own splitting of crossing constraints
+        // failed an internal assertion here (`add_constraint_and_split`); the face must be
+        // cut, its pieces covering it exactly.
+        let v = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        let face = Face::from_corners([
+            v(0.0, 0.0),
+            v(1.0, 0.0),
+            v(0.05882352963089943, 0.23529411759227514),
+        ]);
+        let (a, b) = (
+            v(0.5147058824077249, 0.05882352963089943),
+            v(0.397058823145926, 0.08823529444634914),
+        );
+        let c = v(0.16176470555365086, 0.147058823145926);
+        let (far, near) = (
+            v(0.04411764722317457, 0.1764705879613757),
+            v(0.7499999990686774, 0.0),
+        );
+        let segments = [
+            [v(0.75, 0.0), a],
+            [v(0.5, 0.0), a],
+            [a, v(0.5, 0.0)],
+            [a, b],
+            [v(0.375, 0.0), b],
+            [b, v(0.375, 0.0)],
+            [b, c],
+            [c, v(0.125, 0.0)],
+            [far, near],
+        ];
+        let edge_points = [
+            v(0.75, 0.0),
+            v(0.5, 0.0),
+            v(0.375, 0.0),
+            v(0.125, 0.0),
+            near,
+            far,
+        ];
+        let pieces = face
+            .triangulate(&segments, &edge_points, false)
+            .expect("the face is cut");
+        let area: f64 = pieces
+            .iter()
+            .map(|[p, q, r]| 0.5 * (q - p).cross(r - p).z)
+            .sum();
+        // The face's area is 0.5 · 1 · 0.2353; rounding of the pieces' corners (snapped to
+        // 1e-9 of the face) moves it by far less than 1e-9.
+        assert!(
+            (area - 0.5 * 0.23529411759227514).abs() < 1e-9,
+            "area {area}"
+        );
+        assert!(pieces.iter().all(|[p, q, r]| (q - p).cross(r - p).z >= 0.0));
     }
 
     #[test]

@@ -325,17 +325,15 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     let display = display_contacts(scene, &h.patches, &h.radiance, settings);
     report.seconds.patches += t.elapsed().as_secs_f64();
     let baked = match display {
-        Some((patches, parent, stats, gather)) => {
+        Some((patches, parent, stats)) => {
             report.display_contacts = Some(stats);
-            let of_parent = |x: &[f64]| parent.iter().map(|&i| x[i as usize]).collect();
             let radiance: Vec<crate::Rgb> =
                 parent.iter().map(|&i| h.radiance[i as usize]).collect();
-            let visible: Vec<f64> = of_parent(&h.visible_fraction);
-            let settings = Settings {
-                gather,
-                ..settings.clone()
-            };
-            bake_stage(scene, &patches, &radiance, &visible, &settings, &mut report)
+            let visible: Vec<f64> = parent
+                .iter()
+                .map(|&i| h.visible_fraction[i as usize])
+                .collect();
+            bake_stage(scene, &patches, &radiance, &visible, settings, &mut report)
         }
         None => bake_stage(
             scene,
@@ -357,34 +355,37 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
 }
 
 /// The hierarchical solution's output patches cut along the scene's contact lines
-/// ([`mesh::split_patches`]), with the patch each piece came from, what the cut did, and the
-/// gather resolved for the uncut output (so the cut's extra vertices never turn an `auto`
-/// gather off); `None` unless `discontinuities = auto`, the gather runs and the scene has
-/// contacts.
+/// ([`mesh::split_patches`]), with the patch each piece came from and what the cut did;
+/// `None` unless `discontinuities = auto`, the scene has contacts and the gather runs on the
+/// cut output (an `auto` gather stops at [`gather::FULL_GATHER_MAX_VERTICES`]: a cut that
+/// would take the output past it is dropped, as its pieces would only show their leaves'
+/// values, and the gather's work stays bounded as without the cut).
 fn display_contacts(
     scene: &Scene,
     patches: &Patches,
     radiance: &[crate::Rgb],
     settings: &Settings,
-) -> Option<(Patches, Vec<u32>, mesh::ContactStats, Gather)> {
-    if settings.discontinuities != mesh::Discontinuities::Auto {
-        return None;
-    }
-    let display_crease = settings.crease_degrees.min(bake::FACET_DEGREES);
-    let vertices = bake::bake_sites(patches, radiance, display_crease).1.len();
-    let gather = settings
-        .gather
-        .resolve(vertices, settings.gather_rays.is_some());
-    let gathers = gather != Gather::None
-        && lit(scene, settings)
-        && settings.solver.method != solve::Method::Neumann;
-    if !gathers {
+) -> Option<(Patches, Vec<u32>, mesh::ContactStats)> {
+    let crease = settings.crease_degrees.min(bake::FACET_DEGREES);
+    let gathered = |patches: &Patches, radiance: &[crate::Rgb]| {
+        let vertices = bake::bake_sites(patches, radiance, crease).1.len();
+        let mode = settings
+            .gather
+            .resolve(vertices, settings.gather_rays.is_some());
+        mode != Gather::None
+    };
+    if settings.discontinuities != mesh::Discontinuities::Auto
+        || !lit(scene, settings)
+        || settings.solver.method == solve::Method::Neumann
+        || !gathered(patches, radiance)
+    {
         return None;
     }
     let lines = mesh::contact_lines(scene)?;
     let (lo, hi) = scene.bounds();
-    let (patches, parent, stats) = mesh::split_patches(&lines, patches, (hi - lo).length())?;
-    Some((patches, parent, stats, gather))
+    let (cut, parent, stats) = mesh::split_patches(&lines, patches, (hi - lo).length())?;
+    let cut_radiance: Vec<crate::Rgb> = parent.iter().map(|&i| radiance[i as usize]).collect();
+    gathered(&cut, &cut_radiance).then_some((cut, parent, stats))
 }
 
 /// Bake: patch radiance → the output mesh's vertices (→ final gather at them, unless
