@@ -5,12 +5,9 @@
 //! shared whole by the triangles on both sides and the bake's shared vertices interpolate
 //! consistently. Each output triangle carries its leaf's radiance.
 
-use glam::DVec3;
-
 use super::tree::Tree;
 use crate::color::Rgb;
-use crate::mesh::{barycentric, Patches};
-use crate::scene::NO_TWIN;
+use crate::mesh::{Parent, Patches};
 
 /// The output of [`leaves`].
 pub struct Leaves {
@@ -100,22 +97,12 @@ fn edge_vertices(tree: &Tree, p: u32, q: u32, k: usize, out: &mut Vec<(u32, usiz
 /// leaf's material; corner normals interpolated in the leaf.
 fn push_triangle(tree: &Tree, roots: &Patches, e: usize, v: [u32; 3], out: &mut Patches) {
     let el = &tree.elements[e];
-    let p = v.map(|i| out.positions[i as usize]);
     let r = el.root as usize;
-    let corners = tree.corners(e);
-    let normal_at = |x: DVec3| {
-        let b = barycentric(x, corners);
-        b[0] * el.corner_normals[0] + b[1] * el.corner_normals[1] + b[2] * el.corner_normals[2]
+    let leaf = Parent {
+        corners: tree.corners(e),
+        corner_normal: el.corner_normals,
+        normal: el.normal,
+        ..roots.parent(r)
     };
-    out.triangles.push(v);
-    out.centroid.push((p[0] + p[1] + p[2]) / 3.0);
-    out.normal.push(el.normal);
-    out.corner_normal.push(p.map(normal_at));
-    out.area
-        .push(0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length());
-    out.material.push(roots.material[r]);
-    out.reflectance.push(roots.reflectance[r]);
-    out.emission.push(roots.emission[r]);
-    out.source_triangle.push(roots.source_triangle[r]);
-    out.twin.push(NO_TWIN);
+    out.push_inside(v, &leaf);
 }

@@ -189,16 +189,7 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
     let min_area = ZERO_AREA_RELATIVE * extent * extent;
     for (a, tri) in scene.triangles.iter().enumerate() {
         let v = tri.vertices;
-        let edge_points: Vec<DVec3> = (0..3)
-            .flat_map(|e| {
-                let (i, j) = (v[e], v[(e + 1) % 3]);
-                on_edge
-                    .get(&(i.min(j), i.max(j)))
-                    .into_iter()
-                    .flatten()
-                    .copied()
-            })
-            .collect();
+        let edge_points = points_on_edges(&on_edge, v);
         if segments[a].is_empty() && edge_points.is_empty() {
             triangles.push(*tri);
             continue;
@@ -322,16 +313,7 @@ pub fn split_patches(
     let min_area = ZERO_AREA_RELATIVE * extent * extent;
     for (i, (face, segs)) in cut.iter().enumerate() {
         let v = patches.triangles[i];
-        let edge_points: Vec<DVec3> = (0..3)
-            .flat_map(|e| {
-                let (a, b) = (v[e], v[(e + 1) % 3]);
-                on_edge
-                    .get(&(a.min(b), a.max(b)))
-                    .into_iter()
-                    .flatten()
-                    .copied()
-            })
-            .collect();
+        let edge_points = points_on_edges(&on_edge, v);
         let segs: Vec<[DVec3; 2]> = segs.iter().map(|s| s.map(|p| shared(i, face, p))).collect();
         let pieces = if segs.is_empty() && edge_points.is_empty() {
             None
@@ -339,7 +321,7 @@ pub fn split_patches(
             face.triangulate(&segs, &edge_points, true)
         };
         let Some(pieces) = pieces else {
-            push_piece(patches, i, v, &mut out);
+            out.push_inside(v, &patches.parent(i));
             parent.push(i as u32);
             continue;
         };
@@ -359,7 +341,7 @@ pub fn split_patches(
                 })
             };
             let t = [id(p), id(q), id(r)];
-            push_piece(patches, i, t, &mut out);
+            out.push_inside(t, &patches.parent(i));
             parent.push(i as u32);
         }
     }
@@ -441,27 +423,19 @@ fn onto_edge(c: [[f64; 2]; 3], q: [f64; 2]) -> [f64; 2] {
 /// See [`onto_edge`]: 100 × the snapping grid of [`Face::to_2d`].
 const ONTO_EDGE: f64 = 1e-7;
 
-/// Appends triangle `t` (vertex indices into `out.positions`, inside patch `i` of `patches`)
-/// with patch `i`'s material and normal, its corner normals interpolated in patch `i`.
-fn push_piece(patches: &Patches, i: usize, t: [u32; 3], out: &mut Patches) {
-    let p = t.map(|v| out.positions[v as usize]);
-    let corners = patches.corners(i);
-    let m = patches.corner_normal[i];
-    let normal_at = |x: DVec3| {
-        let b = super::barycentric(x, corners);
-        b[0] * m[0] + b[1] * m[1] + b[2] * m[2]
-    };
-    out.triangles.push(t);
-    out.centroid.push((p[0] + p[1] + p[2]) / 3.0);
-    out.normal.push(patches.normal[i]);
-    out.corner_normal.push(p.map(normal_at));
-    out.area
-        .push(0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length());
-    out.material.push(patches.material[i]);
-    out.reflectance.push(patches.reflectance[i]);
-    out.emission.push(patches.emission[i]);
-    out.source_triangle.push(patches.source_triangle[i]);
-    out.twin.push(NO_TWIN);
+/// The points registered on the edges of the triangle `v` (by its vertex indices, in
+/// `on_edge`, keyed by the edge's two indices in increasing order).
+fn points_on_edges(on_edge: &HashMap<(u32, u32), Vec<DVec3>>, v: [u32; 3]) -> Vec<DVec3> {
+    (0..3)
+        .flat_map(|e| {
+            let (a, b) = (v[e], v[(e + 1) % 3]);
+            on_edge
+                .get(&(a.min(b), a.max(b)))
+                .into_iter()
+                .flatten()
+                .copied()
+        })
+        .collect()
 }
 
 /// The grid [`Face::to_2d`] snaps to: 2³⁰ steps per face size.

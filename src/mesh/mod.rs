@@ -77,6 +77,22 @@ pub struct Patches {
     pub twin: Vec<u32>,
 }
 
+/// What a triangle cut from a larger one takes from it ([`Patches::push_inside`]).
+pub(crate) struct Parent {
+    /// Its corners, scene units.
+    pub corners: [DVec3; 3],
+    /// Its corner normals (not unit length, see [`Patches::corner_normal`]).
+    pub corner_normal: [DVec3; 3],
+    /// Its unit front normal.
+    pub normal: DVec3,
+    /// Its material, ρ and Le (see the fields of [`Patches`]).
+    pub material: u32,
+    pub reflectance: [f64; 3],
+    pub emission: [f64; 3],
+    /// The scene triangle it was cut from.
+    pub source_triangle: u32,
+}
+
 impl Patches {
     /// No patches yet over the vertices `positions`, with room for `n`.
     pub fn with_capacity(positions: Vec<DVec3>, n: usize) -> Patches {
@@ -127,6 +143,44 @@ impl Patches {
         // Corner normals lie within the crease angle (< 90°) of the patch normal, so their
         // convex combination cannot vanish; the fallback only guards rounding.
         n.try_normalize().unwrap_or(self.normal[i])
+    }
+
+    /// Appends the triangle `t` (vertex indices into `positions`, counter-clockwise) lying in
+    /// the plane of `parent` and inside it: its own centroid and area, `parent`'s normal and
+    /// material, and its corner normals interpolated in `parent` (so that interpolating them
+    /// inside it is interpolation in `parent`). Used where a patch or an element is cut
+    /// further (the hierarchy's output, the display cut along contact lines).
+    pub(crate) fn push_inside(&mut self, t: [u32; 3], parent: &Parent) {
+        let p = t.map(|v| self.positions[v as usize]);
+        let m = parent.corner_normal;
+        let normal_at = |x: DVec3| {
+            let b = barycentric(x, parent.corners);
+            b[0] * m[0] + b[1] * m[1] + b[2] * m[2]
+        };
+        self.triangles.push(t);
+        self.centroid.push((p[0] + p[1] + p[2]) / 3.0);
+        self.normal.push(parent.normal);
+        self.corner_normal.push(p.map(normal_at));
+        self.area
+            .push(0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length());
+        self.material.push(parent.material);
+        self.reflectance.push(parent.reflectance);
+        self.emission.push(parent.emission);
+        self.source_triangle.push(parent.source_triangle);
+        self.twin.push(NO_TWIN);
+    }
+
+    /// Patch `i` as the [`Parent`] of triangles cut from it.
+    pub(crate) fn parent(&self, i: usize) -> Parent {
+        Parent {
+            corners: self.corners(i),
+            corner_normal: self.corner_normal[i],
+            normal: self.normal[i],
+            material: self.material[i],
+            reflectance: self.reflectance[i],
+            emission: self.emission[i],
+            source_triangle: self.source_triangle[i],
+        }
     }
 
     /// Total area of all patches, scene units squared.
