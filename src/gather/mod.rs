@@ -183,6 +183,14 @@ impl Gather {
     }
 }
 
+/// What an exact emitter's visible pieces cost a gathering point, in hemisphere rays (each of
+/// which may evaluate a near hit one bounce further). Measured on the generated hall of 10⁴
+/// triangles (35,754 gathering points, 8 exact emitters and 16 other-light samples each,
+/// 2 cores): 15 µs a point with one hemisphere ray, 0.57 µs a hemisphere ray more, so the
+/// direct light costs about 27 rays, of which the 16 samples' shadow rays (about half a
+/// hemisphere ray each) about 8: (27 − 8) / 8 ≈ 2.4 per emitter.
+pub const EXACT_EMITTER_COST: usize = 2;
+
 /// Shadow rays per emitter at a point, before adapting, where its visible pieces are too many
 /// to compute ([`visible`]).
 pub const SHADOW_RAYS: usize = 16;
@@ -973,16 +981,17 @@ impl Gatherer<'_> {
         self.emitters.len().min(MAX_EXACT_EMITTERS)
     }
 
-    /// Shadow rays a gathering point casts at least: [`SHADOW_RAYS`] per exact emitter,
-    /// [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and those of the lights outside
-    /// the mesh ([`Environment::sharp_rays`]).
-    pub fn shadow_rays_per_point(&self) -> usize {
+    /// The cost of a gathering point's direct light, in hemisphere rays: [`EXACT_EMITTER_COST`]
+    /// per exact emitter (its visible pieces, [`visible`]; shadow rays only where they are too
+    /// many to compute), [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and the shadow
+    /// rays of the lights outside the mesh ([`Environment::sharp_rays`]).
+    pub fn direct_cost_per_point(&self) -> usize {
         let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
             OTHER_LIGHT_SAMPLES
         } else {
             0
         };
-        SHADOW_RAYS * self.exact_per_point() + others + self.env.sharp_rays()
+        EXACT_EMITTER_COST * self.exact_per_point() + others + self.env.sharp_rays()
     }
 
     /// The scene's extent (its bounding box diagonal), scene units.

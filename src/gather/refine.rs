@@ -47,15 +47,18 @@ use crate::form_factor::sampling::Rng;
 /// triangle shows there by more than 2 % of the local luminance.
 pub const DEFAULT_TOLERANCE: f64 = 0.02;
 
-/// New vertices, at most, when each gets `rays` hemisphere rays and `shadow_rays` shadow rays
-/// at least ([`super::Gatherer::shadow_rays_per_point`]): as many as
+/// New vertices, at most, when each gets `rays` hemisphere rays and a direct light that costs
+/// `direct` more ([`super::Gatherer::direct_cost_per_point`], in hemisphere rays): as many as
 /// twice the gather's own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the
 /// refinement adds at most about twice as many rays again, whatever the scene's size and its
-/// number of lights. Measured on the Cornell box's 2,000 probes (displayed RMS; each budget was
+/// number of lights. (Until 2026-11-27 the direct light was counted as 16 shadow rays per
+/// exact emitter, which the visible pieces no longer cast: the hall's 8 exact emitters cost
+/// its refinement 144 rays a vertex where they take about 27, and it stopped at 31,250 new
+/// vertices instead of about 55,000.) Measured on the Cornell box's 2,000 probes (displayed RMS; each budget was
 /// used up): half the gather's budget (1,946 vertices) 1.45 %, once (3,891) 1.31 %, twice
 /// (7,782) 1.13 %, for about 1.3 s more than half.
-pub fn budget(rays: usize, shadow_rays: usize) -> usize {
-    2 * super::AUTO_RAY_BUDGET / (rays + shadow_rays).max(1)
+pub fn budget(rays: usize, direct: usize) -> usize {
+    2 * super::AUTO_RAY_BUDGET / (rays + direct).max(1)
 }
 
 /// Rounds of testing new triangles' edges, at most: each halves the edges it splits.

@@ -439,7 +439,7 @@ fn bake_stage(
             mode,
             rays,
             tolerance: settings.gather_tolerance,
-            budget: gather::refine::budget(rays, gatherer.shadow_rays_per_point()),
+            budget: gather::refine::budget(rays, gatherer.direct_cost_per_point()),
         };
         let refined = gather::refine(
             &gatherer,
