@@ -107,14 +107,19 @@ pub struct ContactStats {
 /// coordinates on the triangle's plane; `None` when the scene is two-sided (twins must stay
 /// pairs of identical faces), has fewer than two triangles, or has no contact.
 pub fn contact_lines(scene: &Scene) -> Option<Vec<Vec<[DVec3; 2]>>> {
-    let n = scene.triangles.len();
+    let (lo, hi) = scene.bounds();
+    let faces: Vec<Face> = (0..scene.triangles.len())
+        .map(|t| Face::new(scene, t))
+        .collect();
+    lines_on(scene, &faces, (hi - lo).length())
+}
+
+/// [`contact_lines`] for the scene's `faces` (one per triangle) and its extent.
+fn lines_on(scene: &Scene, faces: &[Face], extent: f64) -> Option<Vec<Vec<[DVec3; 2]>>> {
+    let n = faces.len();
     if !scene.twin.is_empty() || n < 2 {
         return None;
     }
-    let (lo, hi) = scene.bounds();
-    let extent = (hi - lo).length();
-    let faces: Vec<Face> = (0..n).map(|t| Face::new(scene, t)).collect();
-
     // Segments on each face, found in parallel against a BVH over the faces' boxes.
     let boxes: Vec<Aabb> = faces.iter().map(|f| f.aabb(0.0)).collect();
     let mut build_time = std::time::Duration::ZERO;
@@ -155,12 +160,12 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
         triangles: n,
         ..ContactStats::default()
     };
-    let Some(segments) = contact_lines(scene) else {
-        return (scene.clone(), stats);
-    };
     let (lo, hi) = scene.bounds();
     let extent = (hi - lo).length();
     let faces: Vec<Face> = (0..n).map(|t| Face::new(scene, t)).collect();
+    let Some(segments) = lines_on(scene, &faces, extent) else {
+        return (scene.clone(), stats);
+    };
 
     // Points where segments end on a face's edge, registered on that edge (by its two vertex
     // indices) so the face across it gets them too.

@@ -322,17 +322,17 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
 
     // The display's faces cut along the contact lines, for the gather at their vertices.
     let t = Instant::now();
-    let display = display_contacts(scene, &h.patches, &h.radiance, settings);
+    let display = display_contacts(
+        scene,
+        &h.patches,
+        &h.radiance,
+        &h.visible_fraction,
+        settings,
+    );
     report.seconds.patches += t.elapsed().as_secs_f64();
     let baked = match display {
-        Some((patches, parent, stats)) => {
+        Some((patches, radiance, visible, stats)) => {
             report.display_contacts = Some(stats);
-            let radiance: Vec<crate::Rgb> =
-                parent.iter().map(|&i| h.radiance[i as usize]).collect();
-            let visible: Vec<f64> = parent
-                .iter()
-                .map(|&i| h.visible_fraction[i as usize])
-                .collect();
             bake_stage(scene, &patches, &radiance, &visible, settings, &mut report)
         }
         None => bake_stage(
@@ -354,38 +354,51 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     })
 }
 
+/// The gather that runs on an output of `vertices` vertices: `settings.gather` resolved
+/// ([`Gather::resolve`]), or none when nothing lights the scene or the solve is a Neumann
+/// series (a chosen number of bounces: gathering on it would add one, so its vertices show
+/// the patches' own N-bounce radiance).
+fn gather_mode(scene: &Scene, settings: &Settings, vertices: usize) -> Gather {
+    let neumann = settings.solver.method == solve::Method::Neumann;
+    if !lit(scene, settings) || neumann {
+        return Gather::None;
+    }
+    settings
+        .gather
+        .resolve(vertices, settings.gather_rays.is_some())
+}
+
 /// The hierarchical solution's output patches cut along the scene's contact lines
-/// ([`mesh::split_patches`]), with the patch each piece came from and what the cut did;
-/// `None` unless `discontinuities = auto`, the scene has contacts and the gather runs on the
-/// cut output (an `auto` gather stops at [`gather::FULL_GATHER_MAX_VERTICES`]: a cut that
-/// would take the output past it is dropped, as its pieces would only show their leaves'
-/// values, and the gather's work stays bounded as without the cut).
+/// ([`mesh::split_patches`]): the pieces with their leaves' radiance and visible fractions,
+/// and what the cut did; `None` unless `discontinuities = auto`, the scene has contacts and
+/// the gather runs on the cut output (an `auto` gather stops at
+/// [`gather::FULL_GATHER_MAX_VERTICES`]: a cut that would take the output past it is
+/// dropped, as its pieces would only show their leaves' values, and the gather's work stays
+/// bounded as without the cut).
 fn display_contacts(
     scene: &Scene,
     patches: &Patches,
     radiance: &[crate::Rgb],
+    visible_fraction: &[f64],
     settings: &Settings,
-) -> Option<(Patches, Vec<u32>, mesh::ContactStats)> {
+) -> Option<(Patches, Vec<crate::Rgb>, Vec<f64>, mesh::ContactStats)> {
     let crease = settings.crease_degrees.min(bake::FACET_DEGREES);
     let gathered = |patches: &Patches, radiance: &[crate::Rgb]| {
         let vertices = bake::bake_sites(patches, radiance, crease).1.len();
-        let mode = settings
-            .gather
-            .resolve(vertices, settings.gather_rays.is_some());
-        mode != Gather::None
+        gather_mode(scene, settings, vertices) != Gather::None
     };
-    if settings.discontinuities != mesh::Discontinuities::Auto
-        || !lit(scene, settings)
-        || settings.solver.method == solve::Method::Neumann
-        || !gathered(patches, radiance)
-    {
+    if settings.discontinuities != mesh::Discontinuities::Auto || !gathered(patches, radiance) {
         return None;
     }
     let lines = mesh::contact_lines(scene)?;
     let (lo, hi) = scene.bounds();
     let (cut, parent, stats) = mesh::split_patches(&lines, patches, (hi - lo).length())?;
     let cut_radiance: Vec<crate::Rgb> = parent.iter().map(|&i| radiance[i as usize]).collect();
-    gathered(&cut, &cut_radiance).then_some((cut, parent, stats))
+    let cut_visible = parent
+        .iter()
+        .map(|&i| visible_fraction[i as usize])
+        .collect();
+    gathered(&cut, &cut_radiance).then_some((cut, cut_radiance, cut_visible, stats))
 }
 
 /// Bake: patch radiance → the output mesh's vertices (→ final gather at them, unless
@@ -405,15 +418,9 @@ fn bake_stage(
     baked.camera = scene.camera;
     report.vertices = baked.positions.len();
     report.seconds.bake = t.elapsed().as_secs_f64();
-    // A Neumann solve is a chosen number of bounces: gathering on it would add one, so its
-    // vertices show the patches' own N-bounce radiance.
-    let neumann = settings.solver.method == solve::Method::Neumann;
-    let mode = settings
-        .gather
-        .resolve(sites.len(), settings.gather_rays.is_some());
-    let gathers = mode != Gather::None && lit(scene, settings) && !neumann;
-    report.gather = if gathers { mode } else { Gather::None };
-    if gathers {
+    let mode = gather_mode(scene, settings, sites.len());
+    report.gather = mode;
+    if mode != Gather::None {
         let t = Instant::now();
         let gatherer = gather::Gatherer::new(
             scene,
