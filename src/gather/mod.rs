@@ -867,17 +867,29 @@ pub(crate) struct Spot {
 
 impl Gatherer<'_> {
     /// The point a site is gathered at (see the module documentation: nudged into the most
-    /// visible patch where surfaces meet), or `None` when it is buried.
+    /// visible patch where surfaces meet), or `None` when it is buried. Where that point is
+    /// buried, the point nudged into each patch around the vertex is tried in turn, the most
+    /// visible first: a vertex on the border between a buried face and a seen one (the
+    /// ceiling's vertex exactly above a mounted light's corner, whose faces above the light
+    /// and beside it are equally visible by their leaf's share) shows the seen face's light,
+    /// not the bake's mean. (In the generated
+    /// hall, such corners of 41 lights were buried by the choice among equals, and the edges
+    /// from them across the lit ceiling were never refined: probes between the lights and the
+    /// walls showed 15–18 % dark.)
     pub(crate) fn spot(&self, site: &Site, visible_fraction: &[f64]) -> Option<Spot> {
         let p = self.patches;
-        // The most visible patch around the vertex: evaluate from its side.
+        // The patches around the vertex, the most visible first (of equals, the last one
+        // listed): evaluate from its side.
         let visible = |q: u32| visible_fraction.get(q as usize).copied().unwrap_or(1.0);
-        let (best, _) = site
+        let mut order: Vec<(u32, f64)> = site
             .patches
             .iter()
+            .rev()
             .map(|&q| (q, visible(q)))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .expect("a site has patches");
+            .collect();
+        assert!(!order.is_empty(), "a site has patches");
+        order.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let best = order[0].0;
         // Where surfaces meet (a crease, a material border, a contact line: a patch
         // around it partly buried), the vertex is on the plane of a neighbouring surface,
         // which it would see edge-on (form factor 0, its rays grazing it) while every
@@ -886,14 +898,18 @@ impl Gatherer<'_> {
         let contact = site.shared
             || site.patches.iter().any(|&q| visible(q) < 1.0)
             || self.touched(site.position, site.normal, best);
-        let x = if contact {
-            let d = NUDGE * (p.centroid[best as usize] - site.position);
-            site.position + d * (self.nudge_max / d.length()).min(1.0)
-        } else {
-            site.position
-        };
         let n = site.normal;
-        (!self.buried(x, n, best)).then_some(Spot { x, n, patch: best })
+        if !contact {
+            let x = site.position;
+            if !self.buried(x, n, best) {
+                return Some(Spot { x, n, patch: best });
+            }
+        }
+        order.into_iter().find_map(|(q, _)| {
+            let d = NUDGE * (p.centroid[q as usize] - site.position);
+            let x = site.position + d * (self.nudge_max / d.length()).min(1.0);
+            (!self.buried(x, n, q)).then_some(Spot { x, n, patch: q })
+        })
     }
 
     /// Whether another surface passes through the point `x` (unit normal `n`, on patch
@@ -1438,6 +1454,68 @@ mod tests {
             }
         }
         assert!(checked > 1000, "{checked} corners checked");
+    }
+
+    #[test]
+    fn a_vertex_above_a_mounted_lights_corner_is_gathered_from_the_seen_side() {
+        // A 4 × 4 ceiling (facing down) with a 1 × 1 light mounted 1 cm under it: the light's
+        // outline is cut into the ceiling (a contact line), and the ceiling's vertex exactly
+        // above each corner of the light has faces above the light (buried: the light's back
+        // is 1 cm under them) and faces beside it (seen). Its normal ray from the vertex meets
+        // the light's corner from behind, and nothing about it is a contact (no surface passes
+        // through it, every patch is seen in full by the gather's measure), so it was taken for
+        // buried and kept the bake's mean; it is gathered just inside a face beside the light.
+        let mut b = SceneBuilder::new();
+        let white = b.material("white", [0.5; 3], [0.0; 3]);
+        let light = b.material("light", [0.0; 3], [5.0; 3]);
+        let v = DVec3::new;
+        b.quad(
+            [v(0., 0., 0.), v(4., 0., 0.), v(4., 4., 0.), v(0., 4., 0.)],
+            white,
+        );
+        b.quad(
+            [v(0., 0., 3.), v(0., 4., 3.), v(4., 4., 3.), v(4., 0., 3.)],
+            white,
+        );
+        let h = 3.0 - 0.01;
+        b.quad(
+            [
+                v(1.5, 1.5, h),
+                v(1.5, 2.5, h),
+                v(2.5, 2.5, h),
+                v(2.5, 1.5, h),
+            ],
+            light,
+        );
+        let (scene, stats) = crate::mesh::split_contacts(&b.build().unwrap());
+        assert!(stats.faces_split > 0, "the outline is cut: {stats:?}");
+        let patches = crate::mesh::subdivide(&scene, 0.5, 0.0).unwrap();
+        let radiance = vec![[0.0; 3]; patches.len()];
+        let (_, sites) = crate::bake::bake_sites(&patches, &radiance, 30.0);
+        let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
+        let visible = vec![1.0; patches.len()];
+        let mut corners = 0;
+        for site in &sites {
+            let x = site.position;
+            let at_corner = (x.z - 3.0).abs() < 1e-9
+                && [1.5, 2.5].iter().any(|&c| (x.x - c).abs() < 1e-9)
+                && [1.5, 2.5].iter().any(|&c| (x.y - c).abs() < 1e-9);
+            if !at_corner {
+                continue;
+            }
+            corners += 1;
+            let spot = g
+                .spot(site, &visible)
+                .unwrap_or_else(|| panic!("the vertex at {x} was taken for buried"));
+            let beside = spot.x.x < 1.5 || spot.x.x > 2.5 || spot.x.y < 1.5 || spot.x.y > 2.5;
+            assert!(beside, "gathered at {}, above the light", spot.x);
+            assert!(
+                spot.x.distance(x) < 0.05,
+                "gathered {} from the vertex",
+                spot.x.distance(x)
+            );
+        }
+        assert_eq!(corners, 4, "the light's four corners on the ceiling");
     }
 
     #[test]
