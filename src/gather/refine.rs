@@ -27,12 +27,24 @@
 //! tested again, up to [`MAX_LEVELS`] times and down to [`MIN_EDGE`] of the scene's extent.
 //!
 //! The work is bounded: at most `budget` new vertices in all (the edges with the largest
-//! deviation first, at most half the remaining budget per level, the rest waiting for the next),
+//! deviation × √length first, at most half the remaining budget per level, the rest waiting for
+//! the next),
 //! and at most [`TESTS_PER_NEW_VERTEX`] × the budget midpoint tests in all (the edges whose
 //! endpoints differ most, or lie in a penumbra, first), each of at most [`TEST_SHADOW_RAYS`]
 //! shadow rays per emitter and [`TEST_RAYS`] hemisphere rays. Every choice
 //! is ordered by the edges' vertex indices, so a fixed seed gives the same mesh for any thread
 //! count.
+//!
+//! Why deviation × √length: what a split buys is the squared error it removes over the area
+//! the viewer sees. The error an edge leaves is mostly a discontinuity of the light crossing
+//! its faces (a shadow edge, a penumbra, the rim of a contact), wrong over a strip as long as
+//! the faces (∝ the edge's length L) and as wide as the transition: δ² · L, whose root orders
+//! the edges. (By deviation alone, edges of millimetres at the sharpest features took the
+//! budget from long edges across shadows. Measured 2026-11-27 on the point-wise benchmark,
+//! displayed RMS: the generated hall 5.65 → 4.58 %, the living room 0.72 → 0.66 %, the Cornell
+//! box's two draws 0.82 / 0.92 → 0.83 / 0.90 %; ordered by δ · L, as for a smooth error
+//! over the faces' whole area, the hall 5.26 % but the Cornell box 0.92 % and the living room
+//! 0.78 %.)
 
 use std::collections::{HashMap, HashSet};
 
@@ -239,17 +251,19 @@ pub fn refine(
         let mut split: Vec<Split> = std::mem::take(&mut deferred);
         for (&(_, edge, _), &deviation) in edges.iter().zip(&deviations) {
             if deviation > tolerance {
-                split.push(Split { deviation, edge });
+                let length = d.sites[edge.0 as usize]
+                    .position
+                    .distance(d.sites[edge.1 as usize].position);
+                split.push(Split {
+                    priority: deviation * length.sqrt(),
+                    edge,
+                });
             } else {
                 kept.insert(edge);
             }
         }
-        split.sort_unstable_by(|x, y| {
-            y.deviation
-                .total_cmp(&x.deviation)
-                .then(x.edge.cmp(&y.edge))
-        });
-        // The largest deviations first, at most half the remaining budget per level so that
+        split.sort_unstable_by(|x, y| y.priority.total_cmp(&x.priority).then(x.edge.cmp(&y.edge)));
+        // The largest priorities first, at most half the remaining budget per level so that
         // the edges of the new triangles at the sharpest features can be split in turn; the
         // rest wait for the next level. Every output edge at the same place (both sides of a
         // crease) splits with the one chosen.
@@ -350,8 +364,8 @@ pub fn refine(
 /// An edge to split, and why.
 #[derive(Debug, Clone, Copy)]
 struct Split {
-    /// Its test's deviation, relative.
-    deviation: f64,
+    /// Its test's deviation (relative) × √(its length) (see [`refine`]'s documentation).
+    priority: f64,
     edge: Edge,
 }
 
