@@ -2,6 +2,8 @@
 //! with awkward values.
 
 use crate::bake::BakedMesh;
+use crate::scene::SceneBuilder;
+use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -95,4 +97,35 @@ pub fn srgb_colours(mesh: &BakedMesh, exposure: f64) -> Vec<[u8; 3]> {
         .iter()
         .map(|&r| crate::color::radiance_to_srgb8(r, exposure))
         .collect()
+}
+
+/// Adds a 4 × 4 ceiling at `height` (facing down, material `ceiling`) and a 1 × 1 light
+/// (facing down, material `light`) `gap` below it, its lowest corner at `corner` (x, y).
+pub fn ceiling_with_mounted_light(
+    b: &mut SceneBuilder,
+    (ceiling, light): (u32, u32),
+    height: f64,
+    gap: f64,
+    [x, y]: [f64; 2],
+) {
+    let v = DVec3::new;
+    b.quad(
+        [
+            v(0., 0., height),
+            v(0., 4., height),
+            v(4., 4., height),
+            v(4., 0., height),
+        ],
+        ceiling,
+    );
+    let h = height - gap;
+    b.quad(
+        [
+            v(x, y, h),
+            v(x, y + 1.0, h),
+            v(x + 1.0, y + 1.0, h),
+            v(x + 1.0, y, h),
+        ],
+        light,
+    );
 }

@@ -1473,19 +1473,12 @@ mod tests {
             [v(0., 0., 0.), v(4., 0., 0.), v(4., 4., 0.), v(0., 4., 0.)],
             white,
         );
-        b.quad(
-            [v(0., 0., 3.), v(0., 4., 3.), v(4., 4., 3.), v(4., 0., 3.)],
-            white,
-        );
-        let h = 3.0 - 0.01;
-        b.quad(
-            [
-                v(1.5, 1.5, h),
-                v(1.5, 2.5, h),
-                v(2.5, 2.5, h),
-                v(2.5, 1.5, h),
-            ],
-            light,
+        crate::test_support::ceiling_with_mounted_light(
+            &mut b,
+            (white, light),
+            3.0,
+            0.01,
+            [1.5, 1.5],
         );
         let (scene, stats) = crate::mesh::split_contacts(&b.build().unwrap());
         assert!(stats.faces_split > 0, "the outline is cut: {stats:?}");

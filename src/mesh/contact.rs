@@ -1041,20 +1041,12 @@ mod tests {
         // the ceiling and the light itself is not split; 0.1 below, it is too far for either.
         for (gap, mounted) in [(4e-4, true), (0.02, true), (0.1, false)] {
             let (mut b, white, light) = floor();
-            let z = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-            b.quad(
-                [z(0., 0., 4.), z(0., 4., 4.), z(4., 4., 4.), z(4., 0., 4.)],
-                white,
-            );
-            let h = 4.0 - gap;
-            b.quad(
-                [
-                    z(1.5, 1.2, h),
-                    z(1.5, 2.2, h),
-                    z(2.5, 2.2, h),
-                    z(2.5, 1.2, h),
-                ],
-                light,
+            crate::test_support::ceiling_with_mounted_light(
+                &mut b,
+                (white, light),
+                4.0,
+                gap,
+                [1.5, 1.2],
             );
             let scene = b.build().unwrap();
             let (split, stats) = split_contacts(&scene);
