@@ -222,7 +222,17 @@ pub const NEAR_SHADOW_RAYS: usize = 1;
 /// Hemisphere rays at a near hit's point ([`NEAR_HIT`]), reading the patches' radiance.
 pub const NEAR_RAYS: usize = 1;
 
-/// Near hits followed one after another, at most ([`NEAR_HIT`]).
+/// Near hits followed one after another, at most ([`NEAR_HIT`]): the ray from a near hit's
+/// point is itself a near hit where it goes back into the corner or across a narrow gap, and
+/// the patch mean it would read there overstates the light as the first one's would.
+/// Measured (2026-11-27, 2 cores): the Cornell box's 47 probes along the ceiling's corners,
+/// mean error +0.6 % at depth 1 and +0.06 % at 2 (the test
+/// `near_hits_bring_the_radiance_at_the_hit_point_not_the_patch_mean`); the generated hall
+/// gathered at its 2,000 probes themselves with 1,024 rays (no interpolation), 3.25 % RMS at
+/// depth 1, 2.20 % at 2, 2.05 % at 4 (points in the 5 mm gaps between table tops and legs,
+/// and between seats and backs); its displayed RMS 6.28, 5.99, 5.86 and 5.75 % at depths 1 to
+/// 4, for 14 %, 38 % and 57 % more gather time; the living room's 0.80 → 0.72 % at depth 2
+/// (3 % more time), no better at 3.
 pub const NEAR_DEPTH: u32 = 2;
 
 /// Emitters whose direct light is computed exactly at a point, at most: with more in the
@@ -663,8 +673,9 @@ impl<'a> Gatherer<'a> {
     /// The reflected radiance ρ·(direct + indirect) leaving the point `y` of patch `h`, one
     /// sample deep: the exact emitters' form factors with one shadow ray each
     /// ([`NEAR_SHADOW_RAYS`]) and one cosine-weighted ray reading the patches' radiance
-    /// ([`NEAR_RAYS`]), or the radiance at its hit if that is near too and `near_bounces` > 0. Unbiased for the hit point's direct light up to the ratio estimate
-    /// of its visible share, and noisy alone; the gather averages many such hits.
+    /// ([`NEAR_RAYS`]), or the radiance at its hit if that is near too and `near_bounces` > 0.
+    /// Unbiased for the hit point's direct light up to the ratio estimate of its visible
+    /// share, and noisy alone; the gather averages many such hits.
     fn reflected_at_hit(
         &self,
         y: DVec3,
@@ -872,10 +883,9 @@ impl Gatherer<'_> {
     /// visible first: a vertex on the border between a buried face and a seen one (the
     /// ceiling's vertex exactly above a mounted light's corner, whose faces above the light
     /// and beside it are equally visible by their leaf's share) shows the seen face's light,
-    /// not the bake's mean. (In the generated
-    /// hall, such corners of 41 lights were buried by the choice among equals, and the edges
-    /// from them across the lit ceiling were never refined: probes between the lights and the
-    /// walls showed 15–18 % dark.)
+    /// not the bake's mean. (In the generated hall the ceiling's vertices above its 41 lights'
+    /// corners were buried so, and the edges from them across the lit ceiling were never
+    /// refined: probes between the lights and the walls showed 15–18 % dark.)
     pub(crate) fn spot(&self, site: &Site, visible_fraction: &[f64]) -> Option<Spot> {
         let p = self.patches;
         // The patches around the vertex, the most visible first (of equals, the last one

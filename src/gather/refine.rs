@@ -30,10 +30,10 @@
 //! deviation × √length first, at most half the remaining budget per level, the rest waiting for
 //! the next),
 //! and at most [`TESTS_PER_NEW_VERTEX`] × the budget midpoint tests in all (the edges whose
-//! endpoints differ most, or lie in a penumbra, first, again × √length), each of at most [`TEST_SHADOW_RAYS`]
-//! shadow rays per emitter and [`TEST_RAYS`] hemisphere rays. Every choice
-//! is ordered by the edges' vertex indices, so a fixed seed gives the same mesh for any thread
-//! count.
+//! endpoints differ most, or lie in a penumbra, first, again × √length), each of at most
+//! [`TEST_SHADOW_RAYS`] shadow rays per emitter and [`TEST_RAYS`] hemisphere rays. Every
+//! choice is ordered by the edges' vertex indices, so a fixed seed gives the same mesh for any
+//! thread count.
 //!
 //! Why deviation × √length: what a split buys is the squared error it removes over the area
 //! the viewer sees. The error an edge leaves is mostly a discontinuity of the light crossing

@@ -11,8 +11,8 @@
 //! - **B touches or crosses A's plane** (B's corners on both sides, or an edge of B within
 //!   [`TOUCH`] × the scene's extent of it): the segment where B meets the plane;
 //! - **B lies parallel just in front of A** (within [`NEAR`] × the extent, or within
-//!   [`MOUNTED`] × the narrower one's width: a light mounted below a ceiling, a picture on a wall, a leg's
-//!   top under a table top): B's outline projected onto A.
+//!   [`MOUNTED`] × the narrower one's width: a light mounted below a ceiling, a picture on a
+//!   wall, a leg's top under a table top): B's outline projected onto A.
 //!
 //! The segments are clipped to A; those along A's own edges (a wall meeting the floor at the
 //! floor's border) are dropped. A is then re-triangulated with them as constraints (a
@@ -93,8 +93,9 @@ pub const TOUCH: f64 = 1e-6;
 /// on it: its outline is projected onto it.
 pub const NEAR: f64 = 1e-3;
 /// A parallel face within this fraction of its own width (its smallest altitude; or the other
-/// face's, if narrower) in front of another is mounted on it too, however large the scene: a ceiling panel 1 cm under the
-/// ceiling, a picture 2 cm off a wall. Under B, light enters only through the gap g: the
+/// face's, if narrower) in front of another is mounted on it too, however large the scene: a
+/// ceiling panel 1 cm under the ceiling, a picture 2 cm off a wall. Under B, light enters only
+/// through the gap g: the
 /// unoccluded share of the hemisphere a point sees falls from about ½ at the outline to
 /// g / (distance from the outline) inside it (the form factor to a slit of width g), so
 /// with g ≤ 5 % of B's width the region under B is dark but for a rim a few g wide, while
