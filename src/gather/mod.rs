@@ -888,18 +888,15 @@ impl Gatherer<'_> {
     /// refined: probes between the lights and the walls showed 15–18 % dark.)
     pub(crate) fn spot(&self, site: &Site, visible_fraction: &[f64]) -> Option<Spot> {
         let p = self.patches;
-        // The patches around the vertex, the most visible first (of equals, the last one
-        // listed): evaluate from its side.
+        // The most visible patch around the vertex (of equals, the last one listed): evaluate
+        // from its side.
         let visible = |q: u32| visible_fraction.get(q as usize).copied().unwrap_or(1.0);
-        let mut order: Vec<(u32, f64)> = site
+        let (best, _) = site
             .patches
             .iter()
-            .rev()
             .map(|&q| (q, visible(q)))
-            .collect();
-        assert!(!order.is_empty(), "a site has patches");
-        order.sort_by(|a, b| b.1.total_cmp(&a.1));
-        let best = order[0].0;
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("a site has patches");
         // Where surfaces meet (a crease, a material border, a contact line: a patch
         // around it partly buried), the vertex is on the plane of a neighbouring surface,
         // which it would see edge-on (form factor 0, its rays grazing it) while every
@@ -909,17 +906,32 @@ impl Gatherer<'_> {
             || site.patches.iter().any(|&q| visible(q) < 1.0)
             || self.touched(site.position, site.normal, best);
         let n = site.normal;
-        if !contact {
-            let x = site.position;
-            if !self.buried(x, n, best) {
-                return Some(Spot { x, n, patch: best });
-            }
-        }
-        order.into_iter().find_map(|(q, _)| {
+        let nudged = |q: u32| {
             let d = NUDGE * (p.centroid[q as usize] - site.position);
             let x = site.position + d * (self.nudge_max / d.length()).min(1.0);
             (!self.buried(x, n, q)).then_some(Spot { x, n, patch: q })
-        })
+        };
+        if contact {
+            if let Some(spot) = nudged(best) {
+                return Some(spot);
+            }
+        } else if !self.buried(site.position, n, best) {
+            let x = site.position;
+            return Some(Spot { x, n, patch: best });
+        }
+        // Buried there: the point nudged into each patch around the vertex, the most visible
+        // first (of equals, the last one listed), but the one just tried.
+        let mut order: Vec<(u32, f64)> = site
+            .patches
+            .iter()
+            .rev()
+            .map(|&q| (q, visible(q)))
+            .collect();
+        order.sort_by(|a, b| b.1.total_cmp(&a.1));
+        order
+            .into_iter()
+            .filter(|&(q, _)| !(contact && q == best))
+            .find_map(|(q, _)| nudged(q))
     }
 
     /// Whether another surface passes through the point `x` (unit normal `n`, on patch

@@ -187,7 +187,8 @@ pub fn refine(
         let waiting: HashSet<Edge> = deferred.iter().map(|d| d.edge).collect();
         // The candidate faces' edges, long enough and not tested before, with their contrast
         // (× √length) and the luminance their deviation is relative to.
-        let mut edges: Vec<(f64, Edge, f64)> = Vec::new();
+        // (The fourth value: √length, which orders the splits too.)
+        let mut edges: Vec<(f64, Edge, f64, f64)> = Vec::new();
         let mut seen = HashSet::new();
         for &f in &candidates {
             for e in face_edges(d.mesh.faces[f]) {
@@ -208,8 +209,8 @@ pub fn refine(
                 if va.penumbra || vb.penumbra {
                     contrast += 1.0;
                 }
-                let length = d.sites[a].position.distance(d.sites[b].position);
-                edges.push((contrast * length.sqrt(), e, reference));
+                let root = d.sites[a].position.distance(d.sites[b].position).sqrt();
+                edges.push((contrast * root, e, reference, root));
             }
         }
         // The most promising edges first, as many as the budget pays tests for.
@@ -221,7 +222,7 @@ pub fn refine(
         let seed = gatherer.seed();
         let deviations: Vec<f64> = edges
             .par_iter()
-            .map(|&(_, e, reference)| {
+            .map(|&(_, e, reference, _)| {
                 let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
                 // The indirect light: endpoints that differ this much (a contact's fall-off).
                 let indirect =
@@ -250,13 +251,10 @@ pub fn refine(
             })
             .collect();
         let mut split: Vec<Split> = std::mem::take(&mut deferred);
-        for (&(_, edge, _), &deviation) in edges.iter().zip(&deviations) {
+        for (&(_, edge, _, root), &deviation) in edges.iter().zip(&deviations) {
             if deviation > tolerance {
-                let length = d.sites[edge.0 as usize]
-                    .position
-                    .distance(d.sites[edge.1 as usize].position);
                 split.push(Split {
-                    priority: deviation * length.sqrt(),
+                    priority: deviation * root,
                     edge,
                 });
             } else {
