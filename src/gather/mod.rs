@@ -46,6 +46,10 @@
 //! 0), though every point beside the vertex sees it fill part of the hemisphere. Rays are
 //! traced against the scene triangles the patches tile (module `trace`). Every random choice is
 //! keyed by (seed, vertex), so a fixed seed gives the same colours for any thread count.
+//!
+//! After the display refinement ([`refine`]), each vertex's point value is moved by the chord
+//! correction ([`chord`]), so the display's linear interpolation keeps the light's integral
+//! over each triangle where the light bends smoothly.
 
 use std::f64::consts::PI;
 use std::fmt;
@@ -66,6 +70,7 @@ use crate::scene::Scene;
 use crate::visibility::NONE;
 use trace::Surfaces;
 
+pub mod chord;
 pub mod refine;
 mod trace;
 

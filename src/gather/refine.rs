@@ -105,6 +105,8 @@ pub struct Refined {
     pub tests: usize,
     /// Levels that split at least one edge.
     pub levels: usize,
+    /// Output vertices whose value the chord correction moved ([`super::chord`]).
+    pub corrected: usize,
 }
 
 /// An undirected edge between output vertices (lower index first).
@@ -357,6 +359,8 @@ pub fn refine(
         .iter()
         .map(|s| [s.position.x, s.position.y, s.position.z])
         .collect();
+    let buried: Vec<bool> = d.values.iter().map(|g| g.buried).collect();
+    done.corrected = super::chord::correct(d.mesh, &buried, tolerance);
     done
 }
 
