@@ -45,8 +45,9 @@ use crate::color::{luminance, Rgb};
 const UNKNOWNS: usize = 5;
 
 /// Moves the vertex values of `mesh` by the chord correction (see the module documentation),
-/// except those marked `fixed` (buried), and returns how many moved. `tolerance` is τ, the
-/// bound of a correction relative to the vertex's luminance.
+/// except those marked `fixed` (buried), and returns how many it corrected (by 0 where the
+/// fitted light is linear). `tolerance` is τ, the bound of a correction and of the fit's
+/// residual relative to the vertex's luminance; 0 leaves every value as it is.
 pub fn correct(mesh: &mut BakedMesh, fixed: &[bool], tolerance: f64) -> usize {
     if tolerance <= 0.0 {
         return 0;

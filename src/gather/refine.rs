@@ -105,7 +105,8 @@ pub struct Refined {
     pub tests: usize,
     /// Levels that split at least one edge.
     pub levels: usize,
-    /// Output vertices whose value the chord correction moved ([`super::chord`]).
+    /// Output vertices the chord correction corrected, by 0 where the light is linear
+    /// ([`super::chord`]).
     pub corrected: usize,
 }
 
