@@ -47,8 +47,9 @@
 //! traced against the scene triangles the patches tile (module `trace`). Every random choice is
 //! keyed by (seed, vertex), so a fixed seed gives the same colours for any thread count.
 //!
-//! After the display refinement ([`refine`]), each vertex's point value is moved by the chord
-//! correction ([`chord`]), so the display's linear interpolation keeps the light's integral
+//! After the display refinement ([`refine`]), local quadratic fits over each vertex's
+//! neighbourhood ([`local_fit`]) take the noise out of its indirect light and move its value
+//! by the chord correction, so the display's linear interpolation keeps the light's integral
 //! over each triangle where the light bends smoothly.
 
 use std::f64::consts::PI;
@@ -70,7 +71,7 @@ use crate::scene::Scene;
 use crate::visibility::NONE;
 use trace::Surfaces;
 
-pub mod chord;
+pub mod local_fit;
 pub mod refine;
 mod trace;
 

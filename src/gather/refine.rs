@@ -105,9 +105,11 @@ pub struct Refined {
     pub tests: usize,
     /// Levels that split at least one edge.
     pub levels: usize,
-    /// Output vertices the chord correction corrected, by 0 where the light is linear
-    /// ([`super::chord`]).
-    pub corrected: usize,
+    /// Output vertices whose indirect light is its local fit's ([`super::local_fit`]).
+    pub denoised: usize,
+    /// Output vertices given the chord correction, by 0 where the light is linear
+    /// ([`super::local_fit`]).
+    pub chord: usize,
 }
 
 /// An undirected edge between output vertices (lower index first).
@@ -354,14 +356,13 @@ pub fn refine(
         done.levels += 1;
         candidates = d.split_faces(&midpoint);
     }
-    d.mesh.vertex_radiance = d.values.iter().map(|g| g.radiance).collect();
     d.mesh.positions = d
         .sites
         .iter()
         .map(|s| [s.position.x, s.position.y, s.position.z])
         .collect();
-    let buried: Vec<bool> = d.values.iter().map(|g| g.buried).collect();
-    done.corrected = super::chord::correct(d.mesh, &buried, tolerance);
+    let corrected = super::local_fit::correct(d.mesh, &d.values, tolerance);
+    (done.denoised, done.chord) = (corrected.denoised, corrected.chord);
     done
 }
 

@@ -1,0 +1,515 @@
+//! Local quadratic fits at the displayed mesh's vertices: the indirect light's noise fitted
+//! away, and the chord correction, which makes the linear interpolation across each triangle
+//! keep the light's integral, not just its values at the corners.
+//!
+//! Both fit a quadratic, in the vertex's tangent plane, to the values at the vertices within
+//! two edges of it on the same surface (about 18 on a regular mesh): least squares, as in
+//! polynomial-preserving recovery (Zhang & Naga, "A new finite element gradient recovery
+//! method", SIAM J. Sci. Comput. 26(4), 2005). Both leave a vertex as it is where that
+//! quadratic misses the values by more than the display tolerance τ of the vertex's luminance
+//! (RMS), or (the chord) asks for a correction larger than that: the display refinement has
+//! split every edge whose midpoint departs from its ends' mean by more than τ, so either means
+//! the ring spans a feature a quadratic does not follow (a shadow's edge, a contact's rim).
+//! Buried vertices (they carry the bake's mean, not a point value) neither move nor enter the
+//! fits; nor do vertices whose neighbourhood does not fix a quadratic (fewer than five
+//! neighbours, or all on two lines). With τ = 0 (no display refinement) every vertex keeps its
+//! gathered value.
+//!
+//! **The indirect light's noise.** A vertex's indirect light is a Monte Carlo estimate (a few
+//! hundred hemisphere rays), its direct light exact where the emitters are few (their visible
+//! pieces). The indirect light is smooth but near contacts, so the vertex takes the value at
+//! it of the quadratic fitted to the indirect light of its neighbourhood and its own, which
+//! keeps a quadratic profile exactly and averages the noise of about 18 estimates over 6
+//! coefficients: it about halves (the test). The direct light is not touched: its sharp
+//! features are where the viewer looks.
+//!
+//! **The chord.** Interpolated linearly across a triangle, point values lie on the chord of
+//! the radiance's profile: under it where the profile is concave (a wall lit from above, a
+//! ceiling between its walls), above it where convex, along an edge on average by two thirds
+//! of the profile's departure from the chord at the edge's midpoint (which the display
+//! refinement bounds by τ, but does not cancel). For a quadratic profile f with Hessian H, the
+//! interpolant of the point values misses f's integral over a triangle T by |T|/3 · Σ_e δ_e,
+//! δ_e = −eᵀHe/8 the deviation of f at the midpoint of the edge e from its ends' mean
+//! (f − f_lin = Σ_e 4 δ_e λ_a λ_b, ∫_T λ_a λ_b = |T|/12). Adding
+//! c_v = Σ_{T∋v} |T|/3 · Σ_e δ_e / Σ_{T∋v} |T| to each vertex v (each triangle's shortfall
+//! shared by its three corners, weighted by the area they carry) gives back the integral
+//! exactly where H is the same over the triangles around v: the lumped L² projection in place
+//! of interpolation. H at v comes from the quadratic through v's value fitted to its
+//! neighbours' (after the first step). So a vertex shows the light's local mean, not its value
+//! at the vertex: the peak of a lamp's pool of light shows a little brighter than the
+//! radiance at that point.
+//!
+//! Measured (2026-11-27, point-wise benchmark, one bake each, displayed RMS): the living room
+//! 0.65 % → 0.59 % with the chord correction alone (its mean error −0.26 → −0.08 %, while the
+//! same gather at the probes themselves was unbiased) → 0.57 % with the indirect light
+//! fitted too; the Cornell box's two draws of probes 0.84 / 0.87 → 0.78 / 0.82 → 0.68 /
+//! 0.71 %; the hall 4.52 → 4.52 → 4.50 %. In a few hundredths of a second.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::Gathered;
+use crate::bake::BakedMesh;
+use crate::color::{luminance, Rgb};
+
+/// A tangent plane's orthonormal pair (t, u).
+type Frame = (DVec3, DVec3);
+
+/// What [`correct`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Corrected {
+    /// Vertices whose indirect light is the local fit's.
+    pub denoised: usize,
+    /// Vertices given the chord correction (by 0 where the fitted light is linear).
+    pub chord: usize,
+}
+
+/// Sets the vertex values of `mesh` from the gathered `values` (one per vertex), with their
+/// indirect light denoised and then the chord correction (see the module documentation),
+/// except at buried vertices. `tolerance` is τ, the bound of a correction and of the fits'
+/// residuals relative to the vertex's luminance; 0 leaves every value as gathered.
+pub fn correct(mesh: &mut BakedMesh, values: &[Gathered], tolerance: f64) -> Corrected {
+    let mut done = Corrected::default();
+    mesh.vertex_radiance = values.iter().map(|g| g.radiance).collect();
+    if tolerance <= 0.0 {
+        return done;
+    }
+    let positions: Vec<DVec3> = mesh.positions.iter().map(|&p| DVec3::from(p)).collect();
+    let mut faces_of: Vec<Vec<u32>> = vec![Vec::new(); positions.len()];
+    for (f, face) in mesh.faces.iter().enumerate() {
+        for &v in face {
+            faces_of[v as usize].push(f as u32);
+        }
+    }
+    let buried: Vec<bool> = values.iter().map(|g| g.buried).collect();
+    let around = |f: u32| mesh.faces[f as usize].map(|w| positions[w as usize]);
+    // Each vertex's tangent frame (from the area-weighted normal of the faces around it) and
+    // the vertices within two edges of it; `None` for a buried vertex or a degenerate star.
+    let local: Vec<Option<(Frame, Vec<u32>)>> = (0..positions.len())
+        .into_par_iter()
+        .map(|v| {
+            if buried[v] {
+                return None;
+            }
+            let normal: DVec3 = faces_of[v]
+                .iter()
+                .map(|&f| {
+                    let c = around(f);
+                    (c[1] - c[0]).cross(c[2] - c[0])
+                })
+                .sum();
+            let frame = normal.try_normalize()?.any_orthonormal_pair();
+            Some((frame, two_ring(v, &faces_of, &mesh.faces, &buried)))
+        })
+        .collect();
+    // 1. The indirect light: the local quadratic's value at the vertex.
+    let indirect: Vec<Rgb> = values.iter().map(|g| g.indirect).collect();
+    let fitted: Vec<Option<Rgb>> = (0..positions.len())
+        .into_par_iter()
+        .map(|v| {
+            let (frame, ring) = local[v].as_ref()?;
+            let mut points = ring.clone();
+            points.push(v as u32);
+            let (x, _, residual) = fit::<6>(v, &points, &positions, &indirect, *frame)?;
+            let bound = tolerance * luminance(values[v].radiance);
+            (residual <= bound).then(|| std::array::from_fn(|k| indirect[v][k] + x[5][k]))
+        })
+        .collect();
+    for (v, fit) in fitted.into_iter().enumerate() {
+        if let Some(fit) = fit {
+            for k in 0..3 {
+                mesh.vertex_radiance[v][k] =
+                    (mesh.vertex_radiance[v][k] + fit[k] - indirect[v][k]).max(0.0);
+            }
+            done.denoised += 1;
+        }
+    }
+    // 2. The chord correction of the whole.
+    let old = &mesh.vertex_radiance;
+    let shifts: Vec<Option<Rgb>> = (0..positions.len())
+        .into_par_iter()
+        .map(|v| {
+            let (frame, ring) = local[v].as_ref()?;
+            let star: Vec<[DVec3; 3]> = faces_of[v].iter().map(|&f| around(f)).collect();
+            chord(v, &star, ring, &positions, old, *frame, tolerance)
+        })
+        .collect();
+    for (value, shift) in mesh.vertex_radiance.iter_mut().zip(shifts) {
+        if let Some(shift) = shift {
+            for (l, s) in value.iter_mut().zip(shift) {
+                *l = (*l + s).max(0.0);
+            }
+            done.chord += 1;
+        }
+    }
+    done
+}
+
+/// The chord correction c_v of the vertex `v` (see the module documentation), from the
+/// quadratic through its value fitted to those at `ring`, in the tangent plane `(t, u)`;
+/// `star` the triangles around it. `None` where the fit fails, misses the values by more than
+/// `tolerance` of v's luminance, or asks for more than that.
+fn chord(
+    v: usize,
+    star: &[[DVec3; 3]],
+    ring: &[u32],
+    positions: &[DVec3],
+    values: &[Rgb],
+    (t, u): (DVec3, DVec3),
+    tolerance: f64,
+) -> Option<Rgb> {
+    let (x, scale, residual) = fit::<5>(v, ring, positions, values, (t, u))?;
+    let s2 = scale * scale;
+    let hessian: [[f64; 3]; 3] =
+        std::array::from_fn(|k| [x[2][k] / s2, x[3][k] / s2, x[4][k] / s2]);
+    let flat = |p: DVec3| [(p - positions[v]).dot(t), (p - positions[v]).dot(u)];
+    // c_v = Σ_T |T| (Σ_e δ_e) / (3 Σ_T |T|), δ_e = −eᵀHe/8.
+    let (mut sum, mut area) = ([0.0; 3], 0.0);
+    for triangle in star {
+        let c = triangle.map(flat);
+        let a = 0.5
+            * ((c[1][0] - c[0][0]) * (c[2][1] - c[0][1])
+                - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]))
+                .abs();
+        for k in 0..3 {
+            let e = [c[(k + 1) % 3][0] - c[k][0], c[(k + 1) % 3][1] - c[k][1]];
+            for (s, h) in sum.iter_mut().zip(&hessian) {
+                *s -=
+                    a * (h[0] * e[0] * e[0] + 2.0 * h[1] * e[0] * e[1] + h[2] * e[1] * e[1]) / 8.0;
+            }
+        }
+        area += a;
+    }
+    if area <= 0.0 {
+        return None;
+    }
+    let shift: Rgb = sum.map(|s| s / (3.0 * area));
+    let y = luminance(values[v]);
+    let bound = tolerance * y;
+    (y > 0.0 && luminance(shift).abs() <= bound && residual <= bound).then_some(shift)
+}
+
+/// The vertices within two edges of `v` over the faces around it (not `v`, none `fixed`),
+/// sorted.
+fn two_ring(v: usize, faces_of: &[Vec<u32>], faces: &[[u32; 3]], fixed: &[bool]) -> Vec<u32> {
+    let one: Vec<u32> = faces_of[v]
+        .iter()
+        .flat_map(|&f| faces[f as usize])
+        .collect();
+    let mut ring: Vec<u32> = one
+        .iter()
+        .flat_map(|&w| faces_of[w as usize].iter().flat_map(|&f| faces[f as usize]))
+        .filter(|&w| w as usize != v && !fixed[w as usize])
+        .collect();
+    ring.sort_unstable();
+    ring.dedup();
+    ring
+}
+
+/// The least-squares quadratic through the `values` at `points` around the vertex `v`, in the
+/// tangent plane spanned by `(t, u)`, relative to v's value: the coefficients per channel of
+/// the first `N` of (x, y, ½x², xy, ½y², 1) in units of the points' RMS distance `scale` from
+/// v (`N` = 5: through v's value; 6: a free value at v, `points` including v), that scale,
+/// and the fit's RMS residual in luminance. `None` if the points do not fix it.
+fn fit<const N: usize>(
+    v: usize,
+    points: &[u32],
+    positions: &[DVec3],
+    values: &[Rgb],
+    (t, u): (DVec3, DVec3),
+) -> Option<([[f64; 3]; N], f64, f64)> {
+    if points.len() < N {
+        return None;
+    }
+    let p0 = positions[v];
+    // Coordinates in units of the points' RMS distance, for the normal equations' conditioning.
+    let scale = (points
+        .iter()
+        .map(|&w| positions[w as usize].distance_squared(p0))
+        .sum::<f64>()
+        / points.len() as f64)
+        .sqrt();
+    if scale <= 0.0 {
+        return None;
+    }
+    let row = |w: u32| -> [f64; N] {
+        let d = (positions[w as usize] - p0) / scale;
+        let (x, y) = (d.dot(t), d.dot(u));
+        let all = [x, y, 0.5 * x * x, x * y, 0.5 * y * y, 1.0];
+        std::array::from_fn(|i| all[i])
+    };
+    let mut ata = [[0.0; N]; N];
+    let mut atb = [[0.0; 3]; N];
+    for &w in points {
+        let r = row(w);
+        for i in 0..N {
+            for j in 0..N {
+                ata[i][j] += r[i] * r[j];
+            }
+            for (k, b) in atb[i].iter_mut().enumerate() {
+                *b += r[i] * (values[w as usize][k] - values[v][k]);
+            }
+        }
+    }
+    let x = solve(ata, atb)?;
+    let residual2: f64 = points
+        .iter()
+        .map(|&w| {
+            let r = row(w);
+            let miss: Rgb = std::array::from_fn(|k| {
+                let model: f64 = (0..N).map(|i| r[i] * x[i][k]).sum();
+                values[w as usize][k] - values[v][k] - model
+            });
+            luminance(miss).powi(2)
+        })
+        .sum();
+    Some((x, scale, (residual2 / points.len() as f64).sqrt()))
+}
+
+/// Solves a x = b (three right-hand sides) by Gaussian elimination with partial pivoting;
+/// `None` where a pivot falls below 10⁻⁹ of the largest diagonal entry (the ring does not fix
+/// the quadratic: too few points, or all on two lines).
+fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [[f64; 3]; N]) -> Option<[[f64; 3]; N]> {
+    let tiny = 1e-9 * (0..N).map(|i| a[i][i]).fold(0.0, f64::max);
+    for c in 0..N {
+        let p = (c..N).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
+        if a[p][c].is_nan() || a[p][c].abs() <= tiny {
+            return None;
+        }
+        a.swap(c, p);
+        b.swap(c, p);
+        let (pivot_a, pivot_b) = (a[c], b[c]);
+        for r in c + 1..N {
+            let f = a[r][c] / pivot_a[c];
+            for (x, y) in a[r][c..].iter_mut().zip(&pivot_a[c..]) {
+                *x -= f * y;
+            }
+            for (x, y) in b[r].iter_mut().zip(&pivot_b) {
+                *x -= f * y;
+            }
+        }
+    }
+    let mut x = [[0.0; 3]; N];
+    for c in (0..N).rev() {
+        for k in 0..3 {
+            let tail: f64 = (c + 1..N).map(|j| a[c][j] * x[j][k]).sum();
+            x[c][k] = (b[c][k] - tail) / a[c][c];
+        }
+    }
+    Some(x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An n × n grid of unit squares on z = 0, each cut into two triangles (counter-clockwise
+    /// seen from +z), and its vertices' gathered values: `direct(x, y)` and `indirect(x, y,
+    /// v)` (v the vertex's index) in every channel, no emission.
+    fn grid(
+        n: usize,
+        direct: impl Fn(f64, f64) -> f64,
+        indirect: impl Fn(f64, f64, usize) -> f64,
+    ) -> (BakedMesh, Vec<Gathered>) {
+        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        let mut faces = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                // Alternate the diagonal, so the triangles are not all alike.
+                if (i + j) % 2 == 0 {
+                    faces.extend([[a, b, c], [a, c, d]]);
+                } else {
+                    faces.extend([[a, b, d], [b, c, d]]);
+                }
+            }
+        }
+        let positions: Vec<[f64; 3]> = (0..=n)
+            .flat_map(|j| (0..=n).map(move |i| [i as f64, j as f64, 0.0]))
+            .collect();
+        let values = positions
+            .iter()
+            .enumerate()
+            .map(|(v, p)| {
+                let (d, i) = (direct(p[0], p[1]), indirect(p[0], p[1], v));
+                Gathered {
+                    radiance: [d + i; 3],
+                    direct: [d; 3],
+                    indirect: [i; 3],
+                    penumbra: false,
+                    buried: false,
+                }
+            })
+            .collect();
+        let mesh = BakedMesh {
+            vertex_radiance: vec![[0.0; 3]; positions.len()],
+            positions,
+            face_radiance: vec![[0.0; 3]; faces.len()],
+            faces,
+            camera: None,
+        };
+        (mesh, values)
+    }
+
+    /// No indirect light.
+    fn none(_: f64, _: f64, _: usize) -> f64 {
+        0.0
+    }
+
+    /// ∫_T of the linear interpolant of the vertex values (channel 0): |T| × their mean.
+    fn displayed_integral(mesh: &BakedMesh, face: [u32; 3]) -> f64 {
+        let p = face.map(|v| DVec3::from(mesh.positions[v as usize]));
+        let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+        area * face
+            .iter()
+            .map(|&v| mesh.vertex_radiance[v as usize][0])
+            .sum::<f64>()
+            / 3.0
+    }
+
+    /// ∫_T f for a quadratic f: the degree-2 rule at the edges' midpoints is exact.
+    fn exact_integral(mesh: &BakedMesh, face: [u32; 3], f: &impl Fn(f64, f64) -> f64) -> f64 {
+        let p = face.map(|v| DVec3::from(mesh.positions[v as usize]));
+        let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+        let mids = [
+            (p[0] + p[1]) / 2.0,
+            (p[1] + p[2]) / 2.0,
+            (p[2] + p[0]) / 2.0,
+        ];
+        area * mids.iter().map(|m| f(m.x, m.y)).sum::<f64>() / 3.0
+    }
+
+    /// The largest |∫_T displayed − ∫_T f| over the triangles.
+    fn worst_shortfall(mesh: &BakedMesh, f: &impl Fn(f64, f64) -> f64) -> f64 {
+        mesh.faces
+            .iter()
+            .map(|&t| (displayed_integral(mesh, t) - exact_integral(mesh, t, f)).abs())
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn a_quadratic_profile_is_displayed_with_its_exact_integral() {
+        // Light profiles concave along x and convex along y on a 6 × 6 grid. The vertices' own
+        // values put the interpolant 2·10⁻⁴ off a triangle's integral; the correction, fitted
+        // from the values alone, has the exact Hessian wherever the fit has (every vertex
+        // here: the boundary ones see their two-ring on one side).
+        // Without a cross term every triangle's Σ_e eᵀHe is the same (either diagonal), so
+        // each triangle's integral comes out exact, to rounding (1e-12).
+        let f = |x: f64, y: f64| 1.0 + 0.02 * x - 0.004 * x * x + 0.002 * y * y;
+        let (mut mesh, values) = grid(6, f, none);
+        mesh.vertex_radiance = values.iter().map(|g| g.radiance).collect();
+        let before = worst_shortfall(&mesh, &f);
+        assert!(before > 1e-4, "the chord's shortfall is visible: {before}");
+        assert_eq!(correct(&mut mesh, &values, 0.02).chord, 49);
+        assert!(worst_shortfall(&mesh, &f) < 1e-12);
+        // With one (0.001 x y), the alternating diagonals give triangles different shortfalls,
+        // which their corners share: the whole surface's integral is still exact (each
+        // triangle's shortfall is spread over its corners' areas, Σ_v c_v m_v = Σ_T D_T), and
+        // each triangle's is left at a fifth (here 4.2·10⁻⁵ of 2.1·10⁻⁴).
+        let f = |x: f64, y: f64| 1.0 + 0.02 * x - 0.004 * x * x + 0.002 * y * y + 0.001 * x * y;
+        let (mut mesh, values) = grid(6, f, none);
+        mesh.vertex_radiance = values.iter().map(|g| g.radiance).collect();
+        let before = worst_shortfall(&mesh, &f);
+        correct(&mut mesh, &values, 0.02);
+        let shown: f64 = mesh
+            .faces
+            .iter()
+            .map(|&t| displayed_integral(&mesh, t))
+            .sum();
+        let exact: f64 = mesh
+            .faces
+            .iter()
+            .map(|&t| exact_integral(&mesh, t, &f))
+            .sum();
+        assert!((shown - exact).abs() < 1e-12, "{shown} vs {exact}");
+        let after = worst_shortfall(&mesh, &f);
+        assert!(
+            after < before / 4.0,
+            "worst triangle {after}, before {before}"
+        );
+    }
+
+    #[test]
+    fn a_linear_profile_and_buried_vertices_are_left_as_they_are() {
+        // A linear field has no chord: every correction is 0 (to rounding, 1e-14).
+        let f = |x: f64, y: f64| 2.0 + 0.1 * x - 0.05 * y;
+        let indirect = |x: f64, y: f64, _| 0.5 - 0.02 * x + 0.03 * y;
+        let (mut mesh, values) = grid(5, f, indirect);
+        correct(&mut mesh, &values, 0.02);
+        for (a, g) in mesh.vertex_radiance.iter().zip(&values) {
+            assert!((a[0] - g.radiance[0]).abs() < 1e-14, "{a:?} vs {g:?}");
+        }
+        // A buried vertex (a wild value: the bake's mean under a block) neither moves nor
+        // bends its neighbours' fits.
+        let (mut mesh, mut values) = grid(5, f, indirect);
+        let buried = 14;
+        values[buried] = Gathered::buried([50.0; 3]);
+        correct(&mut mesh, &values, 0.02);
+        for (v, (a, g)) in mesh.vertex_radiance.iter().zip(&values).enumerate() {
+            assert!(
+                (a[0] - g.radiance[0]).abs() < 1e-14,
+                "vertex {v}: {a:?} vs {g:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_step_is_not_taken_for_a_chord_nor_for_noise() {
+        // A shadow's edge across the grid (x < 2.5 dark, the rest lit). Near it, a quadratic
+        // through the two-ring misses the values by far more than τ (the residual guard), or
+        // asks for a correction over τ (three cells away, where the ring only grazes the
+        // step, it would brighten the lit side by 1.5 % without the residual guard), so every
+        // vertex keeps its value. The same for a step of the indirect light (the fall-off
+        // beside a contact, sharper than a quadratic): not smoothed away.
+        let step = |x: f64| if x < 2.5 { 0.2 } else { 1.0 };
+        for (mut mesh, values) in [
+            grid(6, |x, _| step(x), none),
+            grid(6, |_, _| 1.0, |x, _, _| step(x)),
+        ] {
+            correct(&mut mesh, &values, 0.02);
+            for (a, g) in mesh.vertex_radiance.iter().zip(&values) {
+                assert_eq!(a, &g.radiance);
+            }
+        }
+        // And with τ = 0 nothing moves at all.
+        let (mut mesh, values) = grid(6, |x, y| 1.0 - 0.01 * x * y, |x, _, v| 0.1 * x + v as f64);
+        assert_eq!(correct(&mut mesh, &values, 0.0), Corrected::default());
+        for (a, g) in mesh.vertex_radiance.iter().zip(&values) {
+            assert_eq!(a, &g.radiance);
+        }
+    }
+
+    #[test]
+    fn the_indirect_lights_noise_is_fitted_away() {
+        // A smooth indirect light (0.3 + 0.01 x − 5·10⁻⁴ x²) under a uniform direct light 1 on
+        // a 12 × 12 grid, with noise of ±1 % of the radiance at each vertex (a fixed
+        // pseudo-random sequence: the gather's estimate by a few hundred rays). Fitted over
+        // each vertex's two-ring (about 18 points for 6 coefficients), the vertices' error
+        // against the noiseless bake falls to about half. Asserted: below 0.6 of the noise.
+        let smooth = |x: f64, _: f64, _: usize| 0.3 + 0.01 * x - 5e-4 * x * x;
+        let noise = |v: usize| {
+            let h = (v as u64 + 1)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                .rotate_left(17);
+            0.013 * ((h >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0
+        };
+        let noisy = |x: f64, y: f64, v: usize| smooth(x, y, v) + noise(v);
+        let (mut clean, values) = grid(12, |_, _| 1.0, smooth);
+        correct(&mut clean, &values, 0.02);
+        let (mut mesh, values) = grid(12, |_, _| 1.0, noisy);
+        let done = correct(&mut mesh, &values, 0.02);
+        assert_eq!(done.denoised, 169);
+        let rms = |a: &[Rgb]| {
+            let s: f64 = a
+                .iter()
+                .zip(&clean.vertex_radiance)
+                .map(|(a, b)| (a[0] - b[0]).powi(2))
+                .sum();
+            (s / a.len() as f64).sqrt()
+        };
+        let gathered: Vec<Rgb> = values.iter().map(|g| g.radiance).collect();
+        let (before, after) = (rms(&gathered), rms(&mesh.vertex_radiance));
+        eprintln!("noise {before}, after {after}");
+        assert!(after < 0.6 * before, "noise {before}, after {after}");
+    }
+}
