@@ -102,13 +102,20 @@ pub fn correct(mesh: &mut BakedMesh, values: &[Gathered], tolerance: f64) -> Cor
             Some((frame, two_ring(v, &faces_of, &mesh.faces, &buried)))
         })
         .collect();
-    // 1. The indirect light: the local quadratic's value at the vertex.
+    // 1. The indirect light: the local quadratic's value at the vertex, fitted over the
+    // neighbours that compute the same emitters exactly (where they differ, a large near
+    // emitter's light is in one's direct light and in the other's indirect).
     let indirect: Vec<Rgb> = values.iter().map(|g| g.indirect).collect();
     let fitted: Vec<Option<Rgb>> = (0..positions.len())
         .into_par_iter()
         .map(|v| {
             let (frame, ring) = local[v].as_ref()?;
-            let mut points = ring.clone();
+            let key = values[v].exact_key;
+            let mut points: Vec<u32> = ring
+                .iter()
+                .copied()
+                .filter(|&w| values[w as usize].exact_key == key)
+                .collect();
             points.push(v as u32);
             let (x, _, residual) = fit::<6>(v, &points, &positions, &indirect, *frame)?;
             let bound = tolerance * luminance(values[v].radiance);
@@ -335,6 +342,7 @@ mod tests {
                 Gathered {
                     radiance: [d + i; 3],
                     direct: [d; 3],
+                    exact_key: 0,
                     indirect: [i; 3],
                     penumbra: false,
                     buried: false,
@@ -493,10 +501,10 @@ mod tests {
                 .rotate_left(17);
             0.013 * ((h >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0
         };
-        let noisy = |x: f64, y: f64, v: usize| smooth(x, y, v) + noise(v);
+        let indirect = |x: f64, y: f64, v: usize| smooth(x, y, v) + noise(v);
         let (mut clean, values) = grid(12, |_, _| 1.0, smooth);
         correct(&mut clean, &values, 0.02);
-        let (mut mesh, values) = grid(12, |_, _| 1.0, noisy);
+        let (mut mesh, values) = grid(12, |_, _| 1.0, indirect);
         let done = correct(&mut mesh, &values, 0.02);
         assert_eq!(done.denoised, 169);
         let rms = |a: &[Rgb]| {
