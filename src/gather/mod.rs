@@ -47,7 +47,7 @@
 //! traced against the scene triangles the patches tile (module `trace`). Every random choice is
 //! keyed by (seed, vertex), so a fixed seed gives the same colours for any thread count.
 //!
-//! After the display refinement ([`refine`]), local quadratic fits over each vertex's
+//! After the display refinement ([`mod@refine`]), local quadratic fits over each vertex's
 //! neighbourhood ([`local_fit`]) take the noise out of its indirect light and move its value
 //! by the chord correction, so the display's linear interpolation keeps the light's integral
 //! over each triangle where the light bends smoothly.
