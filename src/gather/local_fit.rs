@@ -83,25 +83,23 @@ pub fn correct(mesh: &mut BakedMesh, values: &[Gathered], tolerance: f64) -> Cor
     }
     let buried: Vec<bool> = values.iter().map(|g| g.buried).collect();
     let around = |f: u32| mesh.faces[f as usize].map(|w| positions[w as usize]);
-    // Each vertex's tangent frame (from the area-weighted normal of the faces around it) and
+    // A vertex's tangent frame (from the area-weighted normal of the faces around it) and
     // the vertices within two edges of it; `None` for a buried vertex or a degenerate star.
-    let local: Vec<Option<(Frame, Vec<u32>)>> = (0..positions.len())
-        .into_par_iter()
-        .map(|v| {
-            if buried[v] {
-                return None;
-            }
-            let normal: DVec3 = faces_of[v]
-                .iter()
-                .map(|&f| {
-                    let c = around(f);
-                    (c[1] - c[0]).cross(c[2] - c[0])
-                })
-                .sum();
-            let frame = normal.try_normalize()?.any_orthonormal_pair();
-            Some((frame, two_ring(v, &faces_of, &mesh.faces, &buried)))
-        })
-        .collect();
+    // Built where needed, twice, rather than kept for every vertex at once (~150 bytes each).
+    let local = |v: usize| -> Option<(Frame, Vec<u32>)> {
+        if buried[v] {
+            return None;
+        }
+        let normal: DVec3 = faces_of[v]
+            .iter()
+            .map(|&f| {
+                let c = around(f);
+                (c[1] - c[0]).cross(c[2] - c[0])
+            })
+            .sum();
+        let frame = normal.try_normalize()?.any_orthonormal_pair();
+        Some((frame, two_ring(v, &faces_of, &mesh.faces, &buried)))
+    };
     // 1. The indirect light: the local quadratic's value at the vertex, fitted over the
     // neighbours that compute the same emitters exactly (where they differ, a large near
     // emitter's light is in one's direct light and in the other's indirect).
@@ -109,7 +107,7 @@ pub fn correct(mesh: &mut BakedMesh, values: &[Gathered], tolerance: f64) -> Cor
     let fitted: Vec<Option<Rgb>> = (0..positions.len())
         .into_par_iter()
         .map(|v| {
-            let (frame, ring) = local[v].as_ref()?;
+            let (frame, ring) = local(v)?;
             let key = values[v].exact_key;
             let mut points: Vec<u32> = ring
                 .iter()
@@ -117,7 +115,7 @@ pub fn correct(mesh: &mut BakedMesh, values: &[Gathered], tolerance: f64) -> Cor
                 .filter(|&w| values[w as usize].exact_key == key)
                 .collect();
             points.push(v as u32);
-            let (x, _, residual) = fit::<6>(v, &points, &positions, &indirect, *frame)?;
+            let (x, _, residual) = fit::<6>(v, &points, &positions, &indirect, frame)?;
             let bound = tolerance * luminance(values[v].radiance);
             (residual <= bound).then(|| std::array::from_fn(|k| indirect[v][k] + x[5][k]))
         })
@@ -136,9 +134,9 @@ pub fn correct(mesh: &mut BakedMesh, values: &[Gathered], tolerance: f64) -> Cor
     let shifts: Vec<Option<Rgb>> = (0..positions.len())
         .into_par_iter()
         .map(|v| {
-            let (frame, ring) = local[v].as_ref()?;
+            let (frame, ring) = local(v)?;
             let star: Vec<[DVec3; 3]> = faces_of[v].iter().map(|&f| around(f)).collect();
-            chord(v, &star, ring, &positions, old, *frame, tolerance)
+            chord(v, &star, &ring, &positions, old, frame, tolerance)
         })
         .collect();
     for (value, shift) in mesh.vertex_radiance.iter_mut().zip(shifts) {
