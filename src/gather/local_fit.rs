@@ -201,10 +201,12 @@ fn chord(
 /// The vertices within two edges of `v` over the faces around it (not `v`, none `fixed`),
 /// sorted.
 fn two_ring(v: usize, faces_of: &[Vec<u32>], faces: &[[u32; 3]], fixed: &[bool]) -> Vec<u32> {
-    let one: Vec<u32> = faces_of[v]
+    let mut one: Vec<u32> = faces_of[v]
         .iter()
         .flat_map(|&f| faces[f as usize])
         .collect();
+    one.sort_unstable();
+    one.dedup();
     let mut ring: Vec<u32> = one
         .iter()
         .flat_map(|&w| faces_of[w as usize].iter().flat_map(|&f| faces[f as usize]))

@@ -291,13 +291,6 @@ const LIFT: f64 = 1e-6;
 /// gather resolves.
 const TOUCH_REACH: f64 = 1e-5;
 
-/// A hash of a list of emitters (FNV-1a over their indices): [`Direct::exact_key`].
-fn exact_key(exact: &[u32]) -> u64 {
-    exact.iter().fold(0xcbf2_9ce4_8422_2325, |h, &k| {
-        (h ^ u64::from(k)).wrapping_mul(0x0100_0000_01b3)
-    })
-}
-
 /// An emitting scene triangle.
 struct Emitter {
     corners: [DVec3; 3],
@@ -418,7 +411,7 @@ impl<'a> Gatherer<'a> {
     pub fn direct(&self, x: DVec3, n: DVec3, ignore: u32, rng: &mut Rng) -> Rgb {
         let rays = (SHADOW_RAYS, MAX_SHADOW_RAYS, OTHER_LIGHT_SAMPLES);
         self.direct_from(x, n, ignore, &self.exact_emitters(x), rays, false, rng)
-            .total
+            .0
     }
 
     /// The emitters whose light is computed exactly at `x`: all of them, or the
@@ -460,7 +453,7 @@ impl<'a> Gatherer<'a> {
         (first, max_rays, others): (usize, usize, usize),
         one_light: bool,
         rng: &mut Rng,
-    ) -> Direct {
+    ) -> (Rgb, bool) {
         let mut targets = Vec::with_capacity(max_rays.max(first));
         let from = self.surfaces.point(x + self.lift * n);
         // Per emitter in front of x: its form factor, and the G-weighted visible and total
@@ -560,15 +553,7 @@ impl<'a> Gatherer<'a> {
                 *s += o;
             }
         }
-        Direct {
-            total: sum,
-            penumbra,
-            exact_key: if exact.len() < self.emitters.len() {
-                exact_key(exact)
-            } else {
-                0
-            },
-        }
+        (sum, penumbra)
     }
 
     /// Whether the emitter `e`, if not computed exactly at `x`, is sampled by the others' shadow
@@ -710,7 +695,7 @@ impl<'a> Gatherer<'a> {
         // direct term counts their emission, the ray at `y` the others'.
         let hi = h as u32;
         let rays = (NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS);
-        let direct = self.direct_from(y, ny, hi, exact, rays, true, rng).total;
+        let (direct, _) = self.direct_from(y, ny, hi, exact, rays, true, rng);
         let (indirect, _) = self.hemisphere(y, ny, hi, exact, NEAR_RAYS, near_bounces, rng);
         let rho = self.patches.reflectance[h];
         std::array::from_fn(|c| rho[c] * (direct[c] + indirect[c]))
@@ -861,19 +846,6 @@ impl<'a> Gatherer<'a> {
 }
 
 /// What the gather found at one output vertex.
-/// The direct light at a point (radiance units, per channel; or reflected, from
-/// [`Gatherer::reflected_direct`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Direct {
-    /// All of it.
-    pub total: Rgb,
-    /// Some exact emitter is partly hidden: the point lies in a penumbra.
-    pub penumbra: bool,
-    /// Which emitters are computed exactly ([`Gatherer::exact_emitters`]): a hash of their
-    /// list, 0 where all of them are.
-    pub exact_key: u64,
-}
-
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gathered {
     /// The radiance shown, W·sr⁻¹·m⁻² per channel: Le + `direct` + `indirect`, or the bake's
@@ -995,15 +967,15 @@ impl Gatherer<'_> {
     }
 
     /// The reflected direct light ρ·Σ_e Le_e F V̄ at `spot` (up to `max_rays` shadow rays per
-    /// emitter), and the emitters computed exactly there.
+    /// emitter), whether it is in a penumbra, and the emitters computed exactly there.
     pub(crate) fn reflected_direct(
         &self,
         spot: &Spot,
         max_rays: usize,
         rng: &mut Rng,
-    ) -> (Direct, Vec<u32>) {
+    ) -> (Rgb, bool, Vec<u32>) {
         let exact = self.exact_emitters(spot.x);
-        let direct = self.direct_from(
+        let (direct, penumbra) = self.direct_from(
             spot.x,
             spot.n,
             spot.patch,
@@ -1013,22 +985,18 @@ impl Gatherer<'_> {
             rng,
         );
         let rho = self.patches.reflectance[spot.patch as usize];
-        let reflected = Direct {
-            total: std::array::from_fn(|c| rho[c] * direct.total[c]),
-            ..direct
-        };
-        (reflected, exact)
+        (std::array::from_fn(|c| rho[c] * direct[c]), penumbra, exact)
     }
 
     /// The `full` gather at `spot`: emission, reflected direct light and reflected indirect
     /// light by `rays` hemisphere rays.
     pub(crate) fn full(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> Gathered {
-        let (direct, exact) = self.reflected_direct(spot, MAX_SHADOW_RAYS, rng);
+        let (direct, penumbra, exact) = self.reflected_direct(spot, MAX_SHADOW_RAYS, rng);
         let indirect = self.indirect(spot.x, spot.n, spot.patch, &exact, rays, rng);
         let p = spot.patch as usize;
         let rho = self.patches.reflectance[p];
         let indirect = std::array::from_fn(|c| rho[c] * indirect[c]);
-        self.with_emission(p, &direct, indirect)
+        self.with_emission(p, (direct, penumbra, &exact), indirect)
     }
 
     /// The reflected indirect light ρ·∫ L cosθ/π dω at `spot` by `rays` hemisphere rays (as
@@ -1052,15 +1020,25 @@ impl Gatherer<'_> {
         )
     }
 
-    /// Le of patch `p` plus the reflected parts.
-    fn with_emission(&self, p: usize, direct: &Direct, indirect: Rgb) -> Gathered {
+    /// Le of patch `p` plus the reflected parts: `direct` as [`Gatherer::reflected_direct`]
+    /// gives it (the light, whether in a penumbra, the emitters computed exactly).
+    fn with_emission(&self, p: usize, direct: (Rgb, bool, &[u32]), indirect: Rgb) -> Gathered {
+        let (direct, penumbra, exact) = direct;
         let le = self.patches.emission[p];
+        // A hash of the exact emitters' list (FNV-1a over their indices), 0 where all are.
+        let exact_key = if exact.len() < self.emitters.len() {
+            exact.iter().fold(0xcbf2_9ce4_8422_2325, |h, &k| {
+                (h ^ u64::from(k)).wrapping_mul(0x0100_0000_01b3)
+            })
+        } else {
+            0
+        };
         Gathered {
-            radiance: std::array::from_fn(|c| le[c] + direct.total[c] + indirect[c]),
-            direct: direct.total,
-            exact_key: direct.exact_key,
+            radiance: std::array::from_fn(|c| le[c] + direct[c] + indirect[c]),
+            direct,
+            exact_key,
             indirect,
-            penumbra: direct.penumbra,
+            penumbra,
             buried: false,
         }
     }
@@ -1143,7 +1121,8 @@ pub fn gather(
                 return gatherer.full(&spot, rays, &mut rng);
             }
             // `direct`: the patches' reflected indirect light, averaged as the bake does.
-            let (direct, _) = gatherer.reflected_direct(&spot, MAX_SHADOW_RAYS, &mut rng);
+            let (direct, penumbra, exact) =
+                gatherer.reflected_direct(&spot, MAX_SHADOW_RAYS, &mut rng);
             let area: f64 = site.patches.iter().map(|&q| p.area[q as usize]).sum();
             let indirect = std::array::from_fn(|c| {
                 let reflected: f64 = site
@@ -1153,7 +1132,7 @@ pub fn gather(
                     .sum();
                 reflected / area
             });
-            gatherer.with_emission(spot.patch as usize, &direct, indirect)
+            gatherer.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect)
         })
         .collect()
 }
@@ -1418,7 +1397,7 @@ mod tests {
         let mean = errors.iter().sum::<f64>() / n;
         let rms = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
         // Measured: mean -2.6e-5, RMS 1.05e-3 over 5,863 vertices (seed 1); 3.9e-5 and
-        // 1.17e-3 after the local fits (which fit each vertex's estimated light over the
+        // 1.17e-3 after the local fits (which fit each vertex's indirect light over the
         // neighbours with the same exact emitters only: over all of them, where the exact
         // emitters change from one vertex to the next and a wall's light moves from `direct`
         // to `indirect`, the RMS was 9.8e-3). With every

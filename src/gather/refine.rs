@@ -235,9 +235,10 @@ pub fn refine(
                 let site = d.midpoint_site(e, &[]);
                 let at_midpoint = gatherer.spot(&site, visible_fraction).map_or(0.0, |spot| {
                     let mut rng = Rng::new(&[seed, e.0 as u64, e.1 as u64, 0x7E57]);
-                    let (dm, exact) = gatherer.reflected_direct(&spot, TEST_SHADOW_RAYS, &mut rng);
-                    let direct = (luminance(dm.total) - luminance(mid(va.direct, vb.direct))).abs()
-                        / reference;
+                    let (dm, _, exact) =
+                        gatherer.reflected_direct(&spot, TEST_SHADOW_RAYS, &mut rng);
+                    let direct =
+                        (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference;
                     if mode != Gather::Full {
                         return direct;
                     }
@@ -337,10 +338,11 @@ pub fn refine(
                         if mode == Gather::Full {
                             gatherer.full(&spot, rays, &mut rng)
                         } else {
-                            let (direct, _) =
+                            let (direct, penumbra, exact) =
                                 gatherer.reflected_direct(&spot, MAX_SHADOW_RAYS, &mut rng);
                             let indirect = mid(va.indirect, vb.indirect);
-                            gatherer.with_emission(spot.patch as usize, &direct, indirect)
+                            let direct = (direct, penumbra, exact.as_slice());
+                            gatherer.with_emission(spot.patch as usize, direct, indirect)
                         }
                     }
                 }
