@@ -35,6 +35,10 @@
 //! choice is ordered by the edges' vertex indices, so a fixed seed gives the same mesh for any
 //! thread count.
 //!
+//! The midpoints tested and left whole are not thrown away: the vertex values are fitted to
+//! them at the end ([`super::local_fit`]), so where the budget ran out the display shows the
+//! light around a vertex, not only at it.
+//!
 //! Why deviation × √length: what a split buys is the squared error it removes over the area
 //! the viewer sees. The error an edge leaves is mostly a discontinuity of the light crossing
 //! its faces (a shadow edge, a penumbra, the rim of a contact), wrong over a strip as long as
@@ -50,6 +54,7 @@ use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
+use super::local_fit::{self, Midpoint};
 use super::{Gather, Gathered, Gatherer, MAX_SHADOW_RAYS};
 use crate::bake::{BakedMesh, Site};
 use crate::color::{luminance, Rgb};
@@ -110,6 +115,9 @@ pub struct Refined {
     /// Output vertices given the chord correction, by 0 where the light is linear
     /// ([`super::local_fit`]).
     pub chord: usize,
+    /// Tested midpoints of edges left whole that the vertex values were fitted to
+    /// ([`super::local_fit`]).
+    pub midpoints: usize,
 }
 
 /// An undirected edge between output vertices (lower index first).
@@ -183,6 +191,9 @@ pub fn refine(
     let mut tests_left = TESTS_PER_NEW_VERTEX * budget;
     let mut candidates: Vec<usize> = (0..d.mesh.faces.len()).collect();
     let mut next_mesh_vertex = d.sites.iter().map(|s| s.mesh_vertex + 1).max().unwrap_or(0);
+    // What the tests found at the midpoints, for the final fit of the values (those of the
+    // edges split are dropped at the end: their midpoints became vertices).
+    let mut midpoints: Vec<Midpoint> = Vec::new();
 
     for _ in 0..MAX_LEVELS {
         let remaining = budget - done.vertices;
@@ -225,9 +236,12 @@ pub fn refine(
         tests_left -= edges.len();
         done.tests += edges.len();
         let seed = gatherer.seed();
-        let deviations: Vec<f64> = edges
+        // Each test's deviation, and the radiance it found at the midpoint (its direct
+        // light, the ends' mean indirect light; None where the midpoint is buried).
+        let tests: Vec<(f64, Option<Rgb>)> = edges
             .par_iter()
             .map(|&(_, e, reference, _)| {
+                let mut found = None;
                 let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
                 // The indirect light: endpoints that differ this much (a contact's fall-off).
                 let indirect =
@@ -237,6 +251,9 @@ pub fn refine(
                     let mut rng = Rng::new(&[seed, e.0 as u64, e.1 as u64, 0x7E57]);
                     let (dm, _, exact) =
                         gatherer.reflected_direct(&spot, TEST_SHADOW_RAYS, &mut rng);
+                    let le = gatherer.patches.emission[spot.patch as usize];
+                    let indirect = mid(va.indirect, vb.indirect);
+                    found = Some(std::array::from_fn(|c| le[c] + dm[c] + indirect[c]));
                     let direct =
                         (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference;
                     if mode != Gather::Full {
@@ -252,11 +269,17 @@ pub fn refine(
                         - SIGNIFICANCE * error;
                     direct.max(departure.max(0.0) / reference)
                 });
-                at_midpoint.max(indirect)
+                (at_midpoint.max(indirect), found)
             })
             .collect();
         let mut split: Vec<Split> = std::mem::take(&mut deferred);
-        for (&(_, edge, _, root), &deviation) in edges.iter().zip(&deviations) {
+        for (&(_, edge, _, root), &(deviation, found)) in edges.iter().zip(&tests) {
+            if let Some(radiance) = found {
+                midpoints.push(Midpoint {
+                    ends: [edge.0, edge.1],
+                    radiance,
+                });
+            }
             if deviation > tolerance {
                 split.push(Split {
                     priority: deviation * root,
@@ -358,8 +381,11 @@ pub fn refine(
         .iter()
         .map(|s| [s.position.x, s.position.y, s.position.z])
         .collect();
-    let corrected = super::local_fit::correct(d.mesh, &d.values, tolerance);
-    (done.denoised, done.chord) = (corrected.denoised, corrected.chord);
+    let present: HashSet<Edge> = d.mesh.faces.iter().flat_map(|&f| face_edges(f)).collect();
+    midpoints.retain(|m| present.contains(&edge(m.ends[0], m.ends[1])));
+    let corrected = local_fit::correct(d.mesh, &d.values, &midpoints, tolerance);
+    (done.denoised, done.chord, done.midpoints) =
+        (corrected.denoised, corrected.chord, corrected.midpoints);
     done
 }
 
