@@ -46,7 +46,8 @@
 //! radiance at that point.
 //!
 //! **The tested midpoints.** The display refinement evaluates the light at the midpoints of
-//! the edges it tests (the direct light exactly, the indirect light as the ends' mean) and
+//! the edges it tests (the direct light exactly, the indirect light as the ends' mean; kept
+//! only where the midpoint and both ends compute the same emitters exactly, as above) and
 //! splits those that depart from the ends' mean by more than τ, until its budget runs out; the
 //! rest stay whole, their midpoints computed and thrown away. Where the budget ran out before
 //! a feature narrower than the triangles was resolved (a chair leg's shadow 5 cm wide across a

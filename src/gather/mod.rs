@@ -1025,14 +1025,7 @@ impl Gatherer<'_> {
     fn with_emission(&self, p: usize, direct: (Rgb, bool, &[u32]), indirect: Rgb) -> Gathered {
         let (direct, penumbra, exact) = direct;
         let le = self.patches.emission[p];
-        // A hash of the exact emitters' list (FNV-1a over their indices), 0 where all are.
-        let exact_key = if exact.len() < self.emitters.len() {
-            exact.iter().fold(0xcbf2_9ce4_8422_2325, |h, &k| {
-                (h ^ u64::from(k)).wrapping_mul(0x0100_0000_01b3)
-            })
-        } else {
-            0
-        };
+        let exact_key = self.exact_key(exact);
         Gathered {
             radiance: std::array::from_fn(|c| le[c] + direct[c] + indirect[c]),
             direct,
@@ -1040,6 +1033,18 @@ impl Gatherer<'_> {
             indirect,
             penumbra,
             buried: false,
+        }
+    }
+
+    /// [`Gathered::exact_key`] of the list `exact` of emitters computed exactly: a hash of it
+    /// (FNV-1a over the indices), 0 where it holds them all.
+    pub(crate) fn exact_key(&self, exact: &[u32]) -> u64 {
+        if exact.len() < self.emitters.len() {
+            exact.iter().fold(0xcbf2_9ce4_8422_2325, |h, &k| {
+                (h ^ u64::from(k)).wrapping_mul(0x0100_0000_01b3)
+            })
+        } else {
+            0
         }
     }
 
@@ -1400,11 +1405,15 @@ mod tests {
         // 1.17e-3 after the local fits (which fit each vertex's indirect light over the
         // neighbours with the same exact emitters only: over all of them, where the exact
         // emitters change from one vertex to the next and a wall's light moves from `direct`
-        // to `indirect`, the RMS was 9.8e-3). With every
+        // to `indirect`, the RMS was 9.8e-3); 1.4e-5 and 0.98e-3 with the values fitted to
+        // the display refinement's tested midpoints too, those whose exact emitters are their
+        // ends' (with every midpoint, whose ends' indirect light may count another set of
+        // walls: 1.69e-3, which the bound below catches). With every
         // emitter beyond the exact ones sampled by shadow rays, however large and near
         // (SAMPLED_SPREAD unbounded), mean -2.3e-3 and RMS 1.4e-2: one ray to a uniform point
-        // of a large wall weights it by area, not by G, and is noisy.
-        assert!(mean.abs() < 1e-3 && rms < 5e-3, "mean {mean}, rms {rms}");
+        // of a large wall weights it by area, not by G, and is noisy. The bound: the noise of
+        // a vertex's few hundred rays, about 1e-3, and half again.
+        assert!(mean.abs() < 1e-3 && rms < 1.5e-3, "mean {mean}, rms {rms}");
     }
 
     #[test]

@@ -237,7 +237,8 @@ pub fn refine(
         done.tests += edges.len();
         let seed = gatherer.seed();
         // Each test's deviation, and the radiance it found at the midpoint (its direct
-        // light, the ends' mean indirect light; None where the midpoint is buried).
+        // light, the ends' mean indirect light; None where the midpoint is buried or its
+        // exact emitters are not its ends').
         let tests: Vec<(f64, Option<Rgb>)> = edges
             .par_iter()
             .map(|&(_, e, reference, _)| {
@@ -251,9 +252,14 @@ pub fn refine(
                     let mut rng = Rng::new(&[seed, e.0 as u64, e.1 as u64, 0x7E57]);
                     let (dm, _, exact) =
                         gatherer.reflected_direct(&spot, TEST_SHADOW_RAYS, &mut rng);
-                    let le = gatherer.patches.emission[spot.patch as usize];
-                    let indirect = mid(va.indirect, vb.indirect);
-                    found = Some(std::array::from_fn(|c| le[c] + dm[c] + indirect[c]));
+                    // Kept where the ends and the midpoint compute the same emitters exactly
+                    // (else the ends' indirect light counts another set of emitters' light).
+                    let key = gatherer.exact_key(&exact);
+                    if va.exact_key == key && vb.exact_key == key {
+                        let le = gatherer.patches.emission[spot.patch as usize];
+                        let ends = mid(va.indirect, vb.indirect);
+                        found = Some(std::array::from_fn(|c| le[c] + dm[c] + ends[c]));
+                    }
                     let direct =
                         (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference;
                     if mode != Gather::Full {
