@@ -319,10 +319,11 @@ pub struct SolveArgs {
     pub gather_rays: Option<u32>,
     /// Display refinement after the gather: an output edge is split (a new vertex gathered at
     /// its midpoint) where the light there departs from the interpolation of its ends by more
-    /// than this fraction of the local luminance; 0 = none. New vertices are bounded: half the
-    /// gather's ray budget. Vertex values are then fitted locally (the indirect light's noise
-    /// averaged, the interpolation made to keep the light's integral) where the fits are
-    /// within this fraction too.
+    /// than this fraction of the local luminance; 0 = none. New vertices are bounded: about
+    /// twice the gather's ray budget. Vertex values are then fitted locally (the indirect
+    /// light's noise averaged, the interpolation made to keep the light's integral) where the
+    /// fits are within this fraction too, and to the light found at the midpoints of the edges
+    /// tested and left whole.
     #[arg(long, value_name = "FRACTION", allow_negative_numbers = true, default_value_t = pipeline::Settings::default().gather_tolerance, help_heading = "Final gather")]
     pub gather_tolerance: f64,
     /// Longest patch edge, scene units [default: bounding-box diagonal / 16].

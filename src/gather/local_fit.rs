@@ -192,7 +192,6 @@ pub fn correct(
         }
     }
     // 3. Every value, and every tested midpoint, fitted at once.
-    let buried: Vec<bool> = values.iter().map(|g| g.buried).collect();
     done.midpoints = fit_midpoints(&mut mesh.vertex_radiance, &buried, midpoints);
     done
 }
@@ -663,7 +662,8 @@ mod tests {
         let mut edges: Vec<[u32; 2]> = mesh
             .faces
             .iter()
-            .flat_map(|t| (0..3).map(move |k| [t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])]))
+            .flat_map(|&t| super::super::refine::face_edges(t))
+            .map(|(a, b)| [a, b])
             .collect();
         edges.sort_unstable();
         edges.dedup();

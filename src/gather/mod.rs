@@ -50,7 +50,8 @@
 //! After the display refinement ([`mod@refine`]), local quadratic fits over each vertex's
 //! neighbourhood ([`local_fit`]) take the noise out of its indirect light and move its value
 //! by the chord correction, so the display's linear interpolation keeps the light's integral
-//! over each triangle where the light bends smoothly.
+//! over each triangle where the light bends smoothly; then all the values are fitted by least
+//! squares to the midpoints the refinement tested and left whole.
 
 use std::f64::consts::PI;
 use std::fmt;

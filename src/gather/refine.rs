@@ -121,14 +121,14 @@ pub struct Refined {
 }
 
 /// An undirected edge between output vertices (lower index first).
-type Edge = (u32, u32);
+pub(super) type Edge = (u32, u32);
 
 fn edge(a: u32, b: u32) -> Edge {
     (a.min(b), a.max(b))
 }
 
 /// The three edges of a face.
-fn face_edges(face: [u32; 3]) -> [Edge; 3] {
+pub(super) fn face_edges(face: [u32; 3]) -> [Edge; 3] {
     std::array::from_fn(|k| edge(face[k], face[(k + 1) % 3]))
 }
 

@@ -122,7 +122,8 @@ pub struct Settings {
     /// Display refinement after the gather ([`mod@crate::gather::refine`]): an output edge is
     /// split where the light at its midpoint departs from the linear interpolation of its
     /// ends by more than this fraction of the local luminance; finite and >= 0 (0 = none).
-    /// The same bound limits the local fits after it ([`mod@crate::gather::local_fit`]).
+    /// The same bound limits the local fits after it, which also fit the values to the
+    /// midpoints tested and left whole ([`mod@crate::gather::local_fit`]).
     pub gather_tolerance: f64,
 }
 
