@@ -170,6 +170,12 @@ pub enum SceneKind {
     /// A living room (432 triangles, metres, z up): ceiling panel and wall lamp, sofa,
     /// bookshelf, coffee table and a ball; the point-wise benchmark's untuned scene.
     LivingRoom,
+    /// Two rooms joined by a doorway (68 triangles, metres, z up): one ceiling panel in the
+    /// first, the second lit through the doorway; a point-wise benchmark scene.
+    TwoRooms,
+    /// A study under one small bright downlight (418 triangles, metres, z up): a desk on legs
+    /// with a monitor, a wall shelf and a ball; a point-wise benchmark scene.
+    Study,
 }
 
 /// Options of `radiosity generate`.

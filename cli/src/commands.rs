@@ -191,6 +191,8 @@ pub fn generate(args: &GenerateArgs) -> Result<u8, Failure> {
             scenes::furnished_hall(args.triangles)?
         }
         SceneKind::LivingRoom => scenes::living_room()?,
+        SceneKind::TwoRooms => scenes::two_rooms()?,
+        SceneKind::Study => scenes::study()?,
     };
     io::obj::save(&scene, &args.output)?;
     Ok(0)
