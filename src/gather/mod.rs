@@ -674,7 +674,7 @@ impl<'a> Gatherer<'a> {
         rng: &mut Rng,
     ) -> Rgb {
         self.hemisphere(x, n, ignore, exact, rays, NEAR_DEPTH, rng)
-            .0
+            .radiance
     }
 
     /// The reflected radiance ρ·(direct + indirect) leaving the point `y` of patch `h`, one
@@ -697,14 +697,15 @@ impl<'a> Gatherer<'a> {
         let hi = h as u32;
         let rays = (NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS, NEAR_SHADOW_RAYS);
         let (direct, _) = self.direct_from(y, ny, hi, exact, rays, true, rng);
-        let (indirect, _) = self.hemisphere(y, ny, hi, exact, NEAR_RAYS, near_bounces, rng);
+        let indirect = self
+            .hemisphere(y, ny, hi, exact, NEAR_RAYS, near_bounces, rng)
+            .radiance;
         let rho = self.patches.reflectance[h];
         std::array::from_fn(|c| rho[c] * (direct[c] + indirect[c]))
     }
 
-    /// [`Gatherer::indirect`], following at most `near_bounces` near hits in a chain; and
-    /// the standard error of the estimate's luminance, from the rays' spread (an upper bound:
-    /// the rays are stratified).
+    /// [`Gatherer::indirect`], following at most `near_bounces` near hits in a chain, with the
+    /// standard error of the estimate and the share of its rays that met a back face.
     #[allow(clippy::too_many_arguments)]
     fn hemisphere(
         &self,
@@ -715,9 +716,10 @@ impl<'a> Gatherer<'a> {
         rays: usize,
         near_bounces: u32,
         rng: &mut Rng,
-    ) -> (Rgb, f64) {
+    ) -> Hemisphere {
         let (t, b) = n.any_orthonormal_pair();
         let mut sum = [0.0; 3];
+        let mut backs = 0usize;
         // Σ Y² of what each ray brings, for the spread.
         let mut squares = 0.0;
         // The sky: rays above the horizon, and those of them that leave the scene.
@@ -733,9 +735,13 @@ impl<'a> Gatherer<'a> {
             let dir = malley(u, v, t, b, n);
             let is_above = dir.dot(up) > 0.0;
             above += usize::from(is_above);
-            let brought = self
-                .along(x, n, dir, ignore, exact, near_bounces, rng)
-                .unwrap_or_else(|| {
+            let brought = match self.along(x, n, dir, ignore, exact, near_bounces, rng) {
+                Ray::Brought(l) => l,
+                Ray::Back => {
+                    backs += 1;
+                    [0.0; 3]
+                }
+                Ray::Left => {
                     // Left the scene: the sky's radiance from there (none below the horizon;
                     // a uniform sky's comes by the ratio estimate below).
                     open += usize::from(is_above);
@@ -744,7 +750,8 @@ impl<'a> Gatherer<'a> {
                     } else {
                         self.env.escaped(dir)
                     }
-                });
+                }
+            };
             squares += luminance(brought).powi(2);
             for (s, l) in sum.iter_mut().zip(brought) {
                 *s += l;
@@ -759,11 +766,15 @@ impl<'a> Gatherer<'a> {
                 *o += l;
             }
         }
-        (out, (spread / count).sqrt())
+        Hemisphere {
+            radiance: out,
+            error: (spread / count).sqrt(),
+            backs: backs as f64 / count,
+        }
     }
 
     /// What one hemisphere ray from `x` along `dir` brings from the scene's surfaces (see
-    /// [`Gatherer::hemisphere`]); `None` when it leaves the scene.
+    /// [`Gatherer::hemisphere`]).
     #[allow(clippy::too_many_arguments)]
     fn along(
         &self,
@@ -774,11 +785,13 @@ impl<'a> Gatherer<'a> {
         exact: &[u32],
         near_bounces: u32,
         rng: &mut Rng,
-    ) -> Option<Rgb> {
-        let hit = self.surfaces.closest(x + self.lift * n, dir, ignore)?;
+    ) -> Ray {
+        let Some(hit) = self.surfaces.closest(x + self.lift * n, dir, ignore) else {
+            return Ray::Left;
+        };
         let h = hit.patch as usize;
         if self.patches.normal[h].dot(dir) >= 0.0 {
-            return Some([0.0; 3]); // the back of a one-sided surface sends nothing
+            return Ray::Back; // the back of a one-sided surface sends nothing
         }
         // The emitted part of what it sends was counted by the direct term if its emitter
         // is one of `exact` or sampled from here (the others' rays).
@@ -791,11 +804,11 @@ impl<'a> Gatherer<'a> {
             // hit point; evaluate it there, one bounce further (see NEAR_HIT).
             let y = x + self.lift * n + hit.t * dir;
             let reflected = self.reflected_at_hit(y, h, exact, near_bounces - 1, rng);
-            return Some(std::array::from_fn(|c| {
+            return Ray::Brought(std::array::from_fn(|c| {
                 (if counted { 0.0 } else { le[c] }) + reflected[c]
             }));
         }
-        Some(std::array::from_fn(|c| {
+        Ray::Brought(std::array::from_fn(|c| {
             if counted {
                 (l[c] - le[c]).max(0.0)
             } else {
@@ -882,6 +895,27 @@ impl Gathered {
 
 /// Where the gather evaluates at a site: the point, its normal and the patch it lies on
 /// (whose rays ignore), or `None` when the point is buried.
+/// What one hemisphere ray brings ([`Gatherer::along`]).
+enum Ray {
+    /// It left the scene (the sky's, if any).
+    Left,
+    /// It met the back of a one-sided surface, which sends nothing.
+    Back,
+    /// The radiance it brings from a front face.
+    Brought(Rgb),
+}
+
+/// A hemisphere's estimate ([`Gatherer::hemisphere`]).
+struct Hemisphere {
+    /// The incident radiance's cosine-weighted mean, ∫ L cosθ/π dω (radiance units).
+    radiance: Rgb,
+    /// The standard error of its luminance, from the rays' spread (an upper bound: the rays
+    /// are stratified).
+    error: f64,
+    /// The share of the rays that met the back of a surface, in [0, 1].
+    backs: f64,
+}
+
 pub(crate) struct Spot {
     x: DVec3,
     n: DVec3,
@@ -1001,23 +1035,24 @@ impl Gatherer<'_> {
     }
 
     /// The reflected indirect light ρ·∫ L cosθ/π dω at `spot` by `rays` hemisphere rays (as
-    /// [`Gatherer::full`] computes it, `exact` the emitters its direct term counts), and a
-    /// bound on the standard error of its luminance (max ρ × the rays' spread): what the
-    /// display refinement tests a midpoint with.
+    /// [`Gatherer::full`] computes it, `exact` the emitters its direct term counts), a bound
+    /// on the standard error of its luminance (max ρ × the rays' spread), and the share of
+    /// the rays that met the back of a surface: what the display refinement tests a midpoint
+    /// with.
     pub(crate) fn reflected_indirect(
         &self,
         spot: &Spot,
         exact: &[u32],
         rays: usize,
         rng: &mut Rng,
-    ) -> (Rgb, f64) {
-        let (indirect, error) =
-            self.hemisphere(spot.x, spot.n, spot.patch, exact, rays, NEAR_DEPTH, rng);
+    ) -> (Rgb, f64, f64) {
+        let h = self.hemisphere(spot.x, spot.n, spot.patch, exact, rays, NEAR_DEPTH, rng);
         let rho = self.patches.reflectance[spot.patch as usize];
         let rho_max = rho.iter().copied().fold(0.0, f64::max);
         (
-            std::array::from_fn(|c| rho[c] * indirect[c]),
-            rho_max * error,
+            std::array::from_fn(|c| rho[c] * h.radiance[c]),
+            rho_max * h.error,
+            h.backs,
         )
     }
 
@@ -1463,7 +1498,9 @@ mod tests {
             let mut rng = Rng::new(&[1, k as u64]);
             let direct = g.direct(x, n, patch, &mut rng);
             let mut shown = |depth: u32| {
-                let (ind, _) = g.hemisphere(x, n, patch, &exact, 4096, depth, &mut rng);
+                let ind = g
+                    .hemisphere(x, n, patch, &exact, 4096, depth, &mut rng)
+                    .radiance;
                 let l: Rgb = std::array::from_fn(|c| rho[c] * (direct[c] + ind[c]));
                 lum(l) / lum(p.radiance) - 1.0
             };
