@@ -309,16 +309,8 @@ pub fn living_room() -> Result<Scene> {
     let lamp = b.material("lamp", [0.0; 3], [8.0, 6.0, 4.0]);
     let height = 2.6;
     let size = DVec3::new(5.0, 4.0, height);
-    // The room, seen from inside; faces −x, +x, −y, +y, −z (floor), +z (ceiling).
-    for (k, mut q) in box_faces(DVec3::ZERO, size).into_iter().enumerate() {
-        q.reverse();
-        let m = match k {
-            1 => blue,
-            4 => floor,
-            _ => white,
-        };
-        b.quad(q, m);
-    }
+    // The room, seen from inside, its wall x = 5 (+x) blue.
+    room_shell(&mut b, size, floor, white, Some((1, blue)));
     let v = DVec3::new;
     // The ceiling panel, 1 cm under the ceiling, facing down.
     let (lx, ly, z) = (1.1, 1.95, height - 0.01);
@@ -360,17 +352,21 @@ pub fn living_room() -> Result<Scene> {
         let lo = v(tx + dx, ty + dy, 0.0);
         add_box(&mut b, lo, lo + v(0.04, 0.04, 0.40), false, wood);
     }
-    // The ball, resting on the floor (outward faces).
+    // The ball, resting on the floor.
+    add_ball(&mut b, v(3.9, 1.3, 0.25), 0.25, ball);
+    b.build()
+}
+
+/// A ball of 320 faces (the icosphere of level 2) at `centre`, fronts facing out.
+fn add_ball(b: &mut SceneBuilder, centre: DVec3, radius: f64, material: u32) {
     let (positions, faces) = icosphere(2);
-    let (centre, radius) = (v(3.9, 1.3, 0.25), 0.25);
     let ids: Vec<u32> = positions
         .iter()
         .map(|p| b.vertex(centre + *p * radius))
         .collect();
     for f in faces {
-        b.triangle([ids[f[0]], ids[f[1]], ids[f[2]]], ball);
+        b.triangle([ids[f[0]], ids[f[1]], ids[f[2]]], material);
     }
-    b.build()
 }
 
 /// The faces of the axis-aligned rectangle [lo, hi] (one of its extents zero) with its front
@@ -515,15 +511,7 @@ pub fn study() -> Result<Scene> {
         monitor,
     );
     add_box(&mut b, v(0.2, 2.75, 1.5), v(1.0, 3.0, 1.53), false, shelf);
-    let (positions, faces) = icosphere(2);
-    let (centre, radius) = (v(3.2, 2.0, 0.2), 0.2);
-    let ids: Vec<u32> = positions
-        .iter()
-        .map(|p| b.vertex(centre + *p * radius))
-        .collect();
-    for f in faces {
-        b.triangle([ids[f[0]], ids[f[1]], ids[f[2]]], ball);
-    }
+    add_ball(&mut b, v(3.2, 2.0, 0.2), 0.2, ball);
     b.build()
 }
 
