@@ -893,8 +893,6 @@ impl Gathered {
     }
 }
 
-/// Where the gather evaluates at a site: the point, its normal and the patch it lies on
-/// (whose rays ignore), or `None` when the point is buried.
 /// What one hemisphere ray brings ([`Gatherer::along`]).
 enum Ray {
     /// It left the scene (the sky's, if any).
@@ -916,6 +914,8 @@ struct Hemisphere {
     backs: f64,
 }
 
+/// Where the gather evaluates at a site: the point, its normal and the patch it lies on
+/// (whose rays ignore), or `None` when the point is buried.
 pub(crate) struct Spot {
     x: DVec3,
     n: DVec3,

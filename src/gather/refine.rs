@@ -576,6 +576,7 @@ mod tests {
     use crate::pipeline::{self, Outcome, Settings};
     use crate::scene::{Scene, SceneBuilder};
     use crate::validation::pointwise::{Display, Probe};
+    use crate::validation::scenes;
 
     /// Receiver ρ, emitter Le, and the blocker's height.
     const RHO: f64 = 0.5;
@@ -810,13 +811,11 @@ mod tests {
         let grey = b.material("grey", [0.5; 3], [0.0; 3]);
         let src = b.material("light", [0.0; 3], [10.0; 3]);
         let v = DVec3::new;
-        crate::validation::scenes::add_box(&mut b, DVec3::ZERO, v(2.0, 1.0, 1.0), true, grey);
+        scenes::add_box(&mut b, DVec3::ZERO, v(2.0, 1.0, 1.0), true, grey);
         for (x, side) in [(1.0, 0), (1.1, 1)] {
-            let q = crate::validation::scenes::box_faces(v(x, 0.0, 0.0), v(x, 1.0, 1.0))[side];
-            b.quad(q, grey);
+            scenes::rectangle(&mut b, v(x, 0.0, 0.0), v(x, 1.0, 1.0), side, grey);
         }
-        let light = crate::validation::scenes::box_faces(v(0.3, 0.3, 0.99), v(0.7, 0.7, 0.99));
-        b.quad(light[4], src);
+        scenes::rectangle(&mut b, v(0.3, 0.3, 0.99), v(0.7, 0.7, 0.99), 4, src);
         let scene = b.build().unwrap();
         let out = pipeline::solve_scene(&scene, &Settings::default()).unwrap();
         assert!(out.report.display_refinement.vertices > 0);

@@ -372,12 +372,13 @@ fn add_ball(b: &mut SceneBuilder, centre: DVec3, radius: f64, material: u32) {
 /// The faces of the axis-aligned rectangle [lo, hi] (one of its extents zero) with its front
 /// towards `side`, numbered as [`box_faces`] numbers a box's faces (0 −x, 1 +x, 2 −y, 3 +y,
 /// 4 −z, 5 +z).
-fn rectangle(b: &mut SceneBuilder, lo: DVec3, hi: DVec3, side: usize, material: u32) {
+pub(crate) fn rectangle(b: &mut SceneBuilder, lo: DVec3, hi: DVec3, side: usize, material: u32) {
     b.quad(box_faces(lo, hi)[side], material);
 }
 
-/// The shell of a room [0, size], seen from inside, with `floor` below and `walls` elsewhere
-/// except the wall in [`box_faces`] order `feature` (if any), which gets `feature_material`.
+/// The shell of a room [0, size], seen from inside, with `floor` below and `walls` elsewhere,
+/// except that `feature` = (k, m), if given, makes the wall numbered k in [`box_faces`] order
+/// of material m.
 fn room_shell(
     b: &mut SceneBuilder,
     size: DVec3,
