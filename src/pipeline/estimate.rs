@@ -62,7 +62,7 @@ pub const HIERARCHICAL_MEMORY_SPREAD: f64 = 5.5;
 const LEAVES_PER_ROOT: f64 = 2.0;
 /// Seconds of a full final gather and its display refinement on 2 cores: 4·10⁶ rays and up
 /// to twice as many again, about 0.35 µs each (Cornell box 2.5 s; hall of 10⁴ triangles with
-/// 162 lights 8.5 s).
+/// 162 lights 8.5 s), before the rays beside edges ([`gather::EDGE_RAYS`] more).
 const GATHER_SECONDS: f64 = 4.2;
 /// Seconds on 2 cores per shadow ray to a light outside the mesh (a point or spot light, or
 /// the sun's [`crate::environment::SUN_RAYS`]) at an output vertex: every vertex of the gather
@@ -171,9 +171,10 @@ impl Estimate {
             e.gather = Gather::None;
         }
         if e.gather != Gather::None {
+            // The rays beside edges come on top ([`gather::EDGE_RAYS`]).
             let rays = s.gather_rays.map_or(gather::AUTO_RAY_BUDGET as f64, |r| {
                 r as f64 * e.max_patches as f64
-            });
+            }) * (1.0 + gather::EDGE_RAYS);
             e.seconds += GATHER_SECONDS * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
             // The lights outside the mesh: a shadow ray each at every output vertex (about one
             // per patch or leaf) and at every vertex the display refinement adds (its budget

@@ -118,6 +118,8 @@ pub struct Settings {
     pub gather: Gather,
     /// Hemisphere rays per vertex of the `full` gather, in 1..=65536; `None` =
     /// [`crate::gather::auto_rays`] (a budget of 4·10⁶ rays over the vertices, 64 to 1024 each).
+    /// From 122 rays on (12 × 12 strata), [`crate::gather::EDGE_RAYS`] more go beside edges of
+    /// the incident light.
     pub gather_rays: Option<u32>,
     /// Display refinement after the gather ([`mod@crate::gather::refine`]): an output edge is
     /// split where the light at its midpoint departs from the linear interpolation of its
