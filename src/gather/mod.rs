@@ -196,17 +196,18 @@ impl Gather {
 }
 
 /// More hemisphere rays, as a share of a gather's `rays`, cast into the strata beside an edge
-/// of the incident light ([`Gatherer::hemisphere`]): a bright surface seen through a doorway
-/// or past an occluder, whose outline the stratified rays cross. There a stratum's one ray
-/// finds either side, and those strata carry most of the estimate's variance (it falls as
-/// rays^-0.75, the edge strata's count times their variance over rays², not as rays^-1.5 as
-/// for a smooth integrand). Measured against the point-wise probes at the defaults (displayed
-/// RMS, one seed; BENCHMARKS "Rays where the light has edges"): 0 → 0.5 took the room lit
-/// through a doorway (`two_rooms`) from 1.15 % to 0.96 % (room B's probes gathered at 324
-/// rays: 4.4 % → 2.5 %; 1,024 plain rays give 2.0 %), the Cornell box 0.68 → 0.58 %, the
-/// living room 0.55 → 0.53 %, the study 0.64 → 0.63 %, for 1.2–2.3 s more gather (about a
-/// third more). With the same rays in all, fewer in each stratum at first (324 → 225 + 112
-/// more), `two_rooms` 1.03 %: the edges need the first rays' resolution too.
+/// of the incident light (the hemisphere rays of [`Gatherer::indirect`]): a bright surface
+/// seen through a doorway or past an occluder, whose outline the stratified rays cross. A
+/// stratum on the outline finds either side with its one ray, and those strata carry most of
+/// the estimate's variance: there the stratified error falls as rays^-0.75 (the outline's
+/// strata, ∝ √rays, each with a variance ∝ 1/rays²), against rays^-1 for a smooth integrand.
+/// Measured against the point-wise probes at the defaults (displayed RMS, one seed;
+/// BENCHMARKS "Rays where the light has edges"): 0 → 0.5 took the room lit through a doorway
+/// (`two_rooms`) from 1.15 % to 0.96 % (room B's probes gathered at 324 rays: 4.4 % → 2.5 %;
+/// 1,024 plain rays give 2.0 %), the Cornell box 0.68 → 0.59 %, the living room 0.55 →
+/// 0.53 %, the study 0.64 → 0.62 %, for about a third more gather time (1–2 s). With the same
+/// rays in all, fewer in each stratum at first (324 → 225 + 112 more), `two_rooms` 1.03 %:
+/// the edges need the first rays' resolution too.
 pub const EDGE_RAYS: f64 = 0.5;
 
 /// Strata per side (of `rays`' √rays × √rays) from which a hemisphere adds [`EDGE_RAYS`]:
