@@ -5,6 +5,7 @@
 use std::collections::HashMap;
 
 use glam::DVec3;
+use radiosity::gather::Gather;
 use radiosity::pipeline::{self, Method, Outcome};
 use radiosity::scene::{Scene, SceneBuilder};
 use radiosity::solve;
@@ -21,6 +22,8 @@ fn hierarchical(epsilon: f64, min_area: f64) -> pipeline::Settings {
     s.hierarchical.epsilon = epsilon;
     s.hierarchical.min_area = min_area;
     s.solver.tolerance = 1e-10;
+    // These tests read the solution, not the display: no final gather.
+    s.gather = Gather::None;
     s
 }
 

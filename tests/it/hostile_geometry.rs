@@ -6,6 +6,7 @@
 
 use glam::DVec3;
 use radiosity::form_factor::Estimator;
+use radiosity::gather::Gather;
 use radiosity::pipeline::Outcome;
 use radiosity::scene::{Scene, SceneBuilder};
 use radiosity::solve::Method;
@@ -99,6 +100,8 @@ fn assert_sane(name: &str, scene: &Scene, max_edge: f64) {
     for estimator in ESTIMATORS {
         let mut s = settings(max_edge, estimator, 3, Method::GaussSeidel, 1);
         s.form_factors.rays = 256;
+        // The whole pipeline, the final gather and its display refinement included.
+        s.gather = Gather::Auto;
         let out = run(scene, &s);
         // These scenes have no occluders, so the contour estimator's rows are exact per
         // sample point (≤ 1 up to f64 rounding, then f32 storage ~6e-8 per entry) and the
@@ -121,6 +124,12 @@ fn assert_sane(name: &str, scene: &Scene, max_edge: f64) {
             );
         }
         assert!(out.solution.converged, "{name} {estimator:?}");
+        for (v, l) in out.baked.vertex_radiance.iter().enumerate() {
+            assert!(
+                l.iter().all(|x| x.is_finite() && *x >= 0.0),
+                "{name} {estimator:?}: vertex {v} shows {l:?}"
+            );
+        }
     }
 }
 

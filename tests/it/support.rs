@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use nalgebra::{DMatrix, DVector};
 use radiosity::form_factor::{self, Estimator};
+use radiosity::gather::Gather;
 use radiosity::pipeline::{self, Outcome};
 use radiosity::scene::Scene;
 use radiosity::solve::{self, Method};
@@ -45,6 +46,9 @@ pub fn settings(
             bounces,
             ..solve::Settings::default()
         },
+        // These tests read the solution (the patches' radiance), not the display: no final
+        // gather, whose own tests are the library's (gather) and the command line's.
+        gather: Gather::None,
         ..pipeline::Settings::default()
     }
 }
