@@ -757,7 +757,7 @@ impl<'a> Gatherer<'a> {
         near_bounces: u32,
         rng: &mut Rng,
     ) -> Hemisphere {
-        let (t, b) = n.any_orthonormal_pair();
+        let frame = Frame::of(n);
         let mut sum = [0.0; 3];
         let mut backs = 0usize;
         // Σ Y² of what each ray brings, for the spread.
@@ -772,10 +772,7 @@ impl<'a> Gatherer<'a> {
         let edges = side >= EDGE_MIN_SIDE && self.edge_rays > 0.0;
         let mut strata: Vec<Rgb> = Vec::with_capacity(if edges { total } else { 0 });
         for k in 0..total {
-            let (i, j) = (k / side, k % side);
-            let u = (i as f64 + rng.next_f64()) / side as f64;
-            let v = (j as f64 + rng.next_f64()) / side as f64;
-            let dir = malley(u, v, t, b, n);
+            let dir = frame.in_stratum(k, side, rng);
             let is_above = dir.dot(up) > 0.0;
             above += usize::from(is_above);
             let brought = match self.along(x, n, dir, ignore, exact, near_bounces, rng) {
@@ -785,14 +782,8 @@ impl<'a> Gatherer<'a> {
                     [0.0; 3]
                 }
                 Ray::Left => {
-                    // Left the scene: the sky's radiance from there (none below the horizon;
-                    // a uniform sky's comes by the ratio estimate below).
                     open += usize::from(is_above);
-                    if self.env.sky_model == SkyModel::Uniform {
-                        [0.0; 3]
-                    } else {
-                        self.env.escaped(dir)
-                    }
+                    self.left_along(dir)
                 }
             };
             squares += luminance(brought).powi(2);
@@ -805,7 +796,7 @@ impl<'a> Gatherer<'a> {
         }
         let count = total as f64;
         if edges {
-            sum = self.beside_edges(x, n, ignore, exact, near_bounces, &strata, rng);
+            sum = self.beside_edges(x, &frame, ignore, exact, near_bounces, &strata, rng);
         }
         let mut out = sum.map(|s| s / count);
         let spread = (squares / count - luminance(out).powi(2)).max(0.0);
@@ -838,7 +829,7 @@ impl<'a> Gatherer<'a> {
     fn beside_edges(
         &self,
         x: DVec3,
-        n: DVec3,
+        frame: &Frame,
         ignore: u32,
         exact: &[u32],
         near_bounces: u32,
@@ -866,7 +857,6 @@ impl<'a> Gatherer<'a> {
             })
             .collect();
         let spread: f64 = range.iter().sum();
-        let (t, b) = n.any_orthonormal_pair();
         let mut sum = [0.0; 3];
         for (k, &first) in strata.iter().enumerate() {
             // m_k ∝ range_k, normalised by the ranges that do not see stratum k's own ray (not
@@ -879,18 +869,13 @@ impl<'a> Gatherer<'a> {
             } else {
                 0
             };
-            let (i, j) = (k / side, k % side);
             let mut stratum = first;
             for _ in 0..m {
-                let u = (i as f64 + rng.next_f64()) / side as f64;
-                let v = (j as f64 + rng.next_f64()) / side as f64;
-                let dir = malley(u, v, t, b, n);
-                let brought = match self.along(x, n, dir, ignore, exact, near_bounces, rng) {
+                let dir = frame.in_stratum(k, side, rng);
+                let brought = match self.along(x, frame.n, dir, ignore, exact, near_bounces, rng) {
                     Ray::Brought(l) => l,
                     Ray::Back => [0.0; 3],
-                    // As in `hemisphere`: a uniform sky comes by its ratio estimate.
-                    Ray::Left if self.env.sky_model == SkyModel::Uniform => [0.0; 3],
-                    Ray::Left => self.env.escaped(dir),
+                    Ray::Left => self.left_along(dir),
                 };
                 for (s, l) in stratum.iter_mut().zip(brought) {
                     *s += l;
@@ -901,6 +886,17 @@ impl<'a> Gatherer<'a> {
             }
         }
         sum
+    }
+
+    /// What a hemisphere ray that left the scene along `dir` brings: the sky's radiance from
+    /// there (none below the horizon), or nothing from a uniform sky, whose light
+    /// [`Gatherer::hemisphere`] adds by its ratio estimate.
+    fn left_along(&self, dir: DVec3) -> Rgb {
+        if self.env.sky_model == SkyModel::Uniform {
+            [0.0; 3]
+        } else {
+            self.env.escaped(dir)
+        }
     }
 
     /// What one hemisphere ray from `x` along `dir` brings from the scene's surfaces (see
@@ -1042,6 +1038,31 @@ struct Hemisphere {
     error: f64,
     /// The share of the rays that met the back of a surface, in [0, 1].
     backs: f64,
+}
+
+/// The tangent frame of a hemisphere, and the cosine-weighted direction in one of its strata.
+struct Frame {
+    t: DVec3,
+    b: DVec3,
+    /// The unit normal.
+    n: DVec3,
+}
+
+impl Frame {
+    fn of(n: DVec3) -> Frame {
+        let (t, b) = n.any_orthonormal_pair();
+        Frame { t, b, n }
+    }
+
+    /// A direction drawn uniformly (cosine-weighted on the hemisphere: Malley, uniform on the
+    /// disc, lifted) in stratum k of the unit square's `side` × `side`: row k / side of the
+    /// radial coordinate, column k % side of the angle.
+    fn in_stratum(&self, k: usize, side: usize, rng: &mut Rng) -> DVec3 {
+        let (i, j) = (k / side, k % side);
+        let u = (i as f64 + rng.next_f64()) / side as f64;
+        let v = (j as f64 + rng.next_f64()) / side as f64;
+        malley(u, v, self.t, self.b, self.n)
+    }
 }
 
 /// Where the gather evaluates at a site: the point, its normal and the patch it lies on
