@@ -10,7 +10,9 @@
 //! 2. **Reference** ([`trace_reference`]): outgoing radiance at each probe from the independent
 //!    path tracer ([`super::path_tracer`], next-event estimation with MIS), paths added per
 //!    probe until the standard error of its luminance is at most a target fraction of it
-//!    (0.3 % by default) or a path limit is reached.
+//!    (0.3 % by default) or a path limit is reached; the probes the score counts get a higher
+//!    limit, so that they all reach the target. A traced reference can be continued where it
+//!    stopped (to a stricter rule) with the same result as tracing it afresh.
 //! 3. **What the bake displays** ([`Display::at`]): the baked mesh's radiance at each probe,
 //!    interpolated barycentrically from its three vertices (what MeshLab shows with vertex
 //!    colours) and the face's own solved value (flat shading).
@@ -63,8 +65,13 @@ pub struct ReferenceSettings {
     pub relative_error: f64,
     /// Paths per probe at least (so the error estimate itself is trustworthy) …
     pub min_paths: u32,
-    /// … and at most (a probe in deep shadow may never reach `relative_error`).
+    /// … and at most (a probe in deep shadow may never reach `relative_error`) …
     pub max_paths: u32,
+    /// … except a probe the score counts (brighter than a tenth of the probes' mean
+    /// luminance, [`scored`]): it goes on to this many, so the reference's noise at the
+    /// scored probes stays at `relative_error` (a room lit through a doorway has scored probes
+    /// a tenth as bright as the mean, which need several million paths for 0.3 %).
+    pub scored_max_paths: u32,
     pub seed: u64,
 }
 
@@ -74,6 +81,7 @@ impl Default for ReferenceSettings {
             relative_error: 0.003,
             min_paths: 4096,
             max_paths: 1 << 20,
+            scored_max_paths: 1 << 22,
             seed: 1,
         }
     }
@@ -154,6 +162,29 @@ impl Sums {
         self.paths += count;
     }
 
+    /// The sums a traced probe stands for, rebuilt from its mean and standard error (zero
+    /// for a probe not yet traced).
+    fn of(probe: &Probe) -> Sums {
+        let n = probe.paths as f64;
+        if probe.paths == 0 {
+            return Sums::default();
+        }
+        let mean = luminance(probe.radiance);
+        // std_error² = var / n, var = (y2/n − mean²) · n/(n − 1).
+        let var = probe.std_error * probe.std_error * n;
+        let y2 = if probe.paths > 1 {
+            n * (var * (n - 1.0) / n + mean * mean)
+        } else {
+            n * mean * mean
+        };
+        Sums {
+            rgb: probe.radiance.map(|c| c * n),
+            y: mean * n,
+            y2,
+            paths: probe.paths,
+        }
+    }
+
     fn mean(&self) -> Rgb {
         let n = self.paths.max(1) as f64;
         self.rgb.map(|s| s / n)
@@ -171,28 +202,66 @@ impl Sums {
     }
 }
 
-/// Path-traces the reference radiance at every probe (see [`ReferenceSettings`]).
+/// Path-traces the reference radiance at every probe (see [`ReferenceSettings`]): paths in
+/// batches until the probe's standard error is at most `relative_error` of its luminance, or
+/// `max_paths`; then the probes the score counts ([`scored`], by the luminance found) that
+/// stopped at `max_paths` go on up to `scored_max_paths`. A probe already traced (`paths` > 0,
+/// as read from a reference file) is continued where it stopped: its batches keep their keys,
+/// so the result is the same as tracing it afresh under these settings (up to the rounding of
+/// the sums rebuilt from the mean and the standard error), and one given no new path is left
+/// as it was.
 pub fn trace_reference(scene: &Scene, probes: &mut [Probe], settings: &ReferenceSettings) {
     let tracer = Tracer::new(scene);
-    probes.par_iter_mut().enumerate().for_each(|(k, probe)| {
-        let mut sums = Sums::default();
-        let mut batch = 0u64;
-        loop {
-            sums.add(&tracer, probe, [settings.seed, k as u64, batch], BATCH);
-            batch += 1;
-            if sums.paths < settings.min_paths {
-                continue;
+    let mut sums: Vec<Sums> = probes.iter().map(Sums::of).collect();
+    let extend = |sums: &mut [Sums], limit: &(dyn Fn(usize) -> u32 + Sync)| {
+        sums.par_iter_mut().enumerate().for_each(|(k, s)| {
+            let cap = limit(k);
+            loop {
+                let y = s.y / s.paths.max(1) as f64;
+                let done = s.paths >= settings.min_paths
+                    && (y == 0.0 || s.std_error() <= settings.relative_error * y);
+                if done || s.paths >= cap {
+                    break;
+                }
+                let batch = (s.paths / BATCH) as u64;
+                s.add(&tracer, &probes[k], [settings.seed, k as u64, batch], BATCH);
             }
-            let y = sums.y / sums.paths as f64;
-            let done = y == 0.0 || sums.std_error() <= settings.relative_error * y;
-            if done || sums.paths >= settings.max_paths {
-                break;
-            }
+        });
+    };
+    extend(&mut sums, &|_| settings.max_paths);
+    let counted = scored(&sums.iter().map(Sums::mean).collect::<Vec<_>>());
+    extend(&mut sums, &|k| {
+        if counted[k] {
+            settings.scored_max_paths.max(settings.max_paths)
+        } else {
+            settings.max_paths
         }
-        probe.radiance = sums.mean();
-        probe.std_error = sums.std_error();
-        probe.paths = sums.paths;
     });
+    // A probe given no new path keeps its values bit for bit (not the rounding of the sums
+    // rebuilt from them).
+    for (probe, s) in probes
+        .iter_mut()
+        .zip(&sums)
+        .filter(|(p, s)| s.paths != p.paths)
+    {
+        probe.radiance = s.mean();
+        probe.std_error = s.std_error();
+        probe.paths = s.paths;
+    }
+}
+
+/// Which of the reference values the score counts: those brighter than a tenth of their mean
+/// luminance (see [`score`]).
+pub fn scored(reference: &[Rgb]) -> Vec<bool> {
+    let mean_y =
+        reference.iter().map(|&l| luminance(l)).sum::<f64>() / reference.len().max(1) as f64;
+    reference
+        .iter()
+        .map(|&l| {
+            let y = luminance(l);
+            !y.is_nan() && y > 0.1 * mean_y
+        })
+        .collect()
 }
 
 /// The same path tracer given `seconds` (wall clock, its set-up included) at the probes:
@@ -334,15 +403,11 @@ pub struct Score {
 /// reference radiance (see the module documentation).
 pub fn score(probes: &[Probe], shown: &[Option<Rgb>]) -> Score {
     assert_eq!(probes.len(), shown.len(), "one shown value per probe");
-    let mean_y =
-        probes.iter().map(|p| luminance(p.radiance)).sum::<f64>() / probes.len().max(1) as f64;
+    let counted = scored(&probes.iter().map(|p| p.radiance).collect::<Vec<_>>());
     let mut errors = Vec::new();
     let (mut missing, mut noise2) = (0, 0.0);
-    for (p, s) in probes.iter().zip(shown) {
+    for ((p, s), _) in probes.iter().zip(shown).zip(&counted).filter(|(_, &c)| c) {
         let y_ref = luminance(p.radiance);
-        if y_ref.is_nan() || y_ref <= 0.1 * mean_y {
-            continue;
-        }
         let y = match s {
             Some(rgb) => luminance(*rgb),
             None => {
@@ -559,6 +624,51 @@ mod tests {
     }
 
     #[test]
+    fn scored_probes_go_past_the_path_limit_and_a_reference_continues_where_it_stopped() {
+        // The plates again: every probe is on the lit receiver, so every one is scored. A
+        // path limit of one batch stops them all short of 1 % (the receiver's estimates
+        // spread by tens of per cent a path); the scored probes' own limit lets them reach it.
+        let scene = scenes::parallel_plates(1.0, 1.0, 0.5, 0.5, 2.0).unwrap();
+        let strict = ReferenceSettings {
+            relative_error: 0.01,
+            min_paths: 1024,
+            max_paths: 1024,
+            scored_max_paths: 1 << 18,
+            seed: 7,
+        };
+        let mut afresh = sample_points(&scene, 6, 5).unwrap();
+        trace_reference(&scene, &mut afresh, &strict);
+        for p in &afresh {
+            assert!(p.paths > 1024, "{p:?}");
+            assert!(p.std_error <= 0.01 * luminance(p.radiance), "{p:?}");
+        }
+        // Traced first to a laxer rule (3 %), then continued to the strict one: the same
+        // paths, the same estimates up to the rounding of the rebuilt sums.
+        let mut continued = sample_points(&scene, 6, 5).unwrap();
+        let lax = ReferenceSettings {
+            relative_error: 0.03,
+            ..strict
+        };
+        trace_reference(&scene, &mut continued, &lax);
+        assert!(continued
+            .iter()
+            .zip(&afresh)
+            .all(|(c, a)| c.paths < a.paths));
+        trace_reference(&scene, &mut continued, &strict);
+        for (c, a) in continued.iter().zip(&afresh) {
+            assert_eq!(c.paths, a.paths);
+            for (x, y) in c.radiance.iter().zip(a.radiance) {
+                assert!((x - y).abs() <= 1e-12 * y, "{c:?} vs {a:?}");
+            }
+            assert!((c.std_error - a.std_error).abs() <= 1e-9 * a.std_error);
+        }
+        // Continued again under the rule it already meets, nothing moves, not even a bit.
+        let done = continued.clone();
+        trace_reference(&scene, &mut continued, &strict);
+        assert_eq!(continued, done);
+    }
+
+    #[test]
     fn reference_matches_the_exact_point_form_factor() {
         // Parallel plates, the source black (ρ = 0): the receiver's radiance at x is
         // ρ·Le·F(x → source) exactly, F the contour integral. The tracer's only error is its
@@ -576,6 +686,7 @@ mod tests {
             relative_error: 0.02,
             min_paths: 1024,
             max_paths: 1 << 16,
+            scored_max_paths: 1 << 16,
             seed: 4,
         };
         trace_reference(&scene, &mut probes, &settings);
