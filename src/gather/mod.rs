@@ -346,7 +346,7 @@ pub struct Gatherer<'a> {
     patches: &'a Patches,
     radiance: &'a [Rgb],
     /// The patches as traced ([`trace`]).
-    surfaces: Surfaces<'a>,
+    surfaces: Surfaces,
     /// How far a contact vertex's gather point may move off it, scene units
     /// ([`Gatherer::with_contact_edges`]; ∞ unless contact lines are mesh edges).
     nudge_max: f64,

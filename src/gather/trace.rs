@@ -102,8 +102,7 @@ impl Grid {
 }
 
 /// The gather's ray queries against the output patches (see the module documentation).
-pub struct Surfaces<'a> {
-    patches: &'a Patches,
+pub struct Surfaces {
     vis: Visibility,
     /// The traced triangles, scene units (the BVH holds them in its canonical `f32` frame).
     triangles: Vec<[DVec3; 3]>,
@@ -116,19 +115,23 @@ pub struct Surfaces<'a> {
     /// For cell c, its patches are `items[cells[c]..cells[c + 1]]`.
     cells: Vec<u32>,
     items: Vec<u32>,
+    /// Each patch's corners in the plane coordinates of its traced triangle's grid (computed
+    /// once, as a look-up would: the same bits), or zeros where the triangle has no grid.
+    flat: Vec<[[f64; 2]; 3]>,
 }
 
-impl<'a> Surfaces<'a> {
+impl Surfaces {
     /// The traced triangles of `patches` and their grids: time and memory linear in the
-    /// patches (a few grid entries of 4 bytes a patch: 4.6 in the living room, 7.5 in a hall).
-    pub fn new(patches: &'a Patches) -> Surfaces<'a> {
+    /// patches (a few grid entries of 4 bytes a patch: 4.6 in the living room, 7.5 in a hall;
+    /// and 48 bytes a patch of its corners in the grid's plane).
+    pub fn new(patches: &Patches) -> Surfaces {
         let coarse = Coarse::of(patches, &vec![true; patches.len()]);
         let mut members = vec![Vec::new(); coarse.triangles.len()];
         for (i, &c) in coarse.of_patch.iter().enumerate() {
             members[c as usize].push(i as u32);
         }
         let (mut cells, mut items) = (vec![0u32], Vec::new());
-        let grids = coarse
+        let grids: Vec<Option<Grid>> = coarse
             .triangles
             .iter()
             .zip(&members)
@@ -159,9 +162,16 @@ impl<'a> Surfaces<'a> {
                 Some(grid)
             })
             .collect();
+        let mut flat = vec![[[0.0; 2]; 3]; patches.len()];
+        for (grid, members) in grids.iter().zip(&members) {
+            if let Some(grid) = grid {
+                for &m in members {
+                    flat[m as usize] = patches.corners(m as usize).map(|p| grid.at(p));
+                }
+            }
+        }
         let vis = Visibility::build(&coarse.triangles);
         Surfaces {
-            patches,
             vis,
             triangles: coarse.triangles,
             of_patch: coarse.of_patch,
@@ -169,6 +179,7 @@ impl<'a> Surfaces<'a> {
             grids,
             cells,
             items,
+            flat,
         }
     }
 
@@ -228,22 +239,21 @@ impl<'a> Surfaces<'a> {
                 let q = grid.at(origin + hit.t * dir);
                 let cell = grid.index(q);
                 let near = &self.items[self.cells[cell] as usize..self.cells[cell + 1] as usize];
-                self.inside(grid, near, q)
-                    .or_else(|| self.inside(grid, &self.members[c], q))
+                self.inside(near, q)
+                    .or_else(|| self.inside(&self.members[c], q))
                     .unwrap_or(self.members[c][0])
             }
         };
         Some(PatchHit { patch, t: hit.t })
     }
 
-    /// Of `candidates`, the first whose triangle holds `q` (plane coordinates of `grid`), or
-    /// else the one it lies least outside of (a hit point rounded just past a boundary);
-    /// `None` for no candidates.
-    fn inside(&self, grid: &Grid, candidates: &[u32], q: [f64; 2]) -> Option<u32> {
+    /// Of `candidates` (patches of one gridded triangle), the first whose triangle holds `q`
+    /// (plane coordinates of that triangle's grid), or else the one it lies least outside of
+    /// (a hit point rounded just past a boundary); `None` for no candidates.
+    fn inside(&self, candidates: &[u32], q: [f64; 2]) -> Option<u32> {
         let mut best: Option<(f64, u32)> = None;
         for &m in candidates {
-            let c = self.patches.corners(m as usize).map(|p| grid.at(p));
-            let w = least_barycentric(c, q);
+            let w = least_barycentric(self.flat[m as usize], q);
             if w >= 0.0 {
                 return Some(m);
             }
