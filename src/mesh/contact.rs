@@ -170,11 +170,8 @@ fn lines_on(
     let boxes: Vec<Aabb> = faces
         .iter()
         .map(|f| {
-            f.aabb(if near_shadows {
-                f.shading_gap(None, extent)
-            } else {
-                f.mounted_gap(None, extent)
-            })
+            let (mounted, shading) = f.gaps(None, extent);
+            f.aabb(if near_shadows { shading } else { mounted })
         })
         .collect();
     let silhouettes = near_shadows.then(|| silhouettes(faces));
@@ -507,6 +504,9 @@ fn bits(p: DVec3) -> [u64; 3] {
     [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
 }
 
+/// An edge by its ends' bits, the lesser first.
+type EdgeKey = ([u64; 3], [u64; 3]);
+
 /// For each face's edges (corner k to k + 1), whether the edge is a silhouette of its plane:
 /// no other face with the same plane and facing shares it (matched by the corners' bits, so
 /// an unwelded mesh's duplicated vertices match too).
@@ -519,18 +519,27 @@ fn silhouettes(faces: &[Face]) -> Vec<[bool; 3]> {
             (q, p)
         }
     };
-    let mut by_edge: HashMap<([u64; 3], [u64; 3]), Vec<u32>> = HashMap::new();
-    for (i, f) in faces.iter().enumerate() {
-        for k in 0..3 {
-            by_edge.entry(key(f, k)).or_default().push(i as u32);
-        }
-    }
+    // Every face's edges, sorted by key: the faces sharing an edge are a run (no allocation
+    // per edge, for scenes of millions of faces).
+    let mut edges: Vec<(EdgeKey, u32)> = faces
+        .iter()
+        .enumerate()
+        .flat_map(|(i, f)| (0..3).map(move |k| (key(f, k), i as u32)))
+        .collect();
+    edges.sort_unstable();
+    let sharing = |e: EdgeKey| {
+        let first = edges.partition_point(|x| x.0 < e);
+        edges[first..]
+            .iter()
+            .take_while(move |x| x.0 == e)
+            .map(|x| x.1)
+    };
     faces
         .iter()
         .enumerate()
         .map(|(i, f)| {
             std::array::from_fn(|k| {
-                !by_edge[&key(f, k)].iter().any(|&j| {
+                !sharing(key(f, k)).any(|j| {
                     let g = &faces[j as usize];
                     j as usize != i
                         && f.normal.dot(g.normal) > 1.0 - 1e-9
@@ -587,22 +596,15 @@ impl Face {
         (b - a).cross(c - a).length() / self.size.max(f64::MIN_POSITIVE)
     }
 
-    /// The largest gap at which this face and the parallel face `b` in front of it are
-    /// mounted ([`NEAR`] × the scene's `extent`, or [`MOUNTED`] × the narrower one's width:
-    /// the gap between them shades at most the narrower one's width), scene units. Without
-    /// `b`, the largest for any `b`.
-    fn mounted_gap(&self, b: Option<&Face>, extent: f64) -> f64 {
-        let width = b.map_or(self.width(), |b| self.width().min(b.width()));
-        (NEAR * extent).max(MOUNTED * width)
-    }
-
-    /// The largest gap at which the parallel face `b` in front of this one shades it with a
-    /// shadow sharper than the patches ([`NEAR_SHADOW`]), or is mounted on it, scene units.
+    /// The largest gaps at which the parallel face `b` in front of this one is mounted on it
+    /// ([`NEAR`] × the scene's `extent`, or [`MOUNTED`] × the narrower one's width: the gap
+    /// between them shades at most the narrower one's width), and at which it is mounted or
+    /// shades it with a shadow sharper than the patches ([`NEAR_SHADOW`]), scene units.
     /// Without `b`, the largest for any `b`.
-    fn shading_gap(&self, b: Option<&Face>, extent: f64) -> f64 {
+    fn gaps(&self, b: Option<&Face>, extent: f64) -> (f64, f64) {
         let width = b.map_or(self.width(), |b| self.width().min(b.width()));
-        self.mounted_gap(b, extent)
-            .max(width.min(NEAR_SHADOW * extent))
+        let mounted = (NEAR * extent).max(MOUNTED * width);
+        (mounted, mounted.max(width.min(NEAR_SHADOW * extent)))
     }
 
     fn aabb(&self, pad: f64) -> Aabb {
@@ -651,14 +653,15 @@ impl Face {
             // Mounted in front (not coplanar, not behind): its outline; or in front within
             // the shading gap: the silhouette edges of its outline.
             let gap = d[0];
-            let reach = match silhouette {
-                Some(_) => self.shading_gap(Some(b), extent),
-                None => self.mounted_gap(Some(b), extent),
+            let (mounted, shading) = self.gaps(Some(b), extent);
+            let reach = if silhouette.is_some() {
+                shading
+            } else {
+                mounted
             };
             if gap > touch && gap <= reach && d.iter().all(|&x| x > touch) {
-                let mounted = gap <= self.mounted_gap(Some(b), extent);
                 let outline = silhouette.unwrap_or([true; 3]);
-                for k in (0..3).filter(|&k| mounted || outline[k]) {
+                for k in (0..3).filter(|&k| gap <= mounted || outline[k]) {
                     raw.push([b.corners[k], b.corners[(k + 1) % 3]]);
                 }
             }
