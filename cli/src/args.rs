@@ -176,6 +176,14 @@ pub enum SceneKind {
     /// A study under one small bright downlight (418 triangles, metres, z up): a desk on legs
     /// with a monitor, a wall shelf and a ball; a point-wise benchmark scene.
     Study,
+    /// An attic bedroom under a gabled roof (94 triangles, metres, z up): a skylight in the
+    /// slope, a lamp cube on a bedside table, a bed on a rug turned 20°, a chimney up to the
+    /// slope; a point-wise benchmark scene.
+    Attic,
+    /// A kitchen (258 triangles, metres, z up): a window-sized daylight panel, two pendant
+    /// lamps over an island, counters with wall cabinets, a fridge, two stools turned off the
+    /// axes; a point-wise benchmark scene.
+    Kitchen,
 }
 
 /// Options of `radiosity generate`.

@@ -193,6 +193,8 @@ pub fn generate(args: &GenerateArgs) -> Result<u8, Failure> {
         SceneKind::LivingRoom => scenes::living_room()?,
         SceneKind::TwoRooms => scenes::two_rooms()?,
         SceneKind::Study => scenes::study()?,
+        SceneKind::Attic => scenes::attic()?,
+        SceneKind::Kitchen => scenes::kitchen()?,
     };
     io::obj::save(&scene, &args.output)?;
     Ok(0)

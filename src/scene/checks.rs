@@ -136,27 +136,31 @@ fn interiors_overlap(a: &[DVec2; 3], b: &[DVec2; 3]) -> bool {
 /// Pairs (i, j), i < j, of triangles that use the same edge in the same direction: seen from
 /// one side, one turns counter-clockwise and the other clockwise, so one of them faces the
 /// wrong way (a flipped face). Consistently oriented neighbours traverse a shared edge in
-/// opposite directions. Each pair once, sorted; triangles must be welded (shared corners share
-/// indices), as `scene::finish` ensures.
+/// opposite directions. Only edges with exactly two faces are judged: where more meet (two
+/// closed boxes touching along an edge, such as an L-shaped counter's two blocks), faces of
+/// different solids run the edge the same way with nothing flipped. Each pair once, sorted;
+/// triangles must be welded (shared corners share indices), as `scene::finish` ensures.
 pub fn inconsistent_winding(triangles: &[SceneTriangle]) -> Vec<(usize, usize)> {
-    let mut first: HashMap<(u32, u32), usize> = HashMap::with_capacity(3 * triangles.len());
-    let mut pairs = Vec::new();
+    // Each undirected edge's faces, by a sorted list of (edge, forward, triangle): a run of
+    // equal edges is the edge's faces.
+    let mut uses: Vec<((u32, u32), bool, usize)> = Vec::with_capacity(3 * triangles.len());
     for (t, tri) in triangles.iter().enumerate() {
         let v = tri.vertices;
         for k in 0..3 {
-            let edge = (v[k], v[(k + 1) % 3]);
-            if edge.0 == edge.1 {
-                continue;
-            }
-            match first.get(&edge) {
-                Some(&s) if s != t => pairs.push((s, t)),
-                Some(_) => {}
-                None => {
-                    first.insert(edge, t);
-                }
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            if a != b {
+                uses.push(((a.min(b), a.max(b)), a < b, t));
             }
         }
     }
+    uses.sort_unstable();
+    let mut pairs: Vec<(usize, usize)> = uses
+        .chunk_by(|x, y| x.0 == y.0)
+        .filter_map(|run| match run {
+            [(_, d, s), (_, e, t)] if d == e && s != t => Some((*s.min(t), *s.max(t))),
+            _ => None,
+        })
+        .collect();
     pairs.sort_unstable();
     pairs.dedup();
     pairs
@@ -218,5 +222,15 @@ mod tests {
             inconsistent_winding(&[tri([0, 1, 2]), tri([0, 1, 2])]),
             [(0, 1)]
         );
+        // Four faces on one edge (two boxes touching along it: each box's two faces run it
+        // opposite ways, and each face of one box runs it as a face of the other does): not
+        // judged.
+        assert!(inconsistent_winding(&[
+            tri([0, 1, 2]),
+            tri([1, 0, 3]),
+            tri([0, 1, 4]),
+            tri([1, 0, 5])
+        ])
+        .is_empty());
     }
 }

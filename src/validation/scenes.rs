@@ -516,6 +516,261 @@ pub fn study() -> Result<Scene> {
     b.build()
 }
 
+/// An attic bedroom under a gabled roof (metres, z up), written on 2026-11-27 (stop 40) with
+/// [`kitchen`] as scenes nothing was tuned to, committed before either was first measured. Its
+/// geometry is what the other scenes lack: sloped surfaces and furniture turned off the axes.
+/// A 5 × 4 m floor, knee walls 1.4 m high at y = 0 and y = 4, roof slopes rising to a ridge at
+/// 3 m over y = 2, pentagonal gable walls at x = 0 and x = 5. Lights: a 1 × 0.77 m skylight
+/// panel (cool daylight, Le ≈ 10) 1 cm under the south slope, facing into the room, and a
+/// warm lamp, an emitting 0.2 m cube, standing on a bedside table. A bed on a 1.5 cm rug, both
+/// turned 20° about z; an octagonal chimney from the floor up to the south slope (contact
+/// lines on a sloped face); a chest against the gable wall x = 5. Every surface one-sided,
+/// facing into the room (the furniture outward).
+pub fn attic() -> Result<Scene> {
+    let mut b = SceneBuilder::new();
+    let plaster = b.material("plaster", [0.78, 0.76, 0.72], [0.0; 3]);
+    let boards = b.material("boards", [0.55, 0.42, 0.3], [0.0; 3]);
+    let rug = b.material("rug", [0.6, 0.25, 0.2], [0.0; 3]);
+    let bed = b.material("bed", [0.8, 0.8, 0.75], [0.0; 3]);
+    let wood = b.material("wood", [0.45, 0.3, 0.2], [0.0; 3]);
+    let brick = b.material("brick", [0.55, 0.35, 0.3], [0.0; 3]);
+    let sky = b.material("skylight", [0.0; 3], [9.0, 10.0, 12.0]);
+    let lamp = b.material("lamp", [0.0; 3], [7.0, 5.0, 3.0]);
+    let v = DVec3::new;
+    let (length, depth, eaves, ridge) = (5.0, 4.0, 1.4, 3.0);
+    let inside = v(length / 2.0, depth / 2.0, 1.0);
+    // The shell: floor, knee walls, the two slopes and the gables (a rectangle and a
+    // triangle each), every face turned towards a point inside.
+    let roof_z = |y: f64| eaves + (ridge - eaves) * (1.0 - (y - depth / 2.0).abs() / (depth / 2.0));
+    convex(
+        &mut b,
+        &[
+            v(0.0, 0.0, 0.0),
+            v(length, 0.0, 0.0),
+            v(length, depth, 0.0),
+            v(0.0, depth, 0.0),
+        ],
+        boards,
+        inside,
+    );
+    for y in [0.0, depth] {
+        convex(
+            &mut b,
+            &[
+                v(0.0, y, 0.0),
+                v(length, y, 0.0),
+                v(length, y, eaves),
+                v(0.0, y, eaves),
+            ],
+            plaster,
+            inside,
+        );
+        convex(
+            &mut b,
+            &[
+                v(0.0, y, eaves),
+                v(length, y, eaves),
+                v(length, depth / 2.0, ridge),
+                v(0.0, depth / 2.0, ridge),
+            ],
+            plaster,
+            inside,
+        );
+    }
+    for x in [0.0, length] {
+        convex(
+            &mut b,
+            &[
+                v(x, 0.0, 0.0),
+                v(x, depth, 0.0),
+                v(x, depth, eaves),
+                v(x, 0.0, eaves),
+            ],
+            plaster,
+            inside,
+        );
+        convex(
+            &mut b,
+            &[
+                v(x, 0.0, eaves),
+                v(x, depth, eaves),
+                v(x, depth / 2.0, ridge),
+            ],
+            plaster,
+            inside,
+        );
+    }
+    // The skylight: 1 m along x, from 35 % to 65 % of the south slope, 1 cm inside it.
+    let up_slope = v(0.0, depth / 2.0, ridge - eaves);
+    let inward = v(0.0, ridge - eaves, -depth / 2.0).normalize();
+    let on_slope = |x: f64, s: f64| v(x, 0.0, eaves) + up_slope * s + inward * 0.01;
+    convex(
+        &mut b,
+        &[
+            on_slope(1.5, 0.35),
+            on_slope(2.5, 0.35),
+            on_slope(2.5, 0.65),
+            on_slope(1.5, 0.65),
+        ],
+        sky,
+        inside,
+    );
+    // The rug, the bed on it and the bedside table with its lamp, turned 20° about z.
+    let turn = 20f64.to_radians();
+    let (along, across) = (
+        v(turn.cos(), turn.sin(), 0.0),
+        v(-turn.sin(), turn.cos(), 0.0),
+    );
+    let centre = v(2.9, 2.3, 0.0);
+    let turned = |b: &mut SceneBuilder, c: DVec3, size: DVec3, m: u32| {
+        let corner = c - along * (size.x / 2.0) - across * (size.y / 2.0);
+        oriented_box(
+            b,
+            corner,
+            [along * size.x, across * size.y, DVec3::Z * size.z],
+            m,
+        );
+    };
+    let rug_top = 0.015;
+    turned(&mut b, centre, v(2.6, 2.0, rug_top), rug);
+    turned(&mut b, centre + DVec3::Z * rug_top, v(2.0, 1.4, 0.5), bed);
+    // The table stands on the floor, 5 cm beyond the rug's edge.
+    let table = centre - along * 0.75 + across * 1.25;
+    turned(&mut b, table, v(0.4, 0.4, 0.55), wood);
+    turned(&mut b, table + DVec3::Z * 0.55, v(0.2, 0.2, 0.2), lamp);
+    // The chimney: an octagonal prism of radius 0.25 m from the floor to the south slope.
+    let (cx, cy, r) = (0.8, 0.7, 0.25);
+    let ring: Vec<DVec3> = (0..8)
+        .map(|k| {
+            let a = (k as f64 + 0.5) * std::f64::consts::FRAC_PI_4;
+            v(cx + r * a.cos(), cy + r * a.sin(), 0.0)
+        })
+        .collect();
+    for k in 0..8 {
+        let (p, q) = (ring[k], ring[(k + 1) % 8]);
+        let (pt, qt) = (v(p.x, p.y, roof_z(p.y)), v(q.x, q.y, roof_z(q.y)));
+        // A point outside this side: its midpoint pushed away from the axis.
+        let outside = (p + q) - v(cx, cy, -1.0);
+        convex(&mut b, &[p, q, qt, pt], brick, outside);
+    }
+    // The chest against the gable wall x = 5.
+    add_box(&mut b, v(4.5, 1.2, 0.0), v(length, 2.8, 0.9), false, wood);
+    b.build()
+}
+
+/// A kitchen (metres, z up), written on 2026-11-27 (stop 40) with [`attic`], committed before
+/// its first measurement. A 4.5 × 3.5 × 2.6 m room lit by a window-sized daylight panel
+/// (1.2 × 1 m, cool, Le ≈ 5.5) 1 cm in front of the wall x = 0 and by two pendant lamps over
+/// an island: each a downward 0.26 m emitter (warm, Le ≈ 21) 5 mm under a 0.3 m metal shade
+/// hung from the ceiling by a 1 cm cord. An L-shaped counter along two walls with wall
+/// cabinets above it (mounted on the wall, their shadow on the counter top), a fridge in the
+/// corner, an island whose top overhangs its base, and two stools on thin legs turned 25° and
+/// −15° about z. Every surface one-sided, facing into the room (the furniture outward).
+pub fn kitchen() -> Result<Scene> {
+    let mut b = SceneBuilder::new();
+    let walls = b.material("walls", [0.8, 0.78, 0.72], [0.0; 3]);
+    let tiles = b.material("tiles", [0.55, 0.5, 0.45], [0.0; 3]);
+    let counter = b.material("counter", [0.3, 0.3, 0.32], [0.0; 3]);
+    let cabinets = b.material("cabinets", [0.65, 0.55, 0.4], [0.0; 3]);
+    let island = b.material("island", [0.2, 0.35, 0.5], [0.0; 3]);
+    let fridge = b.material("fridge", [0.85; 3], [0.0; 3]);
+    let metal = b.material("metal", [0.6; 3], [0.0; 3]);
+    let stools = b.material("stools", [0.5, 0.3, 0.15], [0.0; 3]);
+    let window = b.material("window", [0.0; 3], [5.0, 5.5, 6.5]);
+    let bulb = b.material("pendant", [0.0; 3], [25.0, 21.0, 16.0]);
+    let v = DVec3::new;
+    let height = 2.6;
+    room_shell(&mut b, v(4.5, 3.5, height), tiles, walls, None);
+    rectangle(&mut b, v(0.01, 1.2, 1.0), v(0.01, 2.4, 2.0), 1, window);
+    // Counters (0.9 m) along y = 3.5 and x = 4.5, wall cabinets above the first, the fridge.
+    add_box(&mut b, v(0.7, 2.9, 0.0), v(4.5, 3.5, 0.9), false, counter);
+    add_box(&mut b, v(3.9, 0.8, 0.0), v(4.5, 2.9, 0.9), false, counter);
+    add_box(&mut b, v(1.0, 3.15, 1.5), v(4.5, 3.5, 2.2), false, cabinets);
+    add_box(&mut b, v(0.0, 2.85, 0.0), v(0.7, 3.5, 1.9), false, fridge);
+    // The island: a base and a top overhanging it by 15 cm.
+    add_box(
+        &mut b,
+        v(1.55, 1.25, 0.0),
+        v(2.95, 1.95, 0.9),
+        false,
+        island,
+    );
+    add_box(&mut b, v(1.4, 1.1, 0.9), v(3.1, 2.1, 0.94), false, island);
+    // The pendants: shade, cord up to the ceiling, emitter 5 mm under the shade.
+    for x in [1.9, 2.6] {
+        let (y, z) = (1.6, 1.75);
+        add_box(
+            &mut b,
+            v(x - 0.15, y - 0.15, z),
+            v(x + 0.15, y + 0.15, z + 0.12),
+            false,
+            metal,
+        );
+        add_box(
+            &mut b,
+            v(x - 0.005, y - 0.005, z + 0.12),
+            v(x + 0.005, y + 0.005, height),
+            false,
+            metal,
+        );
+        rectangle(
+            &mut b,
+            v(x - 0.13, y - 0.13, z - 0.005),
+            v(x + 0.13, y + 0.13, z - 0.005),
+            4,
+            bulb,
+        );
+    }
+    // Two stools: a 0.35 m seat at 0.65–0.69 m on four 3 cm legs, turned about z.
+    for (x, y, degrees) in [(1.9, 0.7, 25.0), (2.65, 0.65, -15.0f64)] {
+        let a = degrees.to_radians();
+        let (along, across) = (v(a.cos(), a.sin(), 0.0), v(-a.sin(), a.cos(), 0.0));
+        let seat = v(x, y, 0.0) - (along + across) * 0.175;
+        oriented_box(
+            &mut b,
+            seat + DVec3::Z * 0.65,
+            [along * 0.35, across * 0.35, DVec3::Z * 0.04],
+            stools,
+        );
+        for (i, j) in [(0.01, 0.01), (0.31, 0.01), (0.01, 0.31), (0.31, 0.31)] {
+            let leg = seat + along * i + across * j;
+            oriented_box(
+                &mut b,
+                leg,
+                [along * 0.03, across * 0.03, DVec3::Z * 0.65],
+                stools,
+            );
+        }
+    }
+    b.build()
+}
+
+/// The box `corner` + s·a + t·b + u·c (s, t, u in [0, 1]; `axes` = [a, b, c] right-handed),
+/// its faces counter-clockwise seen from outside.
+fn oriented_box(b: &mut SceneBuilder, corner: DVec3, axes: [DVec3; 3], material: u32) {
+    debug_assert!(
+        axes[0].cross(axes[1]).dot(axes[2]) > 0.0,
+        "left-handed axes"
+    );
+    let map = |p: DVec3| corner + axes[0] * p.x + axes[1] * p.y + axes[2] * p.z;
+    for q in box_faces(DVec3::ZERO, DVec3::ONE) {
+        b.quad(q.map(map), material);
+    }
+}
+
+/// A planar convex polygon (3 or more corners, in order either way round) as a fan of
+/// triangles, wound so that its front faces the point `toward`.
+fn convex(b: &mut SceneBuilder, corners: &[DVec3], material: u32, toward: DVec3) {
+    let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+    let mut ids: Vec<u32> = corners.iter().map(|&p| b.vertex(p)).collect();
+    if n.dot(toward - corners[0]) < 0.0 {
+        ids.reverse();
+    }
+    for k in 1..ids.len() - 1 {
+        b.triangle([ids[0], ids[k], ids[k + 1]], material);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -600,6 +855,93 @@ mod tests {
                 "plaster" | "blue_wall" | "floor" => {
                     assert!(n.dot(centre - centroid) > 0.0, "triangle {t} faces out")
                 }
+                _ => {}
+            }
+        }
+    }
+
+    /// Signed volume enclosed by a material's triangles, by the divergence theorem: positive
+    /// for closed surfaces facing out, negative for a shell facing in.
+    fn signed_volume(s: &Scene, names: &[&str]) -> f64 {
+        s.triangles
+            .iter()
+            .filter(|t| names.contains(&s.materials[t.material as usize].name.as_str()))
+            .map(|t| {
+                let [a, b, c] = t.vertices.map(|v| s.positions[v as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn attic_and_kitchen_are_closed_where_they_should_be_and_face_the_right_way() {
+        // Each closed piece's signed volume is its volume computed from its dimensions (a
+        // face wound the wrong way subtracts twice its share); the shells are negative (seen
+        // from inside). Attic: 5 m × (4 × 1.4 + ½ × 4 × 1.6) m² of cross-section.
+        let attic = attic().unwrap();
+        // Shell 16, skylight 2, rug + bed + table + lamp 4 × 12, chimney 8 × 2, chest 12.
+        assert_eq!(attic.triangles.len(), 94);
+        for (names, volume) in [
+            (
+                &["plaster", "boards"][..],
+                -5.0 * (4.0 * 1.4 + 0.5 * 4.0 * 1.6),
+            ),
+            (&["bed"][..], 2.0 * 1.4 * 0.5),
+            (&["rug"][..], 2.6 * 2.0 * 0.015),
+            (&["wood"][..], 0.4 * 0.4 * 0.55 + 0.5 * 1.6 * 0.9),
+            (&["lamp"][..], 0.2f64.powi(3)),
+        ] {
+            let got = signed_volume(&attic, names);
+            assert!((got - volume).abs() < 1e-9, "{names:?}: {got} ≠ {volume}");
+        }
+        let kitchen = kitchen().unwrap();
+        // Shell 12, window 2, counters 24, cabinets 12, fridge 12, island 24, pendants 2 × 26,
+        // stools 2 × 5 × 12.
+        assert_eq!(kitchen.triangles.len(), 258);
+        for (names, volume) in [
+            (&["walls", "tiles"][..], -4.5 * 3.5 * 2.6),
+            (&["counter"][..], 3.8 * 0.6 * 0.9 + 0.6 * 2.1 * 0.9),
+            (&["cabinets"][..], 3.5 * 0.35 * 0.7),
+            (&["fridge"][..], 0.7 * 0.65 * 1.9),
+            (&["island"][..], 1.4 * 0.7 * 0.9 + 1.7 * 1.0 * 0.04),
+            (
+                &["metal"][..],
+                2.0 * (0.3 * 0.3 * 0.12 + 0.01 * 0.01 * 0.73),
+            ),
+            (
+                &["stools"][..],
+                2.0 * (0.35 * 0.35 * 0.04 + 4.0 * 0.03 * 0.03 * 0.65),
+            ),
+        ] {
+            let got = signed_volume(&kitchen, names);
+            assert!((got - volume).abs() < 1e-9, "{names:?}: {got} ≠ {volume}");
+        }
+        // The open pieces and the lights: the chimney's sides face away from its axis, the
+        // skylight into the room (down the south slope's inward normal), the window along +x,
+        // the pendants down.
+        let normal = |s: &Scene, t: &crate::scene::SceneTriangle| {
+            let [a, b, c] = t.vertices.map(|v| s.positions[v as usize]);
+            ((b - a).cross(c - a).normalize(), (a + b + c) / 3.0)
+        };
+        let slope_in = DVec3::new(0.0, 1.6, -2.0).normalize();
+        let mut lights = 0;
+        for t in &attic.triangles {
+            let (n, centroid) = normal(&attic, t);
+            match attic.materials[t.material as usize].name.as_str() {
+                "brick" => assert!(n.dot(centroid - DVec3::new(0.8, 0.7, centroid.z)) > 0.0),
+                "skylight" => {
+                    lights += 1;
+                    assert!(n.dot(slope_in) > 0.999);
+                }
+                _ => {}
+            }
+        }
+        assert_eq!(lights, 2);
+        for t in &kitchen.triangles {
+            let (n, _) = normal(&kitchen, t);
+            match kitchen.materials[t.material as usize].name.as_str() {
+                "window" => assert!(n.x > 0.999),
+                "pendant" => assert!(n.z < -0.999),
                 _ => {}
             }
         }

@@ -19,7 +19,10 @@
 //! measured (rules have since been found at their worst probes); and `two_rooms` and `study`
 //! (`radiosity generate two-rooms|study`), written on 2026-11-27 and first measured at the
 //! defaults only after both were fixed (defaults only: they check that the defaults carry
-//! over, not the settings' curves).
+//! over, not the settings' curves); and `attic` and `kitchen` (`radiosity generate
+//! attic|kitchen`: sloped faces, furniture turned off the axes, an emitting cube, pendant
+//! lamps), written on 2026-11-27 (stop 40) and committed before their first measurement, for
+//! the same purpose.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -35,13 +38,15 @@ use radiosity::validation::scenes;
 use radiosity_tools::{chart, harness_args, load_font, root, write_sections, Curve};
 
 const SECTIONS: [&str; 2] = ["reference", "curves"];
-const SCENES: [&str; 6] = [
+const SCENES: [&str; 8] = [
     "cornell",
     "cornell_seed2",
     "hall",
     "living_room",
     "two_rooms",
     "study",
+    "attic",
+    "kitchen",
 ];
 /// Probes per scene, and their seed: 1, and 2 for `cornell_seed2`, a second draw of points on
 /// the Cornell box (its defaults' error is mostly a few points' near sub-millimetre features,
@@ -90,6 +95,8 @@ fn load(name: &str) -> Result<Scene> {
         "living_room" => scenes::living_room()?,
         "two_rooms" => scenes::two_rooms()?,
         "study" => scenes::study()?,
+        "attic" => scenes::attic()?,
+        "kitchen" => scenes::kitchen()?,
         _ => anyhow::bail!("unknown scene {name}"),
     })
 }
@@ -234,7 +241,7 @@ fn bakes(quick: bool, name: &str) -> Vec<(String, pipeline::Settings)> {
     if name != "cornell" {
         runs.push(("the defaults".to_string(), pipeline::Settings::default()));
     }
-    if ["cornell_seed2", "two_rooms", "study"].contains(&name) {
+    if ["cornell_seed2", "two_rooms", "study", "attic", "kitchen"].contains(&name) {
         return runs;
     }
     let eps: &[f64] = if quick { &[1e-4] } else { &[1e-4, 1e-5] };
