@@ -616,11 +616,7 @@ pub fn attic() -> Result<Scene> {
         inside,
     );
     // The rug, the bed on it and the bedside table with its lamp, turned 20° about z.
-    let turn = 20f64.to_radians();
-    let (along, across) = (
-        v(turn.cos(), turn.sin(), 0.0),
-        v(-turn.sin(), turn.cos(), 0.0),
-    );
+    let (along, across) = turned_about_z(20.0);
     let centre = v(2.9, 2.3, 0.0);
     let turned = |b: &mut SceneBuilder, c: DVec3, size: DVec3, m: u32| {
         let corner = c - along * (size.x / 2.0) - across * (size.y / 2.0);
@@ -723,8 +719,7 @@ pub fn kitchen() -> Result<Scene> {
     }
     // Two stools: a 0.35 m seat at 0.65–0.69 m on four 3 cm legs, turned about z.
     for (x, y, degrees) in [(1.9, 0.7, 25.0), (2.65, 0.65, -15.0f64)] {
-        let a = degrees.to_radians();
-        let (along, across) = (v(a.cos(), a.sin(), 0.0), v(-a.sin(), a.cos(), 0.0));
+        let (along, across) = turned_about_z(degrees);
         let seat = v(x, y, 0.0) - (along + across) * 0.175;
         oriented_box(
             &mut b,
@@ -743,6 +738,12 @@ pub fn kitchen() -> Result<Scene> {
         }
     }
     b.build()
+}
+
+/// The x and y axes turned by `degrees` about z (counter-clockwise seen from above).
+fn turned_about_z(degrees: f64) -> (DVec3, DVec3) {
+    let (sin, cos) = degrees.to_radians().sin_cos();
+    (DVec3::new(cos, sin, 0.0), DVec3::new(-sin, cos, 0.0))
 }
 
 /// The box `corner` + s·a + t·b + u·c (s, t, u in [0, 1]; `axes` = [a, b, c] right-handed),
