@@ -54,7 +54,7 @@ impl Drop for TestDir {
 /// A small seeded pseudo-random mesh with awkward values: tiny, huge, negative positions,
 /// zero and saturating radiance.
 pub fn sample_mesh(vertices: usize, faces: usize) -> BakedMesh {
-    let mut rng = crate::form_factor::sampling::Rng::new(&[0x5EED]);
+    let mut rng = crate::sampling::Rng::new(&[0x5EED]);
     let mut unit = move || rng.next_f64();
     let mut positions = Vec::new();
     let mut vertex_radiance = Vec::new();

@@ -40,10 +40,10 @@ use glam::DVec3;
 use serde::Serialize;
 
 use crate::color::Rgb;
-use crate::form_factor::hemisphere::orthonormal_basis;
 use crate::form_factor::is_hidden;
-use crate::form_factor::sampling::{gauss_rule, malley, Rng};
+use crate::geometry::orthonormal_basis;
 use crate::mesh::Patches;
+use crate::sampling::{gauss_rule, malley, Rng};
 use crate::scene::Up;
 use crate::visibility::Visibility;
 use crate::{Error, Result};

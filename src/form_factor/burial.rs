@@ -8,8 +8,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::samples::SamplePoints;
-use super::sampling;
 use crate::mesh::Patches;
+use crate::sampling;
 use crate::visibility::Visibility;
 
 /// True when the surface point `x` of patch `i` is buried: the first surface hit straight

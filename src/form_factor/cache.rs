@@ -22,8 +22,9 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use sprs::CsMatI;
 
-use crate::form_factor::{self, sampling::mix64, FormFactors};
+use crate::form_factor::{self, FormFactors};
 use crate::mesh::Patches;
+use crate::sampling::mix64;
 use crate::{io, Error, Result};
 
 const MAGIC: &[u8] = b"RADIOSITY-FF\n";

@@ -10,12 +10,11 @@
 //! O(patches × rays) instead of O(patches²), so it is the estimator for large scenes; its
 //! error is Monte Carlo noise, O(N^-½) per entry.
 
-use glam::DVec3;
 use rayon::prelude::*;
 
-use super::sampling::{malley, permutation, triangle_barycentrics, Rng};
+use crate::geometry::orthonormal_basis;
 use crate::mesh::Patches;
-
+use crate::sampling::{malley, permutation, triangle_barycentrics, Rng};
 use crate::visibility::Visibility;
 
 /// Barycentric margin that keeps ray origins off the patch's edges (an unsampled strip of
@@ -139,36 +138,4 @@ pub fn rows(
             r
         })
         .collect()
-}
-
-/// A right-handed orthonormal basis (t, b) with t × b = n (Duff et al., "Building an
-/// orthonormal basis, revisited", JCGT 2017).
-pub(crate) fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
-    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (
-        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        DVec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn basis_is_orthonormal() {
-        for n in [
-            DVec3::Z,
-            -DVec3::Z,
-            DVec3::X,
-            DVec3::new(0.3, -0.5, 0.8).normalize(),
-        ] {
-            let (t, b) = orthonormal_basis(n);
-            assert!((t.length() - 1.0).abs() < 1e-12 && (b.length() - 1.0).abs() < 1e-12);
-            assert!(t.dot(b).abs() < 1e-12 && t.dot(n).abs() < 1e-12 && b.dot(n).abs() < 1e-12);
-            assert!((t.cross(b) - n).length() < 1e-12);
-        }
-    }
 }

@@ -41,7 +41,6 @@ mod assemble;
 mod burial;
 pub mod cache;
 pub mod hemisphere;
-pub mod kernel;
 mod needed;
 pub(crate) mod occluders;
 mod pair;
@@ -49,9 +48,7 @@ mod pairwise;
 mod reciprocity;
 mod reuse;
 mod samples;
-pub mod sampling;
 pub mod settings;
-pub mod visible;
 
 pub use burial::{is_hidden, VISIBLE_AREA_LATTICE};
 pub use needed::Needed;

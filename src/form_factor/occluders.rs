@@ -152,8 +152,8 @@ mod tests {
     use std::path::Path;
 
     use super::*;
-    use crate::form_factor::sampling::Rng;
     use crate::mesh;
+    use crate::sampling::Rng;
     use crate::scene::Scene;
     use crate::validation::scenes;
     use crate::visibility::{Visibility, NONE};

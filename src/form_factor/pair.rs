@@ -18,11 +18,11 @@
 use glam::DVec3;
 
 use super::burial::Burial;
-use super::kernel;
 use super::samples::SamplePoints;
-use super::sampling;
 use super::{Estimator, Settings};
+use crate::geometry::kernel;
 use crate::mesh::Patches;
+use crate::sampling;
 use crate::visibility::{LightBuffer, Visibility};
 
 /// Pairs with squared centroid distance below this multiple of the larger patch area use the
@@ -281,8 +281,9 @@ mod tests {
     use glam::DVec3;
 
     use super::*;
-    use crate::form_factor::{occluders, sampling::gauss_rule, Shortcuts};
+    use crate::form_factor::{occluders, Shortcuts};
     use crate::mesh::{self, Patches};
+    use crate::sampling::gauss_rule;
     use crate::scene::{Scene, SceneBuilder};
 
     /// Everything a pair's estimate reads, for `scene` cut at `max_edge`.

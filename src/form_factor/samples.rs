@@ -10,9 +10,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::sampling::{self, stratified_triangle_barycentrics, Rng};
 use super::{Estimator, Settings};
 use crate::mesh::Patches;
+use crate::sampling::{self, stratified_triangle_barycentrics, Rng};
 use crate::visibility::{self, Visibility};
 
 /// The sample points of every patch, `per_patch` each, patch i's at

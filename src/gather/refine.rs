@@ -7,7 +7,7 @@
 //! there, (L_a + L_b)/2 (linear interpolation, Lischinski, Tampieri & Greenberg 1993 §5 refine
 //! the display mesh the same way). The sharp part is the direct light, so the test evaluates it
 //! exactly at m (the form factor of the emitters' visible pieces,
-//! [`crate::form_factor::visible`], cheap next to the hemisphere rays):
+//! [`crate::geometry::visible`], cheap next to the hemisphere rays):
 //!
 //! split (a, b) when |Y(ρD_m) − Y(ρD_a + ρD_b)/2| > τ · max(Y((L_a + L_b)/2), Y_floor),
 //!
@@ -60,7 +60,7 @@ use super::local_fit::{self, Midpoint};
 use super::{Gather, Gathered, Gatherer, MAX_SHADOW_RAYS};
 use crate::bake::{BakedMesh, Site};
 use crate::color::{luminance, Rgb};
-use crate::form_factor::sampling::Rng;
+use crate::sampling::Rng;
 
 /// τ by default: an edge is split where the light at its midpoint departs from what the
 /// triangle shows there by more than 2 % of the local luminance.
@@ -571,9 +571,9 @@ mod tests {
     use glam::DVec3;
 
     use crate::color::luminance;
-    use crate::form_factor::kernel::point_to_polygon;
-    use crate::form_factor::sampling::Rng;
+    use crate::geometry::kernel::point_to_polygon;
     use crate::pipeline::{self, Outcome, Settings};
+    use crate::sampling::Rng;
     use crate::scene::{Scene, SceneBuilder};
     use crate::validation::pointwise::{Display, Probe};
     use crate::validation::scenes;

@@ -286,8 +286,8 @@ fn least_barycentric(c: [[f64; 2]; 3], q: [f64; 2]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::form_factor::sampling::Rng;
     use crate::mesh::{split_contacts, subdivide};
+    use crate::sampling::Rng;
     use crate::validation::scenes;
 
     /// The patch BVH's answers (the oracle: every patch traced as itself) against the traced

@@ -45,9 +45,9 @@ use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
 use crate::environment::{Environment, Receiver, SKY_RAYS};
-use crate::form_factor::kernel::point_to_polygon;
-use crate::form_factor::sampling::{kernel_samples, Rng};
+use crate::geometry::kernel::point_to_polygon;
 use crate::mesh::Patches;
+use crate::sampling::{kernel_samples, Rng};
 use crate::visibility::Visibility;
 
 /// Shadow rays per rule point and emitter (stratified over the emitter). Measured on the

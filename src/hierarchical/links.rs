@@ -9,8 +9,8 @@ use std::sync::OnceLock;
 use glam::DVec3;
 
 use super::tree::{Node, Tree};
-use crate::form_factor::kernel::{point_to_point, point_to_polygon};
-use crate::form_factor::sampling::{
+use crate::geometry::kernel::{point_to_point, point_to_polygon};
+use crate::sampling::{
     gauss_rule, permutation, point_above, point_by_solid_angle, triangle_barycentrics, Rng,
 };
 use crate::visibility::Visibility;

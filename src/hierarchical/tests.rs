@@ -207,11 +207,7 @@ fn visibility_rays_aim_above_the_receiving_point_s_horizon() {
                 .iter()
                 .map(|&(b, w)| {
                     let x = h.tree.point(r, b);
-                    w * crate::form_factor::kernel::point_to_polygon(
-                        x,
-                        DVec3::X,
-                        &h.tree.corners(s),
-                    )
+                    w * crate::geometry::kernel::point_to_polygon(x, DVec3::X, &h.tree.corners(s))
                 })
                 .sum();
             assert_eq!(link.f, unoccluded as f32, "face {r} ← emitter {s}");
@@ -227,7 +223,7 @@ fn visibility_rays_aim_above_the_receiving_point_s_horizon() {
 /// floor's area in front of the receiver: rays aimed at area-uniform points of the source
 /// almost all met the wall, and F came out near 0 (measured 0.0 with 64 rays, against 0.45;
 /// in the generated hall such links left the furniture's legs with row sums of 0.79). Aimed
-/// by solid angle ([`crate::form_factor::sampling::point_by_solid_angle`]), the rays follow
+/// by solid angle ([`crate::sampling::point_by_solid_angle`]), the rays follow
 /// the kernel. Exact: the receiver rule over the point-to-polygon form factor to the visible
 /// part of the floor. Tolerance 5 % at 64 rays (measured −0.3 %; the mean over seeds +0.6 %,
 /// the ratio Σ w V / Σ w's bias); an area-weighted estimate is off by 99 %.
@@ -279,7 +275,7 @@ fn link_visibility_follows_the_kernel_over_a_large_near_source() {
         .iter()
         .map(|&(b, w)| {
             let x = h.tree.point(r, b);
-            w * crate::form_factor::kernel::point_to_polygon(x, DVec3::X, &visible)
+            w * crate::geometry::kernel::point_to_polygon(x, DVec3::X, &visible)
         })
         .sum();
     assert!(exact > 0.3, "{exact}");
@@ -405,7 +401,7 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
         }
         let (mut fl, mut f) = (0.0, 0.0);
         for q in &parts {
-            let dq = crate::form_factor::kernel::point_to_polygon(x, n, q);
+            let dq = crate::geometry::kernel::point_to_polygon(x, n, q);
             fl += dq * radiance((q[0] + q[1] + q[2]) / 3.0);
             f += dq;
         }

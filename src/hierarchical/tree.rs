@@ -6,8 +6,8 @@
 
 use glam::DVec3;
 
-use crate::form_factor::sampling::{stratified_triangle_barycentrics, Rng};
 use crate::mesh::Patches;
+use crate::sampling::{stratified_triangle_barycentrics, Rng};
 
 /// "No element" in [`Element::first_child`].
 pub const NO_CHILD: u32 = u32::MAX;

@@ -38,7 +38,6 @@ pub use build::{SceneBuilder, MAX_LISTED_PAIRS};
 pub use camera::{Camera, Up};
 pub use overrides::{Override, Property};
 pub use texture::{Texture, UvMap, NO_UV};
-pub use two_sided::winding_key;
 
 use std::path::PathBuf;
 

@@ -7,8 +7,8 @@
 use glam::DVec3;
 
 use super::Scene;
-use crate::form_factor::hemisphere::orthonormal_basis;
-use crate::form_factor::sampling::{malley, Rng};
+use crate::geometry::orthonormal_basis;
+use crate::sampling::{malley, Rng};
 use crate::visibility::Visibility;
 
 /// Probe rays per emitting material: cosine-weighted from points spread over its triangles

@@ -4,22 +4,7 @@
 use std::collections::HashMap;
 
 use super::{Material, Scene, SceneTriangle, NO_TWIN};
-
-/// A triangle's corners sorted, with the parity of the sort: a triangle and its reverse over
-/// the same corners (twins) have the same sorted corners and opposite parity, since a reversed
-/// triangle is an odd permutation of the original's corners. Used on vertex indices here and
-/// on corner bits by [`crate::visibility`], so the two recognise twins by one rule.
-pub fn winding_key<T: PartialOrd + Copy>(corners: [T; 3]) -> ([T; 3], bool) {
-    let mut c = corners;
-    let mut odd = false;
-    for (a, b) in [(0, 1), (1, 2), (0, 1)] {
-        if c[a] > c[b] {
-            c.swap(a, b);
-            odd = !odd;
-        }
-    }
-    (c, odd)
-}
+use crate::geometry::winding_key;
 
 impl Scene {
     /// True if some triangle has a twin (a back side of its own; see [`Scene::make_two_sided`]).

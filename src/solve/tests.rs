@@ -8,8 +8,8 @@ use nalgebra::{DMatrix, DVector};
 use sprs::{CsMatI, TriMatI};
 
 use super::*;
-use crate::form_factor::sampling::Rng;
 use crate::form_factor::{FormFactors, Stats};
+use crate::sampling::Rng;
 
 /// A random F on `n` patches: each row gathers from about a third of the others, entries
 /// positive, row sums `row_sum` (≤ 1), areas in [1, 2]. Seeded, so every run sees the same.

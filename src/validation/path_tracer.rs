@@ -31,7 +31,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::color::Rgb;
-use crate::form_factor::sampling::{malley, triangle_barycentrics, Rng};
+use crate::sampling::{malley, triangle_barycentrics, Rng};
 use crate::scene::Scene;
 use crate::visibility::Visibility;
 

@@ -34,8 +34,8 @@ use rayon::prelude::*;
 use super::path_tracer::Tracer;
 use crate::bake::BakedMesh;
 use crate::color::{luminance, Rgb};
-use crate::form_factor::sampling::Rng;
 use crate::io::ReadBack;
+use crate::sampling::Rng;
 use crate::scene::Scene;
 use crate::visibility::{Visibility, NONE};
 use crate::{Error, Result};
@@ -513,7 +513,7 @@ pub fn read_csv(path: &Path) -> Result<Vec<Probe>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::form_factor::kernel::point_to_polygon;
+    use crate::geometry::kernel::point_to_polygon;
     use crate::validation::scenes;
 
     /// The scene's own triangles as a display, with radiance `field` at each vertex and at

@@ -3,7 +3,7 @@
 //! invariance, degenerate input, twins.
 
 use super::*;
-use crate::form_factor::sampling;
+use crate::sampling;
 use glam::dvec3;
 use rayon::prelude::*;
 use std::time::Instant;

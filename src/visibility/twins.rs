@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use glam::Vec3A;
 
-use crate::scene::winding_key;
+use crate::geometry::winding_key;
 
 /// Twin pairing of canonical triangles (see the module documentation): for each triangle, its
 /// twin's position in `tris` and which of its own corners each corner of the *later* of the two

@@ -4,8 +4,8 @@
 //! here: loader robustness that needs no hand-written expectation (the exact messages of bad
 //! input are checked by the loaders' unit tests and the command-line tests).
 
-use radiosity::form_factor::sampling::Rng;
 use radiosity::mesh;
+use radiosity::sampling::Rng;
 use radiosity::scene::Scene;
 
 use crate::support::{meshes, temp_dir};

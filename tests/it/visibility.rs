@@ -5,8 +5,8 @@
 //! `src/visibility/`.
 
 use glam::DVec3;
-use radiosity::form_factor::sampling::Rng;
 use radiosity::mesh;
+use radiosity::sampling::Rng;
 use radiosity::scene::Scene;
 use radiosity::visibility::{Hit, Visibility};
 

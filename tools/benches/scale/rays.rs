@@ -9,7 +9,7 @@ type Segment = (glam::DVec3, glam::DVec3, [u32; 2]);
 /// scene of `visibility::tests::throughput`), and 1M segments between random surface points.
 pub(super) fn ray_scene() -> (Vec<[glam::DVec3; 3]>, Vec<Segment>) {
     use glam::DVec3;
-    let mut rng = form_factor::sampling::Rng::new(&[6]);
+    let mut rng = radiosity::sampling::Rng::new(&[6]);
     let grid_box = |lo: DVec3, hi: DVec3, k: usize| {
         let mut out = Vec::new();
         for face in scenes::box_faces(lo, hi) {
@@ -31,7 +31,7 @@ pub(super) fn ray_scene() -> (Vec<[glam::DVec3; 3]>, Vec<Segment>) {
         let size = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) + 0.5;
         tris.extend(grid_box(lo, lo + size, 4));
     }
-    let on = |t: &[DVec3; 3], rng: &mut form_factor::sampling::Rng| {
+    let on = |t: &[DVec3; 3], rng: &mut radiosity::sampling::Rng| {
         let (u, v) = (rng.next_f64(), rng.next_f64());
         let (u, v) = if u + v > 1.0 {
             (1.0 - u, 1.0 - v)
@@ -162,7 +162,7 @@ fn form_factor_workload(
         radiosity::mesh::subdivide(scene, max_edge, radiosity::mesh::DEFAULT_CREASE_DEGREES)?;
     let n = patches.len();
     let coarse = form_factor::Coarse::of(&patches, &form_factor::occluders(&patches));
-    let rule = form_factor::sampling::gauss_rule(3).expect("a 3-point rule");
+    let rule = radiosity::sampling::gauss_rule(3).expect("a 3-point rule");
     let points: Vec<[DVec3; 3]> = (0..n)
         .map(|i| {
             let t = patches.corners(i);

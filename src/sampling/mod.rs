@@ -1,54 +1,19 @@
-//! Deterministic, seedable sampling: a counter-based random generator (SplitMix64) keyed by
-//! (seed, patch, …), so every sample depends only on its key and never on thread scheduling,
-//! and stratified points on triangles.
+//! Deterministic, seedable sampling, the ground floor every stage draws from: a
+//! counter-based random generator keyed by (seed, patch, …) ([`rng`]), so every sample
+//! depends only on its key and never on thread scheduling; quadrature rules on the triangle
+//! ([`quadrature`]); and the sampling rules (this file): stratified points on triangles,
+//! cosine-weighted directions (Malley), points of a triangle by solid angle (Arvo), and the
+//! kernel-weighted points of an emitter above a receiver's horizon.
 
 use glam::DVec3;
 
-use super::kernel::clip_above;
+use crate::geometry::clip_above;
 
-/// SplitMix64 finaliser (Steele, Lea & Flood, "Fast splittable pseudorandom number
-/// generators", OOPSLA 2014): a bijective 64-bit mix used as a hash of the sample key.
-#[inline]
-pub fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+pub mod quadrature;
+pub mod rng;
 
-/// A small generator: SplitMix64 stream started from a hash of the key.
-#[derive(Debug, Clone)]
-pub struct Rng(u64);
-
-impl Rng {
-    /// A stream determined by `key` alone.
-    pub fn new(key: &[u64]) -> Self {
-        let mut s = 0x51_7CC1_B727_220Au64;
-        for &k in key {
-            s = mix64(s ^ k);
-        }
-        Rng(s)
-    }
-
-    /// Next 64 random bits.
-    #[inline]
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        mix64(self.0)
-    }
-
-    /// Uniform in [0, 1) with 53 random bits.
-    #[inline]
-    pub fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
-    /// Uniform integer in [0, n).
-    #[inline]
-    pub fn below(&mut self, n: usize) -> usize {
-        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
-    }
-}
+pub use quadrature::{gauss_rule, lattice_barycentrics};
+pub use rng::{mix64, Rng};
 
 /// `n` stratified points on a triangle, as barycentric coordinates (weights of its corners a,
 /// b, c), written to `out`.
@@ -80,85 +45,6 @@ pub fn permutation(n: usize, rng: &mut Rng) -> Vec<usize> {
 pub fn triangle_barycentrics(u: f64, v: f64) -> [f64; 3] {
     let su = u.sqrt();
     [1.0 - su, su * (1.0 - v), su * v]
-}
-
-/// Centroids of the n² congruent triangles of the regular n-fold split of a triangle, as
-/// barycentric coordinates: n² points of equal weight that cover the triangle evenly (a
-/// deterministic estimate of area fractions with error ≤ one sub-triangle per boundary
-/// crossing).
-pub fn lattice_barycentrics(n: usize) -> Vec<[f64; 3]> {
-    let mut out = Vec::with_capacity(n * n);
-    let third = 1.0 / (3 * n) as f64;
-    for i in 0..n {
-        for j in 0..n - i {
-            // Upright sub-triangle (i, j), (i+1, j), (i, j+1) in lattice coordinates.
-            let (u, v) = ((3 * i + 1) as f64 * third, (3 * j + 1) as f64 * third);
-            out.push([1.0 - u - v, u, v]);
-            if i + j + 2 <= n {
-                // Inverted sub-triangle (i+1, j), (i, j+1), (i+1, j+1).
-                let (u, v) = ((3 * i + 2) as f64 * third, (3 * j + 2) as f64 * third);
-                out.push([1.0 - u - v, u, v]);
-            }
-        }
-    }
-    out
-}
-
-/// Symmetric Gauss quadrature rules on the triangle (Dunavant, "High degree efficient
-/// symmetrical Gaussian quadrature rules for the triangle", IJNME 21, 1985), for the point
-/// counts that have a rule with positive weights: 1 (degree 1), 3 (degree 2), 6 (degree 4),
-/// 7 (degree 5), 12 (degree 6). Each entry is (barycentric coordinates, weight); weights sum
-/// to 1, so Σ w_k f(x_k) approximates the mean of f over the triangle.
-pub fn gauss_rule(n: usize) -> Option<Vec<([f64; 3], f64)>> {
-    // Orbits: a centroid, (a, a, 1 − 2a) with its 3 permutations, (a, b, c) with 6.
-    fn s3(w: f64) -> Vec<([f64; 3], f64)> {
-        vec![([1.0 / 3.0; 3], w)]
-    }
-    fn s21(a: f64, w: f64) -> Vec<([f64; 3], f64)> {
-        let b = 1.0 - 2.0 * a;
-        vec![([a, a, b], w), ([a, b, a], w), ([b, a, a], w)]
-    }
-    fn s111(a: f64, b: f64, w: f64) -> Vec<([f64; 3], f64)> {
-        let c = 1.0 - a - b;
-        [
-            [a, b, c],
-            [a, c, b],
-            [b, a, c],
-            [b, c, a],
-            [c, a, b],
-            [c, b, a],
-        ]
-        .into_iter()
-        .map(|p| (p, w))
-        .collect()
-    }
-    let rule = match n {
-        1 => s3(1.0),
-        3 => s21(1.0 / 6.0, 1.0 / 3.0),
-        6 => [
-            s21(0.445_948_490_915_965, 0.223_381_589_678_011),
-            s21(0.091_576_213_509_771, 0.109_951_743_655_322),
-        ]
-        .concat(),
-        7 => [
-            s3(0.225),
-            s21(0.470_142_064_105_115, 0.132_394_152_788_506),
-            s21(0.101_286_507_323_456, 0.125_939_180_544_827),
-        ]
-        .concat(),
-        12 => [
-            s21(0.249_286_745_170_910, 0.116_786_275_726_379),
-            s21(0.063_089_014_491_502, 0.050_844_906_370_207),
-            s111(
-                0.053_145_049_844_817,
-                0.310_352_451_033_784,
-                0.082_851_075_618_374,
-            ),
-        ]
-        .concat(),
-        _ => return None,
-    };
-    Some(rule)
 }
 
 /// The cosine-weighted direction for (s, t) ∈ [0, 1)² about the unit normal `n` with the
@@ -371,7 +257,7 @@ mod tests {
         // against Lambert's contour integral for a near large triangle cut by the horizon,
         // a far small one, and one seen at a grazing angle. 20,000 stratified points: the
         // estimate's relative standard error is under 0.5 %, so 2 % is four of them.
-        use crate::form_factor::kernel::point_to_polygon;
+        use crate::geometry::kernel::point_to_polygon;
         let cases = [
             (
                 [
@@ -427,26 +313,6 @@ mod tests {
     }
 
     #[test]
-    fn lattice_points_are_the_sub_triangle_centroids() {
-        for n in 1..6 {
-            let pts = lattice_barycentrics(n);
-            assert_eq!(pts.len(), n * n);
-            // Inside, and their mean is the centroid (the sub-triangles tile the triangle).
-            let mut mean = [0.0; 3];
-            for b in &pts {
-                assert!(b.iter().all(|&w| w > 0.0) && (b.iter().sum::<f64>() - 1.0).abs() < 1e-12);
-                for k in 0..3 {
-                    mean[k] += b[k] / pts.len() as f64;
-                }
-            }
-            assert!(
-                mean.iter().all(|&m| (m - 1.0 / 3.0).abs() < 1e-12),
-                "{n}: {mean:?}"
-            );
-        }
-    }
-
-    #[test]
     fn points_lie_inside_and_are_deterministic() {
         let a = points(16, &[7, 3]);
         assert_eq!(a, points(16, &[7, 3]));
@@ -461,40 +327,5 @@ mod tests {
             (mean - DVec3::new(1.0 / 3.0, 1.0 / 3.0, 0.0)).length() < 2e-3,
             "{mean}"
         );
-    }
-
-    #[test]
-    fn gauss_rules_integrate_polynomials_of_their_degree() {
-        // Mean of x^a y^b over the unit right triangle is 2·a!·b!/(a+b+2)!.
-        let fact = |n: u32| (1..=n).map(|k| k as f64).product::<f64>();
-        for (n, degree) in [(1, 1), (3, 2), (6, 4), (7, 5), (12, 6)] {
-            let rule = gauss_rule(n).unwrap();
-            assert_eq!(rule.len(), n);
-            assert!((rule.iter().map(|r| r.1).sum::<f64>() - 1.0).abs() < 1e-12);
-            for a in 0..=degree {
-                for b in 0..=degree - a {
-                    let exact = 2.0 * fact(a) * fact(b) / fact(a + b + 2);
-                    let got: f64 = rule
-                        .iter()
-                        .map(|(p, w)| w * p[1].powi(a as i32) * p[2].powi(b as i32))
-                        .sum();
-                    assert!(
-                        (got - exact).abs() < 1e-12,
-                        "n={n} x^{a} y^{b}: {got} vs {exact}"
-                    );
-                }
-            }
-        }
-        assert!(gauss_rule(4).is_none());
-    }
-
-    #[test]
-    fn uniform_floats() {
-        let mut r = Rng::new(&[42]);
-        let xs: Vec<f64> = (0..100_000).map(|_| r.next_f64()).collect();
-        assert!(xs.iter().all(|x| (0.0..1.0).contains(x)));
-        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
-        // Standard error of the mean: 1/√(12·1e5) ≈ 9e-4; 5σ.
-        assert!((mean - 0.5).abs() < 5e-3);
     }
 }

@@ -4,6 +4,8 @@
 use glam::DVec3;
 use std::f64::consts::PI;
 
+use super::clip::{clip_above, clip_polygon};
+
 /// Point-to-point kernel of the area formulation, G(p, q) = cosθp cosθq / (π r²), in m⁻²
 /// (scene units⁻²). Zero when either point is behind the other's plane (one-sided surfaces).
 ///
@@ -66,37 +68,6 @@ pub fn point_to_convex_polygon(p: DVec3, np: DVec3, poly: &[DVec3]) -> f64 {
     let mut clipped = Vec::with_capacity(r.len() + 1);
     clip_polygon(&r, |v| np.dot(v), &mut clipped);
     (contour_sum(np, &clipped).abs() / (2.0 * PI)).min(1.0)
-}
-
-/// Sutherland–Hodgman: the part of the convex polygon `poly` (in space or in a plane) where
-/// `dist ≥ 0`, into `out` (cleared first; empty or fewer than 3 corners when nothing of area
-/// is left).
-pub(crate) fn clip_polygon<P>(poly: &[P], dist: impl Fn(P) -> f64, out: &mut Vec<P>)
-where
-    P: Copy
-        + std::ops::Add<Output = P>
-        + std::ops::Sub<Output = P>
-        + std::ops::Mul<f64, Output = P>,
-{
-    out.clear();
-    let n = poly.len();
-    if n == 0 {
-        return;
-    }
-    let mut a = poly[n - 1];
-    let mut da = dist(a);
-    for &b in poly {
-        let db = dist(b);
-        if (da >= 0.0) != (db >= 0.0) {
-            let t = da / (da - db);
-            out.push(a + (b - a) * t);
-        }
-        if db >= 0.0 {
-            out.push(b);
-        }
-        a = b;
-        da = db;
-    }
 }
 
 /// Σ_k γ_k n·(R_k × R_{k+1}) / |R_k × R_{k+1}| over the closed polygon `r` (corners relative to
@@ -165,32 +136,6 @@ pub fn angle(y: f64, x: f64) -> f64 {
     } else {
         a
     }
-}
-
-/// Sutherland–Hodgman clip of a convex polygon (≤ 4 corners relative to the receiving point
-/// in, ≤ 8 out) to the closed half-space np·x ≥ 0. Returns the number of corners written.
-pub(crate) fn clip_above(np: DVec3, poly: &[DVec3], out: &mut [DVec3; 8]) -> usize {
-    let n = poly.len();
-    let dist: [f64; 4] = std::array::from_fn(|k| if k < n { np.dot(poly[k]) } else { 0.0 });
-    if dist[..n].iter().all(|&d| d >= 0.0) {
-        out[..n].copy_from_slice(poly);
-        return n;
-    }
-    let mut m = 0;
-    for k in 0..n {
-        let (a, b) = (poly[k], poly[(k + 1) % n]);
-        let (da, db) = (dist[k], dist[(k + 1) % n]);
-        if da >= 0.0 {
-            out[m] = a;
-            m += 1;
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            let t = da / (da - db);
-            out[m] = a + t * (b - a);
-            m += 1;
-        }
-    }
-    m
 }
 
 #[cfg(test)]
@@ -284,8 +229,8 @@ mod tests {
 
     #[test]
     fn point_to_polygon_matches_the_direct_formula() {
-        let mut rng = super::super::sampling::Rng::new(&[5]);
-        let v = |r: &mut super::super::sampling::Rng| {
+        let mut rng = crate::sampling::Rng::new(&[5]);
+        let v = |r: &mut crate::sampling::Rng| {
             DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 2.0 - DVec3::ONE
         };
         for k in 0..20_000 {
@@ -311,7 +256,7 @@ mod tests {
     fn fast_angle_matches_atan2() {
         // Every octant, tiny and huge ratios, zeros and the reduction boundaries.
         let mut worst: f64 = 0.0;
-        let mut rng = super::super::sampling::Rng::new(&[11]);
+        let mut rng = crate::sampling::Rng::new(&[11]);
         for k in 0..200_000 {
             let (y, x) = if k < 8 {
                 [
@@ -325,7 +270,7 @@ mod tests {
                     (1e-300, -1.0),
                 ][k]
             } else {
-                let e = |r: &mut super::super::sampling::Rng| 10f64.powf(12.0 * r.next_f64() - 6.0);
+                let e = |r: &mut crate::sampling::Rng| 10f64.powf(12.0 * r.next_f64() - 6.0);
                 let y = e(&mut rng) * rng.next_f64();
                 let x = e(&mut rng) * (2.0 * rng.next_f64() - 1.0);
                 (y, x)

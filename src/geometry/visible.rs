@@ -24,7 +24,8 @@
 
 use glam::{DVec2, DVec3};
 
-use crate::form_factor::kernel::{clip_polygon, point_to_convex_polygon};
+use super::clip::clip_polygon;
+use super::kernel::point_to_convex_polygon;
 
 /// Triangles in the pyramid (casting a shadow on the emitter), at most; with more (a point
 /// under a crowded scene), [`visible_form_factor`] gives up and the caller samples visibility
@@ -68,7 +69,7 @@ pub fn visible_form_factor(
 ) -> Option<f64> {
     let dx = e_normal.dot(x - e[0]);
     if dx <= 2.0 * margin {
-        return Some(crate::form_factor::kernel::point_to_polygon(x, n, e));
+        return Some(crate::geometry::point_to_polygon(x, n, e));
     }
     // The pyramid: keep m·(p − x) ≥ 0 for each side plane (through x and an edge of e).
     let sides: [DVec3; 3] = std::array::from_fn(|k| {
@@ -210,8 +211,8 @@ fn bounds(p: &[DVec2]) -> (DVec2, DVec2) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::form_factor::kernel::point_to_polygon;
-    use crate::form_factor::sampling::Rng;
+    use crate::geometry::point_to_polygon;
+    use crate::sampling::Rng;
 
     /// The emitter: the unit square at height 1 (two triangles), facing down.
     fn square() -> [[DVec3; 3]; 2] {
