@@ -58,13 +58,14 @@
 pub mod bake;
 pub mod choice;
 pub mod color;
-pub mod environment;
+
 pub mod error;
 pub mod form_factor;
 pub mod gather;
 pub mod geometry;
 pub mod hierarchical;
 pub mod io;
+pub mod light;
 pub mod mesh;
 pub mod pipeline;
 pub mod progress;

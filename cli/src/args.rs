@@ -11,7 +11,6 @@ use clap::{Args, Parser, Subcommand};
 
 use glam::DVec3;
 use radiosity::bake::BakedMesh;
-use radiosity::environment::{Environment, PointLight, SkyModel, Spot, Sun};
 use radiosity::form_factor::{self, Estimator};
 use radiosity::gather::Gather;
 use radiosity::hierarchical;
@@ -19,6 +18,7 @@ use radiosity::mesh::Discontinuities;
 use radiosity::pipeline::{self, WriteOptions};
 use radiosity::render::{self, View};
 use radiosity::scene::{Camera, Override, Property, Up};
+use radiosity::scene::{Environment, LightSources, PointLight, SkyModel, Spot, Sun};
 use radiosity::solve::{self, Method};
 use radiosity::{Choice, Result};
 
@@ -598,7 +598,9 @@ fn numbers(text: &str, option: &'static str) -> std::result::Result<Vec<f64>, Fa
 }
 
 impl SolveArgs {
-    /// The sky and the sun these options ask for (ranges checked by the library).
+    /// The lights outside the mesh these options ask for: the flags' own, put over a lights
+    /// file's by the library's rule ([`LightSources::over`]); ranges are checked by the
+    /// library.
     pub fn environment(&self) -> std::result::Result<Environment, Failure> {
         let rgb = |v: &[f64], option: &'static str, text: &str| match *v {
             [x] => Ok([x; 3]),
@@ -608,15 +610,9 @@ impl SolveArgs {
                 format!("{text:?}: expected R,G,B or one value for grey"),
             )),
         };
-        // The lights file first: the flags' sky and sun replace its own, their lights join.
-        let file = match &self.lights {
-            Some(path) => Some(radiosity::environment::file::read(path, self.up)?),
+        let sky = match &self.sky {
+            Some(t) => Some(rgb(&numbers(t, "--sky")?, "--sky", t)?),
             None => None,
-        };
-        let (sky, sky_model) = match (&self.sky, &file) {
-            (Some(t), _) => (rgb(&numbers(t, "--sky")?, "--sky", t)?, self.sky_model),
-            (None, Some(f)) if f.has_sky => (f.environment.sky, f.environment.sky_model),
-            (None, _) => ([0.0; 3], self.sky_model),
         };
         let sun = match &self.sun {
             Some(t) => {
@@ -633,9 +629,9 @@ impl SolveArgs {
                     irradiance: rgb(&v[2..], "--sun", t)?,
                 })
             }
-            None => file.as_ref().and_then(|f| f.environment.sun),
+            None => None,
         };
-        let mut lights = file.map_or_else(Vec::new, |f| f.environment.lights);
+        let mut lights = Vec::new();
         for t in &self.point_light {
             let v = numbers(t, "--point-light")?;
             if v.len() < 4 {
@@ -675,13 +671,17 @@ impl SolveArgs {
                 }),
             });
         }
-        Ok(Environment {
+        let flags = LightSources {
             sky,
-            sky_model,
+            sky_model: self.sky_model,
             sun,
             lights,
-            up: self.up,
-        })
+        };
+        let file = match &self.lights {
+            Some(path) => radiosity::io::lights::read(path)?,
+            None => LightSources::default(),
+        };
+        Ok(flags.over(file).environment(self.up))
     }
 }
 

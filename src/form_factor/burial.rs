@@ -2,25 +2,14 @@
 //! ceiling) hides parts of patches. A point there receives no light and is seen by nobody,
 //! so it must not dilute its patch's radiance: it gathers nothing, and its patch's rows are
 //! rescaled to the visible part (hidden-area elimination). This module finds the buried
-//! points ([`is_hidden`]) and measures each patch's visible part.
+//! points ([`Visibility::buried`]) and measures each patch's visible part.
 
-use glam::DVec3;
 use rayon::prelude::*;
 
 use super::samples::SamplePoints;
 use crate::mesh::Patches;
 use crate::sampling;
 use crate::visibility::Visibility;
-
-/// True when the surface point `x` of patch `i` is buried: the first surface hit straight
-/// along its normal is seen from behind, i.e. `x` lies inside a closed object or under a
-/// surface lying on it (the floor under a block, the ceiling behind a light mounted on it).
-/// Such points receive no light and are seen by nobody, so they must not dilute their
-/// patch's radiance; their patch's rows are rescaled to its visible part.
-pub fn is_hidden(patches: &Patches, vis: &Visibility, i: usize, x: DVec3) -> bool {
-    vis.first_hit_from_behind(x, patches.normal[i], i as u32)
-        .unwrap_or(false)
-}
 
 /// The visible (unburied) fraction of a patch's area is measured at the centroids of its
 /// regular split into this many squared sub-triangles ([`sampling::lattice_barycentrics`]).
@@ -53,7 +42,7 @@ impl Burial {
                 .points
                 .par_iter()
                 .enumerate()
-                .map(|(k, &x)| is_hidden(patches, vis, k / ns, x))
+                .map(|(k, &x)| vis.buried(x, patches.normal[k / ns], (k / ns) as u32))
                 .collect()
         };
         let quadrature_visible: Vec<f64> = (0..n)
@@ -75,7 +64,8 @@ impl Burial {
                     let buried = lattice
                         .iter()
                         .filter(|b| {
-                            is_hidden(patches, vis, i, b[0] * t[0] + b[1] * t[1] + b[2] * t[2])
+                            let x = b[0] * t[0] + b[1] * t[1] + b[2] * t[2];
+                            vis.buried(x, patches.normal[i], i as u32)
                         })
                         .count();
                     1.0 - buried as f64 / lattice.len() as f64

@@ -28,7 +28,7 @@ pub struct Row {
     pub entries: Vec<(u32, f32)>,
     /// Rays cast (including the buried-origin tests).
     pub rays: u64,
-    /// Fraction of the ray origins that are not buried ([`super::is_hidden`]).
+    /// Fraction of the ray origins that are not buried ([`Visibility::buried`]).
     pub visible_fraction: f64,
     /// Rays from unburied origins that left the scene or met the back of a surface: light
     /// lost from an open scene. 0 for every patch ⇔ (as far as these rays tell) closed.
@@ -81,7 +81,7 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
                 // A back face: either light lost through an open scene, or an origin buried
                 // in contact geometry, which must not count as a sample of the patch at all.
                 extra_rays += 1;
-                if super::is_hidden(patches, vis, i, origin) {
+                if vis.buried(origin, patches.normal[i], i as u32) {
                     buried += 1;
                 } else {
                     escaped += 1;

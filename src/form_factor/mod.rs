@@ -31,7 +31,7 @@
 //! the estimator, closed-scene normalisation, reciprocity, counters); [`settings`] holds the
 //! [`Estimator`], [`Settings`] and [`Shortcuts`]; the pair estimators' loop is `pairwise`
 //! (one screen), one pair's estimate `pair` ([`kernel`] has the integrands), their sample
-//! points `samples` ([`sampling`] the rules and random numbers), buried points [`is_hidden`]
+//! points `samples` ([`sampling`] the rules and random numbers), buried points ([`Visibility::buried`])
 //! (`burial`), the convex-hull skip [`occluders`] (whose module also rebuilds the occluding
 //! scene triangles the rays are traced against), reuse between refinement rounds [`Reuse`];
 //! hemisphere shooting is [`hemisphere`]; CSR assembly `assemble`; [`symmetric_part`]
@@ -50,7 +50,7 @@ mod reuse;
 mod samples;
 pub mod settings;
 
-pub use burial::{is_hidden, VISIBLE_AREA_LATTICE};
+pub use burial::VISIBLE_AREA_LATTICE;
 pub use needed::Needed;
 pub use occluders::{occluders, Coarse};
 pub use pair::{FAR_FIELD_FACTOR, NEAR_FIELD_FACTOR};
@@ -101,7 +101,7 @@ pub struct Stats {
     /// The triangles the visibility rays are traced against: the scene triangles the
     /// occluding patches tile (fewer than `occluder_patches` once patches are subdivided).
     pub occluder_triangles: u64,
-    /// Patches with some sample points buried in contact geometry ([`is_hidden`]).
+    /// Patches with some sample points buried in contact geometry ([`Visibility::buried`]).
     pub patches_partly_hidden: u64,
     /// True when closure probes found the scene closed and the rows were normalised to 1
     /// (pair estimators with `normalise_closed`).
@@ -136,7 +136,7 @@ pub struct FormFactors {
     pub area: Vec<f64>,
     /// Fraction of each patch's area that is not buried in contact geometry, in [0, 1]
     /// (pair estimators: measured on a lattice of 16 points; hemisphere: the unburied ray
-    /// origins); rows describe the visible part ([`is_hidden`]).
+    /// origins); rows describe the visible part ([`Visibility::buried`]).
     pub visible_fraction: Vec<f64>,
     /// How far below 1 a row of a closed enclosure may fall with this estimator: 1e-6 for
     /// hemisphere shooting (rows are hit counts, exact up to f32 storage); 0.1 for the pair

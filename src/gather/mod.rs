@@ -34,7 +34,7 @@
 //!   outline), [`EDGE_RAYS`] more rays go into the strata beside it, each stratum's share
 //!   chosen from its neighbours' rays only, so the estimate stays unbiased
 //!   ([`Gatherer::with_edge_rays`]).
-//! - **outside the mesh** ([`crate::environment`]): the sun and point lights join the direct
+//! - **outside the mesh** ([`crate::light::outside`]): the sun and point lights join the direct
 //!   term (their shadow rays at x); the sky comes through the hemisphere rays that leave the
 //!   scene above the horizon (a uniform sky as its exact unoccluded light times the open share
 //!   of those rays, so an open surface gets it exactly).
@@ -67,12 +67,13 @@ use serde::Serialize;
 use crate::bake::Site;
 use crate::choice::Choice;
 use crate::color::{luminance, Rgb};
-use crate::environment::{Environment, Receiver, SkyModel};
 use crate::geometry::kernel::point_to_polygon;
 use crate::geometry::visible;
+use crate::light::Receiver;
 use crate::mesh::Patches;
 use crate::sampling::{gauss_rule, kernel_samples, malley, Rng};
 use crate::scene::Scene;
+use crate::scene::{Environment, SkyModel};
 use crate::visibility::NONE;
 use trace::Surfaces;
 
@@ -357,7 +358,7 @@ pub struct Gatherer<'a> {
     /// More hemisphere rays beside edges of the incident light, as a share of a gather's rays
     /// ([`EDGE_RAYS`]; [`Gatherer::with_edge_rays`]).
     edge_rays: f64,
-    /// The lights outside the mesh ([`crate::environment`]): the sun and the point lights are
+    /// The lights outside the mesh ([`crate::light::outside`]): the sun and the point lights are
     /// part of the direct term, the sky comes through the hemisphere rays that leave the scene.
     env: Environment,
 }
@@ -944,7 +945,7 @@ impl<'a> Gatherer<'a> {
     }
 
     /// True when the first surface along `n` from `x` is seen from behind: `x` is buried
-    /// ([`crate::form_factor::is_hidden`]'s test, along the vertex's own normal rather than one
+    /// ([`crate::visibility::Visibility::buried`]'s test, along the vertex's own normal rather than one
     /// patch's: on a curved surface the two differ).
     ///
     /// The ray starts [`LIFT`] above `x`, as the shadow and hemisphere rays do. From `x`

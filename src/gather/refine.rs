@@ -681,7 +681,7 @@ mod tests {
         let scene = half_shadow();
         let patches = crate::mesh::subdivide(&scene, 0.25, 0.0).unwrap();
         let radiance = vec![[0.0; 3]; patches.len()];
-        let env = crate::environment::Environment::default();
+        let env = crate::scene::Environment::default();
         let g = super::Gatherer::new(&scene, &patches, &radiance, &env, 1);
         let mut checked = 0;
         for i in (0..patches.len()).filter(|&i| patches.reflectance[i][0] == RHO) {
@@ -820,7 +820,7 @@ mod tests {
         let out = pipeline::solve_scene(&scene, &Settings::default()).unwrap();
         assert!(out.report.display_refinement.vertices > 0);
         let (split, _) = crate::mesh::split_contacts(&scene);
-        let env = crate::environment::Environment::default();
+        let env = crate::scene::Environment::default();
         let g = super::Gatherer::new(&split, &out.patches, &out.solution.radiance, &env, 9);
         let baked = &out.baked;
         let at = |v: u32| DVec3::from(baked.positions[v as usize]);

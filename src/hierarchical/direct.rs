@@ -44,10 +44,11 @@ use glam::DVec3;
 use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
-use crate::environment::{Environment, Receiver, SKY_RAYS};
 use crate::geometry::kernel::point_to_polygon;
+use crate::light::{Receiver, SKY_RAYS};
 use crate::mesh::Patches;
 use crate::sampling::{kernel_samples, Rng};
+use crate::scene::Environment;
 use crate::visibility::Visibility;
 
 /// Shadow rays per rule point and emitter (stratified over the emitter). Measured on the
@@ -159,7 +160,7 @@ pub struct Direct {
     /// The largest minus the smallest D(x) over those points (largest channel), W·sr⁻¹·m⁻²:
     /// how much the direct light varies over the element.
     pub spread: f64,
-    /// The part of `mean` from the sky and the sun ([`crate::environment`]), W·sr⁻¹·m⁻².
+    /// The part of `mean` from the sky and the sun ([`crate::light::outside`]), W·sr⁻¹·m⁻².
     pub environment: Rgb,
     /// Shadow rays cast.
     pub rays: u64,

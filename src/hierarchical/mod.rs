@@ -64,9 +64,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::Rgb;
-use crate::environment::Environment;
-use crate::form_factor::{closes, is_hidden, occluders, CLOSURE_PROBES};
+use crate::form_factor::{closes, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
+use crate::scene::Environment;
 use crate::solve;
 use crate::visibility::Visibility;
 use crate::{Error, Result};
@@ -301,11 +301,14 @@ pub fn solve(
         root,
     } = output::leaves(&h.tree, roots, &h.total_radiance());
     // Buried output patches (the floor under a block): the centroid's normal ray meets the
-    // back of a surface ([`is_hidden`]). One ray per patch: leaves are small.
+    // back of a surface ([`Visibility::buried`]). One ray per patch: leaves are small.
     let visible_fraction: Vec<f64> = (0..patches.len())
         .into_par_iter()
         .map(|i| {
-            let hidden = is_hidden(roots, &h.vis, root[i] as usize, patches.centroid[i]);
+            let r = root[i];
+            let hidden = h
+                .vis
+                .buried(patches.centroid[i], roots.normal[r as usize], r);
             if hidden {
                 0.0
             } else {
@@ -386,7 +389,7 @@ pub struct Hierarchy<'a> {
     exact: Vec<bool>,
     /// Per element: its direct light from `emitters` and `env`.
     direct: Vec<direct::Direct>,
-    /// The sky and the sun ([`crate::environment`]), whose direct light every element computes.
+    /// The sky and the sun ([`crate::light::outside`]), whose direct light every element computes.
     env: Environment,
     /// How far rays to the sky and the sun start above the surface: 10⁻⁶ of the scene's extent.
     lift: f64,
@@ -521,7 +524,7 @@ impl<'a> Hierarchy<'a> {
     }
 
     /// Prepares the elements made since the last call: tests their rule points for burial
-    /// ([`is_hidden`]: the point's normal ray meets the back of a surface first), then
+    /// ([`Visibility::buried`]: the point's normal ray meets the back of a surface first), then
     /// computes their direct light ([`direct::element_direct`]).
     fn update_new_elements(&mut self) {
         let from = self.buried.len();
@@ -536,7 +539,7 @@ impl<'a> Hierarchy<'a> {
                 }
                 let root = tree.elements[e].root as usize;
                 rule.iter().enumerate().fold(0u16, |mask, (k, &(b, _))| {
-                    if is_hidden(roots, vis, root, tree.point(e, b)) {
+                    if vis.buried(tree.point(e, b), roots.normal[root], root as u32) {
                         mask | (1 << k)
                     } else {
                         mask

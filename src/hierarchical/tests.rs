@@ -556,7 +556,7 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
             .expect("the tiny triangle is a root");
         let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
         let vis = Visibility::build(&corners);
-        let dark = crate::environment::Environment::default();
+        let dark = crate::scene::Environment::default();
         let outside = direct::Outside {
             env: &dark,
             vis: &vis,

@@ -39,8 +39,8 @@ use serde_json::json;
 
 use crate::bake::BakedMesh;
 use crate::color::Rgb;
-use crate::environment::{PointLight, Spot, Sun};
 use crate::scene::{finish, listed_names, Camera, Material, Scene, SceneTriangle, Up};
+use crate::scene::{PointLight, Spot, Sun};
 use crate::{Error, Result};
 
 /// Lumens per watt at 555 nm: glTF's photometric light units (candela, lux) to radiometric
@@ -435,7 +435,7 @@ impl Loader<'_> {
             }),
             Kind::Directional => {
                 // The sun: toward it is −axis; azimuth from north (+Z) toward east (−X) for
-                // glTF's +Y up ([`crate::environment::Sun`]).
+                // glTF's +Y up ([`crate::scene::Sun`]).
                 let to = -axis;
                 let elevation = to.y.clamp(-1.0, 1.0).asin().to_degrees();
                 let (north, east) = (Up::Y.forward(), Up::Y.forward().cross(Up::Y.axis()));

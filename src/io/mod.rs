@@ -9,6 +9,7 @@
 
 pub mod atomic;
 pub mod gltf;
+pub mod lights;
 pub mod obj;
 pub mod ply;
 

@@ -65,7 +65,7 @@ const LEAVES_PER_ROOT: f64 = 2.0;
 /// 162 lights 8.5 s), before the rays beside edges ([`gather::EDGE_RAYS`] more).
 const GATHER_SECONDS: f64 = 4.2;
 /// Seconds on 2 cores per shadow ray to a light outside the mesh (a point or spot light, or
-/// the sun's [`crate::environment::SUN_RAYS`]) at an output vertex: every vertex of the gather
+/// the sun's [`crate::light::outside::SUN_RAYS`]) at an output vertex: every vertex of the gather
 /// and of its display refinement casts one to each (a LibreQuake level of 21,070 triangles
 /// with 133 lamps: 6.9·10⁶ shadow rays in 3.9 s, 0.57 µs each).
 const GATHER_SECONDS_PER_LIGHT_RAY: f64 = 0.57e-6;

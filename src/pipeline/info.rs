@@ -85,7 +85,7 @@ pub struct SceneInfo {
     /// Warnings from loading (and cleaning) the scene.
     pub warnings: Vec<String>,
     /// The sky and the sun the options give (`None` when neither brings light).
-    pub environment: Option<crate::environment::Environment>,
+    pub environment: Option<crate::scene::Environment>,
     /// What a bake with the options given will cost: method, patches, memory, time
     /// ([`super::Estimate`]; `radiosity info` passes the bake's options, the defaults unless
     /// others are given).
@@ -97,7 +97,7 @@ impl SceneInfo {
     /// the `estimate` of a bake of it ([`super::Estimate::of`]).
     pub fn of(
         scene: &Scene,
-        environment: &crate::environment::Environment,
+        environment: &crate::scene::Environment,
         estimate: super::Estimate,
     ) -> Result<SceneInfo> {
         scene.validate()?;
@@ -312,8 +312,8 @@ impl SceneInfo {
 }
 
 /// The sky, the sun and the point lights, one line each, with what they bring.
-fn environment_lines(s: &mut String, env: &crate::environment::Environment) {
-    use crate::environment::SkyModel;
+fn environment_lines(s: &mut String, env: &crate::scene::Environment) {
+    use crate::scene::SkyModel;
     use std::f64::consts::PI;
     let v = |a: [f64; 3]| format!("{} {} {}", g(a[0]), g(a[1]), g(a[2]));
     let up = env.up.axis();

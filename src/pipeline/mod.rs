@@ -485,7 +485,7 @@ fn light_transport(
     // E = Le + ρ·D_env: the sky's and the sun's direct light at each patch counts as emitted.
     let env = &settings.environment;
     let emission: Vec<crate::Rgb> = if env.is_lit() {
-        let d = crate::environment::patch_light(patches, env, settings.form_factors.seed);
+        let d = crate::light::patch_light(patches, env, settings.form_factors.seed);
         (0..patches.len())
             .map(|i| {
                 let (le, rho) = (patches.emission[i], patches.reflectance[i]);

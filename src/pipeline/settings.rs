@@ -90,9 +90,9 @@ pub struct Settings {
     /// one smooth surface for the form factors (interpolated normals); 0 = every face flat.
     /// Output vertices are shared only within a flat facet ([`crate::bake::FACET_DEGREES`]).
     pub crease_degrees: f64,
-    /// Light from outside the mesh: the sky and the sun ([`crate::environment`]); the default
+    /// Light from outside the mesh: the sky and the sun ([`crate::light::outside`]); the default
     /// has none.
-    pub environment: crate::environment::Environment,
+    pub environment: crate::scene::Environment,
     /// Give every face a back side with its material ([`crate::scene::Scene::make_two_sided`]).
     pub two_sided: bool,
     /// Adaptive refinement: rounds of splitting the patches whose radiance jumps against a
@@ -138,7 +138,7 @@ impl Default for Settings {
             form_factors: form_factor::Settings::default(),
             solver: solve::Settings::default(),
             crease_degrees: mesh::DEFAULT_CREASE_DEGREES,
-            environment: crate::environment::Environment::default(),
+            environment: crate::scene::Environment::default(),
             two_sided: false,
             refine_rounds: 2,
             refine_threshold: refine::DEFAULT_THRESHOLD,
@@ -167,11 +167,7 @@ impl Settings {
     /// millions of patches only to count them.
     pub fn resolved(&self, scene: &crate::scene::Scene) -> Result<Settings> {
         let mut s = self.clone();
-        // The scene file's own lights join the settings' (its sun unless one is given).
-        s.environment.lights.extend(scene.lights.iter().copied());
-        if s.environment.sun.is_none() {
-            s.environment.sun = scene.sun;
-        }
+        s.environment.add_scene_lights(scene);
         if s.method == Method::Auto {
             s.method = if s.cache.is_some() {
                 Method::Matrix

@@ -28,6 +28,7 @@
 mod build;
 pub mod camera;
 pub mod checks;
+pub mod lights;
 pub mod overrides;
 pub mod reach;
 pub mod texture;
@@ -36,6 +37,7 @@ mod two_sided;
 pub(crate) use build::{finish, listed_names};
 pub use build::{SceneBuilder, MAX_LISTED_PAIRS};
 pub use camera::{Camera, Up};
+pub use lights::{Environment, LightSources, PointLight, SkyModel, Spot, Sun};
 pub use overrides::{Override, Property};
 pub use texture::{Texture, UvMap, NO_UV};
 
@@ -109,10 +111,10 @@ pub struct Scene {
     /// header; see [`crate::scene::camera`]); pictures use it unless `--camera` is given.
     pub camera: Option<Camera>,
     /// Point and spot lights the scene file carries (glTF's `KHR_lights_punctual`); a bake
-    /// adds them to those of its settings ([`crate::environment`]).
-    pub lights: Vec<crate::environment::PointLight>,
+    /// adds them to those of its settings ([`Environment::add_scene_lights`]).
+    pub lights: Vec<PointLight>,
     /// The sun the scene file carries (a glTF directional light); a bake's `--sun` replaces it.
-    pub sun: Option<crate::environment::Sun>,
+    pub sun: Option<Sun>,
     /// Textures whose colour varies ρ across the faces that carry texture coordinates
     /// ([`texture`]); empty for most scenes.
     pub textures: Vec<Texture>,

@@ -21,7 +21,7 @@
 //! keeps the estimator unbiased (Arvo & Kirk 1990; pbrt-v4 `PathIntegrator`).
 //!
 //! The mean over a surface is the average of L at points drawn uniformly by area
-//! (stratified); points buried in contact geometry ([`crate::form_factor::is_hidden`]'s test,
+//! (stratified); points buried in contact geometry ([`Visibility::buried`]'s test,
 //! a normal ray that first meets a back face) see nothing and count as dark, so
 //! [`SurfaceMean::mean`] is the mean over the whole surface (what its area emits and
 //! reflects in total) and [`SurfaceMean::visible_mean`] the mean over its visible part. Each
@@ -428,7 +428,7 @@ impl<'a> Tracer<'a> {
 
     /// True when the first surface straight along x's normal is seen from behind (`x` lies
     /// inside a closed object or under a surface resting on it): the test of
-    /// [`crate::form_factor::is_hidden`] and of the gather, [`Visibility::first_hit_from_behind`],
+    /// [`Visibility::buried`] and of the gather, [`Visibility::first_hit_from_behind`],
     /// so a point inside objects that touch along coincident faces (a table leg under its
     /// top) is buried whichever of the two faces the rounding puts first.
     pub(crate) fn buried(&self, t: usize, x: DVec3) -> bool {

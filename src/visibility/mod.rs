@@ -456,12 +456,22 @@ impl Visibility {
         best.map(|b| ray.hit(b, m))
     }
 
+    /// True when the surface point `x` (unit normal `n`, on triangle `ignore`) is buried: the
+    /// first surface hit straight along its normal is seen from behind, i.e. `x` lies inside a
+    /// closed object or under a surface lying on it (the floor under a block, the ceiling behind
+    /// a light mounted on it). Such points receive no light and are seen by nobody, so they
+    /// must not dilute their patch's radiance (hidden-area elimination: the form factors'
+    /// rows, the hierarchy's elements, the environment's patch light, the gather).
+    pub fn buried(&self, x: DVec3, n: DVec3, ignore: u32) -> bool {
+        self.first_hit_from_behind(x, n, ignore).unwrap_or(false)
+    }
+
     /// Whether the first surface along the ray `origin + t·dir` (other than `ignore` and its
     /// twin) is seen from behind: `None` when the ray meets nothing, else whether some triangle
     /// hit within [`CONTACT_TIE_REL`] × the extent of the closest hit has its back to the ray
     /// (of a twin pair, the side facing the ray is its front: never from behind).
     ///
-    /// This is the burial test's question ([`crate::form_factor::is_hidden`]): a point inside a
+    /// This is the burial test's question ([`Visibility::buried`]): a point inside a
     /// closed object, or under a surface lying on it, sees a back first. Where two objects
     /// touch along coincident faces (a table leg's top against the table's underside), a ray
     /// from inside the leg meets the leg's top from behind and the underside from the front

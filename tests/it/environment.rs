@@ -3,9 +3,9 @@
 //! the sun), a shadow where something is, and light that bounces.
 
 use glam::DVec3;
-use radiosity::environment::{Environment, PointLight, SkyModel, Spot, Sun};
 use radiosity::gather::Gather;
 use radiosity::pipeline::{self, Method, Outcome};
+use radiosity::scene::{Environment, PointLight, SkyModel, Spot, Sun};
 use radiosity::scene::{Scene, SceneBuilder, Up};
 
 use crate::support::{assert_rel, run};

@@ -1,7 +1,7 @@
 //! A lights file: the sky, the sun and any number of point and spot lights for a scene whose
 //! format has no lights (OBJ), as JSON, so a level's hundred lamps are one option
 //! (`--lights FILE`) rather than a hundred flags. The units are those of the flags and of
-//! [`Environment`]: sky radiance W·sr⁻¹·m⁻², sun irradiance W·m⁻², intensity W·sr⁻¹,
+//! [`crate::scene::Environment`]: sky radiance W·sr⁻¹·m⁻², sun irradiance W·m⁻², intensity W·sr⁻¹,
 //! positions in scene units, angles in degrees.
 //!
 //! ```json
@@ -19,16 +19,16 @@
 //!
 //! Every key is optional; a colour is three numbers or one (grey). Unknown keys are errors (a
 //! misspelt `"intensty"` must not leave a lamp dark), as are values out of range, named by the
-//! light's place in the list (and its `name`, if it has one).
+//! light's place in the list (and its `name`, if it has one). The file is one
+//! [`LightSources`]; how it joins a bake's other lights is [`LightSources::over`]'s rule.
 
 use std::path::Path;
 
 use glam::DVec3;
 use serde::Deserialize;
 
-use super::{Environment, PointLight, SkyModel, Spot, Sun};
 use crate::color::Rgb;
-use crate::scene::Up;
+use crate::scene::{LightSources, PointLight, SkyModel, Spot, Sun, Up};
 use crate::{Error, Result};
 
 /// A colour as written: one number (grey) or three.
@@ -90,7 +90,7 @@ struct FileLight {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct LightsFile {
+struct Document {
     #[serde(default)]
     sky: Option<Colour>,
     #[serde(default)]
@@ -101,27 +101,17 @@ struct LightsFile {
     lights: Vec<FileLight>,
 }
 
-/// What a lights file gives: its [`Environment`] (with `up` as given), and which parts it set,
-/// so a program can let its own options take precedence over each part.
-#[derive(Debug, Clone)]
-pub struct Lights {
-    /// The file's lights; `sky` is 0 and `sun` `None` where the file has none.
-    pub environment: Environment,
-    /// True if the file gives a sky (with or without `sky_model`).
-    pub has_sky: bool,
-}
-
 /// Reads a lights file (format in the module's documentation), checked item by item: every
 /// error names `path`, and the line (syntax, unknown keys, wrong types) or the light's place
 /// in the list and its name (values out of range).
-pub fn read(path: &Path, up: Up) -> Result<Lights> {
+pub fn read(path: &Path) -> Result<LightSources> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    parse(&text, path, up)
+    parse(&text, path)
 }
 
 /// [`read`] on text already in memory (`path` names it in errors).
-pub fn parse(text: &str, path: &Path, up: Up) -> Result<Lights> {
-    let file: LightsFile = serde_json::from_str(text).map_err(|e| Error::Parse {
+pub fn parse(text: &str, path: &Path) -> Result<LightSources> {
+    let file: Document = serde_json::from_str(text).map_err(|e| Error::Parse {
         path: path.to_path_buf(),
         line: e.line(),
         message: format!("{e}"),
@@ -139,8 +129,8 @@ pub fn parse(text: &str, path: &Path, up: Up) -> Result<Lights> {
             )))
         }
     };
-    let mut environment = Environment {
-        sky: file.sky.as_ref().map_or([0.0; 3], Colour::rgb),
+    let mut sources = LightSources {
+        sky: file.sky.as_ref().map(Colour::rgb),
         sky_model,
         sun: file.sun.as_ref().map(|s| Sun {
             azimuth_degrees: s.azimuth,
@@ -148,10 +138,9 @@ pub fn parse(text: &str, path: &Path, up: Up) -> Result<Lights> {
             irradiance: s.irradiance.rgb(),
         }),
         lights: Vec::new(),
-        up,
     };
     // The sky and the sun first, then each light on its own, so an error names the item.
-    environment
+    (sources.clone().environment(Up::default()))
         .validate()
         .map_err(|e| input(format!("sky or sun: {}", reason(e))))?;
     for (k, l) in file.lights.iter().enumerate() {
@@ -184,12 +173,9 @@ pub fn parse(text: &str, path: &Path, up: Up) -> Result<Lights> {
         light
             .check()
             .map_err(|problem| input(format!("{label}: the light {problem}")))?;
-        environment.lights.push(light);
+        sources.lights.push(light);
     }
-    Ok(Lights {
-        environment,
-        has_sky: file.sky.is_some(),
-    })
+    Ok(sources)
 }
 
 /// The message of a setting error, without the setting's name (the file's item replaces it).
@@ -204,8 +190,8 @@ fn reason(e: Error) -> String {
 mod tests {
     use super::*;
 
-    fn parse_text(text: &str) -> Result<Lights> {
-        parse(text, Path::new("lights.json"), Up::Y)
+    fn parse_text(text: &str) -> Result<LightSources> {
+        parse(text, Path::new("lights.json"))
     }
 
     #[test]
@@ -219,8 +205,7 @@ mod tests {
                      "spot": { "direction": [0, -2, 0], "inner": 20, "outer": 30 } } ] }"#,
         )
         .unwrap();
-        let e = &l.environment;
-        assert!(l.has_sky);
+        let e = l.environment(Up::Y);
         assert_eq!(e.sky, [0.1, 0.2, 0.3]);
         assert_eq!(e.sky_model, SkyModel::Overcast);
         let sun = e.sun.unwrap();
@@ -242,7 +227,7 @@ mod tests {
     #[test]
     fn an_empty_file_has_no_light() {
         let l = parse_text("{}").unwrap();
-        assert!(!l.has_sky && !l.environment.is_lit());
+        assert!(l.sky.is_none() && !l.environment(Up::Y).is_lit());
     }
 
     #[test]
