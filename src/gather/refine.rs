@@ -33,7 +33,7 @@
 //! the next),
 //! and at most [`TESTS_PER_NEW_VERTEX`] × the budget midpoint tests in all (the edges whose
 //! endpoints differ most, or lie in a penumbra, first, again × √length), each of at most
-//! [`TEST_SHADOW_RAYS`] shadow rays per emitter and [`TEST_RAYS`] hemisphere rays. Every
+//! [`MIDPOINT_SHADOW_RAYS`] shadow rays per emitter and [`TEST_RAYS`] hemisphere rays. Every
 //! choice is ordered by the edges' vertex indices, so a fixed seed gives the same mesh for any
 //! thread count.
 //!
@@ -57,9 +57,10 @@ use std::collections::{HashMap, HashSet};
 use rayon::prelude::*;
 
 use super::local_fit::{self, Midpoint};
-use super::{Gather, Gathered, Gatherer, MAX_SHADOW_RAYS};
+use super::{Gather, Gathered, Gatherer};
 use crate::bake::{BakedMesh, Site};
 use crate::color::{luminance, Rgb};
+use crate::light::emitter::{GATHER_MAX_SHADOW_RAYS, MIDPOINT_SHADOW_RAYS};
 use crate::sampling::Rng;
 
 /// τ by default: an edge is split where the light at its midpoint departs from what the
@@ -86,11 +87,6 @@ pub const MAX_LEVELS: usize = 8;
 /// No edge shorter than this fraction of the scene's extent (its bounding box diagonal) is
 /// tested.
 pub const MIN_EDGE: f64 = 1e-3;
-
-/// Shadow rays per emitter of a midpoint test in a penumbra, at most: the test asks whether
-/// the light departs from linear by more than τ, not its value (a new vertex gets
-/// [`MAX_SHADOW_RAYS`]).
-pub const TEST_SHADOW_RAYS: usize = 64;
 
 /// Hemisphere rays of a midpoint test's indirect light (`full` only): enough to see a
 /// midpoint darker or brighter than its ends by a multiple of τ, not to value it.
@@ -266,7 +262,7 @@ pub fn refine(
                 let at_midpoint = gatherer.spot(&site, visible_fraction).map_or(0.0, |spot| {
                     let mut rng = Rng::new(&[seed, e.0 as u64, e.1 as u64, 0x7E57]);
                     let (dm, _, exact) =
-                        gatherer.reflected_direct(&spot, TEST_SHADOW_RAYS, &mut rng);
+                        gatherer.reflected_direct(&spot, MIDPOINT_SHADOW_RAYS, &mut rng);
                     // Kept where the ends and the midpoint compute the same emitters exactly
                     // (else the ends' indirect light counts another set of emitters' light).
                     let key = gatherer.exact_key(&exact);
@@ -388,7 +384,7 @@ pub fn refine(
                             gatherer.full(&spot, rays, &mut rng)
                         } else {
                             let (direct, penumbra, exact) =
-                                gatherer.reflected_direct(&spot, MAX_SHADOW_RAYS, &mut rng);
+                                gatherer.reflected_direct(&spot, GATHER_MAX_SHADOW_RAYS, &mut rng);
                             let indirect = mid(va.indirect, vb.indirect);
                             let direct = (direct, penumbra, exact.as_slice());
                             gatherer.with_emission(spot.patch as usize, direct, indirect)

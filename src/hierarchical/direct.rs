@@ -14,49 +14,32 @@
 //! ([`super::Hierarchy`]'s refinement: ρ · spread · A > ε), as links are. This is the
 //! separation of direct and indirect light of Lischinski, Tampieri & Greenberg ("Combining
 //! hierarchical radiosity and discontinuity meshing", SIGGRAPH 1993) and of the final gather
-//! ([`crate::gather`]), applied to the elements of the solve. Measured on the Cornell box at
-//! ε = 1e-6 (BENCHMARKS.md, "Hierarchical radiosity"): worst surface against the path-traced
-//! reference 1.43 % → 0.80 %, with 2.18 M links instead of 3.42 M.
+//! ([`crate::gather`]), applied to the elements of the solve: on the Cornell box it halves the
+//! worst surface's error against the path-traced reference with fewer links.
 //!
 //! At a rule point x (unit normal n) of an element, from every chosen emitter e:
 //!
 //! D(x) = Σ_e Le_e · F(x → e) · V̄(x, e)   (radiance units, before the element's ρ),
 //!
-//! F the exact unoccluded point-to-polygon form factor (Lambert's contour integral, clipped to
-//! x's horizon, [`point_to_polygon`]) and V̄ = Σ G_k V_k / Σ G_k over [`SHADOW_RAYS`] rays
-//! ([`FEW_SHADOW_RAYS`] where G is nearly even over e) to
-//! stratified points y_k of the part of e above x's horizon ([`kernel_samples`]), G the
-//! point-pair kernel cosθ_x cosθ_y / r²: the visible share of F itself. The element's direct
-//! light is the rule's weighted mean of D over its unburied points.
-//!
-//! The number of rays is fixed, not adapted to what the first rays see: stopping when a few
-//! rays agree (wholly lit or wholly shadowed) makes the estimate biased, as points in a thin
-//! penumbra are then taken for lit more often than not (measured on the Cornell box: 2 rays
-//! per point, 14 more where they disagreed, left the floor's direct light 0.28 % high and a
-//! block face lit at a grazing angle 0.38 % high, against the matrix method's exact direct
-//! columns). V̄'s ratio of sums is biased by O(1/rays) where G varies much over the emitter
-//! (grazing light); at these counts the Cornell box's direct light is within 0.18 % of the
-//! matrix method's on every surface but one lit at grazing angles (−0.54 %), which gets a
-//! twentieth of its light that way.
+//! one emitter's term estimated by [`crate::light::emitter`] (F the exact unoccluded
+//! point-to-polygon form factor, V̄ its visible share by kernel-weighted shadow rays): a fixed
+//! number of rays per point, [`ELEMENT_SHADOW_RAYS`] or [`ELEMENT_FEW_SHADOW_RAYS`] where the
+//! kernel is nearly even over the emitter, not adapted to what the first rays see (stopping
+//! when a few rays agree would take points in a thin penumbra for lit more often than not: a
+//! bias). The element's direct light is the rule's weighted mean of D over its unburied
+//! points.
 
 use glam::DVec3;
 
 use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
-use crate::geometry::kernel::point_to_polygon;
-use crate::light::{Receiver, SKY_RAYS};
+use crate::light::emitter::{ELEMENT_FEW_SHADOW_RAYS, ELEMENT_SHADOW_RAYS};
+use crate::light::{Emitter, Receiver, Share, SKY_RAYS};
 use crate::mesh::Patches;
-use crate::sampling::{kernel_samples, Rng};
+use crate::sampling::Rng;
 use crate::scene::Environment;
 use crate::visibility::Visibility;
-
-/// Shadow rays per rule point and emitter (stratified over the emitter). Measured on the
-/// Cornell box's direct light against the matrix method's (one bounce, ε = 1e-6): with 6
-/// rays the worst surfaces lit at grazing angles were +0.26 % and −0.72 % of their direct
-/// light, with 10 +0.15 % and −0.54 %, with 16 +0.03 % and −0.41 %; the floor +0.09 %,
-/// +0.03 %, +0.05 %.
-pub const SHADOW_RAYS: usize = 10;
 
 /// The elements compute the direct light of every emitter when emitting roots × max(roots,
 /// [`DIRECT_ROOTS_FLOOR`]) is at most this; otherwise the links carry all emission (a scene
@@ -77,65 +60,28 @@ pub const DIRECT_ROOTS_FLOOR: usize = 10_000;
 /// exactly one).
 pub const MAX_EMITTING_AREA: f64 = 0.05;
 
-/// Shadow rays per rule point and emitter where the kernel G is nearly even over the emitter
-/// (at most [`EVEN_KERNEL`] between its largest and smallest values at the emitter's corners
-/// and centre: a small or far emitter, not at a grazing angle). The ratio Σ G V / Σ G is then
-/// nearly the plain visible fraction, whose estimate has no bias at any count, so few rays
-/// do. Decided on the geometry alone, never on what rays saw. Measured on the Cornell box's
-/// direct light (one bounce, ε = 1e-6): 4 rays where even (1.25), 10 elsewhere, left every
-/// surface within 0.18 % of the matrix method's but one lit at grazing angles (−0.54 %);
-/// 1 ray where even left the red wall −0.48 % and the floor +0.29 %.
-pub const FEW_SHADOW_RAYS: usize = 4;
-/// See [`FEW_SHADOW_RAYS`].
-pub const EVEN_KERNEL: f64 = 1.25;
-
-/// Shadow rays from the point `x` (unit normal `n`) to emitter `em`: [`FEW_SHADOW_RAYS`]
-/// where the kernel is nearly even over it, else [`SHADOW_RAYS`].
-fn shadow_rays(x: DVec3, n: DVec3, em: &Emitter) -> usize {
-    let [a, b, c] = em.corners;
-    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-    for y in [a, b, c, (a + b + c) / 3.0] {
-        let d = y - x;
-        let r2 = d.length_squared();
-        let g = n.dot(d) * -em.normal.dot(d) / (r2 * r2);
-        lo = lo.min(g);
-        hi = hi.max(g);
-    }
-    if lo > 0.0 && hi <= EVEN_KERNEL * lo {
-        FEW_SHADOW_RAYS
-    } else {
-        SHADOW_RAYS
-    }
-}
-
 /// An emitting root patch whose direct light the elements compute themselves.
 #[derive(Clone, Debug)]
-pub struct Emitter {
+pub struct RootEmitter {
     /// The root patch's index.
     pub root: u32,
-    /// Its corners, scene units.
-    pub corners: [DVec3; 3],
-    /// Its unit front normal.
-    pub normal: DVec3,
-    /// Its Le, W·sr⁻¹·m⁻² per channel.
-    pub le: Rgb,
+    /// The patch as an emitter.
+    pub emitter: Emitter,
 }
 
-impl Emitter {
+impl RootEmitter {
     /// Root patch `r` of `roots` as an emitter.
-    pub fn of(roots: &Patches, r: usize) -> Emitter {
-        Emitter {
+    pub fn of(roots: &Patches, r: usize) -> RootEmitter {
+        RootEmitter {
             root: r as u32,
-            corners: roots.corners(r),
-            normal: roots.normal[r],
-            le: roots.emission[r],
+            emitter: Emitter::new(roots.corners(r), roots.normal[r], roots.emission[r]),
         }
     }
 }
 
 /// The emitting roots whose direct light the elements compute ([`DIRECT_BUDGET`],
 /// [`MAX_EMITTING_AREA`]): all of them, or none.
-pub fn chosen(roots: &Patches) -> Vec<Emitter> {
+pub fn chosen(roots: &Patches) -> Vec<RootEmitter> {
     let emitting: Vec<usize> = (0..roots.len())
         .filter(|&r| roots.emission[r].iter().any(|&x| x > 0.0) && roots.area[r] > 0.0)
         .collect();
@@ -147,7 +93,7 @@ pub fn chosen(roots: &Patches) -> Vec<Emitter> {
     }
     emitting
         .into_iter()
-        .map(|r| Emitter::of(roots, r))
+        .map(|r| RootEmitter::of(roots, r))
         .collect()
 }
 
@@ -188,7 +134,7 @@ pub fn element_direct(
     tree: &Tree,
     occluders: &Visibility,
     shadows: bool,
-    emitters: &[Emitter],
+    emitters: &[RootEmitter],
     outside: Outside,
     e: usize,
     buried: u16,
@@ -207,32 +153,24 @@ pub fn element_direct(
         std::array::from_fn(|k| (tree.point(e, rule[k].0), tree.surface_normal(e, rule[k].0)));
     let mut rng = Rng::new(&[seed, e as u64, 0xD1_EC7]);
     let mut values = [[0.0; 3]; RECEIVER_POINTS];
-    let mut targets = Vec::with_capacity(SHADOW_RAYS.max(FEW_SHADOW_RAYS));
-    for em in emitters.iter().filter(|em| em.root != root) {
+    let mut targets = Vec::with_capacity(ELEMENT_SHADOW_RAYS.max(ELEMENT_FEW_SHADOW_RAYS));
+    for e_root in emitters.iter().filter(|em| em.root != root) {
+        let em = &e_root.emitter;
         for (k, &(x, n)) in points.iter().enumerate() {
-            if weights[k] == 0.0 || (x - em.corners[0]).dot(em.normal) <= 0.0 {
-                continue; // buried, or behind the emitter: it sends no light this way
+            if weights[k] == 0.0 {
+                continue; // buried
             }
-            let f = point_to_polygon(x, n, &em.corners);
-            if f <= 0.0 {
-                continue;
-            }
+            let Some(f) = em.form_factor(x, n) else {
+                continue; // it sends no light this way
+            };
             let v = if shadows {
-                let (mut seen, mut all) = (0.0, 0.0);
-                let rays = shadow_rays(x, n, em);
-                let (c, nn) = (&em.corners, em.normal);
-                kernel_samples(c, nn, x, n, rays, &mut rng, &mut targets, |y, g| {
-                    all += g;
-                    out.rays += 1;
-                    if !occluders.occluded(x, y, [root, em.root]) {
-                        seen += g;
-                    }
-                });
-                if all > 0.0 {
-                    seen / all
-                } else {
-                    1.0
-                }
+                let mut share = Share::default();
+                let rays = em.element_shadow_rays(x, n);
+                let ignore = [root, e_root.root];
+                let occluded = |y| occluders.occluded(x, y, ignore);
+                out.rays +=
+                    em.cast_shadow_rays(x, n, rays, &mut rng, &mut targets, &mut share, occluded);
+                share.visible().unwrap_or(1.0)
             } else {
                 1.0
             };

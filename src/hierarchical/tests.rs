@@ -546,9 +546,9 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
     for blocked in [false, true] {
         let roots = under_a_square_light(blocked);
         let tree = Tree::new(&roots);
-        let emitters: Vec<direct::Emitter> = (0..roots.len())
+        let emitters: Vec<direct::RootEmitter> = (0..roots.len())
             .filter(|&r| roots.emission[r][0] > 0.0)
-            .map(|r| direct::Emitter::of(&roots, r))
+            .map(|r| direct::RootEmitter::of(&roots, r))
             .collect();
         assert_eq!(emitters.len(), 2);
         let receiver = (0..roots.len())

@@ -20,6 +20,8 @@ use crate::visibility::Visibility;
 pub mod emitter;
 pub mod outside;
 
+pub use emitter::{Emitter, Share};
+
 pub use outside::{patch_light, SKY_RAYS};
 
 /// A point where the lights outside the mesh are evaluated: the estimators' common arguments.

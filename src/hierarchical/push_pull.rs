@@ -1,0 +1,223 @@
+//! Push-pull (HSA91 §3): what a node gathered over its links is pushed down to every leaf
+//! below it (irradiance is intensive: the same on every part; a cluster whose faces look
+//! different ways gives each face its cosine's share, [`ClusterGather`]), leaves take
+//! L = Le + ρ·(D + G), and radiance is pulled up as area-weighted means, weighted by visible
+//! area so that a buried part of an element does not dilute the part that is seen.
+
+use glam::DVec3;
+
+use super::tree;
+use super::{Hierarchy, ORIENTED_CONE_COS};
+use crate::color::Rgb;
+
+impl Hierarchy<'_> {
+    /// No light has bounced yet: leaves hold the emission links carry, pulled up (L = Le
+    /// without the emission the elements compute themselves, which only reaches other
+    /// elements as their direct light, from the first sweep on).
+    pub(super) fn reset(&mut self) {
+        let n = self.tree.elements.len();
+        let zero = vec![[0.0; 3]; n];
+        self.elem_l = vec![[0.0; 3]; n];
+        self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
+        let gz = vec![ClusterGather::default(); self.tree.clusters.len()];
+        self.push_pull(&zero, &gz, false);
+    }
+
+    /// What each element gathers through its own links and all its ancestors' (clusters'
+    /// included): the push half of push-pull. A root element takes from its clusters what
+    /// its own orientation receives ([`ClusterGather::at`]).
+    pub(super) fn push_down(&self, ge: &[Rgb], gc: &[ClusterGather]) -> Vec<Rgb> {
+        let t = &self.tree;
+        let mut cdown = gc.to_vec();
+        for c in 0..t.clusters.len() {
+            let cl = &t.clusters[c];
+            for k in cl.first..cl.first + cl.count {
+                if let Some(child) = t.cluster_children[k as usize].as_cluster() {
+                    let parent = cdown[c].clone();
+                    cdown[child].add_all(&parent);
+                }
+            }
+        }
+        let mut down = ge.to_vec();
+        for e in 0..t.elements.len() {
+            let p = t.elements[e].parent;
+            let above = if p != tree::NO_CHILD {
+                down[p as usize]
+            } else if t.clusters.is_empty() {
+                [0.0; 3]
+            } else {
+                cdown[t.root_parent[e] as usize].at(t.elements[e].normal)
+            };
+            down[e] = add(down[e], above);
+        }
+        down
+    }
+
+    /// Push-pull: leaves take L = Le + ρ·(D + G) (D their direct light when `with_direct`,
+    /// G what the links bring, normalised by the row sum in closed scenes; Le only the
+    /// emission links carry), inner elements and clusters the area-weighted mean of their
+    /// children.
+    pub(super) fn push_pull(&mut self, ge: &[Rgb], gc: &[ClusterGather], with_direct: bool) {
+        let down = self.push_down(ge, gc);
+        let t = &self.tree;
+        let n = t.elements.len();
+        let mut l = vec![[0.0; 3]; n];
+        // Radiance is pulled up weighted by visible area: a source's buried part (the floor
+        // under a block) emits nothing and is seen by nobody, and its visibility rays already
+        // count it as blocked, so its darkness must not dilute the visible part's radiance.
+        let mut visible_area = vec![0.0; n];
+        let mut lmax = vec![0.0f64; n];
+        for e in (0..n).rev() {
+            let el = &t.elements[e];
+            if el.first_child == tree::NO_CHILD {
+                let r = el.root as usize;
+                let norm = match self.row_sum.get(e) {
+                    Some(&s) if s > 0.0 => 1.0 / s,
+                    _ => 1.0,
+                };
+                let le = self.carried_emission(r);
+                let d = if with_direct {
+                    self.direct[e].mean
+                } else {
+                    [0.0; 3]
+                };
+                let rho = self.roots.reflectance[r];
+                for c in 0..3 {
+                    l[e][c] = le[c] + rho[c] * (d[c] + down[e][c] * norm);
+                }
+                visible_area[e] = el.area * self.visible[e];
+                lmax[e] = l[e].iter().copied().fold(0.0, f64::max);
+            } else {
+                let kids = el.first_child as usize..el.first_child as usize + 4;
+                lmax[e] = kids.clone().map(|k| lmax[k]).fold(0.0, f64::max);
+                (l[e], visible_area[e]) =
+                    weighted_mean(kids.map(|k| (l[k], visible_area[k], t.elements[k].area)));
+            }
+        }
+        let mut cl = vec![[0.0; 3]; t.clusters.len()];
+        let mut cluster_visible = vec![0.0; t.clusters.len()];
+        let mut cmax = vec![0.0f64; t.clusters.len()];
+        for c in (0..t.clusters.len()).rev() {
+            let k = &t.clusters[c];
+            let kids = &t.cluster_children[k.first as usize..(k.first + k.count) as usize];
+            cmax[c] = kids
+                .iter()
+                .map(|&child| match child.as_element() {
+                    Some(e) => lmax[e],
+                    None => cmax[child.as_cluster().unwrap()],
+                })
+                .fold(0.0, f64::max);
+            (cl[c], cluster_visible[c]) =
+                weighted_mean(kids.iter().map(|&child| match child.as_element() {
+                    Some(e) => (l[e], visible_area[e], t.elements[e].area),
+                    None => {
+                        let j = child.as_cluster().unwrap();
+                        (cl[j], cluster_visible[j], t.clusters[j].area)
+                    }
+                }));
+        }
+        self.elem_l = l;
+        self.cluster_l = cl;
+        self.elem_max = lmax;
+        self.cluster_max = cmax;
+    }
+
+    /// Every element's radiance L, W·sr⁻¹·m⁻²: what the links transport plus the emission the
+    /// elements compute themselves.
+    pub(super) fn total_radiance(&self) -> Vec<Rgb> {
+        let t = &self.tree;
+        (0..t.elements.len())
+            .map(|e| {
+                let r = t.elements[e].root as usize;
+                if self.exact[r] {
+                    add(self.elem_l[e], self.roots.emission[r])
+                } else {
+                    self.elem_l[e]
+                }
+            })
+            .collect()
+    }
+}
+
+/// What a cluster gathers, kept by the direction it arrives from, so that each face below
+/// receives what its orientation lets it see: a cluster receives light through one link
+/// and pushes it to every face below, and pushed uniformly, the faces of a block that look
+/// away from a light got as much of it as the top that faces it (measured on the Cornell box
+/// cut into 11,338 roots: +42 % on a block face that looks at the dark open front).
+///
+/// A link's light v from direction d (unit, the source's centre seen from the cluster's) is
+/// spread over the faces below in proportion to the clamped cosine between each face's
+/// normal n and d, in the separable form c(n, d) = Σ_a |d_a| · max(0, sign(d_a) n_a) (exact
+/// for faces and directions along the axes, an upper estimate otherwise), normalised by the
+/// cluster's area-mean of it ([`tree::Cluster::facing`]): so the area-mean over the cluster
+/// of what its faces take is v, as the link's form factor (an area-mean over the cluster)
+/// says, and a face turned away from d takes none. Links whose direction no face below
+/// meets (a mean of 0) are pushed uniformly, and so is everything a cluster gathers whose
+/// faces all lie within [`ORIENTED_CONE_COS`] of their mean normal: there the cosine's
+/// variation is small and, on a curved surface, mostly cancelled by parallax (inside a
+/// sphere, exactly: every point receives alike), which one direction per link cannot follow.
+#[derive(Clone, Debug, Default)]
+pub struct ClusterGather {
+    /// Pushed to every face alike, per channel.
+    uniform: Rgb,
+    /// Per axis direction (+x, +y, +z, −x, −y, −z), per channel: light already divided by the
+    /// cluster's mean cosine; a face with normal n takes max(0, ±n_a) of each.
+    by_axis: [Rgb; 6],
+}
+
+impl ClusterGather {
+    /// Adds light `v` (per channel) that cluster `cluster` gathers from direction `d` (any
+    /// length; 0 pushes uniformly).
+    pub(super) fn add(&mut self, cluster: &tree::Cluster, d: DVec3, v: Rgb) {
+        let oriented = cluster.cone_cos < ORIENTED_CONE_COS;
+        let Some(d) = d.try_normalize().filter(|_| oriented) else {
+            self.uniform = add(self.uniform, v);
+            return;
+        };
+        let bin = |a: usize| if d[a] >= 0.0 { a } else { a + 3 };
+        let mean: f64 = (0..3)
+            .map(|a| d[a].abs() * cluster.facing[bin(a)])
+            .sum::<f64>()
+            / cluster.area;
+        if mean.is_nan() || mean <= 1e-12 {
+            self.uniform = add(self.uniform, v);
+            return;
+        }
+        for a in 0..3 {
+            let w = d[a].abs() / mean;
+            self.by_axis[bin(a)] = add(self.by_axis[bin(a)], v.map(|x| w * x));
+        }
+    }
+
+    /// Adds everything `other` holds (a parent's gather, pushed to a child).
+    pub(super) fn add_all(&mut self, other: &ClusterGather) {
+        self.uniform = add(self.uniform, other.uniform);
+        for (a, b) in self.by_axis.iter_mut().zip(&other.by_axis) {
+            *a = add(*a, *b);
+        }
+    }
+
+    /// What a face with unit normal `n` below the cluster receives, per channel.
+    pub(super) fn at(&self, n: DVec3) -> Rgb {
+        let mut g = self.uniform;
+        for (bin, w) in self.by_axis.iter().zip(tree::axis_weights(n)) {
+            g = add(g, bin.map(|x| w * x));
+        }
+        g
+    }
+}
+
+/// The visible-area-weighted mean radiance of (radiance, visible area, area) parts, with their
+/// total visible area; the area-weighted mean when nothing is visible.
+pub(super) fn weighted_mean(parts: impl Iterator<Item = (Rgb, f64, f64)> + Clone) -> (Rgb, f64) {
+    let visible: f64 = parts.clone().map(|p| p.1).sum();
+    let by_visible = visible > 0.0;
+    let weight = |p: &(Rgb, f64, f64)| if by_visible { p.1 } else { p.2 };
+    let total: f64 = parts.clone().map(|p| weight(&p)).sum();
+    let sum = parts.fold([0.0; 3], |acc, p| add(acc, p.0.map(|x| weight(&p) * x)));
+    (sum.map(|s| s / total), visible)
+}
+
+pub(super) fn add(a: Rgb, b: Rgb) -> Rgb {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}

@@ -1,0 +1,264 @@
+//! Refinement of the links (HSA91 §4): every link asks the oracle ([`super::links`]) whether
+//! it may carry more than ε of the emitted power; a link that must be finer is replaced by
+//! links one level down (the larger end split: elements 1 → 4 down to the minimum area,
+//! clusters into their children), each estimated afresh. Leaves whose own direct light varies
+//! by more than ε are split too ([`Hierarchy::direct_splits`]). Once the links are final, each
+//! finds its shares through its source's grandchildren, so the final solve gathers its source
+//! two levels down ([`super::links::grandchild_shares`]).
+
+use rayon::prelude::*;
+
+use super::links::{self, Action, Link};
+use super::tree::{self, Node};
+use super::Hierarchy;
+
+impl Hierarchy<'_> {
+    /// One refinement pass: every link asks the oracle; links that must be finer are replaced
+    /// by links one level down (elements split as needed, in link order: deterministic).
+    /// Returns whether anything changed.
+    pub fn refine_pass(&mut self) -> bool {
+        let actions: Vec<Action> = self
+            .links
+            .par_iter()
+            .map(|l| {
+                // Bounded by the brightest leaf below the source, not its mean: a link from a
+                // cluster gathers its area-mean radiance, which dilutes a small light among
+                // dark surfaces the receiver may not see at all (energy lost). With the bound,
+                // what that can take away is at most the power the oracle allows.
+                let ls = self.max_radiance(l.source);
+                links::oracle(
+                    &self.tree,
+                    l,
+                    |n| self.max_reflectance(n),
+                    ls,
+                    self.epsilon,
+                    self.min_area,
+                )
+            })
+            .collect();
+        let direct_splits = self.direct_splits();
+        if actions.iter().all(|&a| a == Action::Keep) && direct_splits.is_empty() {
+            return false;
+        }
+        for e in direct_splits {
+            self.tree.split(e);
+        }
+        // Split the elements that must be split, in link order.
+        for (l, &a) in self.links.iter().zip(&actions) {
+            let node = match a {
+                Action::SplitReceiver => l.receiver,
+                Action::SplitSource => l.source,
+                _ => continue,
+            };
+            if let Some(e) = node.as_element() {
+                if self.tree.elements[e].first_child == tree::NO_CHILD {
+                    self.tree.split(e);
+                }
+            }
+        }
+        self.update_new_elements();
+        // The kept links compacted in place (a second list of them would double the peak
+        // memory at the largest scenes: 6·10⁷ links are 1.4 GB), the rest turned into pairs.
+        let mut kept = std::mem::take(&mut self.links);
+        let mut w = 0;
+        let mut pairs = Vec::new();
+        for i in 0..kept.len() {
+            let l = kept[i];
+            match actions[i] {
+                Action::Keep => {
+                    kept[w] = l;
+                    w += 1;
+                }
+                Action::SplitReceiver => {
+                    for c in self.tree.children(l.receiver) {
+                        pairs.push((c, l.source));
+                    }
+                }
+                Action::SplitSource => {
+                    for c in self.tree.children(l.source) {
+                        pairs.push((l.receiver, c));
+                    }
+                }
+                Action::SplitBoth => {
+                    let kids = self.tree.children(l.receiver);
+                    for &a in &kids {
+                        for &b in &kids {
+                            pairs.push((a, b));
+                        }
+                    }
+                }
+            }
+        }
+        kept.truncate(w);
+        kept.shrink_to_fit();
+        drop(actions);
+        let rays = self.settings.rays as usize;
+        let estimates: Vec<links::Estimate> = pairs
+            .par_iter()
+            .map(|&(r, s)| {
+                let buried = r.as_element().map_or(0, |e| self.buried[e]);
+                links::estimate(&self.tree, &self.occluders, r, s, rays, buried, self.seed)
+            })
+            .collect();
+        let mut new = Vec::with_capacity(estimates.len());
+        for e in estimates {
+            self.stats.rays_cast += e.rays;
+            new.extend(e.link);
+        }
+        // The kept links are still in order: sort the new ones and merge (a full sort of all
+        // links every pass was a seventh of the Cornell box's solve at ε = 3e-7).
+        new.par_sort_unstable_by_key(link_key);
+        merge_into(&mut kept, new);
+        self.set_links(kept);
+        // New elements start at their parent's radiance (so the oracle sees light there).
+        let n_old = self.elem_l.len();
+        for e in n_old..self.tree.elements.len() {
+            let p = self.tree.elements[e].parent as usize;
+            self.elem_l.push(self.elem_l[p]);
+            self.elem_max.push(self.elem_max[p]);
+        }
+        if self.stats.closed_scene {
+            self.row_sum = self.row_sums();
+        }
+        true
+    }
+
+    /// Replaces the links, sorted by receiver (then source), and finds each receiver's run.
+    pub(super) fn set_links(&mut self, links: Vec<Link>) {
+        debug_assert!(links.windows(2).all(|w| link_key(&w[0]) < link_key(&w[1])));
+        self.grandchild_shares = GrandchildShares::default();
+        self.receiver_starts.clear();
+        for (i, l) in links.iter().enumerate() {
+            if i == 0 || links[i - 1].receiver != l.receiver {
+                self.receiver_starts.push(i);
+            }
+        }
+        self.receiver_starts.push(links.len());
+        self.links = links;
+        self.links.shrink_to_fit();
+    }
+
+    /// The leaves whose direct light varies over them by more than ε allows (ρ · spread · A
+    /// above ε, the largest channels; [`direct::Direct::spread`]) and that can still be
+    /// split: the direct light's own refinement, where a shadow edge or the fall-off next to
+    /// a light crosses a leaf, whatever its links.
+    pub(super) fn direct_splits(&self) -> Vec<usize> {
+        if self.emitters.is_empty() && !self.env.has_sharp() {
+            return Vec::new();
+        }
+        let t = &self.tree;
+        (0..t.elements.len())
+            .into_par_iter()
+            .filter(|&e| {
+                let el = &t.elements[e];
+                el.first_child == tree::NO_CHILD
+                    && 0.25 * el.area >= self.min_area
+                    && self.max_reflectance(Node::element(e)) * self.direct[e].spread * el.area
+                        > self.epsilon
+            })
+            .collect()
+    }
+
+    /// Finds [`Hierarchy::grandchild_shares`] for the current links.
+    pub(super) fn find_grandchild_shares(&mut self) {
+        let t = &self.tree;
+        // Only links from a source whose children are split have shares: a first pass finds
+        // them, so memory goes to those alone (4 bytes a link, 16 more for each such link).
+        let deep = |l: &Link| match (l.receiver.as_element(), l.source.as_element()) {
+            (Some(r), Some(s)) => {
+                let first = t.elements[s].first_child;
+                let split = first != tree::NO_CHILD
+                    && (first..first + 4)
+                        .any(|c| t.elements[c as usize].first_child != tree::NO_CHILD);
+                split.then_some((r, s))
+            }
+            _ => None,
+        };
+        let mut slot = Vec::with_capacity(self.links.len());
+        let mut pairs = Vec::new();
+        for l in &self.links {
+            match deep(l) {
+                Some(pair) => {
+                    slot.push(pairs.len() as u32);
+                    pairs.push(pair);
+                }
+                None => slot.push(NO_SHARES),
+            }
+        }
+        let shares = pairs
+            .par_iter()
+            .map(|&(r, s)| links::grandchild_shares(t, r, s))
+            .collect();
+        self.grandchild_shares = GrandchildShares { slot, shares };
+    }
+
+    /// Largest reflectance channel of a node.
+    pub(super) fn max_reflectance(&self, node: Node) -> f64 {
+        match node.as_element() {
+            Some(e) => {
+                let r = self.tree.elements[e].root as usize;
+                self.roots.reflectance[r]
+                    .iter()
+                    .copied()
+                    .fold(0.0, f64::max)
+            }
+            None => self.tree.clusters[node.as_cluster().unwrap()].max_reflectance,
+        }
+    }
+
+    /// The brightest channel of any leaf below `node`, W·sr⁻¹·m⁻².
+    pub(super) fn max_radiance(&self, node: Node) -> f64 {
+        match node.as_element() {
+            Some(e) => self.elem_max[e],
+            None => self.cluster_max[node.as_cluster().unwrap()],
+        }
+    }
+}
+
+/// No shares for this link ([`GrandchildShares::slot`]).
+const NO_SHARES: u32 = u32::MAX;
+
+/// The shares of each link's form factor through its element source's 16 grandchildren
+/// ([`links::grandchild_shares`]), for the links whose source's children are split: per link
+/// its place among `shares`, or [`NO_SHARES`].
+#[derive(Debug, Default)]
+pub(super) struct GrandchildShares {
+    slot: Vec<u32>,
+    shares: Vec<[u8; 16]>,
+}
+
+impl GrandchildShares {
+    /// Link `i`'s shares, if it has any.
+    pub(super) fn get(&self, i: usize) -> Option<&[u8; 16]> {
+        match self.slot.get(i) {
+            Some(&k) if k != NO_SHARES => self.shares.get(k as usize),
+            _ => None,
+        }
+    }
+}
+
+/// The order of the links: by receiver, then source (each pair at most once).
+fn link_key(l: &Link) -> (Node, Node) {
+    (l.receiver, l.source)
+}
+
+/// Merges `b` into `a`, both sorted by [`link_key`], in place: from the back, into the room
+/// `a` reserves at its end, so no third list is made (at 10⁷ links a copy is 240 MB).
+fn merge_into(a: &mut Vec<Link>, b: Vec<Link>) {
+    let (n, m) = (a.len(), b.len());
+    // Exactly the room needed: amortised doubling would leave up to as much again unused
+    // (at 6·10⁷ links, 1.4 GB).
+    a.reserve_exact(m);
+    a.extend_from_slice(&b); // the room, overwritten below
+    let (mut i, mut j, mut k) = (n, m, n + m);
+    while j > 0 {
+        k -= 1;
+        if i > 0 && link_key(&a[i - 1]) > link_key(&b[j - 1]) {
+            a[k] = a[i - 1];
+            i -= 1;
+        } else {
+            a[k] = b[j - 1];
+            j -= 1;
+        }
+    }
+}

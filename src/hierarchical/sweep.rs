@@ -1,0 +1,202 @@
+//! The sweep (HSA91 §3): a Jacobi sweep gathers, at every node, Σ F·L over its links from the
+//! previous sweep's radiance, in parallel ([`Hierarchy::sweep`]); a split element source
+//! gives its children's radiance weighted by how much of F reaches each
+//! ([`Hierarchy::link_radiance`]). Push-pull ([`super::push_pull`]) then spreads what each
+//! node gathered. Sweeps repeat until the relative change per sweep is below the tolerance
+//! ([`Hierarchy::converge`]).
+
+use rayon::prelude::*;
+
+use super::links::Link;
+use super::push_pull::{add, ClusterGather};
+use super::tree::{self, Node};
+use super::Hierarchy;
+use crate::color::Rgb;
+use crate::solve;
+
+impl Hierarchy<'_> {
+    /// One Jacobi sweep: gather over all links from the current radiance, then push-pull.
+    /// Returns the relative change ‖ΔL‖ / ‖Le‖ over the leaves (area-weighted 2-norms): the
+    /// residual E − (I − K)L of the linear system the links define.
+    pub fn sweep(&mut self) -> f64 {
+        let (ge, gc) = self.gather(true);
+        let old = std::mem::take(&mut self.elem_l);
+        self.push_pull(&ge, &gc, true);
+        self.stats.sweeps += 1;
+        let (mut num, mut den) = (0.0, 0.0);
+        for (e, el) in self.tree.elements.iter().enumerate() {
+            if el.first_child != tree::NO_CHILD {
+                continue;
+            }
+            // The source term E = Le + ρ·D_env (the sky's and sun's light counts as emission).
+            let r = el.root as usize;
+            let (le, rho, env) = (
+                self.roots.emission[r],
+                self.roots.reflectance[r],
+                self.direct[e].environment,
+            );
+            for c in 0..3 {
+                num += el.area * (self.elem_l[e][c] - old[e][c]).powi(2);
+                let source = le[c] + rho[c] * env[c];
+                den += el.area * source * source;
+            }
+        }
+        if den > 0.0 {
+            (num / den).sqrt()
+        } else {
+            0.0
+        }
+    }
+
+    /// Sweeps until the residual is at most the tolerance or the sweep limit; true if
+    /// converged.
+    pub(super) fn converge(&mut self, solver: &solve::Settings, history: &mut Vec<f64>) -> bool {
+        for _ in 0..solver.max_iterations {
+            let r = self.sweep();
+            history.push(r);
+            solve::report_sweep(self.stats.sweeps, r);
+            if r <= solver.tolerance {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// What each node gathers over its own links: Σ F·L per channel (`with_radiance`), or
+    /// Σ F in every channel. A cluster's gather is kept by direction ([`ClusterGather`]).
+    pub(super) fn gather(&self, with_radiance: bool) -> (Vec<Rgb>, Vec<ClusterGather>) {
+        let t = &self.tree;
+        let value = |i: usize, l: &Link| {
+            let f = l.f as f64;
+            if with_radiance {
+                self.link_radiance(i, l).map(|x| f * x)
+            } else {
+                [f; 3]
+            }
+        };
+        // Links are sorted by receiver and elements sort before clusters, so the element
+        // receivers' runs come first.
+        let starts = &self.receiver_starts;
+        let runs = starts.len() - 1;
+        let split =
+            starts[..runs].partition_point(|&i| self.links[i].receiver.as_element().is_some());
+        let mut ge = vec![[0.0; 3]; t.elements.len()];
+        let by_element: Vec<(usize, Rgb)> = starts[..=split]
+            .par_windows(2)
+            .map(|w| {
+                let run = &self.links[w[0]..w[1]];
+                let g = (w[0]..w[1]).fold([0.0; 3], |g, i| add(g, value(i, &self.links[i])));
+                (run[0].receiver.as_element().unwrap(), g)
+            })
+            .collect();
+        for (e, g) in by_element {
+            ge[e] = g;
+        }
+        let mut gc = vec![ClusterGather::default(); t.clusters.len()];
+        let by_cluster: Vec<(usize, ClusterGather)> = starts[split..]
+            .par_windows(2)
+            .map(|w| {
+                let run = &self.links[w[0]..w[1]];
+                let c = run[0].receiver.as_cluster().unwrap();
+                let mut cg = ClusterGather::default();
+                for (i, l) in (w[0]..w[1]).zip(run) {
+                    let d = t.sphere(l.source).0 - t.clusters[c].centre;
+                    cg.add(&t.clusters[c], d, value(i, l));
+                }
+                (c, cg)
+            })
+            .collect();
+        for (c, cg) in by_cluster {
+            gc[c] = cg;
+        }
+        (ge, gc)
+    }
+
+    /// Each element's effective row sum: Σ F over its own links and its ancestors'; 0 (not
+    /// normalised) for the elements of a root that is not closed.
+    pub(super) fn row_sums(&self) -> Vec<f64> {
+        let (ge, gc) = self.gather(false);
+        let down = self.push_down(&ge, &gc);
+        down.iter()
+            .zip(&self.tree.elements)
+            .map(|(g, el)| {
+                if self.closed_roots[el.root as usize] {
+                    g[0]
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// The radiance link `l` gathers from its source, W·sr⁻¹·m⁻²: once an element source is
+    /// split, its children's radiance weighted by the link's shares of the form factor
+    /// through each ([`Link::children`]) times each child's visible fraction; else the
+    /// source's mean. So a receiver that sees one part of its source best (the floor next to
+    /// a block's face, in its shadow) gathers that part's radiance, not the mean of parts it
+    /// hardly sees: one level finer on the source side than the link, for no more links
+    /// (measured on the Cornell box at ε = 1e-6: worst surface 2.6 % → 1.4 %).
+    ///
+    /// Once the links are final, the same two levels down: each split child's four children
+    /// weighted by the link's shares through each ([`links::grandchild_shares`]). A
+    /// dim face next to a bright floor sees the part of the floor beside it best, which is
+    /// where the floor's radiance changes most (its shadow, its corner with the face); on the
+    /// Cornell box at ε = 1e-6 the worst surface (such a face) went 0.94 % → 0.66 %, and
+    /// weighting the source's leaves however deep only to 0.61 %.
+    pub fn link_radiance(&self, i: usize, l: &Link) -> Rgb {
+        if let Some(e) = l.source.as_element() {
+            let first = self.tree.elements[e].first_child as usize;
+            if let Some(shares) = self.grandchild_shares.get(i).filter(|s| **s != [0; 16]) {
+                // Each child split further gives its four children their shares; an unsplit
+                // child takes the sum of its quarter.
+                let (mut parts, mut n) = ([(0, 0.0); 16], 0);
+                for q in 0..4 {
+                    let (child, quarter) = (first + q, &shares[4 * q..4 * q + 4]);
+                    let grand = self.tree.elements[child].first_child;
+                    if grand == tree::NO_CHILD {
+                        parts[n] = (child, quarter.iter().map(|&x| x as f64).sum());
+                        n += 1;
+                    } else {
+                        for (k, &share) in quarter.iter().enumerate() {
+                            parts[n] = (grand as usize + k, share as f64);
+                            n += 1;
+                        }
+                    }
+                }
+                let parts = parts[..n].iter().copied();
+                if let Some(l) = self.share_weighted(parts) {
+                    return l;
+                }
+            }
+            if first != tree::NO_CHILD as usize {
+                let parts = (0..4).map(|q| (first + q, l.children[q] as f64));
+                if let Some(l) = self.share_weighted(parts) {
+                    return l;
+                }
+            }
+        }
+        self.radiance(l.source)
+    }
+
+    /// Σ w·v·L / Σ w·v over (element, share w) parts, v each element's visible fraction;
+    /// `None` when the weights sum to 0.
+    pub(super) fn share_weighted(&self, parts: impl Iterator<Item = (usize, f64)>) -> Option<Rgb> {
+        let mut sum = [0.0; 3];
+        let mut total = 0.0;
+        for (k, share) in parts {
+            let w = share * self.visible[k];
+            total += w;
+            for (s, l) in sum.iter_mut().zip(self.elem_l[k]) {
+                *s += w * l;
+            }
+        }
+        (total > 0.0).then(|| sum.map(|x| x / total))
+    }
+
+    pub(super) fn radiance(&self, node: Node) -> Rgb {
+        match node.as_element() {
+            Some(e) => self.elem_l[e],
+            None => self.cluster_l[node.as_cluster().unwrap()],
+        }
+    }
+}
