@@ -17,13 +17,15 @@
 //! vertex order, which the reversal changes, so twins could be cut differently.
 
 pub(crate) mod adjacency;
-pub mod contact;
+pub mod discontinuity;
 mod normals;
 pub mod refine;
 mod subdivide;
 
 pub(crate) use adjacency::{groups, VertexFaces};
-pub use contact::{contact_lines, split_contacts, split_patches, ContactStats, Discontinuities};
+pub use discontinuity::{
+    contact_lines, split_contacts, split_patches, ContactStats, Discontinuities,
+};
 pub use normals::corner_normals;
 pub(crate) use subdivide::barycentric;
 pub use subdivide::{refine, subdivide};

@@ -1,0 +1,139 @@
+//! The hierarchical display cut along the contact lines ([`split_patches`]): the hierarchical
+//! solver's roots stay the input triangles (see [`super::Discontinuities::Auto`]), so the
+//! contact lines cut the output patches after the solve instead, where the final gather needs
+//! its vertices to stop at them.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::face::Face;
+use super::{bits, points_on_edges, ContactStats, TOUCH};
+use crate::mesh::Patches;
+use crate::scene::{NO_TWIN, ZERO_AREA_RELATIVE};
+
+/// The display's faces cut along the scene's contact lines (`lines`, from [`contact_lines`]),
+/// for a solve whose patches were not (the hierarchical one: its roots are the input
+/// triangles, see [`Discontinuities::Auto`]). Each patch crossed by a contact segment of its
+/// source triangle is re-triangulated with the segment's part inside it as a constrained
+/// edge, and the points where segments end on a patch's edge go into the patch across it too,
+/// so the display stays conforming. The pieces keep their patch's material, normal and
+/// source triangle; corner normals are interpolated in it. Returns the new patches, the
+/// patch each piece came from, and what was done (`segments`: the clipped pieces inserted).
+/// `None` for two-sided patches (twins must stay pairs).
+pub fn split_patches(
+    lines: &[Vec<[DVec3; 2]>],
+    patches: &Patches,
+    extent: f64,
+) -> Option<(Patches, Vec<u32>, ContactStats)> {
+    if patches.twin.iter().any(|&t| t != NO_TWIN) {
+        return None;
+    }
+    let touch = TOUCH * extent;
+    let n = patches.len();
+    // Each patch's part of its source triangle's segments.
+    let cut: Vec<(Face, Vec<[DVec3; 2]>)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let face = Face::from_corners(patches.corners(i));
+            let segs = lines
+                .get(patches.source_triangle[i] as usize)
+                .map(|segs| {
+                    segs.iter()
+                        .filter_map(|&[p, q]| {
+                            face.clip([face.to_2d(p), face.to_2d(q)], touch / face.size)
+                        })
+                        .map(|[p, q]| [face.point_at(p), face.point_at(q)])
+                        .collect()
+                })
+                .unwrap_or_default();
+            (face, segs)
+        })
+        .collect();
+    let mut on_edge: HashMap<(u32, u32), Vec<DVec3>> = HashMap::new();
+    for (i, (face, segs)) in cut.iter().enumerate() {
+        for s in segs {
+            for &p in s {
+                if let Some(e) = face.edge_through(p, touch) {
+                    let v = patches.triangles[i];
+                    let (a, b) = (v[e], v[(e + 1) % 3]);
+                    on_edge.entry((a.min(b), a.max(b))).or_default().push(p);
+                }
+            }
+        }
+    }
+    // Both patches on an edge find the points where segments cross it, each in its own frame:
+    // the same point up to rounding. One point stands for each cluster within `touch`, and
+    // segment ends move to it, so the two sides share it exactly.
+    for points in on_edge.values_mut() {
+        points.sort_by(|p, q| {
+            p.to_array()
+                .partial_cmp(&q.to_array())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let mut kept: Vec<DVec3> = Vec::with_capacity(points.len());
+        for &p in points.iter() {
+            if kept.iter().all(|k| k.distance(p) > touch) {
+                kept.push(p);
+            }
+        }
+        *points = kept;
+    }
+    let shared = |i: usize, face: &Face, p: DVec3| -> DVec3 {
+        let Some(e) = face.edge_through(p, touch) else {
+            return p;
+        };
+        let v = patches.triangles[i];
+        let (a, b) = (v[e], v[(e + 1) % 3]);
+        on_edge
+            .get(&(a.min(b), a.max(b)))
+            .and_then(|pts| pts.iter().find(|k| k.distance(p) <= touch))
+            .copied()
+            .unwrap_or(p)
+    };
+    let mut stats = ContactStats {
+        triangles: n,
+        ..ContactStats::default()
+    };
+    let mut out = Patches::with_capacity(patches.positions.clone(), n);
+    let mut parent = Vec::with_capacity(n);
+    let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+    let min_area = ZERO_AREA_RELATIVE * extent * extent;
+    for (i, (face, segs)) in cut.iter().enumerate() {
+        let v = patches.triangles[i];
+        let edge_points = points_on_edges(&on_edge, v);
+        let segs: Vec<[DVec3; 2]> = segs.iter().map(|s| s.map(|p| shared(i, face, p))).collect();
+        let pieces = if segs.is_empty() && edge_points.is_empty() {
+            None
+        } else {
+            face.triangulate(&segs, &edge_points, true)
+        };
+        let Some(pieces) = pieces else {
+            out.push_inside(v, &patches.parent(i));
+            parent.push(i as u32);
+            continue;
+        };
+        stats.faces_split += 1;
+        stats.segments += segs.len();
+        for [p, q, r] in pieces {
+            if 0.5 * (q - p).cross(r - p).length() <= min_area {
+                continue;
+            }
+            let mut id = |x: DVec3| {
+                if let Some(k) = face.corners.iter().position(|&c| c == x) {
+                    return v[k];
+                }
+                *index.entry(bits(x)).or_insert_with(|| {
+                    out.positions.push(x);
+                    (out.positions.len() - 1) as u32
+                })
+            };
+            let t = [id(p), id(q), id(r)];
+            out.push_inside(t, &patches.parent(i));
+            parent.push(i as u32);
+        }
+    }
+    stats.triangles = out.len();
+    Some((out, parent, stats))
+}

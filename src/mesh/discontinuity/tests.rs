@@ -1,0 +1,381 @@
+//! Contact lines, near shadows and the display cut on small scenes: a box on a floor, a
+//! light under a ceiling, crossing and nearly coincident segments.
+
+use super::face::split_at_crossings;
+use super::*;
+use crate::mesh::Patches;
+use crate::pipeline::{self, Settings};
+use crate::scene::SceneBuilder;
+use crate::validation::scenes::add_box;
+
+/// A builder holding a 4 × 4 floor (z = 0, facing up) of the material "white", and the
+/// materials "white" and "light".
+fn floor() -> (SceneBuilder, u32, u32) {
+    let mut b = SceneBuilder::new();
+    let white = b.material("white", [0.5; 3], [0.0; 3]);
+    let light = b.material("light", [0.0; 3], [5.0; 3]);
+    let z = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+    b.quad([z(0., 0.), z(4., 0.), z(4., 4.), z(0., 4.)], white);
+    (b, white, light)
+}
+
+/// A 4 × 4 floor (z = 0, facing up) under a light, with a box standing on it, turned 30°
+/// about the vertical so its footprint crosses the floor's diagonal. Returns the scene and
+/// the footprint's corners (counter-clockwise).
+fn box_on_floor() -> (Scene, [DVec3; 4]) {
+    let (mut b, white, light) = floor();
+    let z = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    b.quad(
+        [z(1., 1., 3.), z(1., 3., 3.), z(3., 3., 3.), z(3., 1., 3.)],
+        light,
+    );
+    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    let foot = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
+        .map(|(x, y)| z(2.0 + c * x - s * y, 2.0 + s * x + c * y, 0.0));
+    let up = DVec3::new(0.0, 0.0, 1.0);
+    for k in 0..4 {
+        let (p, q) = (foot[k], foot[(k + 1) % 4]);
+        b.quad([p, q, q + up, p + up], white); // outward: counter-clockwise seen outside
+    }
+    b.quad(
+        [foot[0] + up, foot[1] + up, foot[2] + up, foot[3] + up],
+        white,
+    );
+    (b.build().unwrap(), foot)
+}
+
+/// Signed area test: > 0 when `p` is left of a → b (inside a counter-clockwise polygon).
+fn left(a: DVec3, b: DVec3, p: DVec3) -> f64 {
+    (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)
+}
+
+/// Contact points are snapped to 1e-9 of the face (4 units here): within 1e-8 of the
+/// footprint's sides is "on the line", neither inside nor outside.
+const ON_LINE: f64 = 1e-8;
+
+/// `x` lies strictly inside the footprint.
+fn inside(foot: &[DVec3; 4], x: DVec3) -> bool {
+    (0..4).all(|k| left(foot[k], foot[(k + 1) % 4], x) > ON_LINE)
+}
+
+/// `x` lies strictly outside the footprint.
+fn outside(foot: &[DVec3; 4], x: DVec3) -> bool {
+    (0..4).any(|k| left(foot[k], foot[(k + 1) % 4], x) < -ON_LINE)
+}
+
+/// Some corner of the triangle lies strictly inside the footprint and another strictly
+/// outside.
+fn straddles(foot: &[DVec3; 4], corners: &[DVec3; 3]) -> bool {
+    corners.iter().any(|&c| inside(foot, c)) && corners.iter().any(|&c| outside(foot, c))
+}
+
+#[test]
+fn contact_lines_of_a_box_on_a_floor_become_edges() {
+    let (scene, foot) = box_on_floor();
+    let (split, stats) = split_contacts(&scene);
+    split.validate().unwrap();
+    assert_eq!(stats.faces_split, 2, "the floor's two triangles: {stats:?}");
+    // The footprint crosses the diagonal: its four sides give 4 segments on one half and
+    // 2 on the other (the two sides the diagonal cuts are counted on both).
+    assert_eq!(stats.segments, 6, "{stats:?}");
+    let area = |s: &Scene, floor: bool| {
+        (0..s.triangles.len())
+            .filter(|&t| {
+                let n = s.triangles[t].vertices.map(|v| s.positions[v as usize]);
+                floor == (n.iter().all(|p| p.z == 0.0))
+            })
+            .map(|t| s.triangle_area(t))
+            .sum::<f64>()
+    };
+    // The floor keeps its area and its facing (every new triangle faces up).
+    assert!((area(&split, true) - 16.0).abs() < 1e-9);
+    assert!((area(&split, false) - area(&scene, false)).abs() < 1e-9);
+    for t in &split.triangles {
+        let [a, b, c] = t.vertices.map(|v| split.positions[v as usize]);
+        if a.z == 0.0 && b.z == 0.0 && c.z == 0.0 {
+            assert!((b - a).cross(c - a).z > 0.0);
+        }
+    }
+    // No patch of the bake straddles the footprint: each floor patch is wholly inside or
+    // wholly outside it (corners on the footprint's sides count as either).
+    let out = pipeline::solve_scene(&scene, &Settings::default()).unwrap();
+    let p = &out.patches;
+    let mut under = 0;
+    for i in 0..p.len() {
+        let corners = p.corners(i);
+        if !corners.iter().all(|c| c.z == 0.0) {
+            continue;
+        }
+        assert!(
+            !straddles(&foot, &corners),
+            "floor patch {i} straddles the footprint: {corners:?}"
+        );
+        under += usize::from(inside(&foot, p.centroid[i]));
+        // Inside the footprint: buried (nobody sees it); outside: visible.
+        let expected = if inside(&foot, p.centroid[i]) {
+            0.0
+        } else {
+            1.0
+        };
+        assert_eq!(out.visible_fraction[i], expected, "patch {i}");
+    }
+    assert!(under > 0, "some floor patches lie under the box");
+    // Without the split, some patch straddles (what the split is for).
+    let none = Settings {
+        discontinuities: Discontinuities::None,
+        ..Settings::default()
+    };
+    let out = pipeline::solve_scene(&scene, &none).unwrap();
+    assert!((0..out.patches.len()).any(|i| {
+        let c = out.patches.corners(i);
+        c.iter().all(|x| x.z == 0.0) && straddles(&foot, &c)
+    }));
+}
+
+#[test]
+fn split_patches_cut_along_the_footprint_and_stay_conforming() {
+    let (scene, foot) = box_on_floor();
+    let patches = crate::mesh::subdivide(&scene, 0.7, 0.0).unwrap();
+    let lines = contact_lines(&scene).expect("the box touches the floor");
+    let (cut, parent, stats) = split_patches(&lines, &patches, 6.0).unwrap();
+    cut.validate().unwrap();
+    assert!(
+        stats.faces_split > 0 && stats.triangles == cut.len(),
+        "{stats:?}"
+    );
+    assert_eq!(parent.len(), cut.len());
+    // Each patch's pieces tile it: the same area, material, normal and source triangle.
+    let mut area = vec![0.0; patches.len()];
+    for (k, &i) in parent.iter().enumerate() {
+        let i = i as usize;
+        area[i] += cut.area[k];
+        assert_eq!(cut.source_triangle[k], patches.source_triangle[i]);
+        assert_eq!(cut.material[k], patches.material[i]);
+        assert!(
+            cut.normal[k].dot(patches.normal[i]) > 1.0 - 1e-12,
+            "piece {k}"
+        );
+    }
+    // Contact points are snapped to 1e-9 of the patch (`Face::to_2d`), so the pieces' area
+    // may differ from their patch's by a few times that.
+    for (i, a) in area.iter().enumerate() {
+        let want = patches.area[i];
+        assert!((a - want).abs() < 1e-8 * want, "patch {i}: {a} vs {want}");
+    }
+    // No floor piece straddles the footprint (some patch did before).
+    let on_floor = |p: &Patches, i: usize| p.corners(i).iter().all(|c| c.z == 0.0);
+    let straddling =
+        |p: &Patches| (0..p.len()).any(|i| on_floor(p, i) && straddles(&foot, &p.corners(i)));
+    assert!(straddling(&patches));
+    assert!(!straddling(&cut));
+    // Conforming: an edge of one floor piece only is on the floor's border (a point
+    // inserted into one side of an edge and not the other would leave two such edges).
+    let mut edges: HashMap<(u32, u32), usize> = HashMap::new();
+    for i in (0..cut.len()).filter(|&i| on_floor(&cut, i)) {
+        let t = cut.triangles[i];
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    for ((a, b), n) in edges {
+        let (p, q) = (cut.positions[a as usize], cut.positions[b as usize]);
+        let border = |x: f64, y: f64| [x, y].iter().any(|&v| v == 0.0 || v == 4.0);
+        let on_border = (p.x == q.x && border(p.x, -1.0)) || (p.y == q.y && border(-1.0, p.y));
+        assert!(
+            n == 2 || (n == 1 && on_border),
+            "edge {p} – {q} in {n} pieces"
+        );
+    }
+}
+
+#[test]
+fn the_hierarchical_display_is_cut_along_the_contact_lines() {
+    // The hierarchy's roots stay the input triangles; the gathered display's faces stop at
+    // the footprint, so no vertex's light is interpolated across it.
+    let (scene, foot) = box_on_floor();
+    let settings = |discontinuities| Settings {
+        method: pipeline::Method::Hierarchical,
+        discontinuities,
+        ..Settings::default()
+    };
+    let straddling = |out: &pipeline::Outcome| {
+        let b = &out.baked;
+        b.faces.iter().any(|f| {
+            let c = f.map(|v| DVec3::from(b.positions[v as usize]));
+            c.iter().all(|x| x.z == 0.0) && straddles(&foot, &c)
+        })
+    };
+    let out = pipeline::solve_scene(&scene, &settings(Discontinuities::Auto)).unwrap();
+    let stats = out
+        .report
+        .display_contacts
+        .as_ref()
+        .expect("the display was cut");
+    assert!(stats.faces_split > 0, "{stats:?}");
+    assert!(out.report.contacts.is_none(), "the roots were not cut");
+    assert!(!straddling(&out));
+    let out = pipeline::solve_scene(&scene, &settings(Discontinuities::None)).unwrap();
+    assert!(out.report.display_contacts.is_none());
+    assert!(straddling(&out));
+}
+
+#[test]
+fn crossing_segments_are_cut_at_one_shared_point() {
+    // An X: four pieces meeting at the crossing.
+    let x = split_at_crossings(&[[[0.0, 0.0], [1.0, 1.0]], [[0.0, 1.0], [1.0, 0.0]]]);
+    assert_eq!(x.len(), 4, "{x:?}");
+    assert!(x.iter().all(|s| s.contains(&[0.5, 0.5])));
+    // A T (one ends on the other): the other is cut at that very end.
+    let t = split_at_crossings(&[[[0.0, 0.0], [1.0, 0.0]], [[0.3, 1.0], [0.3, 1e-12]]]);
+    assert_eq!(t.len(), 3, "{t:?}");
+    assert!(t.contains(&[[0.0, 0.0], [0.3, 1e-12]]));
+    // Parallel, and meeting at their ends: unchanged.
+    let p = [
+        [[0.0, 0.0], [1.0, 0.0]],
+        [[0.0, 0.5], [1.0, 0.5]],
+        [[1.0, 0.5], [0.2, 0.9]],
+    ];
+    assert_eq!(split_at_crossings(&p).len(), 3);
+}
+
+#[test]
+fn nearly_coincident_contact_lines_triangulate_without_panicking() {
+    // One face of LibreQuake's e1m2 (in its own frame, longest edge 1): the same contact
+    // line found from several faces, as a chain of pieces and as one segment along it
+    // whose end is 1e-9 off the chain's. spade's own splitting of crossing constraints
+    // failed an internal assertion here (`add_constraint_and_split`); the face must be
+    // cut, its pieces covering it exactly.
+    let v = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+    let face = Face::from_corners([
+        v(0.0, 0.0),
+        v(1.0, 0.0),
+        v(0.05882352963089943, 0.23529411759227514),
+    ]);
+    let (a, b) = (
+        v(0.5147058824077249, 0.05882352963089943),
+        v(0.397058823145926, 0.08823529444634914),
+    );
+    let c = v(0.16176470555365086, 0.147058823145926);
+    let (far, near) = (
+        v(0.04411764722317457, 0.1764705879613757),
+        v(0.7499999990686774, 0.0),
+    );
+    let segments = [
+        [v(0.75, 0.0), a],
+        [v(0.5, 0.0), a],
+        [a, v(0.5, 0.0)],
+        [a, b],
+        [v(0.375, 0.0), b],
+        [b, v(0.375, 0.0)],
+        [b, c],
+        [c, v(0.125, 0.0)],
+        [far, near],
+    ];
+    let edge_points = [
+        v(0.75, 0.0),
+        v(0.5, 0.0),
+        v(0.375, 0.0),
+        v(0.125, 0.0),
+        near,
+        far,
+    ];
+    let pieces = face
+        .triangulate(&segments, &edge_points, false)
+        .expect("the face is cut");
+    let area: f64 = pieces
+        .iter()
+        .map(|[p, q, r]| 0.5 * (q - p).cross(r - p).z)
+        .sum();
+    // The face's area is 0.5 · 1 · 0.2353; rounding of the pieces' corners (snapped to
+    // 1e-9 of the face) moves it by far less than 1e-9.
+    assert!(
+        (area - 0.5 * 0.23529411759227514).abs() < 1e-9,
+        "area {area}"
+    );
+    assert!(pieces.iter().all(|[p, q, r]| (q - p).cross(r - p).z >= 0.0));
+}
+
+#[test]
+fn a_light_mounted_under_a_ceiling_outlines_itself_on_it() {
+    // A 4 × 4 ceiling (facing down) and a 1 × 1 light (facing down) below it: within 1e-3
+    // of the room's extent (6.9e-3 here), or within 5 % of the light's width (its
+    // triangles' smallest altitude, 0.71: 3.5e-2), the light's outline becomes edges of
+    // the ceiling and the light itself is not split. 0.1 below, it is too far for either,
+    // but within the light's width and 1/64 of the extent (0.108): a near shadow, and its
+    // silhouette alone (not its diagonal) becomes edges of the ceiling. 0.2 below, nothing.
+    for (gap, mounted) in [(4e-4, true), (0.02, true), (0.1, true), (0.2, false)] {
+        let (mut b, white, light) = floor();
+        crate::test_support::ceiling_with_mounted_light(
+            &mut b,
+            (white, light),
+            4.0,
+            gap,
+            [1.5, 1.2],
+        );
+        let scene = b.build().unwrap();
+        let (split, stats) = split_contacts(&scene);
+        split.validate().unwrap();
+        if !mounted {
+            assert_eq!(stats.faces_split, 0, "gap {gap}: {stats:?}");
+            continue;
+        }
+        assert_eq!(
+            stats.faces_split, 2,
+            "gap {gap}: the ceiling's triangles only: {stats:?}"
+        );
+        let mut diagonal = 0;
+        for t in &split.triangles {
+            let c = t.vertices.map(|v| split.positions[v as usize]);
+            if c.iter().all(|p| p.z == 4.0) {
+                let centroid = (c[0] + c[1] + c[2]) / 3.0;
+                let under =
+                    centroid.x > 1.5 && centroid.x < 2.5 && centroid.y > 1.2 && centroid.y < 2.2;
+                // Snapped to 1e-9 of the face (4 units): 1e-8 is "on the outline".
+                for p in c {
+                    let strictly_in = p.x > 1.5 + 1e-8
+                        && p.x < 2.5 - 1e-8
+                        && p.y > 1.2 + 1e-8
+                        && p.y < 2.2 - 1e-8;
+                    let strictly_out = p.x < 1.5 - 1e-8
+                        || p.x > 2.5 + 1e-8
+                        || p.y < 1.2 - 1e-8
+                        || p.y > 2.2 + 1e-8;
+                    assert!(
+                        if under { !strictly_out } else { !strictly_in },
+                        "gap {gap}: {c:?}"
+                    );
+                }
+                // The mounted light's outline includes its triangles' shared diagonal; the
+                // near shadow's is the silhouette alone.
+                let on_diagonal = |p: DVec3| {
+                    (p.y - p.x + 0.3).abs() < 1e-8 && p.x > 1.5 - 1e-8 && p.x < 2.5 + 1e-8
+                };
+                for k in 0..3 {
+                    let (p, q) = (c[k], c[(k + 1) % 3]);
+                    diagonal += (on_diagonal(p) && on_diagonal(q)) as usize;
+                }
+            }
+        }
+        assert_eq!(
+            diagonal > 0,
+            gap < 0.1,
+            "gap {gap}: {diagonal} edges on the diagonal"
+        );
+    }
+}
+
+#[test]
+fn scenes_without_contacts_are_unchanged() {
+    let scene = crate::validation::scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+    let (split, stats) = split_contacts(&scene);
+    assert_eq!(split.triangles, scene.triangles);
+    assert_eq!(split.positions, scene.positions);
+    assert_eq!(stats.faces_split, 0);
+    // A room's walls meet its floor only along the floor's border: no split either.
+    let mut b = SceneBuilder::new();
+    let m = b.material("white", [0.5; 3], [1.0; 3]);
+    add_box(&mut b, DVec3::ZERO, DVec3::ONE, true, m);
+    let room = b.build().unwrap();
+    assert_eq!(split_contacts(&room).1.faces_split, 0);
+}
