@@ -30,11 +30,11 @@ use crate::sampling::{gauss_rule, kernel_samples, Rng};
 use crate::visibility::Point;
 
 /// What an exact emitter's visible pieces cost a gathering point, in hemisphere rays (each of
-/// which may evaluate a near hit one bounce further). Measured on the generated hall of 10⁴
-/// triangles (35,754 gathering points, 8 exact emitters and 16 other-light samples each,
-/// 2 cores): 15 µs a point with one hemisphere ray, 0.57 µs a hemisphere ray more, so the
-/// direct light costs about 27 rays, of which the 16 samples' shadow rays (about half a
-/// hemisphere ray each) about 8: (27 − 8) / 8 ≈ 2.4 per emitter.
+/// which may evaluate a near hit one bounce further): the point's fixed cost less its
+/// other-light samples' shadow rays (about half a hemisphere ray each), over its exact
+/// emitters, timed on the generated hall (many lights, [`MAX_EXACT_EMITTERS`] exact at
+/// every point). A ratio of two times, it sets only how many vertices the display
+/// refinement's budget buys ([`Gatherer::direct_cost_per_point`]), not how any is computed.
 pub const EXACT_EMITTER_COST: usize = 2;
 
 /// An emitter whose exactly computed visible share ([`visible`]) is within this of 0 or 1 is
@@ -55,10 +55,10 @@ pub const MAX_EXACT_EMITTERS: usize = 8;
 /// Σ Le F V̂ / (N p) carries only the noise of visibility: a point that sees all of them
 /// unoccluded gets their light exactly. Next-event estimation over many lights (Shirley, Wang
 /// & Zimmerman, "Monte Carlo techniques for direct lighting calculations", TOG 1996).
-/// Before it, a hemisphere ray brought such an emitter's Le when it happened to hit one: in
-/// the generated hall (162 lights) the gather at the probes themselves (no interpolation,
-/// hierarchical ε 1e-4) was 13.7 % RMS at 256 rays and 7.2 % at 1024, the small bright
-/// lights' noise; with these rays 4.7 % at 256, of which −3.1 % is the solution's bias.
+/// Without them only a hemisphere ray that happened to hit such an emitter would bring its
+/// Le: in a scene of many small bright lights (the generated hall) that noise would be most
+/// of the gather's error even at four times the rays, and with these samples what is left
+/// is mostly the solution's own bias.
 pub const OTHER_LIGHT_SAMPLES: usize = 16;
 
 /// With more emitters than this in the scene, the others' shadow rays draw emitters from the
@@ -72,9 +72,9 @@ pub const MAX_WEIGHED_EMITTERS: usize = 256;
 /// An emitter beyond a point's exact ones is sampled by [`OTHER_LIGHT_SAMPLES`] when its radius
 /// is at most this fraction of its distance (a cone of half-angle under 15°), else left to the
 /// hemisphere rays. One ray to a uniform point of a large near emitter weights its parts by
-/// area instead of by the kernel G, and is noisy: in the furnace room (every wall emits),
-/// sampling all of them gave a mean error of −0.23 % and an RMS of 1.4 % over the vertices,
-/// against −0.003 % and 0.1 % with this split.
+/// area instead of by the kernel G, and is noisy: in the furnace room, where every wall
+/// emits, sampling all of them would leave the gather an order of magnitude noisier than
+/// this split does (the test `full_gather_in_the_furnace_is_le_over_one_minus_rho`).
 pub const SAMPLED_SPREAD: f64 = 0.25;
 
 impl Gatherer<'_> {
@@ -371,10 +371,11 @@ impl Gatherer<'_> {
         self.emitters.len().min(MAX_EXACT_EMITTERS)
     }
 
-    /// The cost of a gathering point's direct light, in hemisphere rays: [`EXACT_EMITTER_COST`]
-    /// per exact emitter (its visible pieces, [`visible`]; shadow rays only where they are too
-    /// many to compute), [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and the shadow
-    /// rays of the lights outside the mesh ([`Environment::sharp_rays`]).
+    /// The cost of a gathering point's direct light, in hemisphere rays: [`EXACT_EMITTER_COST`] per
+    /// exact emitter (its visible pieces, [`visible`]; shadow rays only where they are too many to
+    /// compute), [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and the shadow rays of the
+    /// lights outside the mesh
+    /// ([`Environment::sharp_rays`](crate::scene::Environment::sharp_rays)).
     pub fn direct_cost_per_point(&self) -> usize {
         let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
             OTHER_LIGHT_SAMPLES

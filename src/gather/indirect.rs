@@ -32,19 +32,17 @@ use crate::visibility::NONE;
 /// stratum on the outline finds either side with its one ray, and those strata carry most of
 /// the estimate's variance: there the stratified error falls as rays^-0.75 (the outline's
 /// strata, ∝ √rays, each with a variance ∝ 1/rays²), against rays^-1 for a smooth integrand.
-/// Measured against the point-wise probes at the defaults (displayed RMS, one seed;
-/// BENCHMARKS "Rays where the light has edges"): 0 → 0.5 took the room lit through a doorway
-/// (`two_rooms`) from 1.15 % to 0.96 % (room B's probes gathered at 324 rays: 4.4 % → 2.5 %;
-/// 1,024 plain rays give 2.0 %), the Cornell box 0.68 → 0.59 %, the living room 0.55 →
-/// 0.53 %, the study 0.64 → 0.62 %, for about a third more gather time (1–2 s). With the same
-/// rays in all, fewer in each stratum at first (324 → 225 + 112 more), `two_rooms` 1.03 %:
-/// the edges need the first rays' resolution too.
+/// Half as many rays again, for about a third more gather time: the room lit through a
+/// doorway (the point-wise benchmark's `two_rooms`, BENCHMARKS.md "Displayed error against a
+/// path tracer") gains most, since most of its light arrives past one bright outline, the
+/// part the plain strata resolve worst; scenes with fewer such edges gain a little. The same
+/// rays in all with fewer first rays do worse: the edges need the first rays' resolution too.
 pub const EDGE_RAYS: f64 = 0.5;
 
-/// Strata per side (of `rays`' √rays × √rays) from which a hemisphere adds [`EDGE_RAYS`]:
-/// at 64 rays (8 × 8, the least [`auto_rays`] gives) a stratum's neighbours span a quarter of
-/// the hemisphere's radius and see edges everywhere (the hall of 10⁴ triangles, at 64 rays:
-/// 4.33 → 4.43 %, 17 % slower).
+/// Strata per side (of `rays`' √rays × √rays) from which a hemisphere adds [`EDGE_RAYS`]: at 64
+/// rays (8 × 8, the least [`auto_rays`](super::auto_rays) gives) a stratum's neighbours span a
+/// quarter of the hemisphere's radius and see edges everywhere, so the added rays cost time without
+/// going where an edge is (the generated hall, gathered at 64 rays, is no better with them).
 pub const EDGE_MIN_SIDE: usize = 12;
 
 /// At most this many more rays in one stratum (16 in all).
@@ -56,11 +54,11 @@ pub const EDGE_MAX_PER_STRATUM: usize = 15;
 /// concave corner (a ceiling along a wall, a floor beside a block) the hits lie within a patch
 /// of the gathering point, where the radiance bends on a scale far below the patch's size (it
 /// falls toward the corner) and the patch's mean overstates it: gathered with patch means
-/// alone, the Cornell box's ceiling within 3 mm of the back wall came out 6 % too bright even
-/// at 8,192 rays. The same rule as the photon map's final gather, which reads the map only
-/// for distant hits (Jensen, "Global Illumination using Photon Maps", EGWR 1996, §4).
-/// Measured on the Cornell box's 2,000 probes (displayed RMS, one run each, ±0.03 % between
-/// seeds): 1.15 % without, 0.99 % at 1, 1.01 % at 2, 1.02 % at 3, for 0.5–1.1 s more.
+/// alone, the Cornell box's ceiling next to the back wall comes out too bright however
+/// many rays are cast: a bias, not noise. The same rule as the photon map's final gather,
+/// which reads the map only for distant hits (Jensen, "Global Illumination using Photon
+/// Maps", EGWR 1996, §4). One patch size catches the corners' hits; a larger reach
+/// evaluates more hits at the cost of gather time, for no better display.
 pub const NEAR_HIT: f64 = 1.0;
 
 /// Hemisphere rays at a near hit's point ([`NEAR_HIT`]), reading the patches' radiance.
@@ -68,15 +66,12 @@ pub const NEAR_RAYS: usize = 1;
 
 /// Near hits followed one after another, at most ([`NEAR_HIT`]): the ray from a near hit's
 /// point is itself a near hit where it goes back into the corner or across a narrow gap, and
-/// the patch mean it would read there overstates the light as the first one's would.
-/// Measured (2026-11-27, 2 cores): the Cornell box's 47 probes along the ceiling's corners,
-/// mean error +0.6 % at depth 1 and +0.06 % at 2 (the test
-/// `near_hits_bring_the_radiance_at_the_hit_point_not_the_patch_mean`); the generated hall
-/// gathered at its 2,000 probes themselves with 1,024 rays (no interpolation), 3.25 % RMS at
-/// depth 1, 2.20 % at 2, 2.05 % at 4 (points in the 5 mm gaps between table tops and legs,
-/// and between seats and backs); its displayed RMS 6.28, 5.99, 5.86 and 5.75 % at depths 1 to
-/// 4, for 14 %, 38 % and 57 % more gather time; the living room's 0.80 → 0.72 % at depth 2
-/// (3 % more time), no better at 3.
+/// the patch mean it would read there overstates the light as the first one's would. The
+/// second level takes out nearly all of the bias the first leaves along the Cornell box's
+/// ceiling corners (the test `near_hits_bring_the_radiance_at_the_hit_point_not_the_patch_mean`
+/// bounds both) and much of the error at points in narrow gaps (the generated hall's few
+/// millimetres between table tops and legs, seats and backs); each further level adds gather
+/// time, more of it the deeper, and helps little.
 pub const NEAR_DEPTH: u32 = 2;
 
 impl Gatherer<'_> {

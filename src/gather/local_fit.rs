@@ -26,8 +26,8 @@
 //! features are where the viewer looks. Only the neighbours that compute the same emitters
 //! exactly enter the fit ([`Gathered::exact_key`]): where a vertex's differ from its
 //! neighbour's, a large near emitter's light is in one's direct light and in the other's
-//! indirect light (in the furnace room, fitted over all of them, the vertices' RMS went from
-//! 1.05·10⁻³ to 9.8·10⁻³; so, 1.17·10⁻³: the test `full_gather_in_the_furnace_…`).
+//! indirect light (in the furnace room, fitted over all of them, the vertices' error would
+//! grow by an order of magnitude: the test `full_gather_in_the_furnace_…`).
 //!
 //! **The chord.** Interpolated linearly across a triangle, point values lie on the chord of
 //! the radiance's profile: under it where the profile is concave (a wall lit from above, a
@@ -53,8 +53,8 @@
 //! a feature narrower than the triangles was resolved (a chair leg's shadow 5 cm wide across a
 //! floor of 20 cm triangles, a leg's footprint corner whose light depends on the direction it
 //! is approached from), a vertex in the feature shows it across its whole star. A midpoint's
-//! indirect light, its ends' mean, is the chord: fitted to it, the values gave back part of
-//! the chord correction. It is bent as its ends' local quadratics bend along the edge
+//! indirect light, its ends' mean, is the chord: fitted to it, the values would give back
+//! part of the chord correction. It is bent as its ends' local quadratics bend along the edge
 //! ([`MAX_BEND`]; the test `midpoints_are_bent_as_the_fitted_quadratics_bend_…`). Last, the
 //! values x are fitted to every point computed, the vertices' own values y (as corrected
 //! above) and those midpoints m: x minimises Σ_v (x_v − y_v)² + Σ_m ((x_a + x_b)/2 − m)². It
@@ -65,15 +65,13 @@
 //! fitted (nothing moves); a dark spot under one vertex shows a tenth of its squared error
 //! (the test). It costs no ray.
 //!
-//! Measured (2026-11-27, point-wise benchmark, one bake each, displayed RMS): the living room
-//! 0.65 % → 0.59 % with the chord correction alone (its mean error −0.26 → −0.08 %, while the
-//! same gather at the probes themselves was unbiased) → 0.57 % with the indirect light
-//! fitted too; the Cornell box's two draws of probes 0.84 / 0.87 → 0.78 / 0.82 → 0.68 /
-//! 0.71 %; the hall 4.52 → 4.52 → 4.51 %. In a few hundredths of a second. The midpoints'
-//! fit: the hall 4.51 → 4.34 % (4.65 / 4.57 / 4.56 → 4.51 / 4.45 / 4.40 % over three other
-//! seeds; median 1.62 → 1.53 %, 90th percentile 6.2 → 5.8 %), the living room 0.57 → 0.55 %,
-//! the Cornell box unchanged (0.68 / 0.71 %); the furnace room's vertices' RMS 1.17·10⁻³ →
-//! 0.98·10⁻³ (1.69·10⁻³ with the midpoints whose exact emitters differ from their ends').
+//! What each step buys, against the point-wise benchmark's probes (BENCHMARKS.md "Displayed
+//! error against a path tracer"): the chord correction takes out most of the mean error of
+//! a room lit from above (the living room's; the same gather at the probes themselves is
+//! unbiased, so the bias is the interpolation's); the fitted indirect light takes out the
+//! noise the Cornell box's vertices show; the midpoints' fit takes out part of what the
+//! display refinement's budget left, most in the generated hall, whose narrow shadows cross
+//! its triangles. None of the three casts a ray; they cost little next to the gather.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -243,12 +241,10 @@ pub fn correct(
 /// times the midpoint's luminance: the test left the edge whole, finding the light at its
 /// midpoint within τ of the ends' mean, so a quadratic bending by more than half of that
 /// spans a feature it does not follow. Only the bend, not the quadratics' level, which
-/// carries their noise. Measured on the point-wise benchmark (2026-11-27, one bake each,
-/// displayed RMS and mean error): the study 0.557 → 0.526 % (−0.19 → −0.12 %), the Cornell box
-/// 0.589 → 0.569 % (−0.05 → −0.01 %) and 0.60 → 0.585 % at its second draw, two_rooms 0.942 →
-/// 0.923 %, the living room 0.539 → 0.514 %, the hall 4.335 → 4.337 %. Uncapped, the hall
-/// (64 rays a vertex, its quadratics noisy and spanning table legs) went to 4.48 %; with the
-/// quadratics' values at the midpoint instead of their bend, to 4.49 %, the others between.
+/// carries their noise. The bend lowers the displayed error and the mean error of every
+/// scene of the point-wise benchmark a little; uncapped, it makes a scene gathered with few
+/// rays a vertex worse (the generated hall at 64 rays, whose quadratics are noisy and span
+/// table legs), and so do the quadratics' values at the midpoint in place of their bend.
 pub const MAX_BEND: f64 = 0.5;
 
 /// A vertex's local quadratic of the indirect light (step 1 of [`correct`]), to evaluate

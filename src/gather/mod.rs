@@ -142,9 +142,9 @@ impl fmt::Display for Gather {
 
 /// Hemisphere rays of the whole `full` gather when the number per vertex is not given: the
 /// indirect light's noise falls as rays⁻½ while the cost grows with vertices × rays, so a
-/// fixed budget keeps a large scene's gather bounded. Measured on the Cornell box (3,389
-/// vertices) against 2,000 path-traced probes: displayed RMS 4.3 % at 64 rays, 3.0 % at 128,
-/// 2.8 % at 256, 2.3 % at 1024.
+/// fixed budget keeps a large scene's gather bounded. Against the point-wise benchmark's
+/// probes, the Cornell box's displayed error falls all the way from 64 rays a vertex to
+/// 1024, steeply up to about 128 and slowly after.
 pub const AUTO_RAY_BUDGET: usize = 4_000_000;
 
 /// Hemisphere rays per vertex for `vertices` output vertices: [`AUTO_RAY_BUDGET`] shared out,
@@ -160,11 +160,11 @@ pub const MIN_AUTO_RAYS: usize = 64;
 /// [`AUTO_RAY_BUDGET`] gives [`MIN_AUTO_RAYS`] rays each. An output with more vertices comes
 /// from patches fine enough that their own radiance, averaged to the vertices, shows more
 /// truly than a gather of so few rays a vertex (whose noise is then the larger error), and the
-/// gather's cost would grow with the vertices past its budget. Measured on the Cornell box
-/// baked hierarchically at ε = 3e-7 (226,811 leaves, 137,927 vertices; 220,935 after the
-/// display refinement of `full`) against its 2,000
-/// path-traced probes: no gather, displayed RMS 3.25 % (median 0.60 %) in 16 s; `full` with
-/// 64 rays, 3.88 % (median 1.38 %) in 35 s; `direct`, 3.26 % in 83 s.
+/// gather's cost would grow with the vertices past its budget. The Cornell box baked
+/// hierarchically at ε = 3e-7, well past this limit (BENCHMARKS.md "Hierarchical
+/// radiosity"), shows it against the point-wise benchmark's probes: without a gather it
+/// displays as well as with `direct` and better than with `full` at [`MIN_AUTO_RAYS`] rays,
+/// in a fraction of either's time.
 pub const FULL_GATHER_MAX_VERTICES: usize = AUTO_RAY_BUDGET / MIN_AUTO_RAYS;
 
 impl Gather {
@@ -274,8 +274,9 @@ impl<'a> Gatherer<'a> {
     /// Whether the contact lines are edges of the patch mesh ([`crate::mesh::split_contacts`])
     /// and the display refinement follows the light beside them (the pipeline passes both).
     /// Then a vertex at a contact lies on the discontinuity itself, and its gather point moves
-    /// at most [`NUDGE_MAX`] of the extent off it (without the refinement, the rim's own light
-    /// would be spread over whole faces: Cornell box 2.26 → 3.13 % at `--gather-tolerance 0`).
+    /// at most [`NUDGE_MAX`] of the extent off it (without the refinement the rim's own light
+    /// would be spread over whole faces, so with `--gather-tolerance 0` the bound makes the
+    /// Cornell box's display worse).
     /// Otherwise (the hierarchical solver's default) a contact vertex is wherever its
     /// element's corner falls, its patch straddles the contact, and the point moves the whole
     /// [`NUDGE`] toward the patch's visible part.

@@ -45,12 +45,12 @@
 //! the viewer sees. The error an edge leaves is mostly a discontinuity of the light crossing
 //! its faces (a shadow edge, a penumbra, the rim of a contact), wrong over a strip as long as
 //! the faces (∝ the edge's length L) and as wide as the transition: δ² · L, whose root orders
-//! the edges. (By deviation alone, edges of millimetres at the sharpest features took the
-//! budget from long edges across shadows. Measured 2026-11-27 on the point-wise benchmark,
-//! displayed RMS: the generated hall 5.65 → 4.58 %, the living room 0.72 → 0.66 %, the Cornell
-//! box's two draws 0.82 / 0.92 → 0.83 / 0.90 %; ordered by δ · L, as for a smooth error
-//! over the faces' whole area, the hall 5.26 % but the Cornell box 0.92 % and the living room
-//! 0.78 %. The tests ordered the same way besides: 4.52 %, 0.65 %, 0.84 / 0.87 %.)
+//! the edges. (By deviation alone, edges of millimetres at the sharpest features take the
+//! budget from long edges across shadows, and the generated hall's long narrow shadows go
+//! unresolved; by δ · L, as for a smooth error over the faces' whole area, the long edges
+//! take it from the sharp features the Cornell box and the living room need. The point-wise
+//! benchmark tells the three apart; the midpoint tests are ordered the same way, for the
+//! same reason.)
 
 use std::collections::{HashMap, HashSet};
 
@@ -71,12 +71,11 @@ pub const DEFAULT_TOLERANCE: f64 = 0.02;
 /// `direct` more ([`super::Gatherer::direct_cost_per_point`], in hemisphere rays): as many as
 /// twice the gather's own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the
 /// refinement adds at most about twice as many rays again, whatever the scene's size and its
-/// number of lights. (Until 2026-11-27 the direct light was counted as 16 shadow rays per
-/// exact emitter, which the visible pieces no longer cast: the hall's 8 exact emitters cost
-/// its refinement 144 rays a vertex where they take about 27, and it stopped at 31,250 new
-/// vertices instead of about 55,000.) Measured on the Cornell box's 2,000 probes (displayed RMS; each budget was
-/// used up): half the gather's budget (1,946 vertices) 1.45 %, once (3,891) 1.31 %, twice
-/// (7,782) 1.13 %, for about 1.3 s more than half.
+/// number of lights. `direct` must be what the direct light costs now (the exact emitters'
+/// visible pieces, [`super::EXACT_EMITTER_COST`] each), not shadow rays they no longer cast:
+/// counted too high, it stops a many-light scene's refinement far short. The Cornell box uses
+/// the whole budget, and its displayed error still falls from half this budget to all of it
+/// (the point-wise benchmark): the bound is one of cost, not of accuracy.
 pub fn budget(rays: usize, direct: usize) -> usize {
     2 * super::AUTO_RAY_BUDGET / (rays + direct).max(1)
 }
@@ -102,11 +101,12 @@ pub const SIGNIFICANCE: f64 = 2.0;
 /// architectural models often build one: it sees the partition's backs, and the ceiling's
 /// strip and the end walls through the slot): its edge is neither split nor fitted to it. Its
 /// light (no direct light, the ends' indirect light) is not the light beside it: fitted to
-/// such midpoints, the contact line's vertices showed the floor beside the partition 15–25 %
-/// dark. A seen point of a scene whose surfaces face the viewer meets no back; one beside the
-/// back of a one-sided plane, about half. In a 10 cm slot a metre high, the strip's points
-/// met backs with 44–100 % of 16 rays, 98 % of them more than half (a test with 75 % missed
-/// 17 % of them, and two contact vertices stayed 7 % dark).
+/// such midpoints, the contact line's vertices would show the floor beside the partition
+/// far too dark (the test `a_partition_of_two_wall_faces_does_not_darken_the_floor_beside_it`).
+/// A seen point of a scene whose surfaces face the viewer meets no back; one beside the back
+/// of a one-sided plane, about half. In a slot much higher than it is wide, nearly all of the
+/// strip's points meet backs with more than half of their rays, while a higher threshold
+/// misses a share of them and leaves contact vertices dark.
 pub const ENCLOSED: f64 = 0.5;
 
 /// Midpoint tests, in all, per vertex the budget allows.
@@ -376,8 +376,8 @@ pub fn refine(
                         // `full`: the new vertex gathers its own indirect light too. The
                         // ends' mean would do across a shadow edge, where the indirect light
                         // is smooth, but not where it bends between them: beside a contact
-                        // or a concave corner (a floor point 6 mm from a sofa's side showed
-                        // +29 % from its ends' mean) or where the ends count different
+                        // or a concave corner (a floor point millimetres from a sofa's side is
+                        // far brighter than its ends' mean) or where the ends count different
                         // emitters' Le in it (many lights). The budget pays for it: it
                         // counts each new vertex at the gather's full rays.
                         if mode == Gather::Full {

@@ -16,10 +16,10 @@ use crate::bake::Site;
 /// centroid of the most visible patch around it. Far enough to leave the steep part of the
 /// radiance next to a contact (a light mounted half a millimetre under the Cornell box's
 /// ceiling darkens the ceiling within about a millimetre of its edge), near enough that the
-/// value stands for the vertex. Measured on the Cornell box's 2,000 probes: displayed RMS
-/// 3.3 % at 0.001, 3.0 % at 0.01, 2.8 % at 0.05, 2.9 % at 0.2 (before the display
-/// refinement, which now follows that steep part where contact lines are mesh edges: see
-/// [`NUDGE_MAX`]).
+/// value stands for the vertex. The displayed error against the path-traced probes is
+/// flat over a wide range around this value (the point-wise benchmark, BENCHMARKS.md
+/// "Displayed error against a path tracer"). Where contact lines are mesh edges the display
+/// refinement follows that steep part itself, and [`NUDGE_MAX`] bounds the move.
 pub const NUDGE: f64 = 0.05;
 
 /// Where the contact lines are mesh edges ([`Gatherer::with_contact_edges`]), the gather
@@ -27,13 +27,13 @@ pub const NUDGE: f64 = 0.05;
 /// times the reach at which a surface through the vertex counts as touching it (1e-5 of the
 /// extent), enough to see that surface at an angle rather than edge-on. The display
 /// refinement splits edges down to a tenth of a millimetre beside the Cornell box's light,
-/// so a vertex on the light's rim must show the rim's own light: nudged 5 % of the way to a
-/// patch centroid (about 1 mm) it showed the ceiling's value 0.2–1 mm out, and a probe
-/// 0.04 mm from the rim came out +46 %. Measured on the Cornell box's two draws of 2,000
-/// probes (mean of three seeds of the bake): 0.95 % and 1.55 % RMS unbounded, 0.93 % and
-/// 1.02 % with this bound (0.94 % and 1.08 % at 10⁻⁴, 0.95 % and 1.01 % at 10⁻⁵). Without
-/// contact edges (the hall's hierarchy: its elements straddle the lights' outlines and its
-/// display refinement runs out of budget) the bound took the hall from 10.0 % to 12.6 %.
+/// so a vertex on the light's rim must show the rim's own light: nudged [`NUDGE`] of the way
+/// to a patch centroid (about a millimetre there) it would show the ceiling's value well
+/// outside the rim, and the probes next to the rim would read far too bright. The bound is
+/// applied only where contact lines are mesh edges: without them (the hall's hierarchy,
+/// whose elements straddle the lights' outlines and whose display refinement runs out of
+/// budget) no vertex lies that close to an outline, and the full nudge is what keeps a
+/// vertex out of the steep part; bounded there, the hall's display is worse.
 pub const NUDGE_MAX: f64 = 3e-5;
 
 /// How far from a vertex another surface may pass and still be taken to touch it
@@ -57,9 +57,9 @@ impl Gatherer<'_> {
     /// visible first: a vertex on the border between a buried face and a seen one (the
     /// ceiling's vertex exactly above a mounted light's corner, whose faces above the light
     /// and beside it are equally visible by their leaf's share) shows the seen face's light,
-    /// not the bake's mean. (In the generated hall the ceiling's vertices above its 41 lights'
-    /// corners were buried so, and the edges from them across the lit ceiling were never
-    /// refined: probes between the lights and the walls showed 15–18 % dark.)
+    /// not the bake's mean. (Otherwise the generated hall's ceiling vertices above its lights'
+    /// corners are buried so, the edges from them across the lit ceiling are never refined,
+    /// and the ceiling between the lights and the walls shows dark.)
     pub(crate) fn spot(&self, site: &Site, visible_fraction: &[f64]) -> Option<Spot> {
         let p = self.patches;
         // The most visible patch around the vertex (of equals, the last one listed): evaluate
@@ -136,9 +136,9 @@ impl Gatherer<'_> {
     /// The ray starts [`LIFT`] above `x`, as the shadow and hemisphere rays do. From `x`
     /// itself, a vertex shared by several patches of a face that is not aligned with the axes
     /// (a rotated block's side) could meet one of the other patches at `t` of the order of the
-    /// `f32` rounding of their corners, from behind: 129 of the default Cornell bake's 3,541
-    /// vertices, all on the blocks' sides, were taken for buried that way and kept the
-    /// patches' mean instead of their gather. Contact geometry buries a point by far more than
+    /// `f32` rounding of their corners, from behind, and be taken for buried, keeping the
+    /// patches' mean instead of its gather (the Cornell box's rotated blocks have many such
+    /// vertices). Contact geometry buries a point by far more than
     /// the lift (the floor under a block is covered wherever it is buried).
     pub(super) fn buried(&self, x: DVec3, n: DVec3, ignore: u32) -> bool {
         self.surfaces

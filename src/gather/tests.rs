@@ -261,18 +261,15 @@ fn full_gather_in_the_furnace_is_le_over_one_minus_rho() {
     let n = errors.len() as f64;
     let mean = errors.iter().sum::<f64>() / n;
     let rms = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
-    // Measured: mean -2.6e-5, RMS 1.05e-3 over 5,863 vertices (seed 1); 3.9e-5 and
-    // 1.17e-3 after the local fits (which fit each vertex's indirect light over the
-    // neighbours with the same exact emitters only: over all of them, where the exact
-    // emitters change from one vertex to the next and a wall's light moves from `direct`
-    // to `indirect`, the RMS was 9.8e-3); 1.4e-5 and 0.98e-3 with the values fitted to
-    // the display refinement's tested midpoints too, those whose exact emitters are their
-    // ends' (with every midpoint, whose ends' indirect light may count another set of
-    // walls: 1.69e-3, which the bound below catches). With every
-    // emitter beyond the exact ones sampled by shadow rays, however large and near
-    // (SAMPLED_SPREAD unbounded), mean -2.3e-3 and RMS 1.4e-2: one ray to a uniform point
-    // of a large wall weights it by area, not by G, and is noisy. The bound: the noise of
-    // a vertex's few hundred rays, about 1e-3, and half again.
+    // With seed 1 the mean is a few 1e-5 and the RMS about 1e-3, the noise of a vertex's
+    // few hundred rays, local fits included: they fit each vertex's indirect light only
+    // over the neighbours with the same exact emitters, and the values only to the tested
+    // midpoints whose exact emitters are their ends'. The bound catches the mistakes the
+    // furnace shows: a fit across a change of exact emitters (a wall's light moving from
+    // `direct` to `indirect`; about 1e-2 over the neighbours, 1.7e-3 over every midpoint),
+    // or every emitter beyond the exact ones sampled by shadow rays however large and near
+    // (SAMPLED_SPREAD unbounded; RMS above 1e-2: one ray to a uniform point of a large wall
+    // weights it by area, not by G). The bound: that noise, about 1e-3, and half again.
     assert!(mean.abs() < 1e-3 && rms < 1.5e-3, "mean {mean}, rms {rms}");
 }
 
