@@ -133,7 +133,7 @@ pub fn estimate(
 
     // The oracle's form factor must not depend on the samples of `f`: keeping the links whose
     // random estimate happened to be low and refining the others would bias the kept sum
-    // low (measured: row sums of a closed box 0.98 instead of 1).
+    // low (a closed box's row sums would come out short of 1).
     let bound = match element_pair {
         None => {
             // Any orientation: cosines ≤ 1 and every distance ≥ the gap.
@@ -164,11 +164,11 @@ pub fn estimate(
 }
 
 /// Points of the rule that element receivers integrate with: the symmetric Gauss rule of
-/// degree 5 (7 points). Its points are also where burial is tested. Measured on the Cornell
-/// box at ε = 1e-6 against the path-traced surface means: the 3-point rule (degree 2) left
-/// the floor 1.0 % and the ceiling 1.1 % low (interior points underestimate the convex
-/// fall-off of the kernel), 7 points 0.1 % and 0.4 % (12 points, degree 6: the same within
-/// 0.1 %, 25 % slower).
+/// degree 5 (7 points). Its points are also where burial is tested. The 3-point rule (degree
+/// 2) leaves large receivers low against the path-traced surface means (the Cornell box's
+/// floor and ceiling at a fine ε): its interior points underestimate the convex fall-off of
+/// the kernel. Degree 5 takes most of that out; the 12-point rule of degree 6 gives the same
+/// answers for more time.
 pub const RECEIVER_POINTS: usize = 7;
 
 /// The receivers' quadrature rule ([`RECEIVER_POINTS`] points, weights summing to 1).
@@ -216,10 +216,10 @@ struct Sums {
 /// share, not its share of F. The two differ wherever what is hidden is far and what is seen
 /// is near, which is the rule beside furniture: a chair leg sees the floor within a metre
 /// (most of its F), while the rest of a floor triangle metres across is hidden by other
-/// furniture. Measured on the generated hall (10⁴ triangles, ε = 1e-4): the legs' and seats'
-/// row sums Σ F were 0.79 and 0.88 where they see nothing but the fronts of surfaces (1 is
-/// right), and the solution 3–5 % dark everywhere against the path-traced probes; by solid
-/// angle the row sums are 0.99 and the bias −1 %. `None` when every rule point is buried.
+/// furniture. By area, the generated hall's chair legs and seats get row sums Σ F far short
+/// of 1 where they see nothing but the fronts of surfaces (1 is right), and the whole
+/// solution comes out dark against the path-traced probes; by solid angle their row sums are
+/// close to 1. `None` when every rule point is buried.
 fn element_pair_estimate(
     tree: &Tree,
     vis: &Visibility,
@@ -268,7 +268,7 @@ fn element_pair_estimate(
     let corners = tree.corners(s);
     let (mut seen, mut all) = (0.0, 0.0);
     // The solid-angle strata in random order: picks come in rule order, so strata in order
-    // would give each rule point the same part of the source every time (measured: +2 %).
+    // would give each rule point the same part of the source every time, a bias.
     let strata = permutation(rays, rng);
     for (&j, k) in strata.iter().zip(picks) {
         let rb = rule[k].0;
@@ -310,10 +310,10 @@ fn element_pair_estimate(
 /// Where the receiver rule's point values of F spread over more than this many times their
 /// mean (a receiver large against its distance to the source, or one cut by the source's
 /// plane), the rule under-integrates the kernel: F_rs is integrated again on the receiver's
-/// four quarters (`composite_form_factor`). Measured on the generated hall (10⁴ triangles)
-/// against its path-traced probes: the solution's bias −5.9 % → −3.3 % at ε = 1e-4 and
-/// −3.1 % → −1.0 % at 1e-5, for under 3 % more time; a threshold of 0.25 gave the same bias
-/// for 25 % more time, 4 left half of it.
+/// four quarters (`composite_form_factor`). Against the generated hall's path-traced probes
+/// this takes out much of the solution's low bias for little more time: a lower threshold
+/// integrates many more receivers again for no better answer, a higher one leaves part of
+/// the bias.
 pub const SPREAD_FOR_QUARTERS: f64 = 2.0;
 
 /// The unoccluded F_rs by the receiver rule on each of the 4^`depth` sub-triangles of `r`
@@ -421,9 +421,8 @@ fn pick_proportional(weights: &[f64], n: usize, u: f64) -> Option<Vec<usize>> {
 /// [`Link::children`] of element `r` gathering from element `s`: the unoccluded form factor
 /// from `r`'s centroid to each of `s`'s four children, as shares of their sum in 255ths (all
 /// 0 when the centroid sees none of `s`). One point: the shares only need to say which part
-/// of the source the receiver favours (measured on the Cornell box at ε = 1e-6: the same
-/// surface errors within 0.1 % as the receiver's whole 7-point rule, at a seventh of the
-/// cost).
+/// of the source the receiver favours, and on the Cornell box one point gives the same
+/// surfaces as the receiver's whole [`RECEIVER_POINTS`]-point rule, at a fraction of the cost.
 fn child_shares(tree: &Tree, r: usize, s: usize) -> [u8; 4] {
     // The children share the source's plane, so a point in front of it is in front of each.
     centroid_shares(tree, r, s, child_corners(tree.corners(s)))

@@ -47,12 +47,11 @@
 //! enclosed room unnormalised. That matters more here than for a matrix, because a leaf's
 //! links sit at different levels: beside a chair, the floor's leaves see the ceiling through
 //! their own links (the chair's occlusion counted) but the chair through an ancestor's (the
-//! chair seen from the whole floor: nearly nothing), and their row sums fell to 0.8 (the
-//! generated hall of 10⁴ triangles: the floor 2.8 % dark on average, the ceiling it lights
-//! 4 %; normalised, the hall's median displayed error 2.85 % → 2.02 % and its bias −1.0 % →
-//! +0.1 %). Normalising gives the missing share the mean radiance of what the leaf does
-//! see, so beside a dark underside the leaf comes out a little bright (the hall's undersides
-//! +3.7 % on average) rather than dark.
+//! chair seen from the whole floor: nearly nothing), and their row sums fall to about 0.8:
+//! unnormalised, the generated hall's floor comes out dark, the ceiling it lights darker, and
+//! the whole solution biased low. Normalising gives the missing share the mean radiance of
+//! what the leaf does see, so beside a dark underside the leaf comes out a little bright
+//! (the hall's undersides, by a few per cent) rather than dark.
 
 pub mod direct;
 pub mod links;
@@ -198,10 +197,11 @@ pub struct Hierarchical {
 
 /// A cluster pushes what it gathers by its faces' orientation ([`ClusterGather`]) when some
 /// face below turns more than arccos(0.8) ≈ 37° from their mean normal (a block's top and
-/// sides: 45° and more); flatter clusters push uniformly. Measured: the integrating sphere
-/// (1280 facets) keeps its error (0.24 % at ε = 1e-4; pushed by orientation, 1.6 %), the
-/// Cornell box cut into 11,338 roots and the hall are the same for any threshold in
-/// 0.8–0.95.
+/// sides: 45° and more); flatter clusters push uniformly. The integrating sphere keeps its
+/// accuracy only so (its facets' clusters pushed by orientation, its error grows several
+/// times: the parallax [`ClusterGather`] describes), while the Cornell box cut
+/// into many small roots and the generated hall give the same answers for any threshold
+/// from 0.8 to 0.95.
 pub const ORIENTED_CONE_COS: f64 = 0.8;
 
 /// Probe rays per root of the closure test, at least: a root that sees open sky or a back
@@ -282,9 +282,9 @@ pub fn solve(
     h.find_grandchild_shares();
     // The final links' row sums, root by root. During refinement only a closed scene's are
     // normalised: the oracle bounds a source by its brightest leaf, and the few leaves whose
-    // few-ray row sums fall far below 1 (0.4 % under 0.5 in the hall of 10⁵ triangles) would,
-    // normalised, inflate that bound over whole clusters (measured there: 43 % more links,
-    // 7.6 M against 5.4 M, for the same surfaces' means within 0.5 %).
+    // few-ray row sums fall far below 1 (a few in a thousand, under 0.5, in a large hall)
+    // would, normalised, inflate that bound over whole clusters: many more links, for the
+    // same surfaces' means.
     if h.stats.closed_roots > 0 && !h.stats.closed_scene {
         h.row_sum = h.row_sums();
     }

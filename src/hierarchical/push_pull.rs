@@ -142,8 +142,9 @@ impl Hierarchy<'_> {
 /// What a cluster gathers, kept by the direction it arrives from, so that each face below
 /// receives what its orientation lets it see: a cluster receives light through one link
 /// and pushes it to every face below, and pushed uniformly, the faces of a block that look
-/// away from a light got as much of it as the top that faces it (measured on the Cornell box
-/// cut into 11,338 roots: +42 % on a block face that looks at the dark open front).
+/// away from a light would get as much of it as the top that faces it (on the Cornell box cut
+/// into many small roots, a block face that looks at the dark open front would show far too
+/// bright).
 ///
 /// A link's light v from direction d (unit, the source's centre seen from the cluster's) is
 /// spread over the faces below in proportion to the clamped cosine between each face's

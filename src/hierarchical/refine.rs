@@ -106,7 +106,7 @@ impl Hierarchy<'_> {
             new.extend(e.link);
         }
         // The kept links are still in order: sort the new ones and merge (a full sort of all
-        // links every pass was a seventh of the Cornell box's solve at ε = 3e-7).
+        // links every pass would be a large share of a fine solve's time).
         new.par_sort_unstable_by_key(link_key);
         merge_into(&mut kept, new);
         self.set_links(kept);

@@ -33,9 +33,9 @@ fn refine(h: &mut Hierarchy) {
 /// The energy balance of a closed box before any normalisation: the area-weighted mean of
 /// the leaves' effective row sums Σ F must be 1.
 ///
-/// The oracle decides on a bound computed apart from a link's samples. When it decided on the
-/// samples' estimate itself, it refined the links whose estimate happened to be high and kept
-/// the low ones, and this mean was 0.981 at ε = 1e-4 (measured). Measured now: 1.0009 at
+/// The oracle decides on a bound computed apart from a link's samples. An oracle deciding on
+/// the samples' estimate itself refines the links whose estimate happened to be high and
+/// keeps the low ones, and this mean comes out 0.981 at ε = 1e-4. This one gives 1.0009 at
 /// ε = 1e-3 and 1.0001 at 1e-4 (the rest is the 7-point receiver rule's error on
 /// edge-adjacent elements). Tolerance 3e-3: six times below the biased oracle's error.
 #[test]
@@ -453,7 +453,8 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
 }
 
 /// A link's size is what the memory guard of [`Settings::max_links`] and the 10⁶-triangle
-/// benchmark (42.6 M links, BENCHMARKS.md) count on.
+/// benchmark (tens of millions of links: BENCHMARKS.md "The hierarchical method on growing
+/// scenes") count on.
 #[test]
 fn a_link_takes_24_bytes() {
     assert_eq!(std::mem::size_of::<Link>(), 24);
