@@ -17,25 +17,26 @@
 //!   The kernel G grows as 1/r² near a shared edge, where point pairs have huge variance, so
 //!   pairs that are close relative to their size (r² < 16·max(A_i, A_j), centroid distance)
 //!   switch to the exact point-to-polygon integrand of `Contour` for that pair.
-//! - `Contour`: F_ij ≈ 1/n Σ F_{dA(x_k)→A_j} V_k, with the exact unoccluded point-to-polygon
-//!   form factor (Lambert's contour integral, [`kernel::point_to_polygon`]) at stratified
-//!   points of i and the visibility of a ray x_k → y_k. Exact for unoccluded pairs up to the
-//!   integration over i, including patches that share an edge; in a closed unoccluded scene
-//!   each point's form factors sum to exactly 1.
+//! - `Contour`: F_ij ≈ 1/n Σ F_{dA(x_k)→A_j} V_k, with the exact unoccluded point-to-polygon form
+//!   factor (Lambert's contour integral,
+//!   [`point_to_polygon`](crate::geometry::kernel::point_to_polygon)) at stratified points of i and
+//!   the visibility of a ray x_k → y_k. Exact for unoccluded pairs up to the integration over i,
+//!   including patches that share an edge; in a closed unoccluded scene each point's form factors
+//!   sum to exactly 1.
 //!
 //! The receiving cosine cosθ_i is taken with the surface normal at the sample point
 //! ([`Patches::surface_normal`]): the interpolated vertex normal where the mesh samples a
 //! smooth surface, the facet's own on flat ones (see [`crate::mesh::corner_normals`]).
 //!
-//! Where each part lives: [`compute`] (this file) sequences the estimation (closure probes,
-//! the estimator, closed-scene normalisation, reciprocity, counters); [`settings`] holds the
-//! [`Estimator`], [`Settings`] and [`Shortcuts`]; the pair estimators' loop is `pairwise`
-//! (one screen), one pair's estimate `pair` ([`kernel`] has the integrands), their sample
-//! points `samples` ([`sampling`] the rules and random numbers), buried points ([`Visibility::buried`])
-//! (`burial`), the convex-hull skip [`occluders`] (whose module also rebuilds the occluding
-//! scene triangles the rays are traced against), reuse between refinement rounds [`Reuse`];
-//! hemisphere shooting is [`hemisphere`]; CSR assembly `assemble`; [`symmetric_part`]
-//! enforces reciprocity; [`cache`] stores F on disk.
+//! Where each part lives: [`compute`] (this file) sequences the estimation (closure probes, the
+//! estimator, closed-scene normalisation, reciprocity, counters); [`settings`] holds the
+//! [`Estimator`], [`Settings`] and [`Shortcuts`]; the pair estimators' loop is `pairwise` (one
+//! screen), one pair's estimate `pair` ([`kernel`](crate::geometry::kernel) has the integrands),
+//! their sample points `samples` ([`sampling`](crate::sampling) the rules and random numbers),
+//! buried points ([`Visibility::buried`]) (`burial`), the convex-hull skip [`occluders`] (whose
+//! module also rebuilds the occluding scene triangles the rays are traced against), reuse between
+//! refinement rounds [`Reuse`]; hemisphere shooting is [`hemisphere`]; CSR assembly `assemble`;
+//! [`symmetric_part`] enforces reciprocity; [`cache`] stores F on disk.
 
 mod assemble;
 mod burial;

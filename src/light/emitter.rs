@@ -11,7 +11,7 @@
 //! | caller | rays per emitter and point |
 //! |---|---|
 //! | a final-gather vertex ([`crate::gather`]) | [`GATHER_SHADOW_RAYS`], up to [`GATHER_MAX_SHADOW_RAYS`] in a penumbra, where the emitter's visible pieces are too many to compute |
-//! | a display-refinement midpoint ([`crate::gather::refine`]) | [`GATHER_SHADOW_RAYS`], up to [`MIDPOINT_SHADOW_RAYS`] |
+//! | a display-refinement midpoint ([`mod@crate::gather::refine`]) | [`GATHER_SHADOW_RAYS`], up to [`MIDPOINT_SHADOW_RAYS`] |
 //! | a near hit's point of a gather ray | [`NEAR_HIT_SHADOW_RAYS`] |
 //! | a rule point of a hierarchical element ([`crate::hierarchical::direct`]) | [`ELEMENT_SHADOW_RAYS`], or [`ELEMENT_FEW_SHADOW_RAYS`] where the kernel is nearly even |
 //!

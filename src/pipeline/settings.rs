@@ -112,7 +112,7 @@ pub struct Settings {
     /// Form-factor cache directory: F is read from it when these patches and estimator
     /// settings were computed before, and stored otherwise ([`crate::form_factor::cache`]).
     pub cache: Option<PathBuf>,
-    /// Discontinuities made mesh edges before patching ([`mesh::contact`]).
+    /// Discontinuities made mesh edges before patching ([`mesh::discontinuity`]).
     pub discontinuities: mesh::Discontinuities,
     /// Final gather at the output vertices ([`crate::gather`]).
     pub gather: Gather,

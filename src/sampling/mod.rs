@@ -61,7 +61,7 @@ pub fn malley(s: f64, t: f64, tangent: DVec3, bitangent: DVec3, n: DVec3) -> DVe
 /// part above it (the clipped polygon fanned into triangles, one chosen ∝ area with a draw of
 /// `rng`). `None` when nothing of the triangle is above. So rays from `x` aim only at the part
 /// of a source that `x` can see at all, the part its exact form factor
-/// ([`super::kernel::point_to_polygon`]) integrates.
+/// ([`crate::geometry::kernel::point_to_polygon`]) integrates.
 pub fn point_above(
     corners: &[DVec3; 3],
     x: DVec3,

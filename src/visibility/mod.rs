@@ -96,7 +96,7 @@ const BOX_PAD: f32 = 1.0 / 64.0;
 
 /// Hits of [`Visibility::first_hit_from_behind`] within this fraction of the scene's largest
 /// extent of each other are at the same distance (coincident faces in contact): the
-/// tolerance of a touching face in [`crate::mesh::contact`] (`TOUCH`), far above the `f32`
+/// tolerance of a touching face, [`crate::mesh::discontinuity::TOUCH`], far above the `f32`
 /// rounding of the canonical frame (~3e-8 of the extent).
 pub const CONTACT_TIE_REL: f64 = 1e-6;
 

@@ -3,7 +3,7 @@
 //! meets the plane; where B lies parallel just in front of A (within [`NEAR`] × the extent,
 //! or within [`MOUNTED`] × the narrower one's width: a light mounted below a ceiling, a
 //! picture on a wall, a leg's top under a table top), B's outline projected onto A
-//! ([`Face::contact`]; the near shadows' part of it is [`super::near_shadow`]'s).
+//! (`Face::contact`; the near shadows' part of it is [`super::near_shadow`]'s).
 
 use glam::DVec3;
 

@@ -13,14 +13,15 @@ use super::{bits, points_on_edges, ContactStats, TOUCH};
 use crate::mesh::Patches;
 use crate::scene::{NO_TWIN, ZERO_AREA_RELATIVE};
 
-/// The display's faces cut along the scene's contact lines (`lines`, from [`contact_lines`]),
-/// for a solve whose patches were not (the hierarchical one: its roots are the input
-/// triangles, see [`Discontinuities::Auto`]). Each patch crossed by a contact segment of its
-/// source triangle is re-triangulated with the segment's part inside it as a constrained
-/// edge, and the points where segments end on a patch's edge go into the patch across it too,
-/// so the display stays conforming. The pieces keep their patch's material, normal and
-/// source triangle; corner normals are interpolated in it. Returns the new patches, the
-/// patch each piece came from, and what was done (`segments`: the clipped pieces inserted).
+/// The display's faces cut along the scene's contact lines (`lines`, from
+/// [`contact_lines`](super::contact_lines)), for a solve whose patches were not (the hierarchical
+/// one: its roots are the input triangles, see
+/// [`Discontinuities::Auto`](super::Discontinuities::Auto)). Each patch crossed by a contact
+/// segment of its source triangle is re-triangulated with the segment's part inside it as a
+/// constrained edge, and the points where segments end on a patch's edge go into the patch across
+/// it too, so the display stays conforming. The pieces keep their patch's material, normal and
+/// source triangle; corner normals are interpolated in it. Returns the new patches, the patch each
+/// piece came from, and what was done (`segments`: the clipped pieces inserted).
 /// `None` for two-sided patches (twins must stay pairs).
 pub fn split_patches(
     lines: &[Vec<[DVec3; 2]>],

@@ -28,7 +28,7 @@
 //! floor's border) are dropped. A is then re-triangulated with them as constraints (a
 //! constrained Delaunay triangulation, the `spade` crate), and the points where segments end
 //! on A's edges are inserted into the face across each edge as well, so the result stays
-//! conforming ([`face`]: the plane's frame, the clipping and the triangulation). Faces with no
+//! conforming (`face`: the plane's frame, the clipping and the triangulation). Faces with no
 //! contact are kept as they are.
 
 use std::collections::HashMap;

@@ -1,9 +1,9 @@
 //! Near shadows: a parallel face B in front of a face A, farther than mounted
 //! ([`super::contact::MOUNTED`]) but within B's width and [`NEAR_SHADOW`] × the scene's
 //! extent (a table leg's back 3 cm from a wall), shades A with a shadow sharper than the
-//! patches, and the edges of B's outline that are its silhouette ([`silhouettes`]: not shared
+//! patches, and the edges of B's outline that are its silhouette (`silhouettes`: not shared
 //! with a coplanar face) are projected onto A. How far in front of A a face counts as mounted
-//! or as shading it is [`Face::gaps`].
+//! or as shading it is `Face::gaps`.
 
 use super::bits;
 use super::contact::{MOUNTED, NEAR};
@@ -11,7 +11,7 @@ use super::face::Face;
 
 /// A parallel face B in front of another face A, farther than mounted but within B's width
 /// (or A's, if narrower) and within this fraction of the scene's extent (a quarter of the
-/// default patch size, [`super::default_max_edge`]), shades A with a shadow sharper than the
+/// default patch size, [`crate::mesh::default_max_edge`]), shades A with a shadow sharper than the
 /// patches: the edges of B's outline that are its silhouette (not shared with a coplanar
 /// face: a table leg's back face 3 cm from the wall, not the wall's diagonal seen from the
 /// leg) are projected onto A. The indirect light under B falls by the share of the hemisphere
