@@ -1,9 +1,10 @@
 //! # radiosity
 //!
-//! A radiosity (finite-element) solver for the diffuse rendering equation. It reads an OBJ/MTL
-//! or PLY scene (`Kd` = diffuse reflectance ρ, `Ke` = emitted radiance Le in W·sr⁻¹·m⁻²), cuts
-//! it into patches, estimates the form factors F_ij by ray casting, solves (I − K)L = E with
-//! K = diag(ρ)·F, and bakes the patch radiance into vertex colours written as PLY or OBJ.
+//! A radiosity (finite-element) solver for the diffuse rendering equation. It reads an
+//! OBJ/MTL, PLY or glTF scene (`Kd` = diffuse reflectance ρ, `Ke` = emitted radiance Le in
+//! W·sr⁻¹·m⁻²), cuts it into patches, estimates the form factors F_ij by ray casting, solves
+//! (I − K)L = E with K = diag(ρ)·F, and bakes the patch radiance into vertex colours written
+//! as PLY, OBJ or glb.
 //! This crate is the library; the `radiosity` command line is the `radiosity-cli` package,
 //! built on it (the library pulls in no argument parser, progress bars or anyhow).
 //!
@@ -12,22 +13,25 @@
 //!
 //! | stage | module | what it owns |
 //! |---|---|---|
-//! | load | [`io`] | scene files in (OBJ + MTL, PLY), baked meshes out (PLY, OBJ), atomic writes |
-//! | scene | [`scene`] | triangles, materials, the file's camera, overrides, two-sided twins |
-//! | lights outside the mesh | [`environment`] | sky and sun: their direct light at a point, with visibility |
-//! | patches | [`mesh`] | conforming subdivision, smooth normals, adaptive refinement |
+//! | load | [`io`] | scene files in (OBJ + MTL, PLY, glTF, a lights file), baked meshes out (PLY, OBJ, glb), atomic writes |
+//! | scene | [`scene`] | triangles, materials, the file's camera and lights, the lights' merge rule, overrides, two-sided twins |
+//! | patches | [`mesh`] | conforming subdivision, smooth normals, adaptive refinement, discontinuities as edges |
 //! | BVH | [`visibility`] | watertight ray queries in a canonical frame |
+//! | direct light | [`light`] | what emitters, the sky, the sun and lamps send to a point, with visibility |
 //! | form factors | [`form_factor`] | the estimators, their loop, shortcuts, the cache |
 //! | matrix, solve | [`solve`] | (I − K)L = E and five methods to solve it |
-//! | or, hierarchically | [`hierarchical`] | element trees, clusters, links, push-pull sweeps, conforming leaves |
+//! | or, hierarchically | [`hierarchical`] | element trees, clusters, links, sweeps, push-pull, conforming leaves |
 //! | bake | [`bake`] | patch radiance → output vertices; the [`bake::BakedMesh`] |
+//! | final gather | [`gather`] | the radiance evaluated again at the output vertices, the display refinement |
 //! | write, picture | [`io`], [`render`] | files for MeshLab; PNG pictures of a bake |
 //! | checks | [`validation`] | closed forms, procedural scenes, a path tracer, `verify` |
 //!
 //! Around them: [`pipeline`] (the sequencer, its [`pipeline::Settings`] with the one
-//! `validate()`, the [`pipeline::Report`]), [`color`] (RGB, luminance, sRGB, exposure),
-//! [`progress`] (stage counters a program may draw), [`Error`] (one error type, in the
-//! library's own words).
+//! `validate()`, the [`pipeline::Report`]); on the ground floor, imported by every stage and
+//! importing none, [`geometry`] (frames, the point-to-polygon kernel, polygon clipping, the
+//! visible part of a polygon) and [`sampling`] (the seeded Rng, quadrature and sampling
+//! rules), [`color`] (RGB, luminance, sRGB, exposure), [`progress`] (stage counters a
+//! program may draw) and [`Error`] (one error type, in the library's own words).
 //!
 //! Load, bake, write in a few lines (here a procedural scene; [`scene::Scene::load`] reads
 //! a file):

@@ -8,54 +8,25 @@
 //!
 //! At a vertex x with unit normal n, reflectance ρ and emission Le:
 //!
-//! L(x) = Le + ρ · ( Σ_e Le_e · F(x → e) · V̄(x, e)  +  ∫_Ω L_r(h(x, ω)) cosθ/π dω ),
+//! L(x) = Le + ρ · ( Σ_e Le_e · F(x → e) · V̄(x, e)  +  ∫_Ω L_r(h(x, ω)) cosθ/π dω ).
 //!
-//! - **direct** (every emitting scene triangle e): F(x → e) the exact unoccluded
-//!   point-to-polygon form factor ([`point_to_polygon`], Lambert's contour integral, clipped to
-//!   x's horizon) and V̄ the visible share of it, F·V̄ being the form factor of the pieces of e
-//!   that the occluders' shadows leave ([`visible`]): exact, shadows included. Where those
-//!   would be too many (a crowded view), V̄ is the kernel-weighted fraction of shadow rays
-//!   that reach stratified points of the part of e above the horizon ([`kernel_samples`]),
-//!   adaptive: [`SHADOW_RAYS`] rays per emitter, and when any emitter's rays disagree (x is
-//!   in a penumbra) up to [`MAX_SHADOW_RAYS`] for every emitter. With more than
-//!   [`MAX_EXACT_EMITTERS`] emitters, the others that are small
-//!   as seen from x ([`SAMPLED_SPREAD`]) share [`OTHER_LIGHT_SAMPLES`] shadow rays, drawn in
-//!   proportion to Le·F (many-light next-event estimation), and the large near ones are left
-//!   to the hemisphere rays. Unoccluded, the direct term is exact to rounding.
-//! - **indirect** (`full` only): stratified cosine-weighted rays over the hemisphere (Malley's
-//!   method), each bringing the *reflected* radiance L − Le of the output patch it hits (the
-//!   emitted part is the direct term's, unless the emitter is one left to these rays); a miss
-//!   or the back of a surface brings nothing. A
-//!   hit closer than the hit patch's size ([`NEAR_HIT`]: a concave corner) brings instead the
-//!   radiance at the hit point, one bounce further (its direct light by one shadow ray per
-//!   emitter, its indirect by one ray reading the patches, or, if that ray's hit is near
-//!   too, the radiance there: [`NEAR_DEPTH`] near hits deep). Where the first rays show an
-//!   edge of the incident light (a bright surface seen through a doorway, an occluder's
-//!   outline), [`EDGE_RAYS`] more rays go into the strata beside it, each stratum's share
-//!   chosen from its neighbours' rays only, so the estimate stays unbiased
-//!   ([`Gatherer::with_edge_rays`]).
-//! - **outside the mesh** ([`crate::light::outside`]): the sun and point lights join the direct
-//!   term (their shadow rays at x); the sky comes through the hemisphere rays that leave the
-//!   scene above the horizon (a uniform sky as its exact unoccluded light times the open share
-//!   of those rays, so an open surface gets it exactly).
-//! - `direct` keeps the solution's indirect light: at each patch, the solved radiance less its
-//!   emission and its own direct light (the same estimator at the patch's 7-point Gauss rule),
-//!   averaged to the vertices as the bake does, plus the exact direct light at the vertex.
+//! Where each part lives:
 //!
-//! A vertex whose normal ray meets the back of a surface (buried under contact geometry) keeps
-//! the bake's value. Where surfaces meet at the vertex (a crease or material border, a partly
-//! buried patch around it, or another object's surface through it: a contact line), the point
-//! gathered at is moved [`NUDGE`] of the way toward the centroid of the most visible patch
-//! around it: at the vertex itself a neighbouring surface would be seen edge-on (form factor
-//! 0), though every point beside the vertex sees it fill part of the hemisphere. Rays are
-//! traced against the scene triangles the patches tile (module `trace`). Every random choice is
-//! keyed by (seed, vertex), so a fixed seed gives the same colours for any thread count.
+//! | part | file | what it computes |
+//! |---|---|---|
+//! | the modes, the [`Gatherer`], [`gather()`] | this file | which vertices get what; the scene's emitters; the entry point |
+//! | where a vertex is gathered | `sites` | the point, nudged off contacts ([`NUDGE`]); buried vertices |
+//! | the direct term | `direct` | the emitters' F·V̄ (exact visible pieces, else shadow rays: [`crate::light::emitter`]), many-light sampling, the sun and lamps |
+//! | the indirect term (`full`) | `indirect` | hemisphere rays into the solved patches, near hits ([`NEAR_HIT`]), rays beside edges ([`EDGE_RAYS`]), the sky |
+//! | rays against the patches | `trace` | the scene triangles the patches tile, and the patch hit on a grid |
+//! | display refinement | [`mod@refine`] | output edges split where the light departs from linear ([`refine::DEFAULT_TOLERANCE`]) |
+//! | the values shown | [`local_fit`] | noise fitted away, the chord correction, the tested midpoints' least squares |
 //!
-//! After the display refinement ([`mod@refine`]), local quadratic fits over each vertex's
-//! neighbourhood ([`local_fit`]) take the noise out of its indirect light and move its value
-//! by the chord correction, so the display's linear interpolation keeps the light's integral
-//! over each triangle where the light bends smoothly; then all the values are fitted by least
-//! squares to the midpoints the refinement tested and left whole.
+//! `direct` mode keeps the solution's indirect light: at each patch, the solved radiance less
+//! its emission and its own direct light (the same estimator at the patch's 7-point Gauss
+//! rule), averaged to the vertices as the bake does, plus the exact direct light at the
+//! vertex. Every random choice is keyed by (seed, vertex), so a fixed seed gives the same
+//! colours for any thread count.
 
 use std::fmt;
 
