@@ -175,8 +175,19 @@ fn the_reader_sees_the_imports_it_should() {
     assert_eq!(found, BTreeSet::from(expected));
     // And on the library itself: the pipeline names every stage it sequences.
     let graph = imports();
-    for stage in ["scene", "mesh", "visibility", "form_factor", "solve", "bake", "io"] {
-        assert!(graph["pipeline"].contains(stage), "pipeline → {stage} not seen");
+    for stage in [
+        "scene",
+        "mesh",
+        "visibility",
+        "form_factor",
+        "solve",
+        "bake",
+        "io",
+    ] {
+        assert!(
+            graph["pipeline"].contains(stage),
+            "pipeline → {stage} not seen"
+        );
     }
 }
 
