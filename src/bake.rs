@@ -29,9 +29,9 @@ use crate::{Error, Result};
 /// rounding), not the facets of a tessellated curved surface. A vertex shared by facets shows
 /// one value where the light differs from facet to facet, by the facets' cosines: on a ball of
 /// 320 facets (neighbours ~15° apart) under a light near one facet's horizon, the five facets
-/// at a vertex had 0.061 to 0.099 there, the shared vertex 0.080 (the living room of the
-/// point-wise benchmark: its ball's 15 probes 7.4 % RMS shared, 0.4 % split; the scene 1.08 %
-/// → 0.79 %).
+/// at a vertex range from 0.061 to 0.099 there, and a shared vertex would show 0.080 for all of
+/// them. The point-wise benchmark's living room has such a ball: shared, the probes on it
+/// carry that spread as error; split, they are as close as the rest of the scene.
 pub const FACET_DEGREES: f64 = 1.0;
 
 /// Bake patch radiance into a [`BakedMesh`] (see the module documentation for the rule).

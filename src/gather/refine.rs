@@ -71,9 +71,9 @@ pub const DEFAULT_TOLERANCE: f64 = 0.02;
 /// `direct` more ([`super::Gatherer::direct_cost_per_point`], in hemisphere rays): as many as
 /// twice the gather's own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the
 /// refinement adds at most about twice as many rays again, whatever the scene's size and its
-/// number of lights. `direct` must be what the direct light costs now (the exact emitters'
-/// visible pieces, [`super::EXACT_EMITTER_COST`] each), not shadow rays they no longer cast:
-/// counted too high, it stops a many-light scene's refinement far short. The Cornell box uses
+/// number of lights. `direct` is what the direct light costs (the exact emitters' visible
+/// pieces, [`super::EXACT_EMITTER_COST`] each, rather than shadow rays per emitter): counted
+/// too high, it would stop a many-light scene's refinement far short. The Cornell box uses
 /// the whole budget, and its displayed error still falls from half this budget to all of it
 /// (the point-wise benchmark): the bound is one of cost, not of accuracy.
 pub fn budget(rays: usize, direct: usize) -> usize {

@@ -14,14 +14,14 @@ use crate::scene::{Scene, NO_TWIN};
 ///
 /// A flat facet's normal is only a first-order approximation of a curved surface's: on a
 /// tessellated sphere it is off by up to half the angle between neighbouring facets, and the
-/// receiving cosine inherits that O(h) error (a 1280-facet integrating sphere: 0.5 % mean
-/// error per wall patch, 3.5 % next to the emitting cap). Interpolated vertex normals make
-/// the receiving cosine second-order accurate. The vertex normal is the weighted sum of the
-/// facet normals of its group with Max's weights, (e₁ × e₂)/(|e₁|²|e₂|²) for a facet with
-/// edges e₁, e₂ leaving the vertex (N. Max, "Weights for computing vertex normals from facet
-/// normals", JGT 4(2), 1999), which is exact for any triangles whose corners lie on a sphere.
-/// A group whose weighted sum is not within 90° of a member facet's normal (a folded fan)
-/// falls back to that facet's own normal.
+/// receiving cosine inherits that O(h) error (on the integrating sphere, largest next to the
+/// emitting cap). Interpolated vertex normals make the receiving cosine second-order accurate
+/// (the fitted orders in BENCHMARKS.md "Accuracy against closed forms"). The vertex normal is
+/// the weighted sum of the facet normals of its group with Max's weights,
+/// (e₁ × e₂)/(|e₁|²|e₂|²) for a facet with edges e₁, e₂ leaving the vertex (N. Max, "Weights
+/// for computing vertex normals from facet normals", JGT 4(2), 1999), which is exact for any
+/// triangles whose corners lie on a sphere. A group whose weighted sum is not within 90° of a
+/// member facet's normal (a folded fan) falls back to that facet's own normal.
 ///
 /// In a two-sided scene the back of each twin pair (the later triangle) takes no part in the
 /// grouping and gets the negated corner normals of its front, so the front's normals are those

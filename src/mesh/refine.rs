@@ -80,8 +80,8 @@ pub fn jumps(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> Vec<f6
 /// from, which then allows no split). The matrix method's time and memory grow as patches²,
 /// so the bound keeps a default bake within 4× the work of its first solve, and its matrices
 /// below 12,000² × 32 B ≈ 4.3 GiB even where every patch sees every other (about 2 GiB at the
-/// Cornell box's fill of 0.45; the Cornell box: 4,004 → at most 8,008, its rounds make
-/// 6,481).
+/// Cornell box's fill of 0.45; the default Cornell box starts from 4,004 patches and may make
+/// up to 8,008).
 pub fn default_budget(initial_patches: usize) -> usize {
     (2 * initial_patches).min(REFINE_MAX_PATCHES.max(initial_patches))
 }

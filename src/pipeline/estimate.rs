@@ -1,11 +1,11 @@
 //! What a bake will cost, before any of it is done: the method `auto` picks, the patches, the
-//! memory and the time, from counts of the scene and a cost model measured on the benchmark
-//! machine (2 cores, 2026-11-26; the figures are in the constants below and BENCHMARKS.md,
-//! "Defaults that scale"). `bake` refuses, before it starts, a run whose estimated memory is
-//! more than `--max-memory` (by default the memory the machine has available), and says how
-//! long a long run will take; `radiosity info` prints the estimate for the options it is
-//! given. This module owns the model; it cuts the scene into patches to count them, and
-//! solves nothing.
+//! memory and the time, from counts of the scene and a cost model fitted to bakes on the
+//! benchmark machine (2 cores; the figures are the constants below, and how well the model does
+//! is in BENCHMARKS.md "Defaults that scale: the estimate against the bake"). `bake` refuses,
+//! before it starts, a run whose estimated memory is more than `--max-memory` (by default the
+//! memory the machine has available), and says how long a long run will take; `radiosity info`
+//! prints the estimate for the options it is given. This module owns the model; it cuts the
+//! scene into patches to count them, and solves nothing.
 //!
 //! The model's two halves:
 //! - **Matrix**: memory and time grow with F's non-zeros. A pair of patches can have a
@@ -14,12 +14,12 @@
 //!   on the non-zeros (visibility removes more: the Cornell box keeps about 70 % of its facing
 //!   pairs). With refinement the patches are the refinement budget, the most it may make.
 //! - **Hierarchical**: memory and time grow with the root elements, and with ε as ε^-0.4
-//!   (the generated hall of 10⁴ triangles from ε = 10⁻⁴ to 10⁻⁵: memory ×2.2, links ×2.7,
-//!   time ×2.2); the leaves and links are not known before the solve, so this one is an
-//!   estimate, not a bound: within about ±50 % on the generated halls (about 50–90 links per
-//!   root), but 2.5–4× low on the detailed interiors of LibreQuake's levels (200–340 links per
-//!   root: lq_e1m1, 44,833 roots, 775 MiB and 30 s against 202 MiB and 10 s estimated). What
-//!   sets the links per root before the solve is not modelled yet.
+//!   (fitted to the generated hall of 10⁴ triangles between ε = 10⁻⁴ and 10⁻⁵); the leaves
+//!   and links are not known before the solve, so this one is an estimate, not a bound:
+//!   within about ±50 % on the generated halls it was fitted to (about 50–90 links per root),
+//!   but several times low on detailed interiors whose roots link to a few hundred others
+//!   (BENCHMARKS.md "A Quake-class level: LibreQuake"). What sets the links per root before
+//!   the solve is not modelled yet.
 
 use serde::Serialize;
 
@@ -33,41 +33,41 @@ use crate::Result;
 pub const FILL_SAMPLES: usize = 256;
 
 /// Bytes per non-zero of F at the peak of a matrix bake with refinement rounds: the matrix a
-/// round reuses and the one it builds are both alive (Cornell box, defaults: 397 MiB for
-/// 13.1·10⁶ non-zeros; at `--max-edge 40`, 1.70 GiB for 55.3·10⁶).
+/// round reuses and the one it builds are both alive (fitted to the Cornell box's peaks at
+/// the defaults and at `--max-edge 40`).
 const BYTES_PER_ENTRY_REFINED: f64 = 32.0;
-/// Bytes per non-zero without refinement (15,914 patches: 1.82 GiB for 118.5·10⁶).
+/// Bytes per non-zero without refinement (fitted to the Cornell box at a fine `--max-edge`).
 const BYTES_PER_ENTRY: f64 = 17.0;
-/// Seconds per non-zero on 2 cores, form factors and solve, with refinement rounds
-/// (Cornell box, defaults: 2.16 s for 13.1·10⁶; at `--max-edge 40`, 8.4 s for 55.3·10⁶).
+/// Seconds per non-zero on 2 cores, form factors and solve, with refinement rounds (fitted
+/// to the Cornell box at the defaults and at `--max-edge 40`).
 const SECONDS_PER_ENTRY_REFINED: f64 = 165e-9;
-/// The same without refinement (10,048 and 15,914 patches: 82 and 74 ns).
+/// The same without refinement (fitted to the Cornell box at fine `--max-edge`).
 const SECONDS_PER_ENTRY: f64 = 80e-9;
 /// Memory of the program, the scene and the patches apart from F, bytes.
 const BASE_BYTES: f64 = 40.0 * 1024.0 * 1024.0;
-/// Hierarchical bytes per root element at ε = 10⁻⁴ (generated halls: 73 MiB for 10,786 roots,
-/// 408 MiB for 104,284, 3.1 GiB for 10⁶).
+/// Hierarchical bytes per root element at ε = 10⁻⁴ (fitted to the generated halls of 10⁴ to
+/// 10⁶ triangles).
 const HIERARCHICAL_BYTES_PER_ROOT: f64 = 3.7 * 1024.0;
 /// Hierarchical seconds on 2 cores: a fixed part (the direct light at the elements, the
-/// clusters) and a part per root at ε = 10⁻⁴ (the halls: 5.7 s, 15.3 s and 150 s).
+/// clusters) and a part per root at ε = 10⁻⁴ (fitted to the same halls).
 const HIERARCHICAL_SECONDS: f64 = 4.0;
 const HIERARCHICAL_SECONDS_PER_ROOT: f64 = 140e-6;
-/// How far above its estimate the hierarchical method's peak memory may be: measured 3.8× on
-/// LibreQuake's lq_e1m1 (775 MiB against 202 MiB; 5.2× before the refinement compacted its
-/// links in place), since detailed interiors link each element to many more than the
-/// generated halls the model was fitted to; with a margin. A bake whose estimate fits but
+/// How far above its estimate the hierarchical method's peak memory may be: several times on
+/// LibreQuake's detailed interiors (BENCHMARKS.md "A Quake-class level: LibreQuake"), which
+/// link each element to many more than the generated halls the model was fitted to; the
+/// largest such ratio seen, with a margin. A bake whose estimate fits but
 /// whose estimate times this does not is warned of before it starts.
 pub const HIERARCHICAL_MEMORY_SPREAD: f64 = 5.5;
-/// Leaves per root at ε = 10⁻⁴ (the halls: 20,328 for 10,786 roots; 116,608 for 104,284).
+/// Leaves per root at ε = 10⁻⁴ (the generated halls at the defaults).
 const LEAVES_PER_ROOT: f64 = 2.0;
 /// Seconds of a full final gather and its display refinement on 2 cores: 4·10⁶ rays and up
-/// to twice as many again, about 0.35 µs each (Cornell box 2.5 s; hall of 10⁴ triangles with
-/// 162 lights 8.5 s), before the rays beside edges ([`gather::EDGE_RAYS`] more).
+/// to twice as many again (fitted to the Cornell box and the hall of 10⁴ triangles with its
+/// many lights), before the rays beside edges ([`gather::EDGE_RAYS`] more).
 const GATHER_SECONDS: f64 = 4.2;
 /// Seconds on 2 cores per shadow ray to a light outside the mesh (a point or spot light, or
 /// the sun's [`crate::light::outside::SUN_RAYS`]) at an output vertex: every vertex of the gather
-/// and of its display refinement casts one to each (a LibreQuake level of 21,070 triangles
-/// with 133 lamps: 6.9·10⁶ shadow rays in 3.9 s, 0.57 µs each).
+/// and of its display refinement casts one to each (fitted to a LibreQuake level with over a
+/// hundred lamps).
 const GATHER_SECONDS_PER_LIGHT_RAY: f64 = 0.57e-6;
 
 /// The estimate; see the module documentation.

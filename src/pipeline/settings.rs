@@ -63,13 +63,12 @@ impl fmt::Display for Method {
 
 /// `method = auto` takes the matrix method for a scene that cuts into at most this many
 /// patches at its `max_edge`, and the hierarchical solver beyond. The matrix method's pair
-/// loop and memory grow as patches² (and its refinement rounds add about 60 %): the default
-/// Cornell box (4,004 patches, 6,481 after refinement) takes 8 s; at `--max-edge 35` (14,811
-/// after refinement) 17 s and 1.9 GiB without the gather; at `--max-edge 25` (17,285) 80 s
-/// and 3.2 GiB; the generated hall of 10⁴ triangles (27,517 patches) 110 s. The hierarchical
-/// solver grows as the elements (BENCHMARKS.md: the hall of 10⁴ triangles in 4 s), but on the
-/// small benchmark scene the matrix method has the lower error at equal time, so small
-/// scenes keep it.
+/// loop and memory grow as patches² (and its refinement rounds add more than half again), so
+/// a few times the default Cornell box's patches already take gigabytes, and the generated
+/// hall of 10⁴ triangles takes the matrix method many times the hierarchical solver's time
+/// and memory (BENCHMARKS.md "The matrix method on growing meshes"). The hierarchical solver
+/// grows as the elements, but on the small benchmark scene the matrix method has the lower
+/// error at equal time (BENCHMARKS.md "Hierarchical radiosity"), so small scenes keep it.
 pub const AUTO_MATRIX_MAX_PATCHES: usize = 10_000;
 
 /// Everything that controls a bake.

@@ -132,8 +132,9 @@ pub const MAX_AUTO_OMEGA: f64 = 1.7;
 /// Automatic over-relaxation: Young's optimum ω = 2 / (1 + √(1 − q²)) for a Jacobi
 /// convergence factor q, with q bounded by max_i ρ_i Σ_j F_ij (the largest channel), capped at
 /// [`MAX_AUTO_OMEGA`] (D. M. Young, *Iterative Solution of Large Linear Systems*, 1971, for
-/// consistently ordered matrices; measured here: Gauss–Seidel's factor per sweep is q², as
-/// that theory says, and the best ω of a scan is within 0.1 of the formula up to the cap).
+/// consistently ordered matrices; the solver benchmark, BENCHMARKS.md "Solvers", finds
+/// Gauss–Seidel's factor per sweep to be q², as that theory says, and the best ω of a scan
+/// within 0.1 of the formula up to the cap).
 /// If it diverges anyway, the solve falls back to ω = 1.
 pub fn auto_omega(system: &System) -> f64 {
     let sums = system.form_factors.row_sums();

@@ -397,8 +397,8 @@ fn room_shell(
     }
 }
 
-/// Two rooms joined by a doorway (metres, z up), written on 2026-11-27 as a scene the
-/// point-wise benchmark's rules were not found on, before it was first measured. An 8.2 × 4 ×
+/// Two rooms joined by a doorway (metres, z up), written as a scene the point-wise
+/// benchmark's rules were not found on (fixed before its first measurement). An 8.2 × 4 ×
 /// 2.5 m shell split by a 20 cm partition (x = 4 … 4.2) with a doorway 1 m wide and 2 m high
 /// (y = 1.5 … 2.5). Room A (x < 4) has the only light, a 0.8 m ceiling panel (Le = 15) 1 cm
 /// under the ceiling, and a red cabinet against the wall x = 0. Room B is lit through the
@@ -465,12 +465,12 @@ pub fn two_rooms() -> Result<Scene> {
     b.build()
 }
 
-/// A study under one small lamp (metres, z up), written on 2026-11-27 with [`two_rooms`] and
-/// measured first after both were fixed. A 4 × 3 × 2.7 m room with a green wall (y = 3): a
-/// 0.3 m downlight (Le = 40) 1 cm under the ceiling lights a desk against the wall y = 0 (its
-/// top touching the wall, on four 4 cm legs that touch its underside), a monitor standing on
-/// the desk, a shelf board fixed to the green wall and a ball of radius 0.2 m on the floor
-/// (320 faces). Sharp shadows from one bright, small light; the rest indirect.
+/// A study under one small lamp (metres, z up), written with [`two_rooms`] as a scene nothing
+/// was tuned to (fixed before its first measurement). A 4 × 3 × 2.7 m room with a green wall
+/// (y = 3): a 0.3 m downlight (Le = 40) 1 cm under the ceiling lights a desk against the wall
+/// y = 0 (its top touching the wall, on four 4 cm legs that touch its underside), a monitor
+/// standing on the desk, a shelf board fixed to the green wall and a ball of radius 0.2 m on
+/// the floor (320 faces). Sharp shadows from one bright, small light; the rest indirect.
 pub fn study() -> Result<Scene> {
     let mut b = SceneBuilder::new();
     let walls = b.material("walls", [0.72, 0.7, 0.65], [0.0; 3]);
@@ -516,8 +516,8 @@ pub fn study() -> Result<Scene> {
     b.build()
 }
 
-/// An attic bedroom under a gabled roof (metres, z up), written on 2026-11-27 (stop 40) with
-/// [`kitchen`] as scenes nothing was tuned to, committed before either was first measured. Its
+/// An attic bedroom under a gabled roof (metres, z up), written with [`kitchen`] as scenes
+/// nothing was tuned to (committed before either was first measured). Its
 /// geometry is what the other scenes lack: sloped surfaces and furniture turned off the axes.
 /// A 5 × 4 m floor, knee walls 1.4 m high at y = 0 and y = 4, roof slopes rising to a ridge at
 /// 3 m over y = 2, pentagonal gable walls at x = 0 and x = 5. Lights: a 1 × 0.77 m skylight
@@ -654,14 +654,14 @@ pub fn attic() -> Result<Scene> {
     b.build()
 }
 
-/// A kitchen (metres, z up), written on 2026-11-27 (stop 40) with [`attic`], committed before
-/// its first measurement. A 4.5 × 3.5 × 2.6 m room lit by a window-sized daylight panel
-/// (1.2 × 1 m, cool, Le ≈ 5.5) 1 cm in front of the wall x = 0 and by two pendant lamps over
-/// an island: each a downward 0.26 m emitter (warm, Le ≈ 21) 5 mm under a 0.3 m metal shade
-/// hung from the ceiling by a 1 cm cord. An L-shaped counter along two walls with wall
-/// cabinets above it (mounted on the wall, their shadow on the counter top), a fridge in the
-/// corner, an island whose top overhangs its base, and two stools on thin legs turned 25° and
-/// −15° about z. Every surface one-sided, facing into the room (the furniture outward).
+/// A kitchen (metres, z up), written with [`attic`] as a scene nothing was tuned to (committed
+/// before its first measurement). A 4.5 × 3.5 × 2.6 m room lit by a window-sized daylight panel
+/// (1.2 × 1 m, cool, Le ≈ 5.5) 1 cm in front of the wall x = 0 and by two pendant lamps over an
+/// island: each a downward 0.26 m emitter (warm, Le ≈ 21) 5 mm under a 0.3 m metal shade hung
+/// from the ceiling by a 1 cm cord. An L-shaped counter along two walls with wall cabinets
+/// above it (mounted on the wall, their shadow on the counter top), a fridge in the corner, an
+/// island whose top overhangs its base, and two stools on thin legs turned 25° and −15° about
+/// z. Every surface one-sided, facing into the room (the furniture outward).
 pub fn kitchen() -> Result<Scene> {
     let mut b = SceneBuilder::new();
     let walls = b.material("walls", [0.8, 0.78, 0.72], [0.0; 3]);

@@ -106,7 +106,8 @@ pub struct SphereErrors {
     pub expected: f64,
     /// Area-weighted mean wall radiance.
     pub mean: f64,
-    /// Area-weighted mean of the walls' per-patch relative errors (the measure).
+    /// Area-weighted mean of the walls' per-patch relative errors (the accuracy target's
+    /// measure, BENCHMARKS.md "Accuracy against closed forms").
     pub mean_patch_relative: f64,
     /// Relative error of the mean wall radiance.
     pub relative_of_mean: f64,

@@ -8,8 +8,8 @@ use glam::{DVec3, Vec3A};
 use super::Hit;
 
 /// Distance, in units of the ray's direction vector, by which ray origins are moved back along
-/// the ray. It had to exceed the box-test clamp `t ≥ 1e-4` of obvhs's traversal, used until
-/// issue 13; kept so that rays (and answers) are unchanged.
+/// the ray. It was chosen to exceed the box-test clamp `t ≥ 1e-4` of the traversal the project
+/// used before its own (obvhs's); kept so that rays, and so answers, stay the same.
 const ORIGIN_SHIFT: f64 = 1.0 / 1024.0;
 
 /// Canonical coordinates are multiples of this (2⁻²⁰ canonical units): far below `f32`

@@ -27,8 +27,8 @@ pub const NEAR: f64 = 1e-3;
 /// outside, ½(1 − x/√(x² + g²)) of it is hidden at a distance x: within 1 % of open by
 /// x = 5g. The radiance changes by about its whole value within a few g of the outline: at
 /// the scale of any patch, a jump. (The living room's panel, 1 cm under the ceiling, is
-/// 1.4e-3 of the room's extent: not within [`NEAR`], and the ceiling's vertices beside it
-/// showed up to 31 % too dark, interpolated from dark ones under it.)
+/// 1.4e-3 of the room's extent, beyond [`NEAR`]: without this rule the ceiling's vertices
+/// beside it would be interpolated from the dark ones under it, and show far too dark.)
 pub const MOUNTED: f64 = 0.05;
 
 impl Face {

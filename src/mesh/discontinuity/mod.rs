@@ -21,8 +21,8 @@
 //!   (not shared with a coplanar face) are projected onto A. Only when the scene itself is
 //!   split ([`split_contacts`], the matrix method's patches), not for the lines that cut the
 //!   hierarchical display ([`contact_lines`], [`display::split_patches`]): a display face
-//!   keeps its element's radiance, and cut small beside a near occluder it took the gather's
-//!   near hits off their one bounce further.
+//!   keeps its element's radiance, and cut small beside a near occluder it would take the
+//!   gather's near hits off their one bounce further.
 //!
 //! The segments are clipped to A; those along A's own edges (a wall meeting the floor at the
 //! floor's border) are dropped. A is then re-triangulated with them as constraints (a
@@ -60,9 +60,8 @@ pub enum Discontinuities {
     /// edges of the display only ([`split_patches`], after the solve, when the final gather
     /// runs): its roots stay the input triangles, as contact lines inside a large face (a
     /// hall's floor under hundreds of table legs) leave long thin triangles between them that
-    /// cost it 2.6× the links (measured on the generated hall of 10⁴ triangles: 0.73 M →
-    /// 1.93 M links, 2.2× the time), while the gather at the display's vertices needs only
-    /// the display's faces to stop at the contacts.
+    /// would cost the generated hall more than twice its links and its time, while the gather
+    /// at the display's vertices needs only the display's faces to stop at the contacts.
     Auto,
     /// None: patches follow the input triangles only.
     None,

@@ -17,9 +17,8 @@ use super::face::Face;
 /// leg) are projected onto A. The indirect light under B falls by the share of the hemisphere
 /// B fills, within about the gap g of its outline: behind the study's 4 cm legs 3 cm from
 /// the wall, a dip of 5–8 % across 10 cm of a wall whose patches are 15 cm, which the display
-/// refinement's few test rays at an edge's midpoint cannot see (measured on the point-wise
-/// benchmark's study, whose worst probes were those behind the legs, +8, +5 and +4 %:
-/// displayed RMS 0.62 → 0.56 %; the Cornell box, two_rooms and the hall unchanged). With B
+/// refinement's few test rays at an edge's midpoint cannot see (the point-wise benchmark's
+/// study shows it: without these edges its worst probes are those behind the legs). With B
 /// narrower than g its shadow is shallow and wide (a long strip of width w at height g hides
 /// sin(atan(w/2g)) < 45 % of the light under its middle, spread over several g), and beyond
 /// the patches' scale the patches follow it themselves.

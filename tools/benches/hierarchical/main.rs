@@ -7,12 +7,14 @@
 //!   box (largest per-surface error against the path-traced reference) and the integrating
 //!   sphere (one bounce and all bounces, against the closed form) as ε falls; links against
 //!   elements;
-//! - `equal-time.md`, `equal_time_cornell.png`: error against seconds, matrix (the old default
-//!   and finer meshes) and hierarchical (several ε), on the Cornell box;
+//! - `equal-time.md`, `equal_time_cornell.png`: error against seconds, matrix (the default and
+//!   coarser and finer meshes) and hierarchical (several ε), on the Cornell box;
 //! - `growth.md`, `growth.csv`: the generated hall (`radiosity generate hall`) from 10⁴ to 10⁶
 //!   triangles at a fixed ε: seconds, peak memory, leaves, links, and the fitted exponents
 //!   p of time and memory ∝ leavesᵖ;
-//! - `targets.md`: the issue's targets (Cornell box with ≥ 100,000 leaves; 10⁶ triangles).
+//! - `targets.md`: the hierarchical method's targets (Cornell box with ≥ 100,000 leaves; 10⁶
+//!   triangles), as BENCHMARKS.md states them ("Hierarchical radiosity", "The hierarchical
+//!   method on growing scenes").
 //!
 //! Everything is timed on the machine it runs on; the date and machine head every file.
 

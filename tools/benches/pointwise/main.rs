@@ -17,12 +17,12 @@
 //! lights) and `living_room` (`radiosity generate living-room`: two lights, furniture against
 //! the walls, a ball on the floor), scenes nothing here was tuned to when they were first
 //! measured (rules have since been found at their worst probes); and `two_rooms` and `study`
-//! (`radiosity generate two-rooms|study`), written on 2026-11-27 and first measured at the
-//! defaults only after both were fixed (defaults only: they check that the defaults carry
-//! over, not the settings' curves); and `attic` and `kitchen` (`radiosity generate
-//! attic|kitchen`: sloped faces, furniture turned off the axes, an emitting cube, pendant
-//! lamps), written on 2026-11-27 (stop 40) and committed before their first measurement, for
-//! the same purpose.
+//! (`radiosity generate two-rooms|study`), written as scenes nothing was tuned to and first
+//! measured at the defaults only after both were fixed (defaults only: they check that the
+//! defaults carry over, not the settings' curves); and `attic` and `kitchen` (`radiosity
+//! generate attic|kitchen`: sloped faces, furniture turned off the axes, an emitting cube,
+//! pendant lamps), written as scenes nothing was tuned to and committed before their first
+//! measurement, for the same purpose.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;

@@ -19,7 +19,7 @@
 //! - `matvec.md`: bytes per second of the F·L product against this machine's copy bandwidth
 //!   measured in the same run;
 //! - `reference`: `docs/bench/cornell_reference.csv`, the per-surface mean radiance of the
-//!   Cornell box by path tracing ([`radiosity::validation::path_tracer`]; 16M paths per surface, ~5 min).
+//!   Cornell box by path tracing ([`radiosity::validation::path_tracer`]; 16M paths per surface, a few minutes).
 //!
 //! Everything is timed on the machine it runs on; the date and machine head every file.
 
