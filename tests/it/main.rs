@@ -9,15 +9,16 @@
 //! - `loaders`: hostile bytes through the scene loaders;
 //! - `hostile_geometry`: the unit of length and pathological meshes;
 //! - `materials`, `two_sided`: overrides and two-sided surfaces through the pipeline;
-//! - `environment`: the sky and the sun, closed forms and shadows, both methods;
+//! - `lights`: the lights outside the mesh (sky, sun, lamps), closed forms and shadows, both
+//!   methods;
 //! - `layers`: the modules' imports read from src/: no cycle, a ground floor that names no stage.
 
 mod closed_forms;
-mod environment;
 mod form_factors;
 mod hierarchical;
 mod hostile_geometry;
 mod layers;
+mod lights;
 mod loaders;
 mod materials;
 mod mesh;

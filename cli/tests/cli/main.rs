@@ -8,15 +8,15 @@
 //! - `options`: options shared by the commands (material overrides, progress, verbosity);
 //! - `errors`: bad input of every kind: exit status, message, nothing lost;
 //! - `camera`, `two_sided`, `ply_input`: the scene's camera, `--two-sided`, PLY scenes;
-//! - `environment`: `--sky`, `--sun` and `--up`;
+//! - `lights`: `--sky`, `--sun`, point and spot lights, a lights file, and `--up`;
 //! - `golden`: every output byte-identical to the recorded one.
 
 mod bake;
 mod camera;
-mod environment;
 mod errors;
 mod golden;
 mod info;
+mod lights;
 mod options;
 mod ply_input;
 mod render;
