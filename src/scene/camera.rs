@@ -87,7 +87,8 @@ pub const FILE_KEYWORD: &str = "camera:";
 ///
 /// Invariants of a camera from [`Camera::new`] or [`Camera::parse`] (what every constructor in
 /// this crate guarantees): all coordinates finite, `eye ≠ target`, `up` not zero and not
-/// parallel to the view direction `target − eye`, `0 < vfov_degrees < 180`.
+/// parallel to the view direction `target − eye`, `0 < vfov_degrees < 180`, and the picture's
+/// frame (the unit view direction and the unit vector across it and `up`) finite in f64.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
     /// Eye position, scene units.
@@ -125,6 +126,18 @@ impl Camera {
         }
         if forward.cross(up).length() <= 1e-12 * forward.length() * up.length() {
             return Err("up is zero or parallel to the view direction".into());
+        }
+        // The frame a picture is taken with (`render`: the unit view direction, and the unit
+        // right vector across it and up) must exist in f64: numbers near f64's limits (an eye
+        // 1e200 from its target, an up of 1e-200) overflow or underflow the test above, which
+        // then passes on NaN.
+        let unit = |v: DVec3| v.is_finite() && (v.length() - 1.0).abs() < 1e-9;
+        let direction = forward.normalize();
+        if !unit(direction) || !unit(direction.cross(up).normalize()) {
+            return Err(
+                "the view direction and up give no frame in f64 (numbers too large or too small)"
+                    .into(),
+            );
         }
         if !(vfov_degrees > 0.0 && vfov_degrees < 180.0) {
             return Err("the field of view must be in (0, 180) degrees".into());
@@ -305,6 +318,13 @@ mod tests {
             "0,0,0,0,0,1,0,1,0,nan",
             "0,0,0,0,0,inf,0,1,0,40",
             "",
+            // Found by the camera_line fuzzer: |target − eye|² overflows, the test of up
+            // against the view passed on NaN, and the frame was NaN (a zero up).
+            "27,1.1e201,0,2,5,6,0,0,0,34",
+            // The same with a non-zero up, and an eye and target each finite whose
+            // difference overflows.
+            "0,1e200,0,0,0,0,1,0,0,40",
+            "-1e308,0,0,1e308,0,0,0,1,0,40",
         ] {
             assert!(
                 matches!(Camera::parse(bad), Err(Error::Setting { .. })),
