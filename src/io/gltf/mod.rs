@@ -15,6 +15,17 @@
 //! W·m⁻², azimuth and elevation for glTF's +Y up); the first perspective camera. Materials
 //! marked `doubleSided` are said to need `--two-sided`. Positions are metres, +Y up.
 //!
+//! What is refused (an [`Error::Input`] naming the file and the item, never a panic, a hang or
+//! a read past an item's data; the checks are the `import` submodule's): an accessor the
+//! reader uses (POSITION, indices, the base-colour texture's TEXCOORD_n) of another type than
+//! it reads, of count 0, whose elements (count × stride, from its byteOffset) run past its
+//! buffer view, or whose sparse indices or values run past theirs or do not increase; a buffer
+//! view past its buffer; an index past its primitive's vertices; texture coordinates not one
+//! per vertex; nodes that do not form trees; a transform that is not finite; a light whose
+//! intensity or colour is negative or not finite, or a spot's cone outside 0 ≤ inner < outer;
+//! URIs naming something other than a regular file. A spot or directional light whose node
+//! leaves it no direction (a zero scale) is ignored with a warning.
+//!
 //! What is written (`.glb`):
 //! - `POSITION` (float VEC3, with the `min`/`max` the specification requires), in metres as
 //!   glTF assumes (the scene's units are written as they are), turned so that the scene's up
@@ -43,6 +54,11 @@ use crate::scene::{finish, listed_names, Camera, Material, Scene, SceneTriangle,
 use crate::scene::{PointLight, Spot, Sun};
 use crate::{Error, Result};
 
+mod import;
+
+pub use import::MAX_ZERO_FILLED;
+use import::{check_accessor, label, Role};
+
 /// Lumens per watt at 555 nm: glTF's photometric light units (candela, lux) to radiometric
 /// ones (W·sr⁻¹, W·m⁻²), the factor Blender's glTF exporter uses the other way.
 pub const LUMENS_PER_WATT: f64 = 683.0;
@@ -54,8 +70,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         path: path.to_path_buf(),
         message,
     };
-    let (doc, buffers, images) =
-        gltf::import(path).map_err(|e| input(format!("not a readable glTF 2.0 file: {e}")))?;
+    let (doc, buffers, images) = import::import(path)?;
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
@@ -85,9 +100,9 @@ pub fn load(path: &Path) -> Result<Scene> {
     for m in doc.materials() {
         loader.material(&m);
     }
-    for node in scene.nodes() {
-        loader.node(&node, DMat4::IDENTITY);
-    }
+    loader
+        .walk(scene.nodes(), doc.nodes().len())
+        .map_err(input)?;
     let Loader {
         positions,
         triangles,
@@ -178,17 +193,60 @@ struct Loader<'a> {
 }
 
 impl Loader<'_> {
-    /// `node` and its children, under the world transform `parent`.
-    fn node(&mut self, node: &gltf::Node, parent: DMat4) {
-        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
-        let world = parent * local;
+    /// The nodes under `roots` (a scene's), each with its world transform, depth first and
+    /// in file order (a node, then its children in turn). glTF's nodes form trees: a node
+    /// reached twice (a second parent, a cycle, a root listed twice) is an error, as is a
+    /// transform that is not finite. `nodes` is the file's node count.
+    fn walk<'n>(
+        &mut self,
+        roots: impl Iterator<Item = gltf::Node<'n>>,
+        nodes: usize,
+    ) -> std::result::Result<(), String> {
+        let mut seen = vec![false; nodes];
+        // A stack, not recursion: a chain of nodes as deep as the file is long must not
+        // overflow the thread's stack.
+        let mut stack: Vec<(gltf::Node, DMat4)> = roots.map(|n| (n, DMat4::IDENTITY)).collect();
+        stack.reverse();
+        while let Some((node, parent)) = stack.pop() {
+            let name = label("node", node.index(), node.name());
+            if std::mem::replace(&mut seen[node.index()], true) {
+                return Err(format!(
+                    "{name} is reached twice from the scene's nodes: glTF's nodes form trees \
+                     (one parent each, no cycles, a scene lists only roots and each once)"
+                ));
+            }
+            let local =
+                DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+            let world = parent * local;
+            if !world.is_finite() {
+                return Err(format!(
+                    "{name}: its transform (with its parents') is not finite"
+                ));
+            }
+            self.node(&node, world, &name)?;
+            let first = stack.len();
+            stack.extend(node.children().map(|child| (child, world)));
+            stack[first..].reverse();
+        }
+        Ok(())
+    }
+
+    /// What `node` (named `name` in messages) holds, under the world transform `world`.
+    fn node(
+        &mut self,
+        node: &gltf::Node,
+        world: DMat4,
+        name: &str,
+    ) -> std::result::Result<(), String> {
         if let Some(mesh) = node.mesh() {
+            let mesh_name = label("mesh", mesh.index(), mesh.name());
             for prim in mesh.primitives() {
-                self.primitive(&prim, world);
+                let owner = format!("{mesh_name} primitive {}", prim.index());
+                self.primitive(&prim, world, &owner, name)?;
             }
         }
         if let Some(light) = node.light() {
-            self.light(&light, world);
+            self.light(&light, world, name)?;
         }
         if let (None, Some(camera)) = (self.camera, node.camera()) {
             if let gltf::camera::Projection::Perspective(p) = camera.projection() {
@@ -199,43 +257,117 @@ impl Loader<'_> {
                 self.camera = Camera::new(eye, eye + forward, up, fov).ok();
             }
         }
-        for child in node.children() {
-            self.node(&child, world);
-        }
+        Ok(())
     }
 
-    /// One primitive's triangles, transformed to world coordinates.
-    fn primitive(&mut self, prim: &gltf::Primitive, world: DMat4) {
+    /// One primitive's triangles (`owner` names it, `node` its node), transformed to world
+    /// coordinates. The accessors it reads are checked first ([`check_accessor`]), its
+    /// indices against its vertex count and its texture coordinates' count against it.
+    fn primitive(
+        &mut self,
+        prim: &gltf::Primitive,
+        world: DMat4,
+        owner: &str,
+        node: &str,
+    ) -> std::result::Result<(), String> {
         if prim.mode() != gltf::mesh::Mode::Triangles {
             self.skipped_modes += 1;
-            return;
+            return Ok(());
         }
-        let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
-        let Some(positions) = reader.read_positions() else {
-            return;
+        // A primitive without positions is not drawn (glTF 2.0 §3.7.2.1).
+        let Some(position_accessor) = prim.get(&gltf::Semantic::Positions) else {
+            return Ok(());
         };
+        check_accessor(&position_accessor, Role::Positions, owner, self.buffers)?;
+        let unread = |a: &gltf::Accessor, role: Role| {
+            format!(
+                "{owner}: {} ({}) cannot be read",
+                label("accessor", a.index(), a.name()),
+                role.name()
+            )
+        };
+        let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
+        let positions = reader
+            .read_positions()
+            .ok_or_else(|| unread(&position_accessor, Role::Positions))?;
         let base = self.positions.len() as u32;
-        self.positions
-            .extend(positions.map(|p| world.transform_point3(DVec3::from_array(p.map(f64::from)))));
+        for (k, p) in positions.enumerate() {
+            let local = DVec3::from_array(p.map(f64::from));
+            let q = world.transform_point3(local);
+            if !q.is_finite() {
+                let a = label(
+                    "accessor",
+                    position_accessor.index(),
+                    position_accessor.name(),
+                );
+                return Err(if local.is_finite() {
+                    format!(
+                        "{node}: its transform takes vertex {k} of {owner} ({local}) to a \
+                         non-finite position"
+                    )
+                } else {
+                    format!("{owner}: {a} (POSITION): element {k} is not finite ({local})")
+                });
+            }
+            self.positions.push(q);
+        }
         let count = self.positions.len() as u32 - base;
-        let indices: Vec<u32> = match reader.read_indices() {
-            Some(i) => i.into_u32().collect(),
+        let indices: Vec<u32> = match prim.indices() {
+            Some(a) => {
+                check_accessor(&a, Role::Indices, owner, self.buffers)?;
+                let indices: Vec<u32> = reader
+                    .read_indices()
+                    .ok_or_else(|| unread(&a, Role::Indices))?
+                    .into_u32()
+                    .collect();
+                if let Some((k, i)) = indices.iter().enumerate().find(|(_, &i)| i >= count) {
+                    return Err(format!(
+                        "{owner}: {} (indices): element {k} is {i}, past the {count} vertices \
+                         of its POSITION ({})",
+                        label("accessor", a.index(), a.name()),
+                        label(
+                            "accessor",
+                            position_accessor.index(),
+                            position_accessor.name()
+                        )
+                    ));
+                }
+                indices
+            }
             None => (0..count).collect(),
         };
         let material = self.material(&prim.material());
         // The base-colour texture's coordinates (glTF's v counts down from the image's top).
         let textured = self.texture_of.get(&material).copied();
-        let uvs: Vec<glam::DVec2> = textured
-            .and_then(|(_, set)| reader.read_tex_coords(set))
-            .map(|t| {
-                t.into_f32()
+        let mut uvs: Vec<glam::DVec2> = Vec::new();
+        if let Some((_, set)) = textured {
+            if let Some(a) = prim.get(&gltf::Semantic::TexCoords(set)) {
+                let role = Role::TexCoords(set);
+                check_accessor(&a, role, owner, self.buffers)?;
+                if a.count() != count as usize {
+                    return Err(format!(
+                        "{owner}: {} ({}) has {} elements, but its POSITION ({}) has {count}: \
+                         a primitive's attributes have one element per vertex",
+                        label("accessor", a.index(), a.name()),
+                        role.name(),
+                        a.count(),
+                        label(
+                            "accessor",
+                            position_accessor.index(),
+                            position_accessor.name()
+                        )
+                    ));
+                }
+                uvs = reader
+                    .read_tex_coords(set)
+                    .ok_or_else(|| unread(&a, role))?
+                    .into_f32()
                     .map(|[u, v]| glam::DVec2::new(f64::from(u), f64::from(v)))
-                    .collect()
-            })
-            .unwrap_or_default();
+                    .collect();
+            }
+        }
         let mirrored = world.determinant() < 0.0;
         for t in indices.chunks_exact(3) {
-            // Indices past the positions are caught by `finish`'s validation.
             let local = if mirrored {
                 [t[0], t[2], t[1]]
             } else {
@@ -266,6 +398,7 @@ impl Loader<'_> {
                 uv,
             });
         }
+        Ok(())
     }
 
     /// Our material for a glTF one (made on first use).
@@ -407,24 +540,53 @@ impl Loader<'_> {
         Ok(image)
     }
 
-    /// A `KHR_lights_punctual` light at a node with world transform `world`.
-    fn light(&mut self, light: &gltf::khr_lights_punctual::Light, world: DMat4) {
+    /// A `KHR_lights_punctual` light at the node `node` names, with world transform `world`.
+    /// An intensity or colour that is negative or not finite, or a spot's cone outside
+    /// 0 ≤ inner < outer, is an error naming the light and its node; a spot or directional
+    /// light whose node's transform leaves it no direction (a zero scale) is ignored with a
+    /// warning, as a directional light from below the horizon is.
+    fn light(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        world: DMat4,
+        node: &str,
+    ) -> std::result::Result<(), String> {
         use gltf::khr_lights_punctual::Kind;
+        let name = label("KHR_lights_punctual light", light.index(), light.name());
         let colour = light.color().map(f64::from);
-        let value = f64::from(light.intensity()) / LUMENS_PER_WATT;
+        let intensity = f64::from(light.intensity());
+        let in_range = |x: &f64| x.is_finite() && *x >= 0.0;
+        if !(in_range(&intensity) && colour.iter().all(in_range)) {
+            return Err(format!(
+                "{name} at {node}: its intensity {intensity} and colour {colour:?} must be finite \
+                 and ≥ 0"
+            ));
+        }
+        let value = intensity / LUMENS_PER_WATT;
         let rgb: Rgb = colour.map(|c| c * value);
         let position = world.transform_point3(DVec3::ZERO);
         let axis = world.transform_vector3(-DVec3::Z).normalize_or_zero();
-        match light.kind() {
-            Kind::Point => self.lights.push(PointLight {
+        let ignored = |kind: &str, why: &str| {
+            format!(
+                "{kind} light '{}' ignored: {why}",
+                light.name().unwrap_or("unnamed")
+            )
+        };
+        let no_direction = "its node's transform leaves it no direction (a zero scale)";
+        let point = match light.kind() {
+            Kind::Point => PointLight {
                 position,
                 intensity: rgb,
                 spot: None,
-            }),
+            },
+            Kind::Spot { .. } if axis == DVec3::ZERO => {
+                self.warnings.push(ignored("spot", no_direction));
+                return Ok(());
+            }
             Kind::Spot {
                 inner_cone_angle,
                 outer_cone_angle,
-            } => self.lights.push(PointLight {
+            } => PointLight {
                 position,
                 intensity: rgb,
                 spot: Some(Spot {
@@ -432,7 +594,7 @@ impl Loader<'_> {
                     inner_degrees: f64::from(inner_cone_angle).to_degrees(),
                     outer_degrees: f64::from(outer_cone_angle).to_degrees().min(90.0),
                 }),
-            }),
+            },
             Kind::Directional => {
                 // The sun: toward it is −axis; azimuth from north (+Z) toward east (−X) for
                 // glTF's +Y up ([`crate::scene::Sun`]).
@@ -440,25 +602,30 @@ impl Loader<'_> {
                 let elevation = to.y.clamp(-1.0, 1.0).asin().to_degrees();
                 let (north, east) = (Up::Y.forward(), Up::Y.forward().cross(Up::Y.axis()));
                 let azimuth = to.dot(east).atan2(to.dot(north)).to_degrees();
-                if elevation <= 0.0 || self.sun.is_some() {
-                    self.warnings.push(format!(
-                        "directional light '{}' ignored: {}",
-                        light.name().unwrap_or("unnamed"),
-                        if elevation <= 0.0 {
-                            "it shines from below the horizon"
-                        } else {
-                            "the scene already has a sun"
-                        }
-                    ));
-                    return;
+                if axis == DVec3::ZERO || elevation <= 0.0 || self.sun.is_some() {
+                    let why = if axis == DVec3::ZERO {
+                        no_direction
+                    } else if elevation <= 0.0 {
+                        "it shines from below the horizon"
+                    } else {
+                        "the scene already has a sun"
+                    };
+                    self.warnings.push(ignored("directional", why));
+                    return Ok(());
                 }
                 self.sun = Some(Sun {
                     azimuth_degrees: azimuth,
                     elevation_degrees: elevation,
                     irradiance: rgb,
                 });
+                return Ok(());
             }
-        }
+        };
+        point
+            .check()
+            .map_err(|problem| format!("{name} at {node}: the light {problem}"))?;
+        self.lights.push(point);
+        Ok(())
     }
 }
 
