@@ -1,8 +1,9 @@
 //! Fuzz target: arbitrary bytes as an OBJ file (with the Cornell box's MTL beside it, so
 //! `mtllib cornell_box.mtl` and its materials resolve) through `Scene::load` and
 //! `mesh::subdivide`. Errors are fine; a panic, or a loaded scene or patch mesh that breaks
-//! its documented invariants, is a crash. Run with `cargo +nightly fuzz run load_and_patch`
-//! from the repository root (see docs/robustness.md).
+//! its documented invariants, is a crash. Run with `RUSTC_BOOTSTRAP=1 cargo fuzz run
+//! load_and_patch` from the repository root (see docs/robustness.md; the other readers have
+//! targets of their own beside this one).
 #![no_main]
 
 use std::path::PathBuf;
@@ -31,7 +32,11 @@ fuzz_target!(|data: &[u8]| {
         scene.validate().expect("a loaded scene is valid");
         let (lo, hi) = scene.bounds();
         // A coarse max-edge keeps each input fast; the patch-count guard covers the rest.
-        if let Ok(patches) = mesh::subdivide(&scene, (hi - lo).length() / 4.0, mesh::DEFAULT_CREASE_DEGREES) {
+        if let Ok(patches) = mesh::subdivide(
+            &scene,
+            (hi - lo).length() / 4.0,
+            mesh::DEFAULT_CREASE_DEGREES,
+        ) {
             patches.validate().expect("patches are valid");
         }
     }
