@@ -510,7 +510,7 @@ fn gltf_sparse_accessors_are_checked() {
             &[
                 "accessor 2 (POSITION) has no bufferView",
                 "count 1099511627776",
-                "16777216",
+                "more than the 16777216",
             ][..],
         ),
     ];

@@ -19,8 +19,9 @@
 //! component type the reader reads for its role; a `byteStride` at least the element's size;
 //! `byteOffset + stride × (count − 1) + element size` within its buffer view; for a sparse
 //! accessor, its indices and values within their views and the indices strictly increasing
-//! and below the count; an accessor without a buffer view (zeros but its sparse values) at
-//! most [`MAX_ZERO_FILLED`] elements.
+//! and below the count; the accessors without a buffer view (zeros but their sparse values:
+//! data the file does not hold, which a few bytes of JSON could make billions of) at most
+//! [`MAX_ZERO_FILLED`] elements in all, each use counted.
 
 use std::path::{Path, PathBuf};
 
@@ -28,8 +29,9 @@ use gltf::accessor::{DataType, Dimensions};
 
 use crate::{Error, Result};
 
-/// The most elements of an accessor without a buffer view (all zeros, but for its sparse
-/// values): its count is backed by no data, so it is bounded here instead (2^24).
+/// The most elements a file's accessors without a buffer view (all zeros, but for their sparse
+/// values) may give in all, each use counted: their counts are backed by no data, so they are
+/// bounded here instead (2^24).
 pub const MAX_ZERO_FILLED: usize = 1 << 24;
 
 /// What [`import`] gives: the document, its buffers' bytes and its decoded images.
@@ -332,11 +334,15 @@ fn within_view(
 
 /// Checks accessor `a`, read as `role` by the primitive `owner` names, against the rules of
 /// the module documentation; the message names the owner, the role and the accessor.
+/// `zero_filled` counts the elements of the accessors without a buffer view read so far (each
+/// use counts: a node instancing a mesh reads its accessors again), which may not pass
+/// [`MAX_ZERO_FILLED`].
 pub(super) fn check_accessor(
     a: &gltf::Accessor,
     role: Role,
     owner: &str,
     buffers: &[gltf::buffer::Data],
+    zero_filled: &mut usize,
 ) -> std::result::Result<(), String> {
     let what = format!(
         "{owner}: {} ({})",
@@ -359,13 +365,17 @@ pub(super) fn check_accessor(
         Some(view) => {
             within_view(&view, a.offset(), count, size, &what)?;
         }
-        None if count > MAX_ZERO_FILLED => {
-            return Err(format!(
-                "{what} has no bufferView (its elements are zeros but for its sparse values) \
-                 and count {count}, more than the {MAX_ZERO_FILLED} this reader allows"
-            ))
+        None => {
+            *zero_filled = zero_filled.saturating_add(count);
+            if *zero_filled > MAX_ZERO_FILLED {
+                return Err(format!(
+                    "{what} has no bufferView (its elements are zeros but for its sparse \
+                     values) and count {count}: the accessors without one come to {} elements \
+                     (each use counted), more than the {MAX_ZERO_FILLED} this reader allows",
+                    *zero_filled
+                ));
+            }
         }
-        None => {}
     }
     let Some(sparse) = a.sparse() else {
         return Ok(());

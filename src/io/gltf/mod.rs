@@ -95,6 +95,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         uv_maps: Vec::new(),
         texture_of: std::collections::HashMap::new(),
         texture_of_image: std::collections::HashMap::new(),
+        zero_filled: 0,
     };
     // Every material of the file, in its order (as an MTL's), used or not.
     for m in doc.materials() {
@@ -190,6 +191,8 @@ struct Loader<'a> {
     texture_of: std::collections::HashMap<u32, (u32, u32)>,
     /// Each image read as a base-colour texture ([`Loader::base_texture`]).
     texture_of_image: std::collections::HashMap<usize, (Option<u32>, Option<Rgb>)>,
+    /// Elements read so far from accessors without a buffer view ([`MAX_ZERO_FILLED`]).
+    zero_filled: usize,
 }
 
 impl Loader<'_> {
@@ -278,7 +281,13 @@ impl Loader<'_> {
         let Some(position_accessor) = prim.get(&gltf::Semantic::Positions) else {
             return Ok(());
         };
-        check_accessor(&position_accessor, Role::Positions, owner, self.buffers)?;
+        check_accessor(
+            &position_accessor,
+            Role::Positions,
+            owner,
+            self.buffers,
+            &mut self.zero_filled,
+        )?;
         let unread = |a: &gltf::Accessor, role: Role| {
             format!(
                 "{owner}: {} ({}) cannot be read",
@@ -314,7 +323,13 @@ impl Loader<'_> {
         let count = self.positions.len() as u32 - base;
         let indices: Vec<u32> = match prim.indices() {
             Some(a) => {
-                check_accessor(&a, Role::Indices, owner, self.buffers)?;
+                check_accessor(
+                    &a,
+                    Role::Indices,
+                    owner,
+                    self.buffers,
+                    &mut self.zero_filled,
+                )?;
                 let indices: Vec<u32> = reader
                     .read_indices()
                     .ok_or_else(|| unread(&a, Role::Indices))?
@@ -343,7 +358,7 @@ impl Loader<'_> {
         if let Some((_, set)) = textured {
             if let Some(a) = prim.get(&gltf::Semantic::TexCoords(set)) {
                 let role = Role::TexCoords(set);
-                check_accessor(&a, role, owner, self.buffers)?;
+                check_accessor(&a, role, owner, self.buffers, &mut self.zero_filled)?;
                 if a.count() != count as usize {
                     return Err(format!(
                         "{owner}: {} ({}) has {} elements, but its POSITION ({}) has {count}: \
