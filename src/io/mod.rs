@@ -89,7 +89,7 @@ impl Scene {
         if meta.is_dir() {
             return Err(Error::Input {
                 path: path.to_path_buf(),
-                message: "is a directory, expected a scene file (.obj or .ply)".into(),
+                message: "is a directory, expected a scene file (.obj, .ply, .gltf or .glb)".into(),
             });
         }
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
