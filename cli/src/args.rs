@@ -184,6 +184,10 @@ pub enum SceneKind {
     /// lamps over an island, counters with wall cabinets, a fridge, two stools turned off the
     /// axes; a point-wise benchmark scene.
     Kitchen,
+    /// A furnished open-plan office (24 × 14 × 3 m, metres, z up, at least --triangles
+    /// triangles): twelve ceiling panels and the sky in eight windows, desks with monitors,
+    /// turned office chairs, columns, bookcases and potted plants; a point-wise benchmark scene.
+    Office,
 }
 
 /// Options of `radiosity generate`.
@@ -195,7 +199,7 @@ pub struct GenerateArgs {
     /// Output OBJ (its MTL is written beside it with the same name).
     #[arg(short, long, value_name = "FILE.obj")]
     pub output: PathBuf,
-    /// Triangles at least (hall only; 10⁴ … 10⁶ and more).
+    /// Triangles at least (hall and office only; 10⁴ … 10⁶ and more).
     #[arg(long, default_value_t = 100_000, value_name = "N")]
     pub triangles: usize,
 }

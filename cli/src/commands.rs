@@ -181,23 +181,27 @@ pub fn generate(args: &GenerateArgs) -> Result<u8, Failure> {
         SceneKind::Furnace => scenes::furnace_room(0.5, 1.0)?,
         SceneKind::ParallelPlates => scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
         SceneKind::PerpendicularPlates => scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0)?,
-        SceneKind::Hall => {
-            if !(1..=50_000_000).contains(&args.triangles) {
-                return Err(Failure::usage(
-                    "--triangles",
-                    format!("{} is not in 1..=50000000", args.triangles),
-                ));
-            }
-            scenes::furnished_hall(args.triangles)?
-        }
+        SceneKind::Hall => scenes::furnished_hall(triangles(args)?)?,
         SceneKind::LivingRoom => scenes::living_room()?,
         SceneKind::TwoRooms => scenes::two_rooms()?,
         SceneKind::Study => scenes::study()?,
         SceneKind::Attic => scenes::attic()?,
         SceneKind::Kitchen => scenes::kitchen()?,
+        SceneKind::Office => scenes::office(triangles(args)?)?,
     };
     io::obj::save(&scene, &args.output)?;
     Ok(0)
+}
+
+/// `--triangles` of the scenes that take it (hall, office), checked.
+fn triangles(args: &GenerateArgs) -> Result<usize, Failure> {
+    if !(1..=50_000_000).contains(&args.triangles) {
+        return Err(Failure::usage(
+            "--triangles",
+            format!("{} is not in 1..=50000000", args.triangles),
+        ));
+    }
+    Ok(args.triangles)
 }
 
 /// Warns when the picture about to be rendered would be black: its camera sees no front face.

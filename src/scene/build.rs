@@ -324,6 +324,11 @@ impl SceneBuilder {
         });
     }
 
+    /// Triangles added so far (before [`SceneBuilder::build`] drops any).
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
     /// Planar quad a, b, c, d counter-clockwise seen from the front, as 2 triangles
     /// (a, b, c), (a, c, d), sharing vertices.
     pub fn quad(&mut self, corners: [DVec3; 4], material: u32) {

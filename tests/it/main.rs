@@ -11,7 +11,9 @@
 //! - `materials`, `two_sided`: overrides and two-sided surfaces through the pipeline;
 //! - `lights`: the lights outside the mesh (sky, sun, lamps), closed forms and shadows, both
 //!   methods;
-//! - `layers`: the modules' imports read from src/: no cycle, a ground floor that names no stage.
+//! - `layers`: the modules' imports read from src/: no cycle, a ground floor that names no stage;
+//! - `scenes`: the generated benchmark scenes keep their own promises (counts, lights, no
+//!   modelling mistakes).
 
 mod closed_forms;
 mod form_factors;
@@ -22,6 +24,7 @@ mod lights;
 mod loaders;
 mod materials;
 mod mesh;
+mod scenes;
 mod solvers;
 mod support;
 mod two_sided;

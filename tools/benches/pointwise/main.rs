@@ -1,7 +1,8 @@
 //! The point-wise harness: `cargo bench -p radiosity-tools --bench pointwise -- [reference]
-//! [curves] [--quick] [--out DIR]` (`curves` when no section is named). What a viewer of the
-//! baked mesh sees, scored at probe points against path-traced radiance
-//! ([`radiosity::validation::pointwise`]), and the same path tracer given the bake's seconds.
+//! [curves] [--scene NAME[,NAME…]]… [--quick] [--out DIR]` (`curves` when no section is
+//! named, every scene when none is). What a viewer of the baked mesh sees, scored at probe
+//! points against path-traced radiance ([`radiosity::validation::pointwise`]), and the same
+//! path tracer given the bake's seconds.
 //!
 //! - `reference`: traces the probes of each scene (2,000 points, fixed seed, ≤ 0.3 % standard
 //!   error at each probe the score counts) into `docs/bench/probes_SCENE.csv`, or continues
@@ -22,7 +23,10 @@
 //! defaults carry over, not the settings' curves); and `attic` and `kitchen` (`radiosity
 //! generate attic|kitchen`: sloped faces, furniture turned off the axes, an emitting cube,
 //! pendant lamps), written as scenes nothing was tuned to and committed before their first
-//! measurement, for the same purpose.
+//! measurement, for the same purpose; and `office` (`radiosity generate office`, 100,540
+//! triangles: an open-plan office under twelve ceiling panels and the sky in eight windows,
+//! desks, turned chairs, columns, plants with crowns of small faces), the same at a size
+//! where the hierarchical solver is the default, defaults only.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -38,7 +42,7 @@ use radiosity::validation::scenes;
 use radiosity_tools::{chart, harness_args, load_font, root, write_sections, Curve};
 
 const SECTIONS: [&str; 2] = ["reference", "curves"];
-const SCENES: [&str; 8] = [
+const SCENES: [&str; 9] = [
     "cornell",
     "cornell_seed2",
     "hall",
@@ -47,6 +51,7 @@ const SCENES: [&str; 8] = [
     "study",
     "attic",
     "kitchen",
+    "office",
 ];
 /// Probes per scene, and their seed: 1, and 2 for `cornell_seed2`, a second draw of points on
 /// the Cornell box (its defaults' error is mostly a few points' near sub-millimetre features,
@@ -60,32 +65,67 @@ fn probe_seed(name: &str) -> u64 {
     }
 }
 
+/// The command line: sections, the scenes they run on (`--scene`), `--quick`, `--out DIR`.
 struct Args {
     sections: Vec<String>,
+    scenes: Vec<&'static str>,
     quick: bool,
     out: PathBuf,
 }
 
 fn main() -> Result<()> {
-    let h = harness_args(
-        "target/pointwise",
-        "cargo bench -p radiosity-tools --bench pointwise -- [reference|curves]… [--quick] \
-         [--out DIR]",
-    )?;
-    let sections = radiosity_tools::sections(h.other, &SECTIONS, &["curves"], |_| {
+    let usage = format!(
+        "cargo bench -p radiosity-tools --bench pointwise -- [reference|curves]… \
+         [--scene NAME[,NAME…]]… [--quick] [--out DIR]\n\n\
+         --scene NAMES  only these scenes (repeatable, or a comma list) [default: all of {}]",
+        SCENES.join(", ")
+    );
+    let h = harness_args("target/pointwise", &usage)?;
+    let (scenes, other) = scene_names(h.other)?;
+    let sections = radiosity_tools::sections(other, &SECTIONS, &["curves"], |_| {
         anyhow::bail!("this harness runs no child processes")
     })?;
     let args = Args {
         sections,
+        scenes,
         quick: h.quick,
         out: h.out,
     };
     let text = load_font();
     write_sections(&args.out, &args.sections, |s| match s {
-        "reference" => reference(),
+        "reference" => reference(&args),
         "curves" => curves(&args, text),
         _ => unreachable!(),
     })
+}
+
+/// The scenes `--scene NAME` names (repeatable, each a name or a comma list of names from
+/// [`SCENES`]), in [`SCENES`]' order; all of them when none is named. The other words are
+/// returned, in order, for [`radiosity_tools::sections`].
+fn scene_names(words: Vec<String>) -> Result<(Vec<&'static str>, Vec<String>)> {
+    let (mut named, mut other) = (Vec::new(), Vec::new());
+    let mut it = words.into_iter();
+    while let Some(word) = it.next() {
+        if word != "--scene" {
+            other.push(word);
+            continue;
+        }
+        let list = it.next().context("--scene needs a scene name")?;
+        for name in list.split(',') {
+            if !SCENES.contains(&name) {
+                anyhow::bail!(
+                    "unknown scene {name:?} for --scene (one of {})",
+                    SCENES.join(", ")
+                );
+            }
+            named.push(name.to_string());
+        }
+    }
+    let scenes = SCENES
+        .into_iter()
+        .filter(|s| named.is_empty() || named.iter().any(|n| n == s))
+        .collect();
+    Ok((scenes, other))
 }
 
 fn load(name: &str) -> Result<Scene> {
@@ -97,6 +137,7 @@ fn load(name: &str) -> Result<Scene> {
         "study" => scenes::study()?,
         "attic" => scenes::attic()?,
         "kitchen" => scenes::kitchen()?,
+        "office" => scenes::office(100_000)?,
         _ => anyhow::bail!("unknown scene {name}"),
     })
 }
@@ -144,12 +185,14 @@ fn trace(name: &str) -> Result<String> {
 }
 
 /// The reference's stopping rule: 0.3 % standard error (at most 2²⁰ paths, 2²² at the probes
-/// the score counts) but in the hall: 0.5 % (at most 2¹⁸), whose dim corners under small
-/// lights would otherwise take hours (its bakes' errors are several per cent, far above
-/// either).
+/// the score counts) but in the hall and the office: 0.5 % (at most 2¹⁸), whose dim corners
+/// under small lights (and, in the office, the floor under desks and chairs, lit through
+/// many bounces) would otherwise take hours (the hall's bakes' errors are several per cent,
+/// far above either). On the office, 50 of its probes at this rule took 68 s on one core,
+/// about 45 minutes for all 2,000 (half of them capped at 2¹⁸ paths, near 0.5 %).
 fn reference_settings(name: &str) -> ReferenceSettings {
     match name {
-        "hall" => ReferenceSettings {
+        "hall" | "office" => ReferenceSettings {
             relative_error: 0.005,
             max_paths: 1 << 18,
             scored_max_paths: 1 << 18,
@@ -159,17 +202,17 @@ fn reference_settings(name: &str) -> ReferenceSettings {
     }
 }
 
-fn reference() -> Result<String> {
+fn reference(args: &Args) -> Result<String> {
     let mut md = String::from(
         "Probes: 2,000 points uniform by area (seed 1, and 2 for cornell_seed2; emitters and buried points left out), \
          path-traced until the standard error of each one's luminance is ≤ 0.3 % of it \
          (at least 4,096 paths, at most 1,048,576, or 4,194,304 at a probe the score counts), \
-         ≤ 0.5 % in the hall (at most 262,144); 'capped' probes stopped at the limit. A file \
-         already written is continued to the rule, not traced again ('seconds' are the \
-         continuation's).\n\n\
+         ≤ 0.5 % in the hall and the office (at most 262,144); 'capped' probes stopped at the \
+         limit. A file already written is continued to the rule, not traced again ('seconds' \
+         are the continuation's).\n\n\
          | scene | probes | paths | seconds | capped |\n|---|---|---|---|---|\n",
     );
-    for name in SCENES {
+    for &name in &args.scenes {
         md.push_str(&trace(name)?);
     }
     Ok(md)
@@ -241,7 +284,16 @@ fn bakes(quick: bool, name: &str) -> Vec<(String, pipeline::Settings)> {
     if name != "cornell" {
         runs.push(("the defaults".to_string(), pipeline::Settings::default()));
     }
-    if ["cornell_seed2", "two_rooms", "study", "attic", "kitchen"].contains(&name) {
+    if [
+        "cornell_seed2",
+        "two_rooms",
+        "study",
+        "attic",
+        "kitchen",
+        "office",
+    ]
+    .contains(&name)
+    {
         return runs;
     }
     let eps: &[f64] = if quick { &[1e-4] } else { &[1e-4, 1e-5] };
@@ -281,7 +333,7 @@ fn curves(args: &Args, text: bool) -> Result<String> {
          face's own value; 'path tracer' is the reference's tracer given the bake's seconds \
          at the same probes. Seconds: the solve and bake (no file loading or writing).\n",
     );
-    for name in SCENES {
+    for &name in &args.scenes {
         let path = probes_path(name);
         if !path.exists() {
             eprintln!("  {} is missing: tracing it", path.display());
