@@ -186,10 +186,10 @@ fn trace(name: &str) -> Result<String> {
 
 /// The reference's stopping rule: 0.3 % standard error (at most 2²⁰ paths, 2²² at the probes
 /// the score counts) but in the hall and the office: 0.5 % (at most 2¹⁸), whose dim corners
-/// under small lights (and, in the office, the floor under desks and chairs, lit through
-/// many bounces) would otherwise take hours (the hall's bakes' errors are several per cent,
-/// far above either). On the office, 50 of its probes at this rule took 68 s on one core,
-/// about 45 minutes for all 2,000 (half of them capped at 2¹⁸ paths, near 0.5 %).
+/// under small lights (in the office also its ceiling, lit only indirectly, and the floor
+/// under desks and chairs) would otherwise take hours (the hall's bakes' errors are several
+/// per cent, far above either). Many of their probes stop at the cap, a little above 0.5 %;
+/// the reference's own noise is part of the score's table.
 fn reference_settings(name: &str) -> ReferenceSettings {
     match name {
         "hall" | "office" => ReferenceSettings {
