@@ -59,6 +59,31 @@ pub struct Site {
     pub mesh_vertex: u32,
 }
 
+/// A radiance below 0 by no more than this fraction of the largest value in its set is
+/// rounding: the sums of a solve or a fit that are 0 in exact arithmetic (a patch that no
+/// light reaches, one channel of a coloured light) come out as ±1e-29 or so, some 10⁻²⁵ of the
+/// scene's radiance, and f64 carries 16 digits; a value more negative than 10⁻⁹ of the
+/// largest is not rounding but a mistake, and [`BakedMesh::validate`] still rejects it.
+pub const ROUNDING: f64 = 1e-9;
+
+/// Sets to 0 every channel of `radiance` that is negative by at most [`ROUNDING`] × the
+/// largest channel value in it (W·sr⁻¹·m⁻²), so that a display value of rounding size never
+/// costs a bake. Leaves larger negatives, and values that are not finite, as they are.
+pub fn clamp_rounding(radiance: &mut [Rgb]) {
+    let largest = radiance
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|c| c.is_finite())
+        .fold(0.0, |m: f64, c| m.max(c.abs()));
+    let floor = -ROUNDING * largest;
+    for c in radiance.iter_mut().flatten() {
+        if *c < 0.0 && *c >= floor {
+            *c = 0.0;
+        }
+    }
+}
+
 /// [`bake`], with the [`Site`] of every output vertex (indexed like the mesh's positions).
 pub fn bake_sites(
     patches: &Patches,
@@ -168,6 +193,13 @@ impl BakedMesh {
         color::auto_exposure(&self.vertex_radiance)
     }
 
+    /// Sets to 0 the negative values of rounding size in its radiance ([`clamp_rounding`]),
+    /// per vertex and per face.
+    pub fn clamp_rounding(&mut self) {
+        clamp_rounding(&mut self.vertex_radiance);
+        clamp_rounding(&mut self.face_radiance);
+    }
+
     /// Checks the invariants the writers rely on: per-vertex and per-face arrays have matching
     /// lengths, every index is in range (and fits the PLY `int` index type), every value is
     /// finite and fits in `f32`, and radiance is >= 0. A failure is an [`Error::Internal`]:
@@ -259,6 +291,27 @@ mod tests {
             8,
             "two squares, four corners each"
         );
+    }
+
+    #[test]
+    fn rounding_negatives_are_clamped_and_mistakes_are_not() {
+        // A bake once lost at the end to [2.8e-26, -3.2e-29, -6.0e-28] beside values of order
+        // 1: rounding, to be shown as 0. A value −1e-3 of the largest is a mistake, kept for
+        // validate() to reject; NaN stays NaN.
+        let mut mesh = sample_mesh(5, 2);
+        mesh.vertex_radiance[0] = [2.8e-26, -3.2e-29, -6.0e-28];
+        mesh.vertex_radiance[1] = [1.0, 0.5, 0.25];
+        mesh.face_radiance[0] = [-1e-12, 0.0, 1.0];
+        mesh.clamp_rounding();
+        assert_eq!(mesh.vertex_radiance[0], [2.8e-26, 0.0, 0.0]);
+        assert_eq!(mesh.face_radiance[0], [0.0, 0.0, 1.0]);
+        mesh.validate().unwrap();
+        mesh.vertex_radiance[2] = [-1e-3, 0.0, 0.0];
+        mesh.vertex_radiance[3] = [f64::NAN, 0.0, 0.0];
+        mesh.clamp_rounding();
+        assert_eq!(mesh.vertex_radiance[2][0], -1e-3);
+        assert!(mesh.vertex_radiance[3][0].is_nan());
+        assert!(mesh.validate().is_err());
     }
 
     #[test]

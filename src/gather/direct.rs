@@ -365,6 +365,20 @@ impl Gatherer<'_> {
         (std::array::from_fn(|c| rho[c] * direct[c]), penumbra, exact)
     }
 
+    /// Whether the hemisphere rays at `x` would bring some emitter's Le that `exact` and the
+    /// other-light samples leave out: a large near emitter ([`SAMPLED_SPREAD`]) not among the
+    /// exact ones (found through [`Gatherer::with_cache`]'s index beyond
+    /// [`MAX_WEIGHED_EMITTERS`] emitters).
+    pub(super) fn leaves_emitters_to_rays(&self, x: DVec3, exact: &[u32]) -> bool {
+        if self.emitters.len() > MAX_WEIGHED_EMITTERS {
+            return true;
+        }
+        self.emitters
+            .iter()
+            .enumerate()
+            .any(|(k, e)| !self.sampled(e, x) && exact.binary_search(&(k as u32)).is_err())
+    }
+
     /// Emitters whose direct light is computed exactly at each point: all of them, at most
     /// [`MAX_EXACT_EMITTERS`].
     pub fn exact_per_point(&self) -> usize {

@@ -88,7 +88,7 @@ impl Gatherer<'_> {
         rays: usize,
         rng: &mut Rng,
     ) -> Rgb {
-        self.hemisphere(x, n, ignore, exact, rays, NEAR_DEPTH, rng)
+        self.hemisphere(x, n, ignore, (exact, Count::Rule), rays, NEAR_DEPTH, rng)
             .radiance
     }
 
@@ -117,7 +117,15 @@ impl Gatherer<'_> {
         );
         let (direct, _) = self.direct_from(y, ny, hi, exact, rays, true, rng);
         let indirect = self
-            .hemisphere(y, ny, hi, exact, NEAR_RAYS, near_bounces, rng)
+            .hemisphere(
+                y,
+                ny,
+                hi,
+                (exact, Count::Rule),
+                NEAR_RAYS,
+                near_bounces,
+                rng,
+            )
             .radiance;
         let rho = self.patches.reflectance[h];
         std::array::from_fn(|c| rho[c] * (direct[c] + indirect[c]))
@@ -125,13 +133,15 @@ impl Gatherer<'_> {
 
     /// [`Gatherer::indirect`], following at most `near_bounces` near hits in a chain, with the
     /// standard error of the estimate and the share of its rays that met a back face.
+    /// `counted` is the emitters whose Le the point's
+    /// direct term counts (`exact`, and by [`Count`] the rule for the others).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn hemisphere(
         &self,
         x: DVec3,
         n: DVec3,
         ignore: u32,
-        exact: &[u32],
+        counted: (&[u32], Count),
         rays: usize,
         near_bounces: u32,
         rng: &mut Rng,
@@ -154,7 +164,7 @@ impl Gatherer<'_> {
             let dir = frame.in_stratum(k, side, rng);
             let is_above = dir.dot(up) > 0.0;
             above += usize::from(is_above);
-            let brought = match self.along(x, n, dir, ignore, exact, near_bounces, rng) {
+            let brought = match self.along(x, n, dir, ignore, counted, near_bounces, rng) {
                 Ray::Brought(l) => l,
                 Ray::Back => {
                     backs += 1;
@@ -175,7 +185,7 @@ impl Gatherer<'_> {
         }
         let count = total as f64;
         if edges {
-            sum = self.beside_edges(x, &frame, ignore, exact, near_bounces, &strata, rng);
+            sum = self.beside_edges(x, &frame, ignore, counted, near_bounces, &strata, rng);
         }
         let mut out = sum.map(|s| s / count);
         let spread = (squares / count - luminance(out).powi(2)).max(0.0);
@@ -210,7 +220,7 @@ impl Gatherer<'_> {
         x: DVec3,
         frame: &Frame,
         ignore: u32,
-        exact: &[u32],
+        counted: (&[u32], Count),
         near_bounces: u32,
         strata: &[Rgb],
         rng: &mut Rng,
@@ -251,7 +261,8 @@ impl Gatherer<'_> {
             let mut stratum = first;
             for _ in 0..m {
                 let dir = frame.in_stratum(k, side, rng);
-                let brought = match self.along(x, frame.n, dir, ignore, exact, near_bounces, rng) {
+                let brought = match self.along(x, frame.n, dir, ignore, counted, near_bounces, rng)
+                {
                     Ray::Brought(l) => l,
                     Ray::Back => [0.0; 3],
                     Ray::Left => self.left_along(dir),
@@ -287,7 +298,7 @@ impl Gatherer<'_> {
         n: DVec3,
         dir: DVec3,
         ignore: u32,
-        exact: &[u32],
+        (exact, rule): (&[u32], Count),
         near_bounces: u32,
         rng: &mut Rng,
     ) -> Ray {
@@ -299,10 +310,12 @@ impl Gatherer<'_> {
             return Ray::Back; // the back of a one-sided surface sends nothing
         }
         // The emitted part of what it sends was counted by the direct term if its emitter
-        // is one of `exact` or sampled from here (the others' rays).
+        // is one of `exact` or sampled from here (the others' rays), or every emitter's is.
         let e = self.emitter_of[self.patches.source_triangle[h] as usize];
         let counted = e != NONE
-            && (exact.binary_search(&e).is_ok() || self.sampled(&self.emitters[e as usize], x));
+            && (rule == Count::All
+                || exact.binary_search(&e).is_ok()
+                || self.sampled(&self.emitters[e as usize], x));
         let (l, le) = (self.radiance[h], self.patches.emission[h]);
         if near_bounces > 0 && hit.t < NEAR_HIT * self.patches.area[h].sqrt() {
             // A near hit (a concave corner): the patch's mean is not the radiance at the
@@ -334,7 +347,15 @@ impl Gatherer<'_> {
         rays: usize,
         rng: &mut Rng,
     ) -> (Rgb, f64, f64) {
-        let h = self.hemisphere(spot.x, spot.n, spot.patch, exact, rays, NEAR_DEPTH, rng);
+        let h = self.hemisphere(
+            spot.x,
+            spot.n,
+            spot.patch,
+            (exact, Count::Rule),
+            rays,
+            NEAR_DEPTH,
+            rng,
+        );
         let rho = self.patches.reflectance[spot.patch as usize];
         let rho_max = rho.iter().copied().fold(0.0, f64::max);
         (
@@ -343,6 +364,96 @@ impl Gatherer<'_> {
             h.backs,
         )
     }
+}
+
+impl Gatherer<'_> {
+    /// The Le the hemisphere rays at `x` bring from the emitters its direct term does not
+    /// count (`exact`, and those sampled from `x`): ∫ Le(h(x, ω)) cosθ/π dω over those, by
+    /// `rays` stratified cosine-weighted rays reading only the emission of their first hit
+    /// (radiance units). The `cache` gather's points add it to the records' reflected light
+    /// ([`super::cache`]); 0 without casting where no emitter is left to rays.
+    pub(super) fn uncounted_emission(
+        &self,
+        spot: &Spot,
+        exact: &[u32],
+        rays: usize,
+        rng: &mut Rng,
+    ) -> Rgb {
+        if !self.leaves_emitters_to_rays(spot.x, exact) {
+            return [0.0; 3];
+        }
+        let frame = Frame::of(spot.n);
+        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
+        let mut sum = [0.0; 3];
+        let from = spot.x + self.lift * spot.n;
+        for k in 0..side * side {
+            let dir = frame.in_stratum(k, side, rng);
+            let Some(hit) = self.surfaces.closest(from, dir, spot.patch) else {
+                continue;
+            };
+            let h = hit.patch as usize;
+            let e = self.emitter_of[self.patches.source_triangle[h] as usize];
+            if e == NONE
+                || self.patches.normal[h].dot(dir) >= 0.0
+                || exact.binary_search(&e).is_ok()
+                || self.sampled(&self.emitters[e as usize], spot.x)
+            {
+                continue;
+            }
+            for (s, l) in sum.iter_mut().zip(self.patches.emission[h]) {
+                *s += l;
+            }
+        }
+        sum.map(|s| s / (side * side) as f64)
+    }
+}
+
+impl Gatherer<'_> {
+    /// The share of `rays` stratified cosine-weighted rays from `spot` that meet the back of a
+    /// surface, unshaded (the display refinement's walled-in test where the `cache` gather
+    /// gives a midpoint's light).
+    pub(super) fn backs(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> f64 {
+        let frame = Frame::of(spot.n);
+        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
+        let from = spot.x + self.lift * spot.n;
+        let backs = (0..side * side)
+            .filter(|&k| {
+                let dir = frame.in_stratum(k, side, rng);
+                self.surfaces
+                    .closest(from, dir, spot.patch)
+                    .is_some_and(|hit| self.patches.normal[hit.patch as usize].dot(dir) >= 0.0)
+            })
+            .count();
+        backs as f64 / (side * side) as f64
+    }
+
+    /// The harmonic mean distance of `rays` stratified cosine-weighted rays' hits from `spot`
+    /// (∞ where all leave the scene; backs count): Ward's R ([`super::cache`]), unshaded.
+    pub(super) fn harmonic_distance(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> f64 {
+        let frame = Frame::of(spot.n);
+        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
+        let from = spot.x + self.lift * spot.n;
+        let inverse: f64 = (0..side * side)
+            .map(|k| {
+                let dir = frame.in_stratum(k, side, rng);
+                self.surfaces
+                    .closest(from, dir, spot.patch)
+                    .map_or(0.0, |hit| 1.0 / hit.t)
+            })
+            .sum();
+        (side * side) as f64 / inverse
+    }
+}
+
+/// Which emitters' Le a hemisphere's rays leave out, as the point's direct term counts it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Count {
+    /// The point's exact emitters and those its other-light rays sample
+    /// ([`Gatherer::sampled`]): the rays bring the rest's Le.
+    Rule,
+    /// Every emitter's: the rays bring only reflected light (a cache record's, whose value
+    /// is read at other points with other direct terms: [`super::cache`]).
+    All,
 }
 
 /// What one hemisphere ray brings ([`Gatherer::along`]).

@@ -45,6 +45,7 @@ use crate::visibility::NONE;
 use sites::Spot;
 use trace::Surfaces;
 
+pub mod cache;
 mod direct;
 mod indirect;
 pub mod local_fit;
@@ -52,6 +53,7 @@ pub mod refine;
 mod sites;
 mod trace;
 
+pub use cache::{Cache, CacheStats};
 pub use direct::{
     EXACT_EMITTER_COST, MAX_EXACT_EMITTERS, MAX_WEIGHED_EMITTERS, OTHER_LIGHT_SAMPLES,
     SAMPLED_SPREAD,
@@ -67,7 +69,7 @@ pub use sites::{NUDGE, NUDGE_MAX};
 #[serde(rename_all = "kebab-case")]
 pub enum Gather {
     /// `full` when the output has at most [`FULL_GATHER_MAX_VERTICES`] vertices (or the
-    /// hemisphere rays per vertex are given), else `none` ([`Gather::resolve`]).
+    /// hemisphere rays per vertex are given), else `cache` ([`Gather::resolve`]).
     Auto,
     /// Vertex colours are the area-weighted mean of the patches around each vertex.
     None,
@@ -75,11 +77,21 @@ pub enum Gather {
     Direct,
     /// Direct light exactly and indirect light gathered by hemisphere rays at each vertex.
     Full,
+    /// Direct light exactly at each vertex; indirect light gathered at some vertices, where
+    /// nearby surfaces make it vary, and interpolated between them (irradiance caching:
+    /// [`cache`]).
+    Cache,
 }
 
 impl Choice for Gather {
     const SETTING: &'static str = "gather";
-    const ALL: &'static [Gather] = &[Gather::Auto, Gather::None, Gather::Direct, Gather::Full];
+    const ALL: &'static [Gather] = &[
+        Gather::Auto,
+        Gather::None,
+        Gather::Direct,
+        Gather::Full,
+        Gather::Cache,
+    ];
 
     fn name(self) -> &'static str {
         match self {
@@ -87,20 +99,22 @@ impl Choice for Gather {
             Gather::None => "none",
             Gather::Direct => "direct",
             Gather::Full => "full",
+            Gather::Cache => "cache",
         }
     }
 
     fn description(self) -> &'static str {
         match self {
-            Gather::Auto => {
-                "full up to 62,500 output vertices, none beyond (the patches are then finer than \
-                 the gather's noise)"
-            }
+            Gather::Auto => "full up to 62,500 output vertices, cache beyond",
             Gather::None => "vertex colours are the mean of the patches around each vertex",
             Gather::Direct => {
                 "direct light computed exactly at each vertex, indirect from the patches"
             }
             Gather::Full => "direct light exactly and indirect by hemisphere rays at each vertex",
+            Gather::Cache => {
+                "direct light exactly at each vertex, indirect gathered where nearby surfaces make \
+                 it vary and interpolated between (irradiance caching)"
+            }
         }
     }
 }
@@ -127,25 +141,22 @@ pub fn auto_rays(vertices: usize) -> usize {
 /// The fewest hemisphere rays a vertex gets when their number is not given.
 pub const MIN_AUTO_RAYS: usize = 64;
 
-/// `auto` gathers (`full`) at most this many output vertices: as many as
-/// [`AUTO_RAY_BUDGET`] gives [`MIN_AUTO_RAYS`] rays each. An output with more vertices comes
-/// from patches fine enough that their own radiance, averaged to the vertices, shows more
-/// truly than a gather of so few rays a vertex (whose noise is then the larger error), and the
-/// gather's cost would grow with the vertices past its budget. The Cornell box baked
-/// hierarchically at ε = 3e-7, well past this limit (BENCHMARKS.md "Hierarchical
-/// radiosity"), shows it against the point-wise benchmark's probes: without a gather it
-/// displays as well as with `direct` and better than with `full` at [`MIN_AUTO_RAYS`] rays,
-/// in a fraction of either's time.
+/// `auto` gathers every vertex (`full`) up to this many output vertices: as many as
+/// [`AUTO_RAY_BUDGET`] gives [`MIN_AUTO_RAYS`] rays each. Past it, a gather at every vertex
+/// would either cost more than its budget or give each vertex fewer rays than its noise
+/// allows, so `auto` takes the `cache` gather ([`cache`]): the direct light still at every
+/// vertex, the indirect light gathered with more rays at the vertices where it varies and
+/// interpolated between.
 pub const FULL_GATHER_MAX_VERTICES: usize = AUTO_RAY_BUDGET / MIN_AUTO_RAYS;
 
 impl Gather {
     /// The gather that runs for an output of `vertices` vertices: `auto` becomes `full` when
     /// there are at most [`FULL_GATHER_MAX_VERTICES`] or `rays_given` (the hemisphere rays per
-    /// vertex were chosen), else `none`; the other modes stay what they are.
+    /// vertex were chosen), else `cache`; the other modes stay what they are.
     pub fn resolve(self, vertices: usize, rays_given: bool) -> Gather {
         match self {
             Gather::Auto if rays_given || vertices <= FULL_GATHER_MAX_VERTICES => Gather::Full,
-            Gather::Auto => Gather::None,
+            Gather::Auto => Gather::Cache,
             mode => mode,
         }
     }
@@ -186,6 +197,12 @@ pub struct Gatherer<'a> {
     /// The lights outside the mesh ([`crate::light::outside`]): the sun and the point lights are
     /// part of the direct term, the sky comes through the hemisphere rays that leave the scene.
     env: Environment,
+    /// The gather is `cache` ([`Gatherer::with_cache`]).
+    cache: bool,
+    /// For the `cache` gather in a scene of more than [`MAX_WEIGHED_EMITTERS`] emitters: the
+    /// emitters by the sphere within which they are not sampled ([`SAMPLED_SPREAD`]), so a
+    /// point finds the ones left to its rays without visiting them all.
+    unsampled: Option<cache::Index>,
 }
 
 impl<'a> Gatherer<'a> {
@@ -231,7 +248,27 @@ impl<'a> Gatherer<'a> {
             seed,
             edge_rays: EDGE_RAYS,
             env: env.clone(),
+            cache: false,
+            unsampled: None,
         }
+    }
+
+    /// Whether the gather is `cache` ([`cache`]): in a scene of more than
+    /// [`MAX_WEIGHED_EMITTERS`] emitters, the emitters are then indexed by where they are left
+    /// to the hemisphere rays, for [`Gatherer::uncounted_emission`].
+    pub fn with_cache(mut self, yes: bool) -> Self {
+        self.cache = yes;
+        if yes && self.emitters.len() > MAX_WEIGHED_EMITTERS {
+            let reach = |e: &Emitter| e.radius / SAMPLED_SPREAD;
+            let top = self.emitters.iter().map(reach).fold(0.0, f64::max);
+            let finest = self.emitters.iter().map(reach).fold(top, f64::min);
+            let mut index = cache::Index::new(top, finest.max(top * 1e-6));
+            for (k, e) in self.emitters.iter().enumerate() {
+                index.insert(k as u32, e.centre, reach(e));
+            }
+            self.unsampled = Some(index);
+        }
+        self
     }
 
     /// The share of more rays a hemisphere casts beside edges of its incident light, ≥ 0
@@ -357,21 +394,32 @@ impl Gatherer<'_> {
 }
 
 /// Recomputes the radiance of the output vertices `sites` (from [`crate::bake::bake_sites`])
-/// by the final gather `mode`, with `rays` hemisphere rays for `full`. `baked[v]` is the
-/// bake's value at vertex v (kept for buried vertices; for `direct`, the bake of the indirect
-/// part is recomputed here). Returns what was found at each vertex.
+/// by the final gather `mode`, with `rays` hemisphere rays for `full` (per record for
+/// `cache`, where `None` shares out [`cache::RAY_BUDGET`]). `baked[v]` is the bake's value at vertex v (kept for buried vertices; for
+/// `direct`, the bake of the indirect part is recomputed here). Returns what was found at
+/// each vertex, and for `cache` the records (for the display refinement).
 pub fn gather(
     gatherer: &Gatherer,
     sites: &[Site],
     baked: &[Rgb],
     mode: Gather,
     rays: usize,
+    cache_rays: Option<usize>,
     visible_fraction: &[f64],
-) -> Vec<Gathered> {
+) -> (Vec<Gathered>, Option<Cache>) {
     let p = gatherer.patches;
     debug_assert!(mode != Gather::Auto, "resolved before: Gather::resolve");
-    if mode == Gather::None {
-        return baked.iter().map(|&l| Gathered::buried(l)).collect();
+    debug_assert!(
+        gatherer.cache == (mode == Gather::Cache),
+        "Gatherer::with_cache"
+    );
+    match mode {
+        Gather::None => return (baked.iter().map(|&l| Gathered::buried(l)).collect(), None),
+        Gather::Cache => {
+            let (values, cache) = cached(gatherer, sites, baked, cache_rays, visible_fraction);
+            return (values, Some(cache));
+        }
+        _ => {}
     }
     // `direct`: each patch's indirect part, L − Le − ρ·D, to be averaged like the bake.
     let indirect_part: Vec<Rgb> = if mode == Gather::Direct {
@@ -387,7 +435,7 @@ pub fn gather(
     } else {
         Vec::new()
     };
-    sites
+    let values = sites
         .par_iter()
         .enumerate()
         .map(|(v, site)| {
@@ -412,7 +460,48 @@ pub fn gather(
             });
             gatherer.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect)
         })
-        .collect()
+        .collect();
+    (values, None)
+}
+
+/// The `cache` gather ([`cache`]): each vertex's exact direct light and the Le its own rays
+/// must bring, and the records' reflected light interpolated.
+fn cached(
+    gatherer: &Gatherer,
+    sites: &[Site],
+    baked: &[Rgb],
+    rays: Option<usize>,
+    visible_fraction: &[f64],
+) -> (Vec<Gathered>, Cache) {
+    let spots: Vec<Option<Spot>> = sites
+        .par_iter()
+        .map(|site| gatherer.spot(site, visible_fraction))
+        .collect();
+    // The area each vertex shows: a third of its patches' (scene units²).
+    let areas: Vec<f64> = sites
+        .iter()
+        .map(|site| {
+            let a: f64 = site
+                .patches
+                .iter()
+                .map(|&q| gatherer.patches.area[q as usize])
+                .sum();
+            a / 3.0
+        })
+        .collect();
+    let (indirect, cache) = gatherer.cached_indirect(&spots, &areas, rays);
+    let values = spots
+        .par_iter()
+        .zip(indirect)
+        .enumerate()
+        .map(|(v, (spot, reflected))| {
+            let (Some(spot), Some(reflected)) = (spot, reflected) else {
+                return Gathered::buried(baked[v]);
+            };
+            gatherer.cached_vertex(spot, reflected, &mut gatherer.vertex_rng(v))
+        })
+        .collect();
+    (values, cache)
 }
 
 #[cfg(test)]

@@ -57,7 +57,7 @@ use std::collections::{HashMap, HashSet};
 use rayon::prelude::*;
 
 use super::local_fit::{self, Midpoint};
-use super::{Gather, Gathered, Gatherer};
+use super::{Cache, Gather, Gathered, Gatherer};
 use crate::bake::{BakedMesh, Site};
 use crate::color::{luminance, Rgb};
 use crate::light::emitter::{GATHER_MAX_SHADOW_RAYS, MIDPOINT_SHADOW_RAYS};
@@ -174,6 +174,7 @@ pub fn refine(
     sites: Vec<Site>,
     values: Vec<Gathered>,
     plan: &Plan,
+    cache: Option<&Cache>,
     visible_fraction: &[f64],
 ) -> Refined {
     let mut done = Refined::default();
@@ -273,14 +274,20 @@ pub fn refine(
                     }
                     let direct =
                         (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference;
-                    if mode != Gather::Full {
+                    if !matches!(mode, Gather::Full | Gather::Cache) {
                         return direct;
                     }
-                    // The indirect light at the midpoint, by a few rays: its departure from
-                    // the ends' mean beyond SIGNIFICANCE standard errors (a dark middle
-                    // between bright ends: above a table leg's top, 5 mm under the table).
-                    let (im, error, backs) =
-                        gatherer.reflected_indirect(&spot, &exact, TEST_RAYS, &mut rng);
+                    // The indirect light at the midpoint, by a few rays (or the `cache`
+                    // gather's records where they serve it): its departure from the ends'
+                    // mean beyond SIGNIFICANCE standard errors (a dark middle between bright
+                    // ends: above a table leg's top, 5 mm under the table).
+                    let (im, error, backs) = match cache.and_then(|c| c.at(spot.x, spot.n)) {
+                        Some(reflected) => {
+                            let g = gatherer.cached_vertex(&spot, reflected, &mut rng);
+                            (g.indirect, 0.0, gatherer.backs(&spot, TEST_RAYS, &mut rng))
+                        }
+                        None => gatherer.reflected_indirect(&spot, &exact, TEST_RAYS, &mut rng),
+                    };
                     if backs > ENCLOSED {
                         // Walled in by the backs of surfaces: nobody sees it (see ENCLOSED).
                         found = None;
@@ -380,7 +387,11 @@ pub fn refine(
                         // far brighter than its ends' mean) or where the ends count different
                         // emitters' Le in it (many lights). The budget pays for it: it
                         // counts each new vertex at the gather's full rays.
-                        if mode == Gather::Full {
+                        let cached = cache.and_then(|c| c.at(spot.x, spot.n));
+                        if let Some(reflected) = cached {
+                            // `cache`: the records' light where they serve the new vertex.
+                            gatherer.cached_vertex(&spot, reflected, &mut rng)
+                        } else if matches!(mode, Gather::Full | Gather::Cache) {
                             gatherer.full(&spot, rays, &mut rng)
                         } else {
                             let (direct, penumbra, exact) =

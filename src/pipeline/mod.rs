@@ -430,16 +430,20 @@ fn bake_stage(
             settings.form_factors.seed,
         )
         // The nudge bound needs the display refinement to follow the light beside a contact.
-        .with_contact_edges(report.contacts.is_some() && settings.gather_tolerance > 0.0);
+        .with_contact_edges(report.contacts.is_some() && settings.gather_tolerance > 0.0)
+        .with_cache(mode == Gather::Cache);
+        // A display refinement vertex of the `cache` gather gathers in full, with the rays a
+        // `full` gather of the output would give each vertex.
         let rays = settings
             .gather_rays
             .map_or_else(|| gather::auto_rays(sites.len()), |r| r as usize);
-        let values = gather::gather(
+        let (values, cache) = gather::gather(
             &gatherer,
             &sites,
             &baked.vertex_radiance,
             mode,
             rays,
+            settings.gather_rays.map(|r| r as usize),
             visible_fraction,
         );
         let plan = gather::Plan {
@@ -454,12 +458,17 @@ fn bake_stage(
             sites,
             values,
             &plan,
+            cache.as_ref(),
             visible_fraction,
         );
         report.vertices = baked.positions.len();
         report.display_refinement = refined;
+        report.gather_cache = cache.map(|c| c.stats);
         report.seconds.gather = t.elapsed().as_secs_f64();
     }
+    // Values of rounding size below 0 (a fit's or a mean's sums that are 0 in exact
+    // arithmetic) are shown as 0, not taken for a broken bake.
+    baked.clamp_rounding();
     baked
 }
 

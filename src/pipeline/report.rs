@@ -79,6 +79,8 @@ pub struct Report {
     pub gather: crate::gather::Gather,
     /// What the display refinement after the final gather did ([`mod@crate::gather::refine`]).
     pub display_refinement: crate::gather::Refined,
+    /// What the `cache` gather did (records gathered, vertices interpolated), if it ran.
+    pub gather_cache: Option<crate::gather::CacheStats>,
     /// Matrix or hierarchical.
     pub method: super::Method,
     /// The hierarchical solver's settings (`method = hierarchical`).
@@ -165,6 +167,7 @@ impl Report {
             vertices: 0,
             gather: crate::gather::Gather::None,
             display_refinement: crate::gather::Refined::default(),
+            gather_cache: None,
             method: settings.method,
             hierarchical_settings: (settings.method == super::Method::Hierarchical)
                 .then_some(settings.hierarchical),

@@ -318,12 +318,14 @@ fn finish<const C: usize>(
     grey: bool,
     settings: &Settings,
 ) -> Solution {
+    let mut radiance: Vec<Rgb> = run.radiance.into_iter().map(widen).collect();
+    crate::bake::clamp_rounding(&mut radiance);
     Solution {
         omega: match settings.method {
             Method::GaussSeidel => settings.omega.unwrap_or(1.0),
             _ => 1.0,
         },
-        radiance: run.radiance.into_iter().map(widen).collect(),
+        radiance,
         iterations: run.iterations,
         residual: run.residual,
         residual_history: run.residual_history,

@@ -1,0 +1,418 @@
+//! The `cache` gather: the indirect light gathered at some output vertices (the records) and
+//! interpolated at the others, so that a gather of 10⁵–10⁶ vertices costs a bounded number of
+//! hemispheres while every vertex keeps its own exact direct light. Irradiance caching (Ward,
+//! Rubinstein & Clear, "A ray tracing solution for diffuse interreflection", SIGGRAPH 1988):
+//!
+//! - A record at x_i keeps I_i = ∫_Ω (L − Le)(h(x_i, ω)) cosθ/π dω (the solution's reflected
+//!   light, and the sky, arriving there: every emitter's Le is left to the points' direct
+//!   terms, [`Count::All`]) and R_i, the harmonic mean distance of its rays' hits, clamped to
+//!   [[`MIN_RADIUS`], [`MAX_RADIUS`]] × the scene's extent.
+//! - Ward's error estimate of using record i at x (normal n) is
+//!   ε_i(x) = |x − x_i| / R_i + √(1 − n·n_i): the indirect light changes on the scale of the
+//!   distance to the surfaces that shape it, and with the normal. A record serves x where
+//!   ε_i < a ([`ACCURACY`]) and x is not behind it; the value at x is the weighted mean of the
+//!   records that serve it, with weights 1/ε_i − 1/a (Ward's 1/ε, brought to 0 at the edge of
+//!   the record's reach so that the interpolant is continuous).
+//! - Records are placed coarse to fine, the same for any thread count: at each level, among
+//!   the vertices no record serves, the lowest-numbered one in each cell of a grid (and each of
+//!   six normal directions) becomes a record; the cells halve from the largest reach to the
+//!   smallest, then every vertex still unserved becomes one. Where surfaces are near (under a
+//!   desk, along a wall's foot, between chair legs) R_i is small and the records dense; on an
+//!   open wall they are metres apart.
+//!
+//! A vertex shows Le + ρ·(D + E + I): D its exact direct term, E the Le of the emitters its
+//! direct term leaves to hemisphere rays (large and near: [`super::SAMPLED_SPREAD`]), by a few
+//! rays of its own that read only emission ([`Gatherer::uncounted_emission`]; none where there
+//! is no such emitter, as in most rooms lit by lamps), and I the records' interpolated value.
+//! (Counting those emitters in D instead, by their visible pieces or shadow rays, was tried: in
+//! the furnace it shows a bias of +0.2 % where the boxes hide parts of the walls.)
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::indirect::Count;
+use super::sites::Spot;
+use super::{Gathered, Gatherer, NEAR_DEPTH};
+use crate::color::Rgb;
+use crate::light::emitter::GATHER_MAX_SHADOW_RAYS;
+use crate::sampling::Rng;
+
+/// Ward's a: a record serves a point while its error estimate ε = d/R + √(1 − n·nᵢ) stays under
+/// this. Ward suggests 0.1–0.3 for a picture; the smaller, the more records (∝ a⁻²).
+pub const ACCURACY: f64 = 0.2;
+
+/// Hemisphere rays of all the records when their number per record is not given: the `full`
+/// gather's ([`super::AUTO_RAY_BUDGET`]), shared out ∝ √(the area each record shows), at least
+/// [`MIN_RECORD_RAYS`] and at most [`MAX_RECORD_RAYS`] each.
+pub const RAY_BUDGET: usize = super::AUTO_RAY_BUDGET;
+
+/// The fewest hemisphere rays of a record (a chair leg's vertex, which shows little area).
+pub const MIN_RECORD_RAYS: usize = 9;
+
+/// The most hemisphere rays of a record (an open wall's, shown over square metres).
+pub const MAX_RECORD_RAYS: usize = 1024;
+
+/// Rays that measure a candidate record's R before it is placed (unshaded: hit distances
+/// only).
+pub const PROBE_RAYS: usize = 16;
+
+/// Rays at each vertex for the Le of the emitters its direct term leaves to rays
+/// ([`Gatherer::uncounted_emission`]; none are cast where there is none). Unshaded (the
+/// first hit's emission only), so cheap next to the direct term; the stratified estimate of a
+/// large wall's share errs as rays^-0.75 (its outline's strata), so 256 rays bring the
+/// furnace's per-vertex noise under 2e-3 where 64 left 5e-3.
+pub const EMISSION_RAYS: usize = 256;
+
+/// R is clamped to at least this fraction of the scene's extent: in a corner it tends to 0, and
+/// records would crowd without end.
+pub const MIN_RADIUS: f64 = 5e-4;
+
+/// R is clamped to at most this fraction of the scene's extent: a point far from every surface
+/// (or under an open sky, whose rays count as infinitely far) still gets records at most
+/// a twentieth of the scene apart (a · this).
+pub const MAX_RADIUS: f64 = 0.25;
+
+/// A record at xᵢ does not serve a point x in front of it by more than this share of their
+/// distance ((x − xᵢ)·(n + nᵢ)/2 < −FRONT·|x − xᵢ|: Ward's test against a record on the far
+/// side of a step, seeing a different light).
+const FRONT: f64 = 0.1;
+
+/// What the cache did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct CacheStats {
+    /// Records gathered (each [`RECORD_RAYS`] hemisphere rays unless the rays are given).
+    pub records: usize,
+    /// Vertices interpolated from the records.
+    pub interpolated: usize,
+    /// Placement levels run.
+    pub levels: usize,
+    /// Hemisphere rays of all the records (before the rays beside edges).
+    pub record_rays: usize,
+}
+
+/// One record: where, its normal and R (scene units).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Record {
+    x: DVec3,
+    n: DVec3,
+    r: f64,
+}
+
+impl Record {
+    /// Ward's weight of this record at (x, n), 1/ε − 1/a, or `None` where it does not serve.
+    fn weight(&self, x: DVec3, n: DVec3) -> Option<f64> {
+        let d = x - self.x;
+        let dist = d.length();
+        let cos = n.dot(self.n);
+        let e = dist / self.r + (1.0 - cos).max(0.0).sqrt();
+        if e >= ACCURACY || d.dot(n + self.n) * 0.5 < -FRONT * dist {
+            return None;
+        }
+        Some(1.0 / e.max(1e-12) - 1.0 / ACCURACY)
+    }
+
+    /// How far from xᵢ it can serve (ε < a with equal normals).
+    fn reach(&self) -> f64 {
+        ACCURACY * self.r
+    }
+}
+
+/// The records with their values, for the display refinement's new vertices and tests
+/// ([`Cache::at`]), and what placing them did.
+pub struct Cache {
+    records: Vec<Record>,
+    /// Each record's reflected light (radiance units, before the receiver's ρ).
+    values: Vec<Rgb>,
+    index: Index,
+    pub stats: CacheStats,
+}
+
+impl Cache {
+    /// The records' reflected light interpolated at (x, n), or `None` where no record serves.
+    pub(super) fn at(&self, x: DVec3, n: DVec3) -> Option<Rgb> {
+        let (mut sum, mut total) = ([0.0; 3], 0.0);
+        self.index.near(x, |k| {
+            if let Some(w) = self.records[k as usize].weight(x, n) {
+                total += w;
+                for (a, b) in sum.iter_mut().zip(self.values[k as usize]) {
+                    *a += w * b;
+                }
+            }
+        });
+        (total > 0.0).then(|| sum.map(|a| a / total))
+    }
+}
+
+/// Spheres by centre (the records by their reach, the emitters by the reach within which they
+/// are not sampled): a hash grid per level of cell size `top / 2^level`, each sphere in the
+/// cell of its centre at the finest level whose cells are at least its radius, so every
+/// sphere that contains a point lies in one of the 27 cells around it at the sphere's level.
+pub(super) struct Index {
+    top: f64,
+    levels: Vec<HashMap<[i64; 3], Vec<u32>, BuildHasherDefault<CellHasher>>>,
+}
+
+impl Index {
+    pub(super) fn new(top: f64, finest: f64) -> Index {
+        let count = ((top / finest).log2().ceil().max(0.0) as usize) + 1;
+        Index {
+            top,
+            levels: (0..count).map(|_| HashMap::default()).collect(),
+        }
+    }
+
+    fn cell(&self, level: usize, x: DVec3) -> [i64; 3] {
+        let size = self.top / (1u64 << level) as f64;
+        (x / size).floor().as_i64vec3().to_array()
+    }
+
+    /// Adds sphere `k`: centre `x`, radius `reach` (at most `top`; smaller than the finest
+    /// cell counts as the finest).
+    pub(super) fn insert(&mut self, k: u32, x: DVec3, reach: f64) {
+        debug_assert!(reach <= self.top * (1.0 + 1e-9));
+        let level =
+            ((self.top / reach).log2().floor().max(0.0) as usize).min(self.levels.len() - 1);
+        let cell = self.cell(level, x);
+        self.levels[level].entry(cell).or_default().push(k);
+    }
+
+    /// Calls `f` with every sphere that may contain `x` (and some that do not).
+    pub(super) fn near(&self, x: DVec3, mut f: impl FnMut(u32)) {
+        for (level, grid) in self.levels.iter().enumerate() {
+            if grid.is_empty() {
+                continue;
+            }
+            let [i, j, k] = self.cell(level, x);
+            for di in -1..=1 {
+                for dj in -1..=1 {
+                    for dk in -1..=1 {
+                        if let Some(list) = grid.get(&[i + di, j + dj, k + dk]) {
+                            list.iter().for_each(|&r| f(r));
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// FxHash's multiply-rotate over the cell's three coordinates: the grid's keys are small
+/// integers, and SipHash would cost more than the lookups it serves.
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+    fn write_i64(&mut self, i: i64) {
+        self.write_u64(i as u64);
+    }
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    fn write_usize(&mut self, i: usize) {
+        self.write_u64(i as u64);
+    }
+}
+
+/// The six normal directions a cell keeps apart (the axis of n's largest component, and its
+/// sign): a desk's top and its underside, a wall's two faces, each get their own records.
+fn normal_bucket(n: DVec3) -> u8 {
+    let a = n.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    2 * axis as u8 + u8::from(n[axis] < 0.0)
+}
+
+impl Gatherer<'_> {
+    /// Ward's R at `spot` (output vertex `v`), without shading: the harmonic mean distance of
+    /// [`PROBE_RAYS`] stratified cosine-weighted rays' hits, clamped to
+    /// [[`MIN_RADIUS`], [`MAX_RADIUS`]] × the scene's extent.
+    fn probe_radius(&self, spot: &Spot, v: usize) -> f64 {
+        let mut rng = Rng::new(&[self.seed(), v as u64, 0x9A_D105]);
+        let extent = self.extent();
+        self.harmonic_distance(spot, PROBE_RAYS, &mut rng)
+            .clamp(MIN_RADIUS * extent, MAX_RADIUS * extent)
+    }
+
+    /// What a `cache` gather shows at `spot`, whose reflected light arriving is `reflected`
+    /// (radiance units, before ρ: from the records): Le + ρ·(D + E + reflected) (see the
+    /// module documentation).
+    pub(super) fn cached_vertex(&self, spot: &Spot, reflected: Rgb, rng: &mut Rng) -> Gathered {
+        let (direct, penumbra, exact) = self.reflected_direct(spot, GATHER_MAX_SHADOW_RAYS, rng);
+        let emitted = self.uncounted_emission(spot, &exact, EMISSION_RAYS, rng);
+
+        let rho = self.patches.reflectance[spot.patch as usize];
+        let indirect = std::array::from_fn(|c| rho[c] * (reflected[c] + emitted[c]));
+        self.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect)
+    }
+
+    /// The reflected light arriving at each gathered point (`spots[v]`, `None` where buried;
+    /// `areas[v]` the area its vertex shows, scene units²): records where needed, interpolated
+    /// elsewhere (see the module documentation), their rays `rays` each if given, else shared
+    /// out of [`RAY_BUDGET`]. Radiance units, before the receiver's ρ; `None` where buried.
+    pub(super) fn cached_indirect(
+        &self,
+        spots: &[Option<Spot>],
+        areas: &[f64],
+        rays: Option<usize>,
+    ) -> (Vec<Option<Rgb>>, Cache) {
+        let extent = self.extent();
+        let (top, finest) = (
+            ACCURACY * MAX_RADIUS * extent,
+            ACCURACY * MIN_RADIUS * extent,
+        );
+        let mut index = Index::new(top, finest);
+        // The records' vertices and shapes (value still 0).
+        let mut records: Vec<(usize, Record)> = Vec::new();
+        let mut own: Vec<Option<u32>> = vec![None; spots.len()];
+        let mut unserved: Vec<usize> = (0..spots.len()).filter(|&v| spots[v].is_some()).collect();
+        let mut stats = CacheStats::default();
+        let spot = |v: usize| {
+            spots[v]
+                .as_ref()
+                .expect("only gathered vertices are placed")
+        };
+        let levels = index.levels.len();
+        for level in 0..=levels {
+            if unserved.is_empty() {
+                break;
+            }
+            stats.levels += 1;
+            // The lowest-numbered unserved vertex of each cell and normal direction; at the
+            // last level, every unserved vertex.
+            let chosen: Vec<usize> = if level == levels {
+                unserved.clone()
+            } else {
+                let size = top / (1u64 << level) as f64;
+                let mut first: HashMap<([i64; 3], u8), usize, BuildHasherDefault<CellHasher>> =
+                    HashMap::default();
+                for &v in &unserved {
+                    let s = spot(v);
+                    let cell = (s.x / size).floor().as_i64vec3().to_array();
+                    first.entry((cell, normal_bucket(s.n))).or_insert(v);
+                }
+                let mut chosen: Vec<usize> = first.into_values().collect();
+                chosen.sort_unstable();
+                chosen
+            };
+            let radii: Vec<f64> = chosen
+                .par_iter()
+                .map(|&v| self.probe_radius(spot(v), v))
+                .collect();
+            for (&v, r) in chosen.iter().zip(radii) {
+                let k = records.len() as u32;
+                let s = spot(v);
+                let record = Record { x: s.x, n: s.n, r };
+                index.insert(k, record.x, record.reach());
+                records.push((v, record));
+                own[v] = Some(k);
+            }
+            unserved = unserved
+                .into_par_iter()
+                .filter(|&v| {
+                    let s = spot(v);
+                    let mut served = own[v].is_some();
+                    index.near(s.x, |k| {
+                        served = served || records[k as usize].1.weight(s.x, s.n).is_some();
+                    });
+                    !served
+                })
+                .collect();
+        }
+        stats.records = records.len();
+        // Each vertex's records and normalised weights (its own record alone if it is one).
+        let weights: Vec<Vec<(u32, f64)>> = spots
+            .par_iter()
+            .enumerate()
+            .map(|(v, s)| {
+                let Some(s) = s else { return Vec::new() };
+                if let Some(k) = own[v] {
+                    return vec![(k, 1.0)];
+                }
+                let mut list = Vec::new();
+                index.near(s.x, |k| {
+                    if let Some(w) = records[k as usize].1.weight(s.x, s.n) {
+                        list.push((k, w));
+                    }
+                });
+                let total: f64 = list.iter().map(|&(_, w)| w).sum();
+                debug_assert!(total > 0.0, "every gathered vertex is served");
+                list.iter_mut().for_each(|(_, w)| *w /= total);
+                list
+            })
+            .collect();
+        // The area each record shows, and its rays: ∝ √area out of the budget (the area-
+        // weighted squared error Σ A σ²/n is least for n ∝ √A at a fixed Σ n).
+        let mut shown = vec![0.0; records.len()];
+        for (list, &a) in weights.iter().zip(areas) {
+            for &(k, w) in list {
+                shown[k as usize] += w * a;
+            }
+        }
+        let total: f64 = shown.iter().map(|a| a.sqrt()).sum();
+        let rays_of = |k: usize| {
+            rays.unwrap_or_else(|| {
+                let share = RAY_BUDGET as f64 * shown[k].sqrt() / total.max(f64::MIN_POSITIVE);
+                (share.round() as usize).clamp(MIN_RECORD_RAYS, MAX_RECORD_RAYS)
+            })
+        };
+        let values: Vec<Rgb> = records
+            .par_iter()
+            .enumerate()
+            .map(|(k, (v, record))| {
+                let mut rng = Rng::new(&[self.seed(), *v as u64, 0xCAC4E]);
+                let s = spot(*v);
+                self.hemisphere(
+                    record.x,
+                    record.n,
+                    s.patch,
+                    (&[], Count::All),
+                    rays_of(k),
+                    NEAR_DEPTH,
+                    &mut rng,
+                )
+                .radiance
+            })
+            .collect();
+        stats.record_rays = (0..records.len()).map(rays_of).sum();
+
+        let out: Vec<Option<Rgb>> = spots
+            .iter()
+            .zip(&weights)
+            .map(|(s, list)| {
+                s.as_ref()?;
+                let mut sum = [0.0; 3];
+                for &(k, w) in list {
+                    for (a, b) in sum.iter_mut().zip(values[k as usize]) {
+                        *a += w * b;
+                    }
+                }
+                Some(sum)
+            })
+            .collect();
+        stats.interpolated = out.iter().flatten().count() - stats.records;
+        let cache = Cache {
+            records: records.into_iter().map(|(_, r)| r).collect(),
+            values,
+            index,
+            stats,
+        };
+        (out, cache)
+    }
+}

@@ -1,0 +1,37 @@
+//! Scores baked PLY files against a probe file of the point-wise benchmark: what a viewer of
+//! each bake sees (vertex colours interpolated), at the probes, against their path-traced
+//! radiance. `cargo run --release -p radiosity-tools --example score -- PROBES.csv BAKE.ply…`
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use radiosity::io::ply;
+use radiosity::validation::pointwise::{self, Display};
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (probes, bakes) = args
+        .split_first()
+        .context("usage: score PROBES.csv BAKE.ply…")?;
+    let probes = pointwise::read_csv(Path::new(probes))?;
+    println!("| bake | scored | RMS | median | 90th pct | bias |\n|---|---|---|---|---|---|");
+    for bake in bakes {
+        let path = Path::new(bake);
+        let display = Display::from_read_back(&ply::read(path)?, path)?;
+        let shown: Vec<_> = display
+            .at(&probes)
+            .iter()
+            .map(|s| s.map(|s| s.interpolated))
+            .collect();
+        let s = pointwise::score(&probes, &shown);
+        println!(
+            "| {bake} | {} | {:.2} % | {:.2} % | {:.2} % | {:+.2} % |",
+            s.scored,
+            100.0 * s.rms,
+            100.0 * s.median,
+            100.0 * s.p90,
+            100.0 * s.bias
+        );
+    }
+    Ok(())
+}
