@@ -371,10 +371,8 @@ fn gather_mode(scene: &Scene, settings: &Settings, vertices: usize) -> Gather {
 /// The hierarchical solution's output patches cut along the scene's contact lines
 /// ([`mesh::split_patches`]): the pieces with their leaves' radiance and visible fractions,
 /// and what the cut did; `None` unless `discontinuities = auto`, the scene has contacts and
-/// the gather runs on the cut output (an `auto` gather stops at
-/// [`gather::FULL_GATHER_MAX_VERTICES`]: a cut that would take the output past it is
-/// dropped, as its pieces would only show their leaves' values, and the gather's work stays
-/// bounded as without the cut).
+/// a gather runs on the cut output (its pieces would otherwise only show their leaves'
+/// values).
 fn display_contacts(
     scene: &Scene,
     patches: &Patches,
