@@ -19,6 +19,7 @@
 use glam::DVec3;
 
 use super::sites::Spot;
+use super::trace::PatchHit;
 use super::Gatherer;
 use crate::color::{luminance, Rgb};
 use crate::light::emitter::NEAR_HIT_SHADOW_RAYS;
@@ -382,15 +383,9 @@ impl Gatherer<'_> {
         if !self.leaves_emitters_to_rays(spot.x, exact) {
             return [0.0; 3];
         }
-        let frame = Frame::of(spot.n);
-        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
         let mut sum = [0.0; 3];
-        let from = spot.x + self.lift * spot.n;
-        for k in 0..side * side {
-            let dir = frame.in_stratum(k, side, rng);
-            let Some(hit) = self.surfaces.closest(from, dir, spot.patch) else {
-                continue;
-            };
+        let count = self.first_hits(spot, rays, rng, |dir, hit| {
+            let Some(hit) = hit else { return };
             let h = hit.patch as usize;
             let e = self.emitter_of[self.patches.source_triangle[h] as usize];
             if e == NONE
@@ -398,50 +393,58 @@ impl Gatherer<'_> {
                 || exact.binary_search(&e).is_ok()
                 || self.sampled(&self.emitters[e as usize], spot.x)
             {
-                continue;
+                return;
             }
             for (s, l) in sum.iter_mut().zip(self.patches.emission[h]) {
                 *s += l;
             }
-        }
-        sum.map(|s| s / (side * side) as f64)
+        });
+        sum.map(|s| s / count as f64)
     }
 }
 
 impl Gatherer<'_> {
+    /// Casts √rays × √rays stratified cosine-weighted rays from `spot` (unshaded) and calls
+    /// `f` with each direction and its first hit (`None` where it leaves the scene); returns
+    /// how many.
+    fn first_hits(
+        &self,
+        spot: &Spot,
+        rays: usize,
+        rng: &mut Rng,
+        mut f: impl FnMut(DVec3, Option<PatchHit>),
+    ) -> usize {
+        let frame = Frame::of(spot.n);
+        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
+        let from = spot.x + self.lift * spot.n;
+        for k in 0..side * side {
+            let dir = frame.in_stratum(k, side, rng);
+            f(dir, self.surfaces.closest(from, dir, spot.patch));
+        }
+        side * side
+    }
+
     /// The share of `rays` stratified cosine-weighted rays from `spot` that meet the back of a
     /// surface, unshaded (the display refinement's walled-in test where the `cache` gather
     /// gives a midpoint's light).
     pub(super) fn backs(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> f64 {
-        let frame = Frame::of(spot.n);
-        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
-        let from = spot.x + self.lift * spot.n;
-        let backs = (0..side * side)
-            .filter(|&k| {
-                let dir = frame.in_stratum(k, side, rng);
-                self.surfaces
-                    .closest(from, dir, spot.patch)
-                    .is_some_and(|hit| self.patches.normal[hit.patch as usize].dot(dir) >= 0.0)
-            })
-            .count();
-        backs as f64 / (side * side) as f64
+        let mut backs = 0usize;
+        let count = self.first_hits(spot, rays, rng, |dir, hit| {
+            backs += usize::from(
+                hit.is_some_and(|hit| self.patches.normal[hit.patch as usize].dot(dir) >= 0.0),
+            );
+        });
+        backs as f64 / count as f64
     }
 
     /// The harmonic mean distance of `rays` stratified cosine-weighted rays' hits from `spot`
     /// (∞ where all leave the scene; backs count): Ward's R ([`super::cache`]), unshaded.
     pub(super) fn harmonic_distance(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> f64 {
-        let frame = Frame::of(spot.n);
-        let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
-        let from = spot.x + self.lift * spot.n;
-        let inverse: f64 = (0..side * side)
-            .map(|k| {
-                let dir = frame.in_stratum(k, side, rng);
-                self.surfaces
-                    .closest(from, dir, spot.patch)
-                    .map_or(0.0, |hit| 1.0 / hit.t)
-            })
-            .sum();
-        (side * side) as f64 / inverse
+        let mut inverse = 0.0;
+        let count = self.first_hits(spot, rays, rng, |_, hit| {
+            inverse += hit.map_or(0.0, |hit| 1.0 / hit.t);
+        });
+        count as f64 / inverse
     }
 }
 
