@@ -84,7 +84,7 @@ const FRONT: f64 = 0.1;
 /// What the cache did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct CacheStats {
-    /// Records gathered (each [`RECORD_RAYS`] hemisphere rays unless the rays are given).
+    /// Records gathered (their rays shared out of [`RAY_BUDGET`] unless given).
     pub records: usize,
     /// Vertices interpolated from the records.
     pub interpolated: usize,
@@ -135,16 +135,24 @@ impl Cache {
     /// The records' reflected light interpolated at (x, n), or `None` where no record serves.
     pub(super) fn at(&self, x: DVec3, n: DVec3) -> Option<Rgb> {
         let (mut sum, mut total) = ([0.0; 3], 0.0);
-        self.index.near(x, |k| {
-            if let Some(w) = self.records[k as usize].weight(x, n) {
-                total += w;
-                for (a, b) in sum.iter_mut().zip(self.values[k as usize]) {
-                    *a += w * b;
-                }
+        serving(&self.index, &self.records, x, n, |k, w| {
+            total += w;
+            for (a, b) in sum.iter_mut().zip(self.values[k as usize]) {
+                *a += w * b;
             }
         });
         (total > 0.0).then(|| sum.map(|a| a / total))
     }
+}
+
+/// Calls `f` with each record of `records` (indexed by `index`) that serves (x, n), and its
+/// Ward weight ([`Record::weight`]).
+fn serving(index: &Index, records: &[Record], x: DVec3, n: DVec3, mut f: impl FnMut(u32, f64)) {
+    index.near(x, |k| {
+        if let Some(w) = records[k as usize].weight(x, n) {
+            f(k, w);
+        }
+    });
 }
 
 /// Spheres by centre (the records by their reach, the emitters by the reach within which they
@@ -278,8 +286,9 @@ impl Gatherer<'_> {
             ACCURACY * MIN_RADIUS * extent,
         );
         let mut index = Index::new(top, finest);
-        // The records' vertices and shapes (value still 0).
-        let mut records: Vec<(usize, Record)> = Vec::new();
+        // The records, and the vertex each stands at.
+        let mut records: Vec<Record> = Vec::new();
+        let mut record_vertex: Vec<usize> = Vec::new();
         let mut own: Vec<Option<u32>> = vec![None; spots.len()];
         let mut unserved: Vec<usize> = (0..spots.len()).filter(|&v| spots[v].is_some()).collect();
         let mut stats = CacheStats::default();
@@ -320,7 +329,8 @@ impl Gatherer<'_> {
                 let s = spot(v);
                 let record = Record { x: s.x, n: s.n, r };
                 index.insert(k, record.x, record.reach());
-                records.push((v, record));
+                records.push(record);
+                record_vertex.push(v);
                 own[v] = Some(k);
             }
             unserved = unserved
@@ -328,9 +338,7 @@ impl Gatherer<'_> {
                 .filter(|&v| {
                     let s = spot(v);
                     let mut served = own[v].is_some();
-                    index.near(s.x, |k| {
-                        served = served || records[k as usize].1.weight(s.x, s.n).is_some();
-                    });
+                    serving(&index, &records, s.x, s.n, |_, _| served = true);
                     !served
                 })
                 .collect();
@@ -346,11 +354,7 @@ impl Gatherer<'_> {
                     return vec![(k, 1.0)];
                 }
                 let mut list = Vec::new();
-                index.near(s.x, |k| {
-                    if let Some(w) = records[k as usize].1.weight(s.x, s.n) {
-                        list.push((k, w));
-                    }
-                });
+                serving(&index, &records, s.x, s.n, |k, w| list.push((k, w)));
                 let total: f64 = list.iter().map(|&(_, w)| w).sum();
                 debug_assert!(total > 0.0, "every gathered vertex is served");
                 list.iter_mut().for_each(|(_, w)| *w /= total);
@@ -374,10 +378,11 @@ impl Gatherer<'_> {
         };
         let values: Vec<Rgb> = records
             .par_iter()
+            .zip(&record_vertex)
             .enumerate()
-            .map(|(k, (v, record))| {
-                let mut rng = Rng::new(&[self.seed(), *v as u64, 0xCAC4E]);
-                let s = spot(*v);
+            .map(|(k, (record, &v))| {
+                let mut rng = Rng::new(&[self.seed(), v as u64, 0xCAC4E]);
+                let s = spot(v);
                 self.hemisphere(
                     record.x,
                     record.n,
@@ -408,7 +413,7 @@ impl Gatherer<'_> {
             .collect();
         stats.interpolated = out.iter().flatten().count() - stats.records;
         let cache = Cache {
-            records: records.into_iter().map(|(_, r)| r).collect(),
+            records,
             values,
             index,
             stats,
