@@ -5,7 +5,7 @@
 //!
 //! - A record at x_i keeps I_i = ∫_Ω (L − Le)(h(x_i, ω)) cosθ/π dω (the solution's reflected
 //!   light, and the sky, arriving there: every emitter's Le is left to the points' direct
-//!   terms, [`Count::All`]) and R_i, the harmonic mean distance of its rays' hits, clamped to
+//!   terms, `Count::All`) and R_i, the harmonic mean distance of its rays' hits, clamped to
 //!   [[`MIN_RADIUS`], [`MAX_RADIUS`]] × the scene's extent.
 //! - Ward's error estimate of using record i at x (normal n) is
 //!   ε_i(x) = |x − x_i| / R_i + √(1 − n·n_i): the indirect light changes on the scale of the
@@ -22,7 +22,7 @@
 //!
 //! A vertex shows Le + ρ·(D + E + I): D its exact direct term, E the Le of the emitters its
 //! direct term leaves to hemisphere rays (large and near: [`super::SAMPLED_SPREAD`]), by a few
-//! rays of its own that read only emission ([`Gatherer::uncounted_emission`]; none where there
+//! rays of its own that read only emission (`Gatherer::uncounted_emission`; none where there
 //! is no such emitter, as in most rooms lit by lamps), and I the records' interpolated value.
 //! (Counting those emitters in D instead, by their visible pieces or shadow rays, was tried: in
 //! the furnace it shows a bias of +0.2 % where the boxes hide parts of the walls.)
@@ -61,7 +61,7 @@ pub const MAX_RECORD_RAYS: usize = 1024;
 pub const PROBE_RAYS: usize = 16;
 
 /// Rays at each vertex for the Le of the emitters its direct term leaves to rays
-/// ([`Gatherer::uncounted_emission`]; none are cast where there is none). Unshaded (the
+/// (`Gatherer::uncounted_emission`; none are cast where there is none). Unshaded (the
 /// first hit's emission only), so cheap next to the direct term; the stratified estimate of a
 /// large wall's share errs as rays^-0.75 (its outline's strata), so 256 rays bring the
 /// furnace's per-vertex noise under 2e-3 where 64 left 5e-3.
@@ -122,7 +122,7 @@ impl Record {
 }
 
 /// The records with their values, for the display refinement's new vertices and tests
-/// ([`Cache::at`]), and what placing them did.
+/// (`Cache::at`), and what placing them did.
 pub struct Cache {
     records: Vec<Record>,
     /// Each record's reflected light (radiance units, before the receiver's ρ).

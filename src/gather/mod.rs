@@ -261,7 +261,7 @@ impl<'a> Gatherer<'a> {
 
     /// Whether the gather is `cache` ([`cache`]): in a scene of more than
     /// [`MAX_WEIGHED_EMITTERS`] emitters, the emitters are then indexed by where they are left
-    /// to the hemisphere rays, for [`Gatherer::uncounted_emission`].
+    /// to the hemisphere rays, for `Gatherer::uncounted_emission`.
     pub fn with_cache(mut self, yes: bool) -> Self {
         self.cache = yes;
         if yes && self.emitters.len() > MAX_WEIGHED_EMITTERS {
