@@ -81,12 +81,21 @@ pub fn row(patches: &Patches, vis: &Visibility, i: usize, rays: u32, seed: u64) 
                 // A back face: either light lost through an open scene, or an origin buried
                 // in contact geometry, which must not count as a sample of the patch at all.
                 extra_rays += 1;
-                if vis.buried(origin, patches.normal[i], i as u32) {
+                // A back met within the contact distance: the origin touches that object and
+                // the ray slipped in through the seam (a chair leg's side at the seat).
+                if hit.t <= vis.contact_distance()
+                    || vis.buried(origin, patches.normal[i], i as u32)
+                {
                     buried += 1;
                 } else {
                     escaped += 1;
                 }
             }
+        } else if vis.buried(origin, patches.normal[i], i as u32) {
+            // Nothing ahead: open, unless the origin lies face to face on another surface
+            // (a leg's bottom on the floor), which hides it.
+            extra_rays += 1;
+            buried += 1;
         } else {
             escaped += 1;
         }

@@ -462,8 +462,49 @@ impl Visibility {
     /// a light mounted on it). Such points receive no light and are seen by nobody, so they
     /// must not dilute their patch's radiance (hidden-area elimination: the form factors'
     /// rows, the hierarchy's elements, the environment's patch light, the gather).
+    ///
+    /// A point lying face to face on another surface (a leg's bottom on the floor) is buried
+    /// too ([`Visibility::lies_face_to_face`]): its normal ray starts in the contact, where
+    /// the surface it lies on is closer than any hit can be, and may meet nothing beyond.
     pub fn buried(&self, x: DVec3, n: DVec3, ignore: u32) -> bool {
-        self.first_hit_from_behind(x, n, ignore).unwrap_or(false)
+        self.first_hit_from_behind(x, n, ignore) == Some(true)
+            || self.lies_face_to_face(x, n, ignore)
+    }
+
+    /// [`CONTACT_TIE_REL`] × the largest extent, scene units: surfaces closer than this are in
+    /// contact.
+    pub fn contact_distance(&self) -> f64 {
+        self.min_distance * (CONTACT_TIE_REL / MIN_DISTANCE_REL) / self.scale
+    }
+
+    /// True when another surface passes through the point `x` (within [`CONTACT_TIE_REL`] × the
+    /// extent) facing it: its normal is within 60° of −`n`. A ray leaving such a point along
+    /// `n` starts in the contact and cannot meet that surface (hits closer than
+    /// [`HIT_MIN_DISTANCE_REL`] do not count), so the question is asked with a short segment
+    /// from just in front of `x` back through it. Surfaces meeting `x` edge-on (a wall at the
+    /// floor's edge) or facing the same way (the coplanar neighbour) do not cover it; `ignore`
+    /// and two-sided (twin) triangles are skipped.
+    pub fn lies_face_to_face(&self, x: DVec3, n: DVec3, ignore: u32) -> bool {
+        let delta = self.contact_distance();
+        let Some((ray, _)) = self.direction_ray(x + delta * n, -n, 2.0 * delta) else {
+            return false;
+        };
+        let mut found = false;
+        self.bvh.closest(&ray, |i| {
+            // A twin pair faces both ways: it cannot tell a surface lying on `x` from the
+            // coplanar neighbour of a two-sided `x`, so it never counts.
+            if found || self.twins[i] != NONE || self.ignored(i, [ignore, ignore]) {
+                return None;
+            }
+            ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi)?;
+            let [a, b, c] = self.tris[i].map(|p| p.as_dvec3());
+            if (b - a).cross(c - a).normalize_or_zero().dot(n) < -0.5 {
+                found = true;
+                return Some(ray.t_lo);
+            }
+            None
+        });
+        found
     }
 
     /// Whether the first surface along the ray `origin + t·dir` (other than `ignore` and its

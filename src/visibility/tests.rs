@@ -850,6 +850,40 @@ fn a_back_among_coincident_first_hits_is_seen_from_behind() {
     }
 }
 
+/// A box resting on a floor, and one floating just above it: the resting box's bottom lies
+/// face to face on the floor and is buried, though nothing lies beyond it (its normal ray
+/// meets nothing: `first_hit_from_behind` alone says None); the floor under it is buried too.
+/// Beside the box, on its sides, and under the floating box (a gap of 1e-3, far above the
+/// contact distance) nothing is; nor is a point on the floor's coplanar neighbour, which faces
+/// the same way.
+#[test]
+fn a_face_lying_on_another_is_buried() {
+    let floor = grid_box(dvec3(-5.0, -5.0, -1.0), dvec3(5.0, 5.0, 0.0), 4);
+    let resting = grid_box(dvec3(0.0, 0.0, 0.0), dvec3(1.0, 1.0, 1.0), 2);
+    let floating = grid_box(dvec3(2.0, 2.0, 1e-3), dvec3(3.0, 3.0, 1.0), 2);
+    // The floor slab's top only, so nothing lies under the resting box's bottom.
+    let top: Vec<[DVec3; 3]> = floor
+        .into_iter()
+        .filter(|t| t.iter().all(|p| p.z == 0.0))
+        .collect();
+    let tris: Vec<[DVec3; 3]> = top.iter().chain(&resting).chain(&floating).copied().collect();
+    let vis = Visibility::build(&tris);
+    for (x, y) in [(0.5, 0.5), (0.2, 0.9), (0.99, 0.01)] {
+        let p = dvec3(x, y, 0.0);
+        assert_eq!(vis.first_hit_from_behind(p, -DVec3::Z, NONE), None);
+        assert!(vis.buried(p, -DVec3::Z, NONE), "the box's bottom at ({x}, {y})");
+        assert!(vis.buried(p, DVec3::Z, NONE), "the floor under the box at ({x}, {y})");
+    }
+    for (x, y) in [(1.5, 0.5), (-0.5, -0.5), (4.0, -4.0), (2.5, 2.5)] {
+        let p = dvec3(x, y, 0.0);
+        assert!(!vis.buried(p, DVec3::Z, NONE), "the floor at ({x}, {y})");
+    }
+    assert!(!vis.buried(dvec3(2.5, 2.5, 1e-3), -DVec3::Z, NONE), "floating bottom");
+    assert!(!vis.buried(dvec3(1.0, 0.5, 0.5), DVec3::X, NONE), "the resting box's side");
+    // On the edge between two floor triangles, which face the same way.
+    assert!(!vis.buried(dvec3(-2.5, -2.5, 0.0), DVec3::Z, NONE), "floor seam");
+}
+
 #[test]
 fn overlapping_visits_every_triangle_in_the_box_once() {
     // The oracle: every triangle whose own box meets the query box must be visited, exactly
