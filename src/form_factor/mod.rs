@@ -78,6 +78,26 @@ pub const EXACT_DIRECT_PAIRS: f64 = 2e8;
 /// Probe rays per patch that decide whether a scene is closed ([`compute`]).
 pub const CLOSURE_PROBES: u32 = 64;
 
+/// A row sum Σ_j F_ij past this is named in a warning: no row can pass 1 (the energy leaving
+/// a patch is at most all of it), and the contour estimator's own error reaches 1.0075 on the
+/// Cornell box's rows next to its blocks, so past 1.02 its geometry is broken (faces that
+/// coincide or intersect: a row was measured at 2.1 near intersecting faces).
+pub const ROW_SUM_LIMIT: f64 = 1.02;
+
+/// The largest row sum the estimator's rows are taken at ([`Stats::rows_capped`]). A row
+/// past it is scaled to sum to 1 before the solve (energy conservation; the row
+/// normalisation of Cohen & Wallace §4.11), or with ρ near 1 the solve would create light.
+/// - contour: [`ROW_SUM_LIMIT`], past its own error;
+/// - area: 1.5, past its sampling noise (rows of 1.09 with 4 samples a pair on the Cornell
+///   box), which is not broken geometry and must not be scaled (that would bias it low);
+/// - hemisphere: its rows are fractions of its rays, never past 1.
+pub fn row_sum_limit(estimator: Estimator) -> f64 {
+    match estimator {
+        Estimator::Contour | Estimator::Hemisphere => ROW_SUM_LIMIT,
+        Estimator::Area => 1.5,
+    }
+}
+
 /// Counters of the estimation (reported in `--report`).
 #[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct Stats {
@@ -112,7 +132,11 @@ pub struct Stats {
     pub exact_direct: bool,
     /// Non-zeros of F.
     pub nnz: u64,
-    /// Smallest, mean and largest row sum Σ_j F_ij.
+    /// Rows whose sum passed [`row_sum_limit`] and were scaled to 1.
+    #[serde(default)]
+    pub rows_capped: u64,
+    /// Smallest, mean and largest row sum Σ_j F_ij, as estimated (before the rows past
+    /// [`row_sum_limit`] were scaled to 1).
     pub row_sum_min: f64,
     pub row_sum_mean: f64,
     pub row_sum_max: f64,
@@ -365,6 +389,15 @@ pub fn compute_reusing(
     };
     ff.stats.nnz = ff.matrix.nnz() as u64;
     let sums = ff.row_sums();
+    let limit = row_sum_limit(settings.estimator);
+    let cap: Vec<f64> = sums
+        .iter()
+        .map(|&s| if s > limit { s } else { 1.0 })
+        .collect();
+    ff.stats.rows_capped = cap.iter().filter(|&&f| f != 1.0).count() as u64;
+    if ff.stats.rows_capped > 0 {
+        scale_rows(&mut ff.matrix, &cap);
+    }
     if !sums.is_empty() {
         ff.stats.row_sum_min = sums.iter().copied().fold(f64::INFINITY, f64::min);
         let (worst, max) =

@@ -253,19 +253,6 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
         patches = refined;
     }
     report.patches = patches.len();
-    if !patches.is_empty() && form_factors.stats.nnz > 0 {
-        let worst = report::WorstRow::of(scene, &patches, &form_factors.stats);
-        if worst.sum > report::ROW_SUM_WARNING {
-            let [x, y, z] = worst.centroid;
-            report.warnings.push(format!(
-                "the form factors of patch {} (material '{}', at {x:.4}, {y:.4}, {z:.4}) sum \
-                 to {:.3}: more than 1, so light is created there; coincident or \
-                 intersecting faces near it are the usual cause",
-                worst.patch, worst.material, worst.sum
-            ));
-        }
-        report.worst_row = Some(worst);
-    }
     report.stream_warnings();
 
     let baked = bake_stage(
@@ -487,6 +474,32 @@ fn light_transport(
         FormFactors::empty(patches.len())
     };
     report.form_factors = form_factors.stats.clone();
+    if !patches.is_empty() && form_factors.stats.nnz > 0 {
+        // Said before the solve, once (the first round that finds such a row).
+        let worst = report::WorstRow::of(scene, patches, &form_factors.stats);
+        let said = report
+            .worst_row
+            .as_ref()
+            .is_some_and(|w| w.sum > form_factor::ROW_SUM_LIMIT);
+        if worst.sum > form_factor::ROW_SUM_LIMIT && !said {
+            let [x, y, z] = worst.centroid;
+            let capped = match form_factors.stats.rows_capped {
+                0 => String::new(),
+                n => format!(
+                    ". The {n} rows past {} were scaled to sum to 1",
+                    form_factor::row_sum_limit(settings.form_factors.estimator)
+                ),
+            };
+            report.warnings.push(format!(
+                "the form factors of patch {} (material '{}', at {x:.4}, {y:.4}, {z:.4}) sum \
+                 to {:.3}: more than 1, so light would be created there; coincident or \
+                 intersecting faces near it are the usual cause{capped}",
+                worst.patch, worst.material, worst.sum
+            ));
+            report.stream_warnings();
+        }
+        report.worst_row = Some(worst);
+    }
 
     let t = Instant::now();
     // E = Le + ρ·D_env: the sky's and the sun's direct light at each patch counts as emitted.
@@ -707,7 +720,8 @@ mod tests {
         // A flat open box (1 × 1 × 0.3, its y = 0 side open) lit by its ceiling, with a second
         // floor on the first, split along the other diagonal (so not a duplicate face, and
         // kept): the ceiling sees the floor twice, its rows sum to about 1.5, and the run says
-        // so, naming a ceiling patch. Without the second floor nothing is said.
+        // so before the solve, naming a ceiling patch, and scales those rows to 1. Without the
+        // second floor nothing is said.
         let build = |second_floor: bool| {
             let mut b = crate::scene::SceneBuilder::new();
             let white = b.material("white", [0.5; 3], [0.0; 3]);
@@ -750,9 +764,10 @@ mod tests {
         };
         let r = solve_scene(&build(false), &settings).unwrap().report;
         let worst = r.worst_row.unwrap();
-        assert!(worst.sum <= report::ROW_SUM_WARNING, "{worst:?}");
+        assert!(worst.sum <= form_factor::ROW_SUM_LIMIT, "{worst:?}");
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
-        let r = solve_scene(&build(true), &settings).unwrap().report;
+        let out = solve_scene(&build(true), &settings).unwrap();
+        let r = out.report;
         let worst = r.worst_row.unwrap();
         assert!(worst.sum > 1.3 && worst.material == "light", "{worst:?}");
         assert!((worst.centroid[2] - 0.3).abs() < 1e-12, "on the ceiling");
@@ -762,6 +777,15 @@ mod tests {
             .find(|w| w.contains("form factors of patch"))
             .expect("the row is named");
         assert!(said.contains(&format!("patch {}", worst.patch)), "{said}");
+        // The rows past the limit were scaled to 1 before the solve: no light is created.
+        let capped = r.form_factors.rows_capped;
+        assert!(
+            capped > 0 && said.contains(&format!("The {capped} rows")),
+            "{said}"
+        );
+        let sums = out.form_factors.unwrap().row_sums();
+        let max = sums.iter().copied().fold(0.0, f64::max);
+        assert!(max <= form_factor::ROW_SUM_LIMIT, "largest row sum {max}");
     }
 
     #[test]

@@ -117,10 +117,6 @@ pub struct Report {
     streamed: usize,
 }
 
-/// A form-factor row sums past 1 by more than this before the run warns of it: above the
-/// contour estimator's error on the scenes measured (the Cornell box's largest row, 1.0075).
-pub const ROW_SUM_WARNING: f64 = 1.02;
-
 /// The form-factor row with the largest sum ([`Report::worst_row`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct WorstRow {

@@ -100,6 +100,12 @@ const BOX_PAD: f32 = 1.0 / 64.0;
 /// rounding of the canonical frame (~3e-8 of the extent).
 pub const CONTACT_TIE_REL: f64 = 1e-6;
 
+/// A triangle whose doubled area is below this fraction of its longest edge squared (about
+/// the sine of its smallest angle) is a sliver: [`Visibility::lies_face_to_face`] does not
+/// trust its orientation. Far above the f32 rounding of the canonical corners (~3e-8 of the
+/// extent relative to edges of 1e-3 of it and longer).
+const SLIVER_SINE: f64 = 1e-3;
+
 /// A point in scene coordinates with its canonical coordinates ([`Visibility::point`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Point {
@@ -498,7 +504,15 @@ impl Visibility {
             }
             ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi)?;
             let [a, b, c] = self.tris[i].map(|p| p.as_dvec3());
-            if (b - a).cross(c - a).normalize_or_zero().dot(n) < -0.5 {
+            // A sliver's orientation is lost to the f32 rounding of its corners (the ceiling's
+            // patches along a diagonal, some turned over): only a triangle whose smallest
+            // angle is clear of that rounding tells which way it faces.
+            let cross = (b - a).cross(c - a);
+            let longest = (b - a)
+                .length_squared()
+                .max((c - b).length_squared())
+                .max((a - c).length_squared());
+            if cross.length() >= SLIVER_SINE * longest && cross.normalize().dot(n) < -0.5 {
                 found = true;
                 return Some(ray.t_lo);
             }

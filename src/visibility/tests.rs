@@ -866,22 +866,42 @@ fn a_face_lying_on_another_is_buried() {
         .into_iter()
         .filter(|t| t.iter().all(|p| p.z == 0.0))
         .collect();
-    let tris: Vec<[DVec3; 3]> = top.iter().chain(&resting).chain(&floating).copied().collect();
+    let tris: Vec<[DVec3; 3]> = top
+        .iter()
+        .chain(&resting)
+        .chain(&floating)
+        .copied()
+        .collect();
     let vis = Visibility::build(&tris);
     for (x, y) in [(0.5, 0.5), (0.2, 0.9), (0.99, 0.01)] {
         let p = dvec3(x, y, 0.0);
         assert_eq!(vis.first_hit_from_behind(p, -DVec3::Z, NONE), None);
-        assert!(vis.buried(p, -DVec3::Z, NONE), "the box's bottom at ({x}, {y})");
-        assert!(vis.buried(p, DVec3::Z, NONE), "the floor under the box at ({x}, {y})");
+        assert!(
+            vis.buried(p, -DVec3::Z, NONE),
+            "the box's bottom at ({x}, {y})"
+        );
+        assert!(
+            vis.buried(p, DVec3::Z, NONE),
+            "the floor under the box at ({x}, {y})"
+        );
     }
     for (x, y) in [(1.5, 0.5), (-0.5, -0.5), (4.0, -4.0), (2.5, 2.5)] {
         let p = dvec3(x, y, 0.0);
         assert!(!vis.buried(p, DVec3::Z, NONE), "the floor at ({x}, {y})");
     }
-    assert!(!vis.buried(dvec3(2.5, 2.5, 1e-3), -DVec3::Z, NONE), "floating bottom");
-    assert!(!vis.buried(dvec3(1.0, 0.5, 0.5), DVec3::X, NONE), "the resting box's side");
+    assert!(
+        !vis.buried(dvec3(2.5, 2.5, 1e-3), -DVec3::Z, NONE),
+        "floating bottom"
+    );
+    assert!(
+        !vis.buried(dvec3(1.0, 0.5, 0.5), DVec3::X, NONE),
+        "the resting box's side"
+    );
     // On the edge between two floor triangles, which face the same way.
-    assert!(!vis.buried(dvec3(-2.5, -2.5, 0.0), DVec3::Z, NONE), "floor seam");
+    assert!(
+        !vis.buried(dvec3(-2.5, -2.5, 0.0), DVec3::Z, NONE),
+        "floor seam"
+    );
 }
 
 #[test]

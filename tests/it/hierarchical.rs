@@ -102,7 +102,11 @@ fn the_furnace_with_furniture_resting_on_the_floor_is_exact() {
     let scene = b.build().unwrap();
     let out = run(&scene, &hierarchical(1e-4, 1e-5));
     let h = out.report.hierarchical.as_ref().unwrap();
-    assert!(h.closed_scene, "{} of {} roots closed", h.closed_roots, h.roots);
+    assert!(
+        h.closed_scene,
+        "{} of {} roots closed",
+        h.closed_roots, h.roots
+    );
     let expected = closed_forms::furnace_radiance(rho, le);
     let mut seen = 0;
     for (l, v) in out.solution.radiance.iter().zip(&out.visible_fraction) {
@@ -111,7 +115,10 @@ fn the_furnace_with_furniture_resting_on_the_floor_is_exact() {
             seen += 1;
         }
     }
-    assert!(seen > out.solution.radiance.len() / 2, "{seen} patches seen");
+    assert!(
+        seen > out.solution.radiance.len() / 2,
+        "{seen} patches seen"
+    );
 }
 
 /// Row sums are normalised root by root: the furnace room stays exact with an open part
