@@ -480,7 +480,12 @@ impl Visibility {
     /// [`CONTACT_TIE_REL`] × the largest extent, scene units: surfaces closer than this are in
     /// contact.
     pub fn contact_distance(&self) -> f64 {
-        self.min_distance * (CONTACT_TIE_REL / MIN_DISTANCE_REL) / self.scale
+        self.contact_tie() / self.scale
+    }
+
+    /// [`Visibility::contact_distance`] in canonical units.
+    fn contact_tie(&self) -> f64 {
+        self.min_distance * (CONTACT_TIE_REL / MIN_DISTANCE_REL)
     }
 
     /// True when another surface passes through the point `x` (within [`CONTACT_TIE_REL`] × the
@@ -536,7 +541,7 @@ impl Visibility {
     /// from inside the object whose face it is.
     pub fn first_hit_from_behind(&self, origin: DVec3, dir: DVec3, ignore: u32) -> Option<bool> {
         let (ray, _) = self.direction_ray(origin, dir, f64::INFINITY)?;
-        let tie = (self.min_distance * (CONTACT_TIE_REL / MIN_DISTANCE_REL)) as f32;
+        let tie = self.contact_tie() as f32;
         let mut best = f32::INFINITY;
         // The hits near the best so far: (t, seen from behind); a few at most.
         let mut near = [(0.0f32, false); 8];
