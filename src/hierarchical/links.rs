@@ -229,31 +229,14 @@ fn element_pair_estimate(
     buried: u16,
     rng: &mut Rng,
 ) -> Option<Sums> {
+    let RuleForm {
+        weighted,
+        point_f,
+        largest,
+        f_unoccluded,
+    } = rule_form_factor(tree, r, s, buried)?;
     let rule = receiver_rule();
-    let mut weighted = unburied_weights(buried);
-    let visible: f64 = weighted.iter().sum();
-    let (mut largest, mut smallest) = (0.0f64, f64::INFINITY);
-    let mut point_f = [0.0; RECEIVER_POINTS];
-    for (k, &(b, _)) in rule.iter().enumerate() {
-        if weighted[k] == 0.0 {
-            continue;
-        }
-        let f = point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s);
-        point_f[k] = f;
-        largest = largest.max(f);
-        smallest = smallest.min(f);
-        weighted[k] *= f;
-    }
     let children = child_shares(tree, r, s);
-    if visible == 0.0 {
-        return None;
-    }
-    let mut f_unoccluded = weighted.iter().sum::<f64>() / visible;
-    // A kernel that varies too much over the receiver: integrate on its quarters (with
-    // buried points the one rule's reweighting stands).
-    if buried == 0 && largest - smallest > SPREAD_FOR_QUARTERS * f_unoccluded {
-        f_unoccluded = composite_form_factor(tree, r, s, 1);
-    }
     let mut sums = Sums {
         f: 0.0,
         f_unoccluded,
@@ -305,6 +288,61 @@ fn element_pair_estimate(
         0.0
     };
     Some(sums)
+}
+
+/// The unoccluded form factor from element `r` to element `s` by the receiver rule over
+/// `r`'s unburied points, and what the ray picks of [`element_pair_estimate`] need of it.
+struct RuleForm {
+    /// Each rule point's weight (0 where buried) times its point form factor.
+    weighted: [f64; RECEIVER_POINTS],
+    /// Each unburied rule point's unoccluded point form factor.
+    point_f: [f64; RECEIVER_POINTS],
+    /// The largest of `point_f`.
+    largest: f64,
+    /// F_rs without visibility, over `r`'s visible part: the rule's weighted mean, or on `r`'s
+    /// quarters where the kernel spreads too much ([`SPREAD_FOR_QUARTERS`]).
+    f_unoccluded: f64,
+}
+
+/// [`RuleForm`] of `r` gathering from `s`, with `r`'s points in `buried` left out; `None` when
+/// every point is buried.
+fn rule_form_factor(tree: &Tree, r: usize, s: usize, buried: u16) -> Option<RuleForm> {
+    let rule = receiver_rule();
+    let mut weighted = unburied_weights(buried);
+    let visible: f64 = weighted.iter().sum();
+    if visible == 0.0 {
+        return None;
+    }
+    let (mut largest, mut smallest) = (0.0f64, f64::INFINITY);
+    let mut point_f = [0.0; RECEIVER_POINTS];
+    for (k, &(b, _)) in rule.iter().enumerate() {
+        if weighted[k] == 0.0 {
+            continue;
+        }
+        let f = point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s);
+        point_f[k] = f;
+        largest = largest.max(f);
+        smallest = smallest.min(f);
+        weighted[k] *= f;
+    }
+    let mut f_unoccluded = weighted.iter().sum::<f64>() / visible;
+    // A kernel that varies too much over the receiver: integrate on its quarters (with
+    // buried points the one rule's reweighting stands).
+    if buried == 0 && largest - smallest > SPREAD_FOR_QUARTERS * f_unoccluded {
+        f_unoccluded = composite_form_factor(tree, r, s, 1);
+    }
+    Some(RuleForm {
+        weighted,
+        point_f,
+        largest,
+        f_unoccluded,
+    })
+}
+
+/// The unoccluded F_rs from element `r` to element `s` over `r`'s points not in `buried`
+/// ([`RuleForm::f_unoccluded`]); `None` when every point is buried.
+pub(super) fn unoccluded_form_factor(tree: &Tree, r: usize, s: usize, buried: u16) -> Option<f64> {
+    rule_form_factor(tree, r, s, buried).map(|f| f.f_unoccluded)
 }
 
 /// Where the receiver rule's point values of F spread over more than this many times their
@@ -484,6 +522,26 @@ fn point_form_factor(tree: &Tree, x: DVec3, n: DVec3, s: usize) -> f64 {
 /// The largest unoccluded point-to-polygon form factor from the corners and the centroid of
 /// element `r` to element `s`: a deterministic stand-in for the largest F over `r`.
 fn largest_point_form_factor(tree: &Tree, r: usize, s: usize) -> f64 {
+    corners_and_centroid()
+        .into_iter()
+        .map(|b| point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s))
+        .fold(0.0, f64::max)
+}
+
+/// The spread (largest − smallest) of the unoccluded point form factor from the corners and
+/// the centroid of element `r` to element `s`: how much the kernel varies over `r`.
+pub(super) fn point_form_factor_spread(tree: &Tree, r: usize, s: usize) -> f64 {
+    let (lo, hi) = corners_and_centroid()
+        .into_iter()
+        .map(|b| point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s))
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), f| {
+            (lo.min(f), hi.max(f))
+        });
+    hi - lo
+}
+
+/// Barycentrics of a triangle's three corners and its centroid.
+fn corners_and_centroid() -> [[f64; 3]; 4] {
     let third = 1.0 / 3.0;
     [
         [1.0, 0.0, 0.0],
@@ -491,9 +549,6 @@ fn largest_point_form_factor(tree: &Tree, r: usize, s: usize) -> f64 {
         [0.0, 0.0, 1.0],
         [third, third, third],
     ]
-    .into_iter()
-    .map(|b| point_form_factor(tree, tree.point(r, b), tree.surface_normal(r, b), s))
-    .fold(0.0, f64::max)
 }
 
 /// True when every corner of element `a` lies on or behind the plane of element `b`: then `b`

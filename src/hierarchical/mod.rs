@@ -25,6 +25,9 @@
 //!    every part; a cluster whose faces look different ways gives each face its cosine's
 //!    share, [`ClusterGather`]), leaves take L = Le + ρ·G, and radiance is pulled up as
 //!    area-weighted means.
+//!    Once the links are final, the leaves below a link whose source is near (sharing an
+//!    edge, beside it) gather through it with their own form factor, not the receiver's
+//!    mean ([`near`]).
 //!    Refinement is interleaved with the solve (refine against the current radiance, sweep,
 //!    refine again: the multigridding of HSA91 §4.3), until a converged solution asks for no
 //!    more links.
@@ -55,6 +58,7 @@
 
 pub mod direct;
 pub mod links;
+mod near;
 pub mod output;
 mod push_pull;
 mod refine;
@@ -164,6 +168,9 @@ pub struct Stats {
     pub passes: u32,
     /// Jacobi sweeps, all passes together.
     pub sweeps: u32,
+    /// (Leaf, link) pairs whose leaf gathers through the link with its own form factor, the
+    /// link's source being near ([`near`]).
+    pub near_corrections: u64,
     /// Bytes per link in memory.
     pub bytes_per_link: usize,
     /// Every root was found closed ([`Stats::closed_roots`]).
@@ -280,12 +287,13 @@ pub fn solve(
     // ([`Hierarchy::link_radiance`]): from L = Le, N sweeps for Neumann (exactly the Neumann
     // partial sum), else to the tolerance.
     h.find_grandchild_shares();
+    h.find_near_corrections();
     // The final links' row sums, root by root. During refinement only a closed scene's are
     // normalised: the oracle bounds a source by its brightest leaf, and the few leaves whose
     // few-ray row sums fall far below 1 (a few in a thousand, under 0.5, in a large hall)
     // would, normalised, inflate that bound over whole clusters: many more links, for the
-    // same surfaces' means.
-    if h.stats.closed_roots > 0 && !h.stats.closed_scene {
+    // same surfaces' means. A closed scene's are found again: the near corrections change them.
+    if h.stats.closed_roots > 0 {
         h.row_sum = h.row_sums();
     }
     let converged = if emitted == 0.0 {
@@ -358,6 +366,10 @@ pub struct Hierarchy<'a> {
     /// element source's 16 grandchildren ([`links::grandchild_shares`]); empty before, and
     /// none for links whose source has no split child.
     grandchild_shares: GrandchildShares,
+    /// Once the links are final: the leaves' own form factors to the near sources of their
+    /// ancestors' links, as corrections to what those links push down ([`near`]), sorted by
+    /// leaf; empty before.
+    near: Vec<near::Correction>,
     roots: &'a Patches,
     vis: Visibility,
     occluders: Visibility,
@@ -428,6 +440,7 @@ impl<'a> Hierarchy<'a> {
             links: Vec::new(),
             receiver_starts: vec![0],
             grandchild_shares: GrandchildShares::default(),
+            near: Vec::new(),
             roots,
             vis,
             occluders,

@@ -127,6 +127,7 @@ impl Hierarchy<'_> {
     pub(super) fn set_links(&mut self, links: Vec<Link>) {
         debug_assert!(links.windows(2).all(|w| link_key(&w[0]) < link_key(&w[1])));
         self.grandchild_shares = GrandchildShares::default();
+        self.near.clear();
         self.receiver_starts.clear();
         for (i, l) in links.iter().enumerate() {
             if i == 0 || links[i - 1].receiver != l.receiver {

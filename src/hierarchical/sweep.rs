@@ -92,6 +92,7 @@ impl Hierarchy<'_> {
         for (e, g) in by_element {
             ge[e] = g;
         }
+        self.add_near(&mut ge, with_radiance);
         let mut gc = vec![ClusterGather::default(); t.clusters.len()];
         let by_cluster: Vec<(usize, ClusterGather)> = starts[split..]
             .par_windows(2)
