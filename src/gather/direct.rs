@@ -155,10 +155,17 @@ impl Gatherer<'_> {
                     .corners
                     .iter()
                     .fold((x, x), |(lo, hi), &c| (lo.min(c), hi.max(c)));
-                let fv =
-                    visible::visible_form_factor(x, n, &e.corners, e.normal, self.lift, |visit| {
-                        self.surfaces.overlapping(lo, hi, ignore, visit)
-                    });
+                let fv = visible::visible_form_factor(
+                    x,
+                    n,
+                    &e.corners,
+                    e.normal,
+                    self.lift,
+                    |pyramid, visit| {
+                        self.surfaces
+                            .overlapping_convex(lo, hi, pyramid, ignore, visit)
+                    },
+                );
                 if let Some(fv) = fv {
                     let v = (fv / *f).clamp(0.0, 1.0);
                     (share.seen, share.all) = (v, 1.0);

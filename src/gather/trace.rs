@@ -198,18 +198,20 @@ impl Surfaces {
         &self.vis
     }
 
-    /// Calls `visit` with every traced triangle (scene units) whose box may overlap the box
-    /// `[lo, hi]`, but the triangle of the patch `ignore` (and its twin), until it returns
-    /// `false` ([`Visibility::overlapping`]); returns `false` if it was stopped.
-    pub fn overlapping(
+    /// Calls `visit` with the corners of every triangle but those of the patch `ignore` that
+    /// may meet the box `[lo, hi]` and the convex region inside `planes`
+    /// ([`Visibility::overlapping_convex`]: a superset), until it returns `false`; returns
+    /// `false` if it was stopped.
+    pub fn overlapping_convex(
         &self,
         lo: DVec3,
         hi: DVec3,
+        planes: &[(DVec3, DVec3)],
         ignore: u32,
         visit: &mut dyn FnMut(&[DVec3; 3]) -> bool,
     ) -> bool {
         self.vis
-            .overlapping(lo, hi, [self.traced(ignore), NONE], |id| {
+            .overlapping_convex(lo, hi, planes, [self.traced(ignore), NONE], |id| {
                 visit(&self.triangles[id as usize])
             })
     }

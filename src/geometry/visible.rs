@@ -65,7 +65,7 @@ pub fn visible_form_factor(
     e: &[DVec3; 3],
     e_normal: DVec3,
     margin: f64,
-    occluders: impl FnOnce(&mut dyn FnMut(&[DVec3; 3]) -> bool) -> bool,
+    occluders: impl FnOnce(&[(DVec3, DVec3)], &mut dyn FnMut(&[DVec3; 3]) -> bool) -> bool,
 ) -> Option<f64> {
     let dx = e_normal.dot(x - e[0]);
     if dx <= 2.0 * margin {
@@ -96,7 +96,17 @@ pub fn visible_form_factor(
     let mut tried = 0;
     let mut too_complex = false;
     let mut cast = 0;
-    let finished = occluders(&mut |t: &[DVec3; 3]| {
+    // The pyramid as half-spaces (normal, point on the plane), for the caller's query to cull
+    // with: its three sides, x's horizon and e's front. Looser than the clips below (no
+    // margins), so nothing they keep is culled.
+    let pyramid = [
+        (sides[0], x),
+        (sides[1], x),
+        (sides[2], x),
+        (n, x),
+        (e_normal, e[0]),
+    ];
+    let finished = occluders(&pyramid, &mut |t: &[DVec3; 3]| {
         tried += 1;
         if tried > MAX_CANDIDATES {
             too_complex = true;
@@ -229,7 +239,9 @@ mod tests {
     const MARGIN: f64 = 1e-9;
 
     fn exact(x: DVec3, n: DVec3, e: &[DVec3; 3], occluders: &[[DVec3; 3]]) -> Option<f64> {
-        visible_form_factor(x, n, e, DOWN, MARGIN, |visit| occluders.iter().all(visit))
+        visible_form_factor(x, n, e, DOWN, MARGIN, |_, visit| {
+            occluders.iter().all(visit)
+        })
     }
 
     /// The oracle: F·V̄ by a fine grid of jittered points over `e`, each weighted by the

@@ -452,6 +452,73 @@ impl Bvh4 {
         !stopped
     }
 
+    /// [`Bvh4::overlapping`] restricted to a convex region: calls `visit(i)` for every triangle
+    /// `i` whose box overlaps `[lo, hi]` and which is not wholly outside any of `planes` by more
+    /// than `tol` (a plane `(m, c)` keeps the points p with m·p + c ≥ 0; canonical units), each
+    /// once, until `visit` returns `false`. A node is skipped when its box is so outside one
+    /// plane (its corner farthest along m is), so a thin slanted region (a point's view of a
+    /// light) visits far fewer nodes and triangles than its bounding box holds. A superset of
+    /// the triangles meeting the region. Returns `false` if it was stopped.
+    pub fn overlapping_convex(
+        &self,
+        lo: Vec3A,
+        hi: Vec3A,
+        planes: &[(Vec3A, f32)],
+        tol: f32,
+        mut visit: impl FnMut(usize) -> bool,
+    ) -> bool {
+        if self.root == EMPTY {
+            return true;
+        }
+        let (lo4, hi4) = (
+            lo.to_array().map(f32x4::splat),
+            hi.to_array().map(f32x4::splat),
+        );
+        let floor = f32x4::splat(-tol);
+        let stopped = self.walk(
+            |node| {
+                let mut mask = (0..3).fold(0b1111, |mask, k| {
+                    mask & node.lo[k].simd_le(hi4[k]).to_bitmask()
+                        & lo4[k].simd_le(node.hi[k]).to_bitmask()
+                });
+                for &(m, c) in planes {
+                    if mask == 0 {
+                        break;
+                    }
+                    // m·p + c at each child box's corner farthest along m.
+                    let mut far = f32x4::splat(c);
+                    for k in 0..3 {
+                        let corner = if m[k] >= 0.0 { node.hi[k] } else { node.lo[k] };
+                        far += corner * f32x4::splat(m[k]);
+                    }
+                    mask &= far.simd_ge(floor).to_bitmask();
+                }
+                mask
+            },
+            |p| {
+                // The lanes whose triangle's own box overlaps and which reach into every
+                // plane, a repeated lane once.
+                let mut mask = 0b1111;
+                for k in 0..3 {
+                    let tlo = p.v[0][k].fast_min(p.v[1][k]).fast_min(p.v[2][k]);
+                    let thi = p.v[0][k].fast_max(p.v[1][k]).fast_max(p.v[2][k]);
+                    mask &= tlo.simd_le(hi4[k]).to_bitmask() & lo4[k].simd_le(thi).to_bitmask();
+                }
+                for &(m, c) in planes {
+                    let at = |v: &[f32x4; 3]| {
+                        (0..3).fold(f32x4::splat(c), |acc, k| acc + v[k] * f32x4::splat(m[k]))
+                    };
+                    let far = at(&p.v[0]).fast_max(at(&p.v[1])).fast_max(at(&p.v[2]));
+                    mask &= far.simd_ge(floor).to_bitmask();
+                }
+                lanes(mask).any(|lane| {
+                    !p.prim[..lane].contains(&p.prim[lane]) && !visit(p.prim[lane] as usize)
+                })
+            },
+        );
+        !stopped
+    }
+
     /// Runs `f` with a traversal stack deep enough for this tree.
     #[inline(always)]
     fn with_stack<R>(&self, f: impl FnOnce(&mut [u32]) -> R) -> R {

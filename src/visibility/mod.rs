@@ -626,6 +626,39 @@ impl Visibility {
             .overlapping(lo, hi, |i| self.ignored(i, ignore) || visit(self.ids[i]))
     }
 
+    /// [`Visibility::overlapping`] restricted to the convex region inside every half-space of
+    /// `planes` (scene coordinates: `(m, q)` keeps the points p with m·(p − q) ≥ 0): triangles
+    /// wholly outside one of them by more than `BOX_PAD` canonical units are not visited
+    /// ([`Bvh4::overlapping_convex`]). Still a superset of those meeting the region.
+    pub fn overlapping_convex(
+        &self,
+        lo: DVec3,
+        hi: DVec3,
+        planes: &[(DVec3, DVec3)],
+        ignore: [u32; 2],
+        mut visit: impl FnMut(u32) -> bool,
+    ) -> bool {
+        if self.tris.is_empty() {
+            return true;
+        }
+        let pad = DVec3::splat(f64::from(BOX_PAD));
+        let lo = (self.to_canonical(lo) - pad).as_vec3a();
+        let hi = (self.to_canonical(hi) + pad).as_vec3a();
+        // In canonical units p_c = (p − centre)·scale: m·(p − q) ≥ 0 is
+        // m̂·p_c + m̂·(centre − q)·scale ≥ 0, m̂ the unit normal.
+        let mut canonical = [(glam::Vec3A::ZERO, 0.0f32); 8];
+        let mut n = 0;
+        for &(m, q) in planes.iter().take(canonical.len()) {
+            let Some(m) = m.try_normalize() else { continue };
+            canonical[n] = (m.as_vec3a(), (m.dot(self.centre - q) * self.scale) as f32);
+            n += 1;
+        }
+        self.bvh
+            .overlapping_convex(lo, hi, &canonical[..n], BOX_PAD, |i| {
+                self.ignored(i, ignore) || visit(self.ids[i])
+            })
+    }
+
     /// Canonical coordinates of the scene point `x`.
     fn to_canonical(&self, x: DVec3) -> DVec3 {
         snap((x - self.centre) * self.scale, CANONICAL_GRID)
