@@ -58,7 +58,7 @@
 
 pub mod direct;
 pub mod links;
-mod near;
+pub mod near;
 pub mod output;
 mod push_pull;
 mod refine;

@@ -7,11 +7,11 @@
 //! link's source.
 //!
 //! The leaf's F is the exact unoccluded point-to-polygon form factor integrated by the
-//! receiver rule over the leaf ([`links::unoccluded_form_factor`], Lambert's contour integral:
+//! receiver rule over the leaf (`links::unoccluded_form_factor`, Lambert's contour integral:
 //! exact also where the two share an edge), times the visible share of F the link's rays
 //! found over the whole receiver: F_e = U_e · F_link / U_link. What the leaf gathers through
 //! the link is then F_e · L_s instead of F_link · L_s; the difference is kept per (leaf, link)
-//! and added to the leaf's own gather in the final solve ([`Hierarchy::gather`]), so the row
+//! and added to the leaf's own gather in the final solve (`Hierarchy::gather`), so the row
 //! sums that normalise closed roots count it too. This is the re-evaluation of a coarse link
 //! at the receiving point of Lischinski, Tampieri & Greenberg, "Combining hierarchical
 //! radiosity and discontinuity meshing" (SIGGRAPH 1993), for the unoccluded kernel, with the

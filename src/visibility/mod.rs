@@ -629,7 +629,7 @@ impl Visibility {
     /// [`Visibility::overlapping`] restricted to the convex region inside every half-space of
     /// `planes` (scene coordinates: `(m, q)` keeps the points p with m·(p − q) ≥ 0): triangles
     /// wholly outside one of them by more than `BOX_PAD` canonical units are not visited
-    /// ([`Bvh4::overlapping_convex`]). Still a superset of those meeting the region.
+    /// (`Bvh4::overlapping_convex`). Still a superset of those meeting the region.
     pub fn overlapping_convex(
         &self,
         lo: DVec3,
