@@ -306,6 +306,26 @@ fn link_visibility_follows_the_kernel_over_a_large_near_source() {
     );
 }
 
+/// Root elements (receiver, source) of the perpendicular plates that share an edge (two
+/// corners in common) at right angles, the receiver one for which `receiver` holds.
+fn edge_sharing_pair(t: &Tree, receiver: impl Fn(usize) -> bool) -> (usize, usize) {
+    let shares_edge = |a: usize, b: usize| {
+        let (ca, cb) = (t.corners(a), t.corners(b));
+        ca.iter()
+            .filter(|p| cb.iter().any(|q| p.distance(*q) < 1e-12))
+            .count()
+            == 2
+    };
+    (0..t.roots)
+        .flat_map(|a| (0..t.roots).map(move |b| (a, b)))
+        .find(|&(a, b)| {
+            receiver(a)
+                && t.elements[a].normal.dot(t.elements[b].normal).abs() < 1e-9
+                && shares_edge(a, b)
+        })
+        .expect("the plates meet along an edge")
+}
+
 /// The composite receiver rule on a pair the single rule integrates poorly: two elements
 /// sharing an edge at right angles (the kernel is singular along the edge). The oracle is the
 /// same rule on 4⁵ sub-triangles (converged: depth 4 and 5 agree to 1e-4 here). Measured:
@@ -317,20 +337,7 @@ fn quarters_integrate_an_edge_adjacent_pair_closer_than_one_rule() {
     let roots = mesh::subdivide(&scene, 10.0, 0.0).unwrap();
     let h = Hierarchy::new(&roots, &Settings::default(), &Default::default(), 1);
     let t = &h.tree;
-    // An element of each plate sharing an edge (two corners in common).
-    let shares_edge = |a: usize, b: usize| {
-        let (ca, cb) = (t.corners(a), t.corners(b));
-        ca.iter()
-            .filter(|p| cb.iter().any(|q| p.distance(*q) < 1e-12))
-            .count()
-            == 2
-    };
-    let (r, s) = (0..roots.len())
-        .flat_map(|a| (0..roots.len()).map(move |b| (a, b)))
-        .find(|&(a, b)| {
-            t.elements[a].normal.dot(t.elements[b].normal).abs() < 1e-9 && shares_edge(a, b)
-        })
-        .expect("the plates meet along an edge");
+    let (r, s) = edge_sharing_pair(t, |_| true);
     let fine = links::composite_form_factor(t, r, s, 5);
     let check = links::composite_form_factor(t, r, s, 4);
     assert!((fine - check).abs() < 1e-4 * fine, "{fine} {check}");
@@ -362,22 +369,7 @@ fn leaves_below_a_near_link_gather_their_own_form_factor() {
         ..Settings::default()
     };
     let mut h = Hierarchy::new(&roots, &settings, &Default::default(), 1);
-    let t = &h.tree;
-    let shares_edge = |a: usize, b: usize| {
-        let (ca, cb) = (t.corners(a), t.corners(b));
-        ca.iter()
-            .filter(|p| cb.iter().any(|q| p.distance(*q) < 1e-12))
-            .count()
-            == 2
-    };
-    let (r, s) = (0..roots.len())
-        .flat_map(|a| (0..roots.len()).map(move |b| (a, b)))
-        .find(|&(a, b)| {
-            roots.reflectance[a][0] > 0.0
-                && t.elements[a].normal.dot(t.elements[b].normal).abs() < 1e-9
-                && shares_edge(a, b)
-        })
-        .expect("the plates meet along an edge");
+    let (r, s) = edge_sharing_pair(&h.tree, |a| roots.reflectance[a][0] > 0.0);
     // The receiver split twice: 16 leaves below the link.
     h.tree.split(r);
     for c in h.tree.children(Node::element(r)) {

@@ -418,44 +418,10 @@ impl Bvh4 {
         });
     }
 
-    /// Calls `visit(i)` for every triangle `i` whose box overlaps the box `[lo, hi]` (canonical
-    /// units; a superset of the triangles meeting it), each once, until `visit` returns
-    /// `false`. Returns `false` if it was stopped so.
-    pub fn overlapping(&self, lo: Vec3A, hi: Vec3A, mut visit: impl FnMut(usize) -> bool) -> bool {
-        if self.root == EMPTY {
-            return true;
-        }
-        let (lo4, hi4) = (
-            lo.to_array().map(f32x4::splat),
-            hi.to_array().map(f32x4::splat),
-        );
-        let stopped = self.walk(
-            |node| {
-                (0..3).fold(0b1111, |mask, k| {
-                    mask & node.lo[k].simd_le(hi4[k]).to_bitmask()
-                        & lo4[k].simd_le(node.hi[k]).to_bitmask()
-                })
-            },
-            |p| {
-                // The lanes whose triangle's own box overlaps, a repeated lane once.
-                let mut mask = 0b1111;
-                for k in 0..3 {
-                    let tlo = p.v[0][k].fast_min(p.v[1][k]).fast_min(p.v[2][k]);
-                    let thi = p.v[0][k].fast_max(p.v[1][k]).fast_max(p.v[2][k]);
-                    mask &= tlo.simd_le(hi4[k]).to_bitmask() & lo4[k].simd_le(thi).to_bitmask();
-                }
-                lanes(mask).any(|lane| {
-                    !p.prim[..lane].contains(&p.prim[lane]) && !visit(p.prim[lane] as usize)
-                })
-            },
-        );
-        !stopped
-    }
-
-    /// [`Bvh4::overlapping`] restricted to a convex region: calls `visit(i)` for every triangle
-    /// `i` whose box overlaps `[lo, hi]` and which is not wholly outside any of `planes` by more
-    /// than `tol` (a plane `(m, c)` keeps the points p with m·p + c ≥ 0; canonical units), each
-    /// once, until `visit` returns `false`. A node is skipped when its box is so outside one
+    /// Calls `visit(i)` for every triangle `i` whose box overlaps the box `[lo, hi]` and which
+    /// is not wholly outside any of `planes` by more than `tol` (a plane `(m, c)` keeps the
+    /// points p with m·p + c ≥ 0; canonical units; none: the box alone), each once, until
+    /// `visit` returns `false`. A node is skipped when its box is so outside one
     /// plane (its corner farthest along m is), so a thin slanted region (a point's view of a
     /// light) visits far fewer nodes and triangles than its bounding box holds. A superset of
     /// the triangles meeting the region. Returns `false` if it was stopped.

@@ -614,16 +614,9 @@ impl Visibility {
         lo: DVec3,
         hi: DVec3,
         ignore: [u32; 2],
-        mut visit: impl FnMut(u32) -> bool,
+        visit: impl FnMut(u32) -> bool,
     ) -> bool {
-        if self.tris.is_empty() {
-            return true;
-        }
-        let pad = DVec3::splat(f64::from(BOX_PAD));
-        let lo = (self.to_canonical(lo) - pad).as_vec3a();
-        let hi = (self.to_canonical(hi) + pad).as_vec3a();
-        self.bvh
-            .overlapping(lo, hi, |i| self.ignored(i, ignore) || visit(self.ids[i]))
+        self.overlapping_convex(lo, hi, &[], ignore, visit)
     }
 
     /// [`Visibility::overlapping`] restricted to the convex region inside every half-space of

@@ -911,12 +911,7 @@ fn overlapping_visits_every_triangle_in_the_box_once() {
     let mut rng = Rng(sampling::Rng::new(&[5]));
     let tris = random_scene(&mut rng, 3000);
     let vis = Visibility::build(&tris);
-    let (lo, hi) = tris
-        .iter()
-        .flatten()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        });
+    let (lo, hi) = scene_bounds(&tris);
     let pad = 1e-2 * (hi - lo).max_element();
     let mut found_some = 0;
     for _ in 0..200 {
@@ -961,12 +956,7 @@ fn overlapping_convex_visits_every_triangle_in_the_region_and_culls_the_rest() {
     let mut rng = Rng(sampling::Rng::new(&[6]));
     let tris = random_scene(&mut rng, 3000);
     let vis = Visibility::build(&tris);
-    let (lo, hi) = tris
-        .iter()
-        .flatten()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        });
+    let (lo, hi) = scene_bounds(&tris);
     let (mut in_box, mut in_pyramid, mut meeting) = (0usize, 0usize, 0usize);
     for q in 0..200 {
         let x = rng.vec(lo.x, hi.x);
@@ -1019,4 +1009,13 @@ fn overlapping_convex_visits_every_triangle_in_the_region_and_culls_the_rest() {
         2 * in_pyramid < in_box,
         "the pyramids visited {in_pyramid} triangles, their boxes {in_box}"
     );
+}
+
+/// The bounding box of triangles.
+fn scene_bounds(tris: &[[DVec3; 3]]) -> (DVec3, DVec3) {
+    tris.iter()
+        .flatten()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        })
 }
