@@ -306,6 +306,21 @@ fn link_visibility_follows_the_kernel_over_a_large_near_source() {
     );
 }
 
+/// The link from element `r` to element `s`, estimated with 3 rays, nothing buried and seed 1
+/// (`None` panics: the two must face each other).
+fn element_link(h: &Hierarchy, r: usize, s: usize) -> Link {
+    let e = links::estimate(
+        &h.tree,
+        &h.occluders,
+        Node::element(r),
+        Node::element(s),
+        3,
+        0,
+        1,
+    );
+    e.link.expect("the elements face each other")
+}
+
 /// Root elements (receiver, source) of the perpendicular plates that share an edge (two
 /// corners in common) at right angles, the receiver one for which `receiver` holds.
 fn edge_sharing_pair(t: &Tree, receiver: impl Fn(usize) -> bool) -> (usize, usize) {
@@ -376,17 +391,7 @@ fn leaves_below_a_near_link_gather_their_own_form_factor() {
         h.tree.split(c.as_element().unwrap());
     }
     h.update_new_elements();
-    let link = links::estimate(
-        &h.tree,
-        &h.occluders,
-        Node::element(r),
-        Node::element(s),
-        3,
-        0,
-        1,
-    )
-    .link
-    .expect("the plates face each other");
+    let link = element_link(&h, r, s);
     h.set_links(vec![link]);
     let mut leaves = Vec::new();
     h.tree.leaves(r, &mut |e| leaves.push(e));
@@ -450,17 +455,7 @@ fn split_sources_are_gathered_as_the_receiver_s_kernel_weights_their_children() 
         (1, 0)
     };
     let mut h = Hierarchy::new(&roots, &Settings::default(), &Default::default(), 1);
-    let link = links::estimate(
-        &h.tree,
-        &h.occluders,
-        Node::element(r),
-        Node::element(s),
-        3,
-        0,
-        1,
-    )
-    .link
-    .expect("the elements face each other");
+    let link = element_link(&h, r, s);
     let total: u32 = link.children.iter().map(|&c| c as u32).sum();
     assert!((253..=257).contains(&total), "shares {:?}", link.children);
 
