@@ -69,7 +69,7 @@ pub use sites::{NUDGE, NUDGE_MAX};
 #[serde(rename_all = "kebab-case")]
 pub enum Gather {
     /// `full` when the output has at most [`FULL_GATHER_MAX_VERTICES`] vertices (or the
-    /// hemisphere rays per vertex are given), else `none` ([`Gather::resolve`]).
+    /// hemisphere rays per vertex are given), else `cache` ([`Gather::resolve`]).
     Auto,
     /// Vertex colours are the area-weighted mean of the patches around each vertex.
     None,
@@ -105,10 +105,7 @@ impl Choice for Gather {
 
     fn description(self) -> &'static str {
         match self {
-            Gather::Auto => {
-                "full up to 62,500 output vertices, none beyond (cache shows more, at a cost not yet \
-                 bounded)"
-            }
+            Gather::Auto => "full up to 62,500 output vertices, cache beyond",
             Gather::None => "vertex colours are the mean of the patches around each vertex",
             Gather::Direct => {
                 "direct light computed exactly at each vertex, indirect from the patches"
@@ -147,22 +144,22 @@ pub const MIN_AUTO_RAYS: usize = 64;
 /// `auto` gathers every vertex (`full`) up to this many output vertices: as many as
 /// [`AUTO_RAY_BUDGET`] gives [`MIN_AUTO_RAYS`] rays each. Past it, a gather at every vertex
 /// would either cost more than its budget or give each vertex fewer rays than its noise
-/// allows. The `cache` gather ([`cache`]) shows such outputs far better than none (the
-/// direct light at every vertex, the indirect light gathered where it varies and
-/// interpolated), but its cost is not yet bounded: its direct light at every vertex and its
-/// display refinement's tests cost several times the hierarchical solve on furnished scenes
-/// (BENCHMARKS.md "Displayed error against a path tracer"), so `auto` leaves it to be asked
-/// for and shows the patches' mean beyond this size.
+/// allows, so `auto` takes the `cache` gather ([`cache`]): the direct light exactly at every
+/// vertex, the indirect light gathered where it varies and interpolated between, and a display
+/// refinement bounded by the output's size ([`refine::cache_budget`]). Its cost grows as the
+/// output vertices times what a point's direct light costs, like the hierarchical solve's
+/// growth with the elements, so it stays a bounded share of the bake (BENCHMARKS.md "Large
+/// outputs: the `cache` gather").
 pub const FULL_GATHER_MAX_VERTICES: usize = AUTO_RAY_BUDGET / MIN_AUTO_RAYS;
 
 impl Gather {
     /// The gather that runs for an output of `vertices` vertices: `auto` becomes `full` when
     /// there are at most [`FULL_GATHER_MAX_VERTICES`] or `rays_given` (the hemisphere rays per
-    /// vertex were chosen), else `none`; the other modes stay what they are.
+    /// vertex were chosen), else `cache`; the other modes stay what they are.
     pub fn resolve(self, vertices: usize, rays_given: bool) -> Gather {
         match self {
             Gather::Auto if rays_given || vertices <= FULL_GATHER_MAX_VERTICES => Gather::Full,
-            Gather::Auto => Gather::None,
+            Gather::Auto => Gather::Cache,
             mode => mode,
         }
     }

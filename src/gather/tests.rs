@@ -20,7 +20,7 @@ fn gathered(mode: Gather) -> Settings {
 }
 
 /// `auto` is `full` up to its vertex budget (the default Cornell bake's 3,541 vertices
-/// among them) or when the rays per vertex are given, `none` beyond; the other modes are
+/// among them) or when the rays per vertex are given, `cache` beyond; the other modes are
 /// what they say, whatever the size.
 #[test]
 fn auto_gathers_up_to_its_vertex_budget() {
@@ -28,7 +28,7 @@ fn auto_gathers_up_to_its_vertex_budget() {
     assert_eq!(max, 62_500);
     assert_eq!(Gather::Auto.resolve(3_541, false), Gather::Full);
     assert_eq!(Gather::Auto.resolve(max, false), Gather::Full);
-    assert_eq!(Gather::Auto.resolve(max + 1, false), Gather::None);
+    assert_eq!(Gather::Auto.resolve(max + 1, false), Gather::Cache);
     assert_eq!(Gather::Auto.resolve(10 * max, true), Gather::Full);
     for mode in [Gather::None, Gather::Direct, Gather::Full, Gather::Cache] {
         assert_eq!(mode.resolve(10 * max, false), mode);
@@ -634,5 +634,36 @@ fn a_plate_over_a_floor_casts_its_contact_shadow_through_the_gather() {
     assert!(
         none > expected * 1.1,
         "the patches' mean {none} was expected to blur the shadow ({expected})"
+    );
+}
+
+/// The `cache` gather's display refinement adds at most [`refine::CACHE_REFINE_SHARE`] of
+/// the output's vertices (each new vertex and its midpoint tests compute the direct light
+/// exactly, which is what the gather costs), and it does add vertices where shadows cross
+/// the output: the Cornell box's blocks cast them on a coarse mesh, so the budget, not τ,
+/// ends it.
+#[test]
+fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
+    assert_eq!(refine::cache_budget(64, 32, 100_000), 20_000);
+    assert_eq!(
+        refine::cache_budget(1024, 0, 10_000_000),
+        refine::budget(1024, 0)
+    );
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = Scene::load(&root.join("meshes/cornell_box.obj")).unwrap();
+    let settings = Settings {
+        gather: Gather::Cache,
+        max_edge: Some(110.0),
+        refine_rounds: 0,
+        ..Settings::default()
+    };
+    let out = pipeline::solve_scene(&scene, &settings).unwrap();
+    let added = out.report.display_refinement.vertices;
+    let before = out.report.vertices - added;
+    let most = refine::cache_budget(auto_rays(before), 0, before);
+    assert!(added > 0, "the refinement added nothing");
+    assert!(
+        added as f64 <= refine::CACHE_REFINE_SHARE * before as f64,
+        "{added} vertices added to {before} (at most {most})"
     );
 }

@@ -64,6 +64,13 @@ const LEAVES_PER_ROOT: f64 = 2.0;
 /// to twice as many again (fitted to the Cornell box and the hall of 10⁴ triangles with its
 /// many lights), before the rays beside edges ([`gather::EDGE_RAYS`] more).
 const GATHER_SECONDS: f64 = 4.2;
+/// Seconds on 2 cores of the `cache` gather and its display refinement
+/// ([`gather::refine::cache_budget`]) per output vertex counted on the roots
+/// ([`Estimate::vertices`]): the direct light computed exactly at every vertex and the
+/// records' hemisphere rays dominate it, so it grows with the scene's occluders and lights as
+/// well. Fitted to the generated office of 10⁵ triangles (12 lamps, sky panels, furniture;
+/// 6.5e-4 measured) and the generated hall of 10⁵ triangles (many small lamps; 7.8e-4).
+const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 7e-4;
 /// Seconds on 2 cores per shadow ray to a light outside the mesh (a point or spot light, or
 /// the sun's [`crate::light::outside::SUN_RAYS`]) at an output vertex: every vertex of the gather
 /// and of its display refinement casts one to each (fitted to a LibreQuake level with over a
@@ -88,6 +95,11 @@ pub struct Estimate {
     pub facing_fraction: Option<f64>,
     /// Matrix: the most non-zeros F can have at `max_patches`.
     pub max_entries: Option<f64>,
+    /// Output vertices before the display refinement: counted on the roots (hierarchical) or
+    /// the first patches (matrix; scaled by `max_patches` over `patches` when refinement may
+    /// add patches), as the bake shares them out ([`crate::bake::bake_sites`]). What the final
+    /// gather's choice and its cost go by.
+    pub vertices: usize,
     /// The final gather `auto` will run.
     pub gather: Gather,
     /// Peak memory, bytes (matrix: an upper bound; hierarchical: an estimate, see the module).
@@ -109,7 +121,9 @@ impl Estimate {
             Method::Hierarchical => {
                 let (lo, hi) = scene.bounds();
                 let max_edge = s.max_edge.unwrap_or((hi - lo).length());
-                let roots = sides * mesh::subdivide(scene, max_edge, s.crease_degrees)?.len();
+                let root_patches = mesh::subdivide(scene, max_edge, s.crease_degrees)?;
+                let roots = sides * root_patches.len();
+                let vertices = sides * output_vertices(&root_patches, s.crease_degrees);
                 let finer = (1e-4 / s.hierarchical.epsilon).powf(0.4);
                 let leaves = (LEAVES_PER_ROOT * roots as f64 * finer) as usize;
                 Estimate {
@@ -119,7 +133,8 @@ impl Estimate {
                     max_patches: leaves,
                     facing_fraction: None,
                     max_entries: None,
-                    gather: s.gather.resolve(leaves, s.gather_rays.is_some()),
+                    vertices,
+                    gather: s.gather.resolve(vertices, s.gather_rays.is_some()),
                     memory_bytes: BASE_BYTES + HIERARCHICAL_BYTES_PER_ROOT * roots as f64 * finer,
                     seconds: (HIERARCHICAL_SECONDS
                         + HIERARCHICAL_SECONDS_PER_ROOT * roots as f64 * finer)
@@ -142,6 +157,9 @@ impl Estimate {
                     n
                 };
                 let facing = facing_fraction(&patches);
+                let first = sides * output_vertices(&patches, s.crease_degrees);
+                let vertices =
+                    |most: usize| (first as f64 * most as f64 / n.max(1) as f64).round() as usize;
                 let m = max_patches as f64;
                 let mut entries = facing * m * m;
                 if s.form_factors.estimator == crate::form_factor::Estimator::Hemisphere {
@@ -159,7 +177,10 @@ impl Estimate {
                     max_patches,
                     facing_fraction: Some(facing),
                     max_entries: Some(entries),
-                    gather: s.gather.resolve(max_patches, s.gather_rays.is_some()),
+                    vertices: vertices(max_patches),
+                    gather: s
+                        .gather
+                        .resolve(vertices(max_patches), s.gather_rays.is_some()),
                     memory_bytes: BASE_BYTES + bytes * entries,
                     seconds: secs * entries * per_core,
                     threads,
@@ -171,25 +192,29 @@ impl Estimate {
             e.gather = Gather::None;
         }
         if e.gather != Gather::None {
-            // The rays beside edges come on top ([`gather::EDGE_RAYS`]).
-            let rays = s.gather_rays.map_or(gather::AUTO_RAY_BUDGET as f64, |r| {
-                r as f64 * e.max_patches as f64
-            }) * (1.0 + gather::EDGE_RAYS);
-            e.seconds += GATHER_SECONDS * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
-            // The lights outside the mesh: a shadow ray each at every output vertex (about one
-            // per patch or leaf) and at every vertex the display refinement adds (its budget
-            // shares 2·AUTO_RAY_BUDGET out over the rays a vertex casts).
+            let vertices = e.vertices;
+            if e.gather == Gather::Cache {
+                e.seconds += GATHER_CACHE_SECONDS_PER_VERTEX * vertices as f64 * per_core;
+            } else {
+                // The rays beside edges come on top ([`gather::EDGE_RAYS`]).
+                let rays = s.gather_rays.map_or(gather::AUTO_RAY_BUDGET as f64, |r| {
+                    r as f64 * vertices as f64
+                }) * (1.0 + gather::EDGE_RAYS);
+                e.seconds += GATHER_SECONDS * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
+            }
+            // The lights outside the mesh: a shadow ray each at every output vertex and at
+            // every vertex the display refinement adds (its budget
+            // shares 2·AUTO_RAY_BUDGET out over the rays a vertex casts; the `cache` gather's
+            // is a share of the vertices as well).
             let light_rays = s.environment.sharp_rays();
             if light_rays > 0 {
-                let vertices = e.max_patches;
-                let hemisphere = match e.gather {
-                    Gather::Full => gather::auto_rays(vertices),
-                    _ => 0,
-                };
-                let refined = if s.gather_tolerance > 0.0 {
-                    gather::refine::budget(hemisphere, light_rays)
-                } else {
-                    0
+                let refined = match (s.gather_tolerance > 0.0, e.gather) {
+                    (false, _) => 0,
+                    (true, Gather::Cache) => gather::refine::cache_budget(0, light_rays, vertices),
+                    (true, Gather::Full) => {
+                        gather::refine::budget(gather::auto_rays(vertices), light_rays)
+                    }
+                    (true, _) => gather::refine::budget(0, light_rays),
                 };
                 e.seconds += GATHER_SECONDS_PER_LIGHT_RAY
                     * (light_rays * (vertices + refined)) as f64
@@ -238,6 +263,14 @@ impl Estimate {
             _ => "a larger --max-edge, a smaller --refine-max-patches, or --method hierarchical",
         }
     }
+}
+
+/// The output vertices of a bake of `patches` before any display refinement: the sites
+/// [`crate::bake::bake_sites`] makes, shared only within a flat facet at the display crease.
+fn output_vertices(patches: &Patches, crease_degrees: f64) -> usize {
+    let dark = vec![[0.0; 3]; patches.len()];
+    let crease = crease_degrees.min(crate::bake::FACET_DEGREES);
+    crate::bake::bake_sites(patches, &dark, crease).1.len()
 }
 
 /// The share of ordered pairs (i, j ≠ i) of patches that face each other (each centroid in

@@ -435,7 +435,14 @@ fn bake_stage(
             mode,
             rays,
             tolerance: settings.gather_tolerance,
-            budget: gather::refine::budget(rays, gatherer.direct_cost_per_point()),
+            budget: match mode {
+                Gather::Cache => gather::refine::cache_budget(
+                    rays,
+                    gatherer.direct_cost_per_point(),
+                    sites.len(),
+                ),
+                _ => gather::refine::budget(rays, gatherer.direct_cost_per_point()),
+            },
         };
         let refined = gather::refine(
             &gatherer,
