@@ -159,7 +159,7 @@ impl Estimate {
                 let facing = facing_fraction(&patches);
                 let first = sides * output_vertices(&patches, s.crease_degrees);
                 let vertices =
-                    |most: usize| (first as f64 * most as f64 / n.max(1) as f64).round() as usize;
+                    (first as f64 * max_patches as f64 / n.max(1) as f64).round() as usize;
                 let m = max_patches as f64;
                 let mut entries = facing * m * m;
                 if s.form_factors.estimator == crate::form_factor::Estimator::Hemisphere {
@@ -177,10 +177,8 @@ impl Estimate {
                     max_patches,
                     facing_fraction: Some(facing),
                     max_entries: Some(entries),
-                    vertices: vertices(max_patches),
-                    gather: s
-                        .gather
-                        .resolve(vertices(max_patches), s.gather_rays.is_some()),
+                    vertices,
+                    gather: s.gather.resolve(vertices, s.gather_rays.is_some()),
                     memory_bytes: BASE_BYTES + bytes * entries,
                     seconds: secs * entries * per_core,
                     threads,
