@@ -1,6 +1,8 @@
 //! Scores baked PLY files against a probe file of the point-wise benchmark: what a viewer of
 //! each bake sees (vertex colours interpolated), at the probes, against their path-traced
 //! radiance. `cargo run --release -p radiosity-tools --example score -- PROBES.csv BAKE.ply…`
+//! With `SCORE_DUMP=FILE`, each probe's triangle and reference and shown luminance are also
+//! written to FILE as CSV (the last bake's), to break the error down by surface.
 
 use std::path::Path;
 
@@ -23,6 +25,16 @@ fn main() -> Result<()> {
             .iter()
             .map(|s| s.map(|s| s.interpolated))
             .collect();
+        if let Some(dump) = std::env::var_os("SCORE_DUMP") {
+            // Each probe's triangle, reference and shown luminance, for a breakdown by hand.
+            let mut csv = String::from("triangle,reference,shown\n");
+            for (p, s) in probes.iter().zip(&shown) {
+                let y = s.map_or(f64::NAN, radiosity::color::luminance);
+                let reference = radiosity::color::luminance(p.radiance);
+                csv.push_str(&format!("{},{reference},{y}\n", p.triangle));
+            }
+            std::fs::write(&dump, csv).with_context(|| format!("writing {dump:?}"))?;
+        }
         let s = pointwise::score(&probes, &shown);
         println!(
             "| {bake} | {} | {:.2} % | {:.2} % | {:.2} % | {:+.2} % |",
