@@ -146,7 +146,7 @@ pub const MIN_AUTO_RAYS: usize = 64;
 /// would either cost more than its budget or give each vertex fewer rays than its noise
 /// allows, so `auto` takes the `cache` gather ([`cache`]): the direct light exactly at every
 /// vertex, the indirect light gathered where it varies and interpolated between, and a display
-/// refinement bounded by the output's size ([`refine::cache_budget`]). Its cost grows as the
+/// refinement bounded by the output's size ([`refine::budget_for`]). Its cost grows as the
 /// output vertices times what a point's direct light costs, like the hierarchical solve's
 /// growth with the elements, so it stays a bounded share of the bake (BENCHMARKS.md "Large
 /// outputs: the `cache` gather").

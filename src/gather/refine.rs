@@ -80,8 +80,9 @@ pub fn budget(rays: usize, direct: usize) -> usize {
     2 * super::AUTO_RAY_BUDGET / (rays + direct).max(1)
 }
 
-/// New vertices, at most, of the `cache` gather's display refinement for an output of
-/// `vertices` vertices: the smaller of [`budget`] and [`CACHE_REFINE_SHARE`] × `vertices`.
+/// New vertices, at most, of the display refinement after a `mode` gather of `vertices`
+/// output vertices: [`budget`], and for the `cache` gather at most [`CACHE_REFINE_SHARE`] ×
+/// `vertices` as well. The bake and its estimate both ask here.
 ///
 /// The `cache` gather's cost is not its hemisphere rays but the direct light it computes
 /// exactly at every vertex (an emitter's visible pieces against its occluders, many on a
@@ -91,12 +92,16 @@ pub fn budget(rays: usize, direct: usize) -> usize {
 /// whatever one costs: [`budget`] alone, which prices the direct light by a fixed
 /// [`super::EXACT_EMITTER_COST`], let the refinement of a furnished office of 10⁵ triangles
 /// cost 4.6× the gather at its vertices.
-pub fn cache_budget(rays: usize, direct: usize, vertices: usize) -> usize {
-    budget(rays, direct).min((CACHE_REFINE_SHARE * vertices as f64) as usize)
+pub fn budget_for(mode: Gather, rays: usize, direct: usize, vertices: usize) -> usize {
+    let most = budget(rays, direct);
+    match mode {
+        Gather::Cache => most.min((CACHE_REFINE_SHARE * vertices as f64) as usize),
+        _ => most,
+    }
 }
 
 /// New vertices of the `cache` gather's display refinement per output vertex, at most
-/// ([`cache_budget`]): 1 / (1 + [`TESTS_PER_NEW_VERTEX`]), so that the new vertices and
+/// ([`budget_for`]): 1 / (1 + [`TESTS_PER_NEW_VERTEX`]), so that the new vertices and
 /// their tests evaluate the direct light as many times as the gather did at the output's
 /// vertices. On the generated office (the point-wise probes, 2026-11-29) a share of 0.1
 /// removes most of what the refinement can (RMS 12.4 % without it, 7.6 % at 0.1, 6.7 % at

@@ -644,9 +644,9 @@ fn a_plate_over_a_floor_casts_its_contact_shadow_through_the_gather() {
 /// ends it.
 #[test]
 fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
-    assert_eq!(refine::cache_budget(64, 32, 100_000), 20_000);
+    assert_eq!(refine::budget_for(Gather::Cache, 64, 32, 100_000), 20_000);
     assert_eq!(
-        refine::cache_budget(1024, 0, 10_000_000),
+        refine::budget_for(Gather::Cache, 1024, 0, 10_000_000),
         refine::budget(1024, 0)
     );
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -660,7 +660,7 @@ fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
     let out = pipeline::solve_scene(&scene, &settings).unwrap();
     let added = out.report.display_refinement.vertices;
     let before = out.report.vertices - added;
-    let most = refine::cache_budget(auto_rays(before), 0, before);
+    let most = refine::budget_for(Gather::Cache, auto_rays(before), 0, before);
     assert!(added > 0, "the refinement added nothing");
     assert!(
         added as f64 <= refine::CACHE_REFINE_SHARE * before as f64,

@@ -65,7 +65,7 @@ const LEAVES_PER_ROOT: f64 = 2.0;
 /// many lights), before the rays beside edges ([`gather::EDGE_RAYS`] more).
 const GATHER_SECONDS: f64 = 4.2;
 /// Seconds on 2 cores of the `cache` gather and its display refinement
-/// ([`gather::refine::cache_budget`]) per output vertex counted on the roots
+/// ([`gather::refine::budget_for`]) per output vertex counted on the roots
 /// ([`Estimate::vertices`]): the direct light computed exactly at every vertex and the
 /// records' hemisphere rays dominate it, so it grows with the scene's occluders and lights as
 /// well. Fitted to the generated office of 10⁵ triangles (12 lamps, sky panels, furniture;
@@ -201,18 +201,17 @@ impl Estimate {
                 e.seconds += GATHER_SECONDS * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
             }
             // The lights outside the mesh: a shadow ray each at every output vertex and at
-            // every vertex the display refinement adds (its budget
-            // shares 2·AUTO_RAY_BUDGET out over the rays a vertex casts; the `cache` gather's
-            // is a share of the vertices as well).
+            // every vertex the display refinement adds (the bake's own refinement budget).
             let light_rays = s.environment.sharp_rays();
             if light_rays > 0 {
-                let refined = match (s.gather_tolerance > 0.0, e.gather) {
-                    (false, _) => 0,
-                    (true, Gather::Cache) => gather::refine::cache_budget(0, light_rays, vertices),
-                    (true, Gather::Full) => {
-                        gather::refine::budget(gather::auto_rays(vertices), light_rays)
-                    }
-                    (true, _) => gather::refine::budget(0, light_rays),
+                let hemisphere = match e.gather {
+                    Gather::Full | Gather::Cache => gather::auto_rays(vertices),
+                    _ => 0,
+                };
+                let refined = if s.gather_tolerance > 0.0 {
+                    gather::refine::budget_for(e.gather, hemisphere, light_rays, vertices)
+                } else {
+                    0
                 };
                 e.seconds += GATHER_SECONDS_PER_LIGHT_RAY
                     * (light_rays * (vertices + refined)) as f64

@@ -435,14 +435,12 @@ fn bake_stage(
             mode,
             rays,
             tolerance: settings.gather_tolerance,
-            budget: match mode {
-                Gather::Cache => gather::refine::cache_budget(
-                    rays,
-                    gatherer.direct_cost_per_point(),
-                    sites.len(),
-                ),
-                _ => gather::refine::budget(rays, gatherer.direct_cost_per_point()),
-            },
+            budget: gather::refine::budget_for(
+                mode,
+                rays,
+                gatherer.direct_cost_per_point(),
+                sites.len(),
+            ),
         };
         let refined = gather::refine(
             &gatherer,
