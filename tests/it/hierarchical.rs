@@ -219,7 +219,7 @@ fn far_patches_keep_one_link_at_the_top() {
 /// The matrix method as the oracle: a lit room with a block, per-surface visible means.
 ///
 /// Tolerance: both are discretisations; the matrix at 7 cm patches (≈ 9k) against the
-/// hierarchy at ε = 1e-5 differ by up to 0.5 % (measured: the block's faces; walls ≤ 0.16 %;
+/// hierarchy at ε = 1e-5 differ by up to 0.5 % (measured: the block's faces; walls ≤ 0.2 %;
 /// at 5 cm, ≈ 17k patches, the same surfaces differ alike, up to 0.6 %, for twice the time and
 /// 4× the memory;
 /// 1.3 % before the elements computed their direct light, 3.5 %, the hierarchy low, before
