@@ -103,9 +103,10 @@ pub fn budget_for(mode: Gather, rays: usize, direct: usize, vertices: usize) -> 
 /// New vertices of the `cache` gather's display refinement per output vertex, at most
 /// ([`budget_for`]): 1 / (1 + [`TESTS_PER_NEW_VERTEX`]), so that the new vertices and
 /// their tests evaluate the direct light as many times as the gather did at the output's
-/// vertices. On the generated office (the point-wise probes, 2026-11-29) a share of 0.1
-/// removes most of what the refinement can (RMS 12.4 % without it, 7.6 % at 0.1, 6.7 % at
-/// 0.2, 6.0 % at 0.8), the rest costing several times more.
+/// vertices. On the generated office this share removes most of what the refinement can,
+/// the rest costing several times more; on the generated hall, whose many small lights cast
+/// shadows the output does not follow, it leaves most of them unresolved (BENCHMARKS.md
+/// "Large outputs: the `cache` gather").
 pub const CACHE_REFINE_SHARE: f64 = 1.0 / (1 + TESTS_PER_NEW_VERTEX) as f64;
 
 /// Rounds of testing new triangles' edges, at most: each halves the edges it splits.

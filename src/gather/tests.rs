@@ -666,10 +666,9 @@ fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
     let out = pipeline::solve_scene(&scene, &settings).unwrap();
     let added = out.report.display_refinement.vertices;
     let before = out.report.vertices - added;
-    let most = refine::budget_for(Gather::Cache, auto_rays(before), 0, before);
     assert!(added > 0, "the refinement added nothing");
     assert!(
         added as f64 <= refine::CACHE_REFINE_SHARE * before as f64,
-        "{added} vertices added to {before} (at most {most})"
+        "{added} vertices added to {before}"
     );
 }
