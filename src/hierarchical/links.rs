@@ -65,16 +65,18 @@ pub const CLUSTER_GAP: f64 = 0.0;
 ///   horizon drawn by solid angle, weighted by its cosine there (so the share follows the
 ///   kernel, not the source's area).
 /// - With a cluster at either end: the Monte Carlo estimate of the area formulation,
-///   F_rs ≈ A_s · mean_k G(x_k, y_k) V(x_k, y_k) with x_k uniform on the receiver's surfaces
-///   (an element's unburied rule points, picked ∝ weight) and
+///   F_rs ≈ A_s · mean_k G(x_k, y_k) V(x_k, y_k) with x_k uniform on the receiver's seen
+///   surfaces (an element's unburied rule points, picked ∝ weight; a cluster's roots by seen
+///   area, [`Tree::sample_seen`]) and
 ///   y_k on the source's (area-weighted through the cluster tree), G = cosθ_x cosθ_y/(π r²) with
 ///   the surfaces' own normals — the real orientations, not an isotropic guess (a flat cluster
 ///   facing another would be underestimated 16× by Sillion's isotropic A/4). The oracle
 ///   does not trust this noisy estimate but the bound A_s / (π gap²) (cosines ≤ 1, every
 ///   distance ≥ the gap between the bounding spheres), so a cluster link carries at most ε
-///   whatever the samples say; what the cluster gathers is pushed to its elements uniformly
-///   (Sillion, IEEE TVCG 1995; Smits, Arvo & Greenberg, SIGGRAPH 1994 bound cluster links the
-///   same way).
+///   whatever the samples say; what the cluster gathers is pushed to its elements by their
+///   orientation, and a cluster source gives the radiance of its faces turned toward the
+///   receiver (Sillion, IEEE TVCG 1995, with oriented rather than isotropic clusters; Smits,
+///   Arvo & Greenberg, SIGGRAPH 1994 bound cluster links the same way).
 pub fn estimate(
     tree: &Tree,
     vis: &Visibility,
@@ -385,7 +387,10 @@ pub(crate) fn composite_form_factor(tree: &Tree, r: usize, s: usize, depth: u32)
 /// F_rs with a cluster at either end: the Monte Carlo estimate A_s · mean_k G(x_k, y_k)
 /// V(x_k, y_k) of the area formulation (see [`estimate`]). Receiving points: on an element,
 /// its unburied rule points picked ∝ weight (so the mean is over its visible part); in a
-/// cluster, area-uniform. `None` when every rule point of an element receiver is buried.
+/// cluster, uniform over its seen area ([`Tree::sample_seen`]: the ceiling buried behind a lamp
+/// mounted under it must not dilute what the lamp gathers, since the cluster's F is pushed to
+/// the lamp as the mean). `None` when every rule point of an element receiver, or the whole of
+/// a cluster receiver, is buried.
 fn cluster_pair_estimate(
     tree: &Tree,
     vis: &Visibility,
@@ -401,7 +406,15 @@ fn cluster_pair_estimate(
             let picks = pick_proportional(&unburied_weights(buried), rays, rng.next_f64())?;
             xs.extend(picks.into_iter().map(|k| (r, receiver_rule()[k].0)));
         }
-        None => tree.sample(receiver, rays, rng, &mut xs),
+        // Over the cluster's seen part: what it gathers is pushed to its faces as the mean
+        // over what is seen, so a lamp mounted under a ceiling is not dimmed by the buried
+        // ceiling behind it.
+        None => {
+            tree.sample_seen(receiver.as_cluster().unwrap(), rays, rng, &mut xs);
+            if xs.is_empty() {
+                return None;
+            }
+        }
     }
     let mut ys = Vec::with_capacity(rays);
     tree.sample(source, rays, rng, &mut ys);

@@ -19,8 +19,9 @@
 //!    elements at a fixed ε (HSA91 §5).
 //! 3. **Solve** ([`Hierarchy::sweep`]): a Jacobi sweep gathers, at every node, Σ F·L over its
 //!    links (from the previous sweep's radiance, in parallel; a split element source gives
-//!    its children's radiance weighted by how much of F reaches each,
-//!    [`Hierarchy::link_radiance`]), then *push-pull*: what a node
+//!    its children's radiance weighted by how much of F reaches each, a cluster source the
+//!    radiance of its faces turned toward the receiver, [`Hierarchy::link_radiance`],
+//!    [`push_pull::OrientedRadiance`]), then *push-pull*: what a node
 //!    gathered is pushed down to every leaf below it (irradiance is intensive: the same on
 //!    every part; a cluster whose faces look different ways gives each face its cosine's
 //!    share, [`ClusterGather`]), leaves take L = Le + ρ·G, and radiance is pulled up as
@@ -36,9 +37,10 @@
 //!
 //! Buried points (as in [`crate::form_factor`]): a receiving element's rule points whose
 //! normal ray meets the back of a surface (the floor under a block) gather nothing, its
-//! other points stand for its visible part, and radiance is pulled up weighted by visible
-//! area, so a source's buried part does not dilute the radiance of the part that is seen
-//! (its visibility rays already count it as blocked).
+//! other points stand for its visible part, a receiving cluster's form factor is its mean
+//! over its seen area, and radiance is pulled up weighted by visible area, so a source's
+//! buried part does not dilute the radiance of the part that is seen (its visibility rays
+//! already count it as blocked).
 //!
 //! Energy: below a closed root (every probe ray from it lands on the front of a surface) each
 //! leaf's gathered light in the final solve (in every sweep when the whole scene is closed)
@@ -382,6 +384,8 @@ pub struct Hierarchy<'a> {
     pub elem_l: Vec<Rgb>,
     /// The same for every cluster (area-weighted mean of its root elements).
     pub cluster_l: Vec<Rgb>,
+    /// Every cluster's radiance by the direction it leaves in ([`push_pull::OrientedRadiance`]).
+    cluster_oriented: Vec<push_pull::OrientedRadiance>,
     /// The largest channel of the radiance of any leaf below each element and each cluster:
     /// what the oracle bounds a source's radiance by.
     elem_max: Vec<f64>,
@@ -434,6 +438,7 @@ impl<'a> Hierarchy<'a> {
         let mut h = Hierarchy {
             elem_l: Vec::new(),
             cluster_l: Vec::new(),
+            cluster_oriented: Vec::new(),
             elem_max: Vec::new(),
             cluster_max: Vec::new(),
             tree,
@@ -579,6 +584,11 @@ impl<'a> Hierarchy<'a> {
         for d in new {
             self.stats.rays_cast += d.rays;
             self.direct.push(d);
+        }
+        if from == 0 {
+            // The roots: the clusters' seen areas, for what cluster receivers gather.
+            let n = self.tree.roots;
+            self.tree.set_burial(&self.buried[..n], &self.visible[..n]);
         }
     }
 

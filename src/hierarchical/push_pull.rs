@@ -2,7 +2,8 @@
 //! below it (irradiance is intensive: the same on every part; a cluster whose faces look
 //! different ways gives each face its cosine's share, [`ClusterGather`]), leaves take
 //! L = Le + ρ·(D + G), and radiance is pulled up as area-weighted means, weighted by visible
-//! area so that a buried part of an element does not dilute the part that is seen.
+//! area so that a buried part of an element does not dilute the part that is seen; each
+//! cluster also keeps its radiance by the direction it leaves in ([`OrientedRadiance`]).
 
 use glam::DVec3;
 
@@ -19,6 +20,7 @@ impl Hierarchy<'_> {
         let zero = vec![[0.0; 3]; n];
         self.elem_l = vec![[0.0; 3]; n];
         self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
+        self.cluster_oriented = vec![OrientedRadiance::default(); self.tree.clusters.len()];
         let gz = vec![ClusterGather::default(); self.tree.clusters.len()];
         self.push_pull(&zero, &gz, false);
     }
@@ -95,6 +97,7 @@ impl Hierarchy<'_> {
             }
         }
         let mut cl = vec![[0.0; 3]; t.clusters.len()];
+        let mut oriented = vec![OrientedRadiance::default(); t.clusters.len()];
         let mut cluster_visible = vec![0.0; t.clusters.len()];
         let mut cmax = vec![0.0f64; t.clusters.len()];
         for c in (0..t.clusters.len()).rev() {
@@ -115,9 +118,18 @@ impl Hierarchy<'_> {
                         (cl[j], cluster_visible[j], t.clusters[j].area)
                     }
                 }));
+            let mut o = OrientedRadiance::default();
+            for &child in kids {
+                match child.as_element() {
+                    Some(e) => o.add(t.elements[e].normal, visible_area[e], l[e]),
+                    None => o.add_all(&oriented[child.as_cluster().unwrap()]),
+                }
+            }
+            oriented[c] = o;
         }
         self.elem_l = l;
         self.cluster_l = cl;
+        self.cluster_oriented = oriented;
         self.elem_max = lmax;
         self.cluster_max = cmax;
     }
@@ -150,7 +162,8 @@ impl Hierarchy<'_> {
 /// spread over the faces below in proportion to the clamped cosine between each face's
 /// normal n and d, in the separable form c(n, d) = Σ_a |d_a| · max(0, sign(d_a) n_a) (exact
 /// for faces and directions along the axes, an upper estimate otherwise), normalised by the
-/// cluster's area-mean of it ([`tree::Cluster::facing`]): so the area-mean over the cluster
+/// mean of it over the cluster's seen area ([`tree::Cluster::seen_facing`], as the link's
+/// form factor is a mean over the seen area): so the area-mean over the cluster
 /// of what its faces take is v, as the link's form factor (an area-mean over the cluster)
 /// says, and a face turned away from d takes none. Links whose direction no face below
 /// meets (a mean of 0) are pushed uniformly, and so is everything a cluster gathers whose
@@ -177,9 +190,9 @@ impl ClusterGather {
         };
         let bin = |a: usize| if d[a] >= 0.0 { a } else { a + 3 };
         let mean: f64 = (0..3)
-            .map(|a| d[a].abs() * cluster.facing[bin(a)])
+            .map(|a| d[a].abs() * cluster.seen_facing[bin(a)])
             .sum::<f64>()
-            / cluster.area;
+            / cluster.seen_area;
         if mean.is_nan() || mean <= 1e-12 {
             self.uniform = add(self.uniform, v);
             return;
@@ -205,6 +218,55 @@ impl ClusterGather {
             g = add(g, bin.map(|x| w * x));
         }
         g
+    }
+}
+
+/// A cluster's radiance by the direction it leaves in: the mean over its faces weighted by
+/// how much of each faces that way, so that a receiver gathers from the faces turned toward
+/// it. The isotropic cluster of Sillion (IEEE TVCG 1995) has one radiance, the area mean: seen
+/// from the floor, a desk's cluster would then shine with its lit top rather than its dark
+/// underside, and a cluster holding floor and ceiling would light the ceiling with the
+/// ceiling's own darkness mixed into the floor's light. The source-side twin of
+/// [`ClusterGather`], in the same separable form: a face with unit normal n and seen area A
+/// counts A·max(0, ±n_a) in each axis bin, and toward a unit direction d the radiance is
+/// Σ_a |d_a| S_bin(a) / Σ_a |d_a| W_bin(a), bin(a) the +a bin where d_a ≥ 0, else −a (exact
+/// for faces and directions along the axes; for one flat face, its own radiance whatever d).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OrientedRadiance {
+    /// Per axis direction (+x, +y, +z, −x, −y, −z): Σ A·max(0, ±n_a), scene units squared.
+    weight: [f64; 6],
+    /// The same sums times each face's radiance, per channel.
+    sum: [Rgb; 6],
+}
+
+impl OrientedRadiance {
+    /// Adds a face (or element) with unit normal `n`, seen area `area` and radiance `l`.
+    pub(super) fn add(&mut self, n: DVec3, area: f64, l: Rgb) {
+        for (a, w) in tree::axis_weights(n).into_iter().enumerate() {
+            let w = w * area;
+            self.weight[a] += w;
+            self.sum[a] = add(self.sum[a], l.map(|x| w * x));
+        }
+    }
+
+    /// Adds everything `other` holds (a child cluster's sums).
+    pub(super) fn add_all(&mut self, other: &OrientedRadiance) {
+        for a in 0..6 {
+            self.weight[a] += other.weight[a];
+            self.sum[a] = add(self.sum[a], other.sum[a]);
+        }
+    }
+
+    /// The radiance leaving toward unit direction `d`; `None` when no face turns that way.
+    pub(super) fn toward(&self, d: DVec3) -> Option<Rgb> {
+        let (mut w, mut s) = (0.0, [0.0; 3]);
+        for a in 0..3 {
+            let bin = if d[a] >= 0.0 { a } else { a + 3 };
+            let k = d[a].abs();
+            w += k * self.weight[bin];
+            s = add(s, self.sum[bin].map(|x| k * x));
+        }
+        (w > 1e-300).then(|| s.map(|x| x / w))
     }
 }
 

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::links::Link;
 use super::push_pull::{add, ClusterGather};
 use super::tree::{self, Node};
-use super::Hierarchy;
+use super::{Hierarchy, ORIENTED_CONE_COS};
 use crate::color::Rgb;
 use crate::solve;
 
@@ -173,6 +173,19 @@ impl Hierarchy<'_> {
             if first != tree::NO_CHILD as usize {
                 let parts = (0..4).map(|q| (first + q, l.children[q] as f64));
                 if let Some(l) = self.share_weighted(parts) {
+                    return l;
+                }
+            }
+        }
+        // A cluster whose faces look different ways: the faces turned toward the receiver.
+        if let Some(c) = l.source.as_cluster() {
+            let cl = &self.tree.clusters[c];
+            if cl.cone_cos < ORIENTED_CONE_COS {
+                let d = self.tree.sphere(l.receiver).0 - cl.centre;
+                if let Some(l) = d
+                    .try_normalize()
+                    .and_then(|d| self.cluster_oriented[c].toward(d))
+                {
                     return l;
                 }
             }
