@@ -20,8 +20,8 @@
 //! 3. **Solve** ([`Hierarchy::sweep`]): a Jacobi sweep gathers, at every node, Σ F·L over its
 //!    links (from the previous sweep's radiance, in parallel; a split element source gives
 //!    its children's radiance weighted by how much of F reaches each, a cluster source the
-//!    radiance of its faces turned toward the receiver, [`Hierarchy::link_radiance`],
-//!    [`push_pull::OrientedRadiance`]), then *push-pull*: what a node
+//!    radiance of its faces turned toward the receiver, [`Hierarchy::link_radiance`]),
+//!    then *push-pull*: what a node
 //!    gathered is pushed down to every leaf below it (irradiance is intensive: the same on
 //!    every part; a cluster whose faces look different ways gives each face its cosine's
 //!    share, [`ClusterGather`]), leaves take L = Le + ρ·G, and radiance is pulled up as
