@@ -34,6 +34,32 @@ fn one_bounce(mut s: pipeline::Settings) -> pipeline::Settings {
     s
 }
 
+/// The square [−1, 1]² at z = 0, facing up.
+fn floor_quad(b: &mut SceneBuilder, material: u32) {
+    b.quad(
+        [
+            DVec3::new(-1.0, -1.0, 0.0),
+            DVec3::new(1.0, -1.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(-1.0, 1.0, 0.0),
+        ],
+        material,
+    );
+}
+
+/// One bounce through the hierarchy at ε 1e-3 on 5 cm roots, the emitters' direct light at
+/// the elements or (`direct` false) carried by the links; asserts that some links have a
+/// cluster end, which is what the tests that use it are about.
+fn one_bounce_through_clusters(scene: &Scene, direct: bool) -> Outcome {
+    let mut s = one_bounce(hierarchical(1e-3, 1e-6));
+    s.max_edge = Some(0.05);
+    s.hierarchical.direct = direct;
+    let out = run(scene, &s);
+    let h = out.report.hierarchical.as_ref().unwrap();
+    assert!(h.cluster_links > 0, "the test needs cluster links: {h:?}");
+    out
+}
+
 /// Howell's plates as ε → 0: the one-bounce receiver radiance gives F to ≤ 1e-3.
 ///
 /// Tolerance: element links integrate the exact point-to-polygon form factor with the 7-point
@@ -406,15 +432,7 @@ fn clusters_do_not_light_faces_turned_away() {
     let mut b = SceneBuilder::new();
     let light = b.material("light", [0.0; 3], [1.0; 3]);
     let grey = b.material("grey", [0.5; 3], [0.0; 3]);
-    b.quad(
-        [
-            DVec3::new(-1.0, -1.0, 0.0),
-            DVec3::new(1.0, -1.0, 0.0),
-            DVec3::new(1.0, 1.0, 0.0),
-            DVec3::new(-1.0, 1.0, 0.0),
-        ],
-        light,
-    );
+    floor_quad(&mut b, light);
     scenes::add_box(
         &mut b,
         DVec3::new(-0.1, -0.1, 3.0),
@@ -422,12 +440,7 @@ fn clusters_do_not_light_faces_turned_away() {
         false,
         grey,
     );
-    let scene = b.build().unwrap();
-    let mut s = one_bounce(hierarchical(1e-3, 1e-6));
-    s.max_edge = Some(0.05);
-    let out = run(&scene, &s);
-    let h = out.report.hierarchical.as_ref().unwrap();
-    assert!(h.cluster_links > 0, "the test needs cluster links: {h:?}");
+    let out = one_bounce_through_clusters(&b.build().unwrap(), true);
     let (mut top, mut bottom) = (0.0f64, 0.0f64);
     for i in 0..out.patches.len() {
         let (n, c) = (out.patches.normal[i], out.patches.centroid[i]);
@@ -519,26 +532,12 @@ fn clusters_do_not_shine_with_faces_turned_away() {
     let mut b = SceneBuilder::new();
     let light = b.material("light", [0.0; 3], [1.0; 3]);
     let grey = b.material("grey", [0.5; 3], [0.0; 3]);
-    b.quad(
-        [
-            DVec3::new(-1.0, -1.0, 0.0),
-            DVec3::new(1.0, -1.0, 0.0),
-            DVec3::new(1.0, 1.0, 0.0),
-            DVec3::new(-1.0, 1.0, 0.0),
-        ],
-        grey,
-    );
+    floor_quad(&mut b, grey);
     let faces = scenes::box_faces(DVec3::new(-0.2, -0.2, 2.0), DVec3::new(0.2, 0.2, 2.4));
     for (k, q) in faces.into_iter().enumerate() {
         b.quad(q, if k == 5 { light } else { grey }); // +z: the top
     }
-    let scene = b.build().unwrap();
-    let mut s = one_bounce(hierarchical(1e-3, 1e-6));
-    s.max_edge = Some(0.05);
-    s.hierarchical.direct = false;
-    let out = run(&scene, &s);
-    let h = out.report.hierarchical.as_ref().unwrap();
-    assert!(h.cluster_links > 0, "the test needs cluster links: {h:?}");
+    let out = one_bounce_through_clusters(&b.build().unwrap(), false);
     let floor = (0..out.patches.len())
         .filter(|&i| out.patches.centroid[i].z.abs() < 1e-9)
         .map(|i| out.solution.radiance[i][0])
