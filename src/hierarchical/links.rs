@@ -46,6 +46,27 @@ pub struct Estimate {
     pub rays: u64,
 }
 
+/// Which receiver-rule points of each element are buried (bit k for point k of
+/// [`receiver_rule`]) and each element's visible fraction, both indexed by element; empty
+/// slices (the default) mean nothing is buried.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Burial<'a> {
+    pub buried: &'a [u16],
+    pub visible: &'a [f64],
+}
+
+impl Burial<'_> {
+    /// Element `e`'s buried rule points.
+    pub fn mask(&self, e: usize) -> u16 {
+        self.buried.get(e).copied().unwrap_or(0)
+    }
+
+    /// Element `e`'s visible fraction in [0, 1].
+    pub fn visible(&self, e: usize) -> f64 {
+        self.visible.get(e).copied().unwrap_or(1.0)
+    }
+}
+
 /// A link with a cluster end whose bounding spheres are closer than this times the sum of
 /// their radii is opened unconditionally: its upper bound A_s/(π gap²) would be useless.
 pub const CLUSTER_GAP: f64 = 0.0;
@@ -53,9 +74,9 @@ pub const CLUSTER_GAP: f64 = 0.0;
 /// Estimates F_rs for a new link (`None` when it is zero for certain: an element behind the
 /// other's plane, or an element's self-link).
 ///
-/// `buried` marks the receiver's rule points ([`receiver_rule`]) that are buried (bit k for
-/// point k; 0 for a cluster): they are left out and the others reweighted, so an element
-/// gathers for its visible part.
+/// `burial` says which rule points ([`receiver_rule`]) of the receiver are buried: they are
+/// left out and the others reweighted, so an element gathers for its visible part, and a
+/// cluster for its roots' visible parts.
 ///
 /// - Element ← element (`element_pair_estimate`): the receiver rule (degree 5) over the
 ///   exact unoccluded point-to-polygon form factor to the source (Lambert's contour integral,
@@ -83,7 +104,7 @@ pub fn estimate(
     receiver: Node,
     source: Node,
     rays: usize,
-    buried: u16,
+    burial: Burial,
     seed: u64,
 ) -> Estimate {
     let none = Estimate {
@@ -119,8 +140,8 @@ pub fn estimate(
     let mut rng = Rng::new(&[seed, receiver.id(), source.id(), 0x4C494E4B]);
     let element_pair = receiver.as_element().zip(source.as_element());
     let sums = match element_pair {
-        Some((r, s)) => element_pair_estimate(tree, vis, r, s, rays, buried, &mut rng),
-        None => cluster_pair_estimate(tree, vis, receiver, source, rays, buried, &mut rng),
+        Some((r, s)) => element_pair_estimate(tree, vis, r, s, rays, burial.mask(r), &mut rng),
+        None => cluster_pair_estimate(tree, vis, receiver, source, rays, burial, &mut rng),
     };
     let Some(Sums {
         f,
@@ -397,20 +418,20 @@ fn cluster_pair_estimate(
     receiver: Node,
     source: Node,
     rays: usize,
-    buried: u16,
+    burial: Burial,
     rng: &mut Rng,
 ) -> Option<Sums> {
     let mut xs = Vec::with_capacity(rays);
     match receiver.as_element() {
         Some(r) => {
-            let picks = pick_proportional(&unburied_weights(buried), rays, rng.next_f64())?;
+            let picks = pick_proportional(&unburied_weights(burial.mask(r)), rays, rng.next_f64())?;
             xs.extend(picks.into_iter().map(|k| (r, receiver_rule()[k].0)));
         }
         // Over the cluster's seen part: what it gathers is pushed to its faces as the mean
         // over what is seen, so a lamp mounted under a ceiling is not dimmed by the buried
         // ceiling behind it.
         None => {
-            tree.sample_seen(receiver.as_cluster().unwrap(), rays, rng, &mut xs);
+            tree.sample_seen(receiver.as_cluster().unwrap(), rays, burial, rng, &mut xs);
             if xs.is_empty() {
                 return None;
             }

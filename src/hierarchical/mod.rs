@@ -588,7 +588,15 @@ impl<'a> Hierarchy<'a> {
         if from == 0 {
             // The roots: the clusters' seen areas, for what cluster receivers gather.
             let n = self.tree.roots;
-            self.tree.set_burial(&self.buried[..n], &self.visible[..n]);
+            self.tree.set_seen(&self.visible[..n]);
+        }
+    }
+
+    /// Which rule points of each element are buried, and each element's visible fraction.
+    pub(super) fn burial(&self) -> links::Burial<'_> {
+        links::Burial {
+            buried: &self.buried,
+            visible: &self.visible,
         }
     }
 

@@ -96,8 +96,15 @@ impl Hierarchy<'_> {
         let estimates: Vec<links::Estimate> = pairs
             .par_iter()
             .map(|&(r, s)| {
-                let buried = r.as_element().map_or(0, |e| self.buried[e]);
-                links::estimate(&self.tree, &self.occluders, r, s, rays, buried, self.seed)
+                links::estimate(
+                    &self.tree,
+                    &self.occluders,
+                    r,
+                    s,
+                    rays,
+                    self.burial(),
+                    self.seed,
+                )
             })
             .collect();
         let mut new = Vec::with_capacity(estimates.len());

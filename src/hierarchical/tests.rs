@@ -196,7 +196,7 @@ fn visibility_rays_aim_above_the_receiving_point_s_horizon() {
                 Node::element(r),
                 Node::element(s),
                 64,
-                h.buried[r],
+                h.burial(),
                 1,
             );
             let link = e.link.expect("the emitter is partly in front of the face");
@@ -260,7 +260,7 @@ fn link_visibility_follows_the_kernel_over_a_large_near_source() {
         Node::element(r),
         Node::element(s),
         64,
-        0,
+        links::Burial::default(),
         1,
     )
     .link
@@ -293,7 +293,7 @@ fn link_visibility_follows_the_kernel_over_a_large_near_source() {
                 Node::element(r),
                 Node::element(s),
                 rays,
-                0,
+                links::Burial::default(),
                 seed,
             );
             e.link.unwrap().f as f64
@@ -315,7 +315,7 @@ fn element_link(h: &Hierarchy, r: usize, s: usize) -> Link {
         Node::element(r),
         Node::element(s),
         3,
-        0,
+        links::Burial::default(),
         1,
     );
     e.link.expect("the elements face each other")

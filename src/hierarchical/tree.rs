@@ -99,7 +99,7 @@ pub struct Cluster {
     /// Cosine of the widest angle between a root patch's normal and the area-weighted mean
     /// normal of all below (1 for coplanar patches facing one way; −1 when the normals cancel).
     pub cone_cos: f64,
-    /// The part of `area` that is not buried ([`Tree::set_burial`]; all of it until then),
+    /// The part of `area` that is not buried ([`Tree::set_seen`]; all of it until then),
     /// scene units squared.
     pub seen_area: f64,
     /// `facing` over the part that is not buried.
@@ -125,11 +125,6 @@ pub struct Tree {
     pub cluster_children: Vec<Node>,
     /// The leaf cluster holding each root element.
     pub root_parent: Vec<u32>,
-    /// Per root element: bit k set when point k of the receiver rule
-    /// ([`super::links::receiver_rule`]) is buried ([`Tree::set_burial`]; none until then).
-    pub root_buried: Vec<u16>,
-    /// Per root element: its visible fraction in [0, 1], the rule weight of its unburied points.
-    pub root_seen: Vec<f64>,
 }
 
 impl Tree {
@@ -161,8 +156,6 @@ impl Tree {
             clusters: Vec::new(),
             cluster_children: Vec::new(),
             root_parent: vec![u32::MAX; n],
-            root_buried: vec![0; n],
-            root_seen: vec![1.0; n],
         };
         if n > 1 {
             let mut order: Vec<u32> = (0..n as u32).collect();
@@ -256,19 +249,16 @@ impl Tree {
         }
     }
 
-    /// Records which rule points of each root are buried (`buried[i]` for root `i`, bits as
-    /// [`Tree::root_buried`]) and `seen[i]`, its visible fraction, and sums the clusters'
-    /// seen areas and facings from them (children after parents in storage, so bottom-up).
-    pub fn set_burial(&mut self, buried: &[u16], seen: &[f64]) {
-        self.root_buried = buried.to_vec();
-        self.root_seen = seen.to_vec();
+    /// Sums the clusters' seen areas and facings from `visible[i]`, the visible fraction of
+    /// root `i` (children after parents in storage, so bottom-up).
+    pub fn set_seen(&mut self, visible: &[f64]) {
         for c in (0..self.clusters.len()).rev() {
             let cl = &self.clusters[c];
             let (mut area, mut facing) = (0.0, [0.0; 6]);
             for &k in &self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize] {
                 let (a, f) = match k.as_element() {
                     Some(e) => {
-                        let a = self.elements[e].area * self.root_seen[e];
+                        let a = self.elements[e].area * visible[e];
                         (a, axis_weights(self.elements[e].normal).map(|w| a * w))
                     }
                     None => {
@@ -441,14 +431,22 @@ impl Tree {
     /// `n` random points on the part of cluster `c` that is not buried, with the element each
     /// lies on: a root patch chosen with probability ∝ its seen area (descending the BVH),
     /// then a point uniform on it when nothing of it is buried, else one of its unburied rule
-    /// points chosen ∝ weight. Nothing when the whole cluster is buried.
-    pub fn sample_seen(&self, c: usize, n: usize, rng: &mut Rng, out: &mut Vec<(usize, [f64; 3])>) {
+    /// points chosen ∝ weight. Nothing when the whole cluster is buried. `burial` gives the
+    /// roots' buried points and visible fractions, the same [`Tree::set_seen`] was given.
+    pub fn sample_seen(
+        &self,
+        c: usize,
+        n: usize,
+        burial: super::links::Burial,
+        rng: &mut Rng,
+        out: &mut Vec<(usize, [f64; 3])>,
+    ) {
         out.clear();
         if self.clusters[c].seen_area <= 0.0 {
             return;
         }
         let seen_area = |k: Node| match k.as_element() {
-            Some(e) => self.elements[e].area * self.root_seen[e],
+            Some(e) => self.elements[e].area * burial.visible(e),
             None => self.clusters[k.as_cluster().unwrap()].seen_area,
         };
         let rule = super::links::receiver_rule();
@@ -471,13 +469,13 @@ impl Tree {
                 }
             }
             let e = at.as_element().unwrap();
-            let buried = self.root_buried[e];
+            let buried = burial.mask(e);
             if buried == 0 {
                 b.clear();
                 stratified_triangle_barycentrics(1, rng, &mut b);
                 out.push((e, b[0]));
             } else {
-                let mut u = rng.next_f64() * self.root_seen[e];
+                let mut u = rng.next_f64() * burial.visible(e);
                 let mut pick = None;
                 for (k, &(bk, w)) in rule.iter().enumerate() {
                     if buried & (1 << k) != 0 {
