@@ -92,17 +92,16 @@ pub struct Cluster {
     pub area: f64,
     /// Largest reflectance of any channel of any patch below (for the refinement oracle).
     pub max_reflectance: f64,
-    /// Σ A·max(0, n_a) over the root patches below for the axes a = x, y, z, then
-    /// Σ A·max(0, −n_a): how much of the cluster's area faces each of the six axis
-    /// directions, scene units squared ([`super::ClusterGather`] weighs light by it).
-    pub facing: [f64; 6],
     /// Cosine of the widest angle between a root patch's normal and the area-weighted mean
     /// normal of all below (1 for coplanar patches facing one way; −1 when the normals cancel).
     pub cone_cos: f64,
     /// The part of `area` that is not buried ([`Tree::set_seen`]; all of it until then),
     /// scene units squared.
     pub seen_area: f64,
-    /// `facing` over the part that is not buried.
+    /// Σ A·max(0, n_a) over the seen part A of the root patches below for the axes
+    /// a = x, y, z, then Σ A·max(0, −n_a): how much of the cluster's seen area faces each of
+    /// the six axis directions, scene units squared ([`super::ClusterGather`] weighs light by
+    /// it; [`Tree::set_seen`]; over the whole area until then).
     pub seen_facing: [f64; 6],
 }
 
@@ -241,7 +240,6 @@ impl Tree {
                 radius: 0.5 * (bmax - bmin).length(),
                 area,
                 max_reflectance,
-                facing,
                 cone_cos,
                 seen_area: area,
                 seen_facing: facing,
@@ -284,7 +282,6 @@ impl Tree {
             radius: 0.0,
             area: 0.0,
             max_reflectance: 0.0,
-            facing: [0.0; 6],
             cone_cos: -1.0,
             seen_area: 0.0,
             seen_facing: [0.0; 6],
@@ -515,7 +512,7 @@ impl Tree {
 }
 
 /// How much a unit normal `n` faces each of the six axis directions (+x, +y, +z, −x, −y, −z):
-/// max(0, n_a), then max(0, −n_a). [`Cluster::facing`] sums these by area, and
+/// max(0, n_a), then max(0, −n_a). [`Cluster::seen_facing`] sums these by area, and
 /// [`super::ClusterGather`] shares light by them.
 pub fn axis_weights(n: DVec3) -> [f64; 6] {
     [
