@@ -34,6 +34,20 @@ fn one_bounce(mut s: pipeline::Settings) -> pipeline::Settings {
     s
 }
 
+/// The unit box [0, 1]³ facing inward, without its face `open` (in [`scenes::box_faces`]'
+/// order: −x, +x, −y, +y, −z, +z).
+fn open_unit_box(b: &mut SceneBuilder, open: usize, material: u32) {
+    for (k, mut q) in scenes::box_faces(DVec3::ZERO, DVec3::ONE)
+        .into_iter()
+        .enumerate()
+    {
+        if k != open {
+            q.reverse(); // inward
+            b.quad(q, material);
+        }
+    }
+}
+
 /// The square [−1, 1]² at z = 0, facing up.
 fn floor_quad(b: &mut SceneBuilder, material: u32) {
     b.quad(
@@ -257,15 +271,7 @@ fn the_matrix_method_agrees_on_a_room() {
     let mut b = SceneBuilder::new();
     let w = b.material("wall", [0.7; 3], [0.0; 3]);
     let l = b.material("light", [0.0; 3], [10.0; 3]);
-    for (k, mut q) in scenes::box_faces(DVec3::ZERO, DVec3::ONE)
-        .into_iter()
-        .enumerate()
-    {
-        if k != 2 {
-            q.reverse();
-            b.quad(q, w);
-        }
-    }
+    open_unit_box(&mut b, 2, w);
     b.quad(
         [
             DVec3::new(0.4, 0.4, 0.99),
@@ -475,15 +481,7 @@ fn a_panel_under_a_ceiling_gathers_for_its_seen_part() {
     let mut b = SceneBuilder::new();
     let wall = b.material("wall", [0.0; 3], [1.0; 3]);
     let grey = b.material("grey", [0.5; 3], [0.0; 3]);
-    for (k, mut q) in scenes::box_faces(DVec3::ZERO, DVec3::ONE)
-        .into_iter()
-        .enumerate()
-    {
-        if k != 1 {
-            q.reverse(); // inward
-            b.quad(q, wall);
-        }
-    }
+    open_unit_box(&mut b, 1, wall);
     let panel =
         [(0.4, 0.4), (0.4, 0.6), (0.6, 0.6), (0.6, 0.4)].map(|(x, y)| DVec3::new(x, y, 0.999));
     b.quad(panel, grey);
