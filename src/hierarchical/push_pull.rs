@@ -20,7 +20,6 @@ impl Hierarchy<'_> {
         let zero = vec![[0.0; 3]; n];
         self.elem_l = vec![[0.0; 3]; n];
         self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
-        self.cluster_oriented = vec![OrientedRadiance::default(); self.tree.clusters.len()];
         let gz = vec![ClusterGather::default(); self.tree.clusters.len()];
         self.push_pull(&zero, &gz, false);
     }
@@ -191,7 +190,7 @@ impl ClusterGather {
             self.uniform = add(self.uniform, v);
             return;
         };
-        let bin = |a: usize| if d[a] >= 0.0 { a } else { a + 3 };
+        let bin = |a: usize| axis_bin(d, a);
         let mean: f64 = (0..3)
             .map(|a| d[a].abs() * cluster.seen_facing[bin(a)])
             .sum::<f64>()
@@ -264,7 +263,7 @@ impl OrientedRadiance {
     pub(super) fn toward(&self, d: DVec3) -> Option<Rgb> {
         let (mut w, mut s) = (0.0, [0.0; 3]);
         for a in 0..3 {
-            let bin = if d[a] >= 0.0 { a } else { a + 3 };
+            let bin = axis_bin(d, a);
             let k = d[a].abs();
             w += k * self.weight[bin];
             s = add(s, self.sum[bin].map(|x| k * x));
@@ -282,6 +281,16 @@ pub(super) fn weighted_mean(parts: impl Iterator<Item = (Rgb, f64, f64)> + Clone
     let total: f64 = parts.clone().map(|p| weight(&p)).sum();
     let sum = parts.fold([0.0; 3], |acc, p| add(acc, p.0.map(|x| weight(&p) * x)));
     (sum.map(|s| s / total), visible)
+}
+
+/// The axis bin (+x, +y, +z, −x, −y, −z) of direction `d` along axis `a`: the +a bin where
+/// d_a ≥ 0, else −a ([`ClusterGather`], [`OrientedRadiance`]).
+fn axis_bin(d: DVec3, a: usize) -> usize {
+    if d[a] >= 0.0 {
+        a
+    } else {
+        a + 3
+    }
 }
 
 pub(super) fn add(a: Rgb, b: Rgb) -> Rgb {
