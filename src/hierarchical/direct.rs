@@ -41,10 +41,11 @@ use crate::sampling::Rng;
 use crate::scene::Environment;
 use crate::visibility::Visibility;
 
-/// The elements compute the direct light of every emitter when emitting roots × max(roots,
-/// [`DIRECT_ROOTS_FLOOR`]) is at most this; otherwise the links carry all emission (a scene
-/// with many lights: every element would trace rays to every light). The Cornell box (2
-/// emitting roots of 32), the integrating sphere (88 of 1,280) and the generated hall at 10⁴
+/// The elements compute the direct light of every emitter when the emitters (the scene's
+/// emitting triangles, [`merged`]) × max(roots, [`DIRECT_ROOTS_FLOOR`]) is at most this;
+/// otherwise the links carry all emission (a scene with many lights: every element would trace
+/// rays to every light). The Cornell box (2 emitting triangles, at any `--max-edge` up to 10⁶
+/// roots), the integrating sphere (88 emitters of 1,280 roots) and the generated hall at 10⁴
 /// triangles (82 of 10,786) qualify; the hall at 4·10⁴ triangles (328) and more does not.
 pub const DIRECT_BUDGET: usize = 2_000_000;
 
@@ -60,41 +61,122 @@ pub const DIRECT_ROOTS_FLOOR: usize = 10_000;
 /// exactly one).
 pub const MAX_EMITTING_AREA: f64 = 0.05;
 
-/// An emitting root patch whose direct light the elements compute themselves.
+/// An emitting triangle of the scene whose direct light the elements compute themselves: the
+/// root patches it was split into, lit as one emitter. The cost of the elements' direct light
+/// is then the scene's emitting triangles × elements, whatever `--max-edge` cut them into (a
+/// patch per emitter would multiply the shadow rays by the patches of each light, and past
+/// [`DIRECT_BUDGET`] hand all emission back to the links: the Cornell box's light at
+/// `--max-edge 12.5` is 512 patches of 2 triangles).
 #[derive(Clone, Debug)]
 pub struct RootEmitter {
-    /// The root patch's index.
-    pub root: u32,
-    /// The patch as an emitter.
+    /// The root patches it covers, ascending.
+    pub roots: Vec<u32>,
+    /// The scene triangle as an emitter (one root patch's triangle where the patches could
+    /// not be told to tile one triangle exactly, [`merged`]).
     pub emitter: Emitter,
 }
 
 impl RootEmitter {
-    /// Root patch `r` of `roots` as an emitter.
+    /// Root patch `r` of `roots` as an emitter of its own.
     pub fn of(roots: &Patches, r: usize) -> RootEmitter {
         RootEmitter {
-            root: r as u32,
+            roots: vec![r as u32],
             emitter: Emitter::new(roots.corners(r), roots.normal[r], roots.emission[r]),
         }
     }
 }
 
+/// The emitting root patches `emitting` (ascending) as emitters: the patches cut from one
+/// scene triangle as that triangle, where they tile it exactly (one normal, one Le, and the
+/// triangle spanned by their corners has their summed area to 1e-9 relative); otherwise a
+/// patch each. The triangle's corners are found among the patches' corners: the one farthest
+/// from the first patch's centroid, the one farthest from it, and the one farthest from the
+/// line through both (each a corner of the triangle, as a triangle's farthest point from any
+/// point or line is one of its corners).
+pub fn merged(roots: &Patches, emitting: &[usize]) -> Vec<RootEmitter> {
+    let mut by_source: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
+    for &r in emitting {
+        by_source
+            .entry(roots.source_triangle[r])
+            .or_default()
+            .push(r);
+    }
+    let mut out = Vec::with_capacity(by_source.len());
+    for group in by_source.into_values() {
+        match tiled_triangle(roots, &group) {
+            Some(corners) => {
+                let r = group[0];
+                out.push(RootEmitter {
+                    roots: group.iter().map(|&r| r as u32).collect(),
+                    emitter: Emitter::new(corners, roots.normal[r], roots.emission[r]),
+                });
+            }
+            None => out.extend(group.iter().map(|&r| RootEmitter::of(roots, r))),
+        }
+    }
+    out.sort_by_key(|e| e.roots[0]);
+    out
+}
+
+/// The triangle the patches `group` tile exactly, counter-clockwise about their normal, or
+/// `None` (see [`merged`]).
+fn tiled_triangle(roots: &Patches, group: &[usize]) -> Option<[DVec3; 3]> {
+    let first = group[0];
+    if group.len() == 1 {
+        return Some(roots.corners(first));
+    }
+    let (n, le) = (roots.normal[first], roots.emission[first]);
+    if group
+        .iter()
+        .any(|&r| roots.normal[r].dot(n) < 1.0 - 1e-9 || roots.emission[r] != le)
+    {
+        return None;
+    }
+    let points: Vec<DVec3> = group.iter().flat_map(|&r| roots.corners(r)).collect();
+    let farthest = |d: &dyn Fn(DVec3) -> f64| {
+        points
+            .iter()
+            .copied()
+            .fold((points[0], f64::NEG_INFINITY), |best, p| {
+                let dp = d(p);
+                if dp > best.1 {
+                    (p, dp)
+                } else {
+                    best
+                }
+            })
+            .0
+    };
+    let c = roots.centroid[first];
+    let a = farthest(&|p| p.distance_squared(c));
+    let b = farthest(&|p| p.distance_squared(a));
+    let ab = (b - a).normalize_or_zero();
+    let mut third = farthest(&|p| (p - a).reject_from_normalized(ab).length_squared());
+    let mut second = b;
+    let cross = (second - a).cross(third - a);
+    if cross.dot(n) < 0.0 {
+        std::mem::swap(&mut second, &mut third);
+    }
+    let area = 0.5 * cross.length();
+    let sum: f64 = group.iter().map(|&r| roots.area[r]).sum();
+    ((area - sum).abs() <= 1e-9 * sum).then_some([a, second, third])
+}
+
 /// The emitting roots whose direct light the elements compute ([`DIRECT_BUDGET`],
-/// [`MAX_EMITTING_AREA`]): all of them, or none.
+/// [`MAX_EMITTING_AREA`]): all of them, or none; as the scene's emitting triangles
+/// ([`merged`]).
 pub fn chosen(roots: &Patches) -> Vec<RootEmitter> {
     let emitting: Vec<usize> = (0..roots.len())
         .filter(|&r| roots.emission[r].iter().any(|&x| x > 0.0) && roots.area[r] > 0.0)
         .collect();
     let emitting_area: f64 = emitting.iter().map(|&r| roots.area[r]).sum();
-    if emitting.len() * roots.len().max(DIRECT_ROOTS_FLOOR) > DIRECT_BUDGET
+    let emitters = merged(roots, &emitting);
+    if emitters.len() * roots.len().max(DIRECT_ROOTS_FLOOR) > DIRECT_BUDGET
         || emitting_area > MAX_EMITTING_AREA * roots.total_area()
     {
         return Vec::new();
     }
-    emitting
-        .into_iter()
-        .map(|r| RootEmitter::of(roots, r))
-        .collect()
+    emitters
 }
 
 /// The direct light of one element.
@@ -154,7 +236,10 @@ pub fn element_direct(
     let mut rng = Rng::new(&[seed, e as u64, 0xD1_EC7]);
     let mut values = [[0.0; 3]; RECEIVER_POINTS];
     let mut targets = Vec::with_capacity(ELEMENT_SHADOW_RAYS.max(ELEMENT_FEW_SHADOW_RAYS));
-    for e_root in emitters.iter().filter(|em| em.root != root) {
+    for e_root in emitters
+        .iter()
+        .filter(|em| em.roots.binary_search(&root).is_err())
+    {
         let em = &e_root.emitter;
         for (k, &(x, n)) in points.iter().enumerate() {
             if weights[k] == 0.0 {
@@ -166,7 +251,9 @@ pub fn element_direct(
             let v = if shadows {
                 let mut share = Share::default();
                 let rays = em.element_shadow_rays(x, n);
-                let ignore = [root, e_root.root];
+                // The segment meets the emitter's plane only at its end, where no triangle
+                // blocks ([`Visibility::occluded`]): the emitter's own patches need no ignoring.
+                let ignore = [root, crate::visibility::NONE];
                 let occluded = |y| occluders.occluded(x, y, ignore);
                 out.rays +=
                     em.cast_shadow_rays(x, n, rays, &mut rng, &mut targets, &mut share, occluded);

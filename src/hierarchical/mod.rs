@@ -184,8 +184,9 @@ pub struct Stats {
     pub epsilon_absolute: f64,
     /// Smallest element area allowed, scene units squared.
     pub min_area_absolute: f64,
-    /// Emitting root patches whose direct light every element computes at its own rule
-    /// points ([`direct`]); 0 when links carry all emission.
+    /// Emitters whose direct light every element computes at its own rule points
+    /// ([`direct`]: the scene's emitting triangles, [`direct::merged`]); 0 when links carry
+    /// all emission.
     pub direct_emitters: usize,
 }
 
@@ -478,8 +479,8 @@ impl<'a> Hierarchy<'a> {
             stats: Stats::default(),
         };
         h.convex = convex;
-        for e in &h.emitters {
-            h.exact[e.root as usize] = true;
+        for r in h.emitters.iter().flat_map(|e| &e.roots) {
+            h.exact[*r as usize] = true;
         }
         h.stats.direct_emitters = h.emitters.len();
         h.update_new_elements();

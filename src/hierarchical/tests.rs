@@ -578,7 +578,7 @@ fn clusters_push_light_to_the_faces_that_face_it() {
 
 /// A square emitter 1 above a tiny receiving triangle (side 1e-4) under its centre, and
 /// optionally an opaque square between them.
-fn under_a_square_light(blocked: bool) -> Patches {
+fn under_a_square_light(blocked: bool, max_edge: f64) -> Patches {
     let mut b = SceneBuilder::new();
     let light = b.material("light", [0.0; 3], [2.0; 3]);
     let grey = b.material("grey", [0.5; 3], [0.0; 3]);
@@ -602,7 +602,7 @@ fn under_a_square_light(blocked: bool) -> Patches {
     if blocked {
         b.quad(square(0.5, 1.0), grey);
     }
-    mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap()
+    mesh::subdivide(&b.build().unwrap(), max_edge, 30.0).unwrap()
 }
 
 /// The direct light an element computes for itself ([`direct::element_direct`]) is Le times
@@ -614,7 +614,7 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
     let f =
         4.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
     for blocked in [false, true] {
-        let roots = under_a_square_light(blocked);
+        let roots = under_a_square_light(blocked, 10.0);
         let tree = Tree::new(&roots);
         let emitters: Vec<direct::RootEmitter> = (0..roots.len())
             .filter(|&r| roots.emission[r][0] > 0.0)
@@ -647,6 +647,67 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
         );
         assert!(d.rays > 0, "shadow rays were cast");
     }
+}
+
+/// A light cut into many patches shines as its two scene triangles ([`direct::merged`]): two
+/// emitters covering every emitting patch, their corners the square's, their areas summing to
+/// its area (to rounding, 1e-12), and the element under the centre gets the exact light of
+/// the whole square (four Howell B-3 corners, as above; 1e-6). Patches that do not tile their
+/// triangle (one left out) stay emitters of their own.
+#[test]
+fn a_light_cut_into_patches_shines_as_its_triangles() {
+    let roots = under_a_square_light(false, 0.1);
+    let emitting: Vec<usize> = (0..roots.len())
+        .filter(|&r| roots.emission[r][0] > 0.0)
+        .collect();
+    assert!(emitting.len() > 100, "the light is cut fine");
+    let emitters = direct::merged(&roots, &emitting);
+    assert_eq!(emitters.len(), 2, "one emitter per scene triangle");
+    let covered: usize = emitters.iter().map(|e| e.roots.len()).sum();
+    assert_eq!(covered, emitting.len());
+    let area: f64 = emitters
+        .iter()
+        .map(|e| {
+            let [a, b, c] = e.emitter.corners;
+            let cross = (b - a).cross(c - a);
+            assert!(cross.dot(e.emitter.normal) > 0.0, "counter-clockwise");
+            for p in e.emitter.corners {
+                assert!(
+                    (p.x.abs() - 0.5).abs() < 1e-12 && (p.y.abs() - 0.5).abs() < 1e-12,
+                    "{p} is a corner of the square"
+                );
+            }
+            0.5 * cross.length()
+        })
+        .sum();
+    assert!((area - 1.0).abs() < 1e-12, "area {area}");
+
+    let f =
+        4.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
+    let tree = Tree::new(&roots);
+    let receiver = (0..roots.len())
+        .find(|&r| roots.area[r] < 1e-6)
+        .expect("the tiny triangle is a root");
+    let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
+    let vis = Visibility::build(&corners);
+    let dark = crate::scene::Environment::default();
+    let outside = direct::Outside {
+        env: &dark,
+        vis: &vis,
+        lift: 0.0,
+    };
+    let d = direct::element_direct(&tree, &vis, true, &emitters, outside, receiver, 0, 1);
+    for c in d.mean {
+        assert!((c - 2.0 * f).abs() <= 1e-6 * 2.0 * f, "{c} vs {}", 2.0 * f);
+    }
+
+    let all_but_one = &emitting[1..];
+    let split = direct::merged(&roots, all_but_one);
+    let whole = split.iter().filter(|e| e.roots.len() > 1).count();
+    assert_eq!(whole, 1, "only the triangle with all its patches is merged");
+    let single = split.iter().filter(|e| e.roots.len() == 1).count();
+    let whole_roots = split.iter().map(|e| e.roots.len()).max().unwrap();
+    assert_eq!(single + whole_roots, all_but_one.len());
 }
 
 /// Where the direct light varies over a leaf (a shadow edge crosses it), the leaf is split
