@@ -22,7 +22,11 @@
 //! pieces). The indirect light is smooth but near contacts, so the vertex takes the value at
 //! it of the quadratic fitted to the indirect light of its neighbourhood and its own, which
 //! keeps a quadratic profile exactly and averages the noise of about 18 estimates over 6
-//! coefficients: it about halves (the test). The direct light is not touched: its sharp
+//! coefficients: it about halves (the test). Where the gather's rays are few (a fine mesh
+//! shares a fixed budget of rays over many vertices), the noise alone makes the quadratic miss
+//! by more than τ; the fit is then kept if it misses by no more than the RMS of its points'
+//! standard errors ([`Gathered::indirect_error`], which overstates a stratified gather's): a
+//! misfit the noise explains is no feature. The direct light is not touched: its sharp
 //! features are where the viewer looks. Only the neighbours that compute the same emitters
 //! exactly enter the fit ([`Gathered::exact_key`]): where a vertex's differ from its
 //! neighbour's, a large near emitter's light is in one's direct light and in the other's
@@ -161,7 +165,13 @@ pub fn correct(
                 .collect();
             points.push(v as u32);
             let (x, scale, residual) = fit::<6>(v, &points, &positions, &indirect, frame)?;
-            let bound = tolerance * luminance(values[v].radiance);
+            let noise = (points
+                .iter()
+                .map(|&w| values[w as usize].indirect_error.powi(2))
+                .sum::<f64>()
+                / points.len() as f64)
+                .sqrt();
+            let bound = (tolerance * luminance(values[v].radiance)).max(noise);
             (residual <= bound).then_some(Quadratic {
                 origin: positions[v],
                 frame,
@@ -516,6 +526,7 @@ mod tests {
                     direct: [d; 3],
                     exact_key: 0,
                     indirect: [i; 3],
+                    indirect_error: 0.0,
                     penumbra: false,
                     buried: false,
                 }
@@ -742,6 +753,51 @@ mod tests {
         let gathered: Vec<Rgb> = values.iter().map(|g| g.radiance).collect();
         let (before, after) = (rms(&gathered), rms(&mesh.vertex_radiance));
         eprintln!("noise {before}, after {after}");
+        assert!(after < 0.6 * before, "noise {before}, after {after}");
+    }
+
+    #[test]
+    fn noise_beyond_the_tolerance_is_fitted_away_where_the_gather_states_it() {
+        // As above with 16 × the noise, ±16 % of the radiance (a gather of few rays a
+        // vertex: a fine mesh under a fixed budget). The quadratic then misses the values by
+        // about 7 % of the radiance, far more than τ = 2 %: without the vertices' standard
+        // errors no vertex may move (a ring across a feature misses by as much). With them (uniform
+        // noise ±a has standard error a/√3) the misses are what the noise explains, and the
+        // error falls below 0.6 of the noise, as above.
+        let smooth = |x: f64, _: f64, _: usize| 0.3 + 0.01 * x - 5e-4 * x * x;
+        let amplitude = 16.0 * 0.013;
+        let noise = |v: usize| {
+            let h = (v as u64 + 1)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                .rotate_left(17);
+            amplitude * ((h >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0
+        };
+        let indirect = |x: f64, y: f64, v: usize| smooth(x, y, v) + noise(v);
+        let (mut clean, values) = grid(12, |_, _| 1.0, smooth);
+        correct(&mut clean, &values, &[], 0.02);
+        let rms = |a: &[Rgb]| {
+            let s: f64 = a
+                .iter()
+                .zip(&clean.vertex_radiance)
+                .map(|(a, b)| (a[0] - b[0]).powi(2))
+                .sum();
+            (s / a.len() as f64).sqrt()
+        };
+        let (mut mesh, mut values) = grid(12, |_, _| 1.0, indirect);
+        let gathered: Vec<Rgb> = values.iter().map(|g| g.radiance).collect();
+        let before = rms(&gathered);
+        let unstated = correct(&mut mesh, &values, &[], 0.02);
+        let kept = rms(&mesh.vertex_radiance);
+        // Only the corners' and edges' small rings, which a quadratic fits exactly, move.
+        assert!(unstated.denoised < 169 / 5, "{unstated:?}");
+        assert!(kept > 0.8 * before, "noise {before}, not told {kept}");
+        for g in &mut values {
+            g.indirect_error = amplitude / 3f64.sqrt();
+        }
+        let done = correct(&mut mesh, &values, &[], 0.02);
+        // A ring whose residual happens to exceed its stated standard error stays (9 of 169).
+        assert!(done.denoised >= 169 * 9 / 10, "{done:?}");
+        let after = rms(&mesh.vertex_radiance);
         assert!(after < 0.6 * before, "noise {before}, after {after}");
     }
 

@@ -315,6 +315,11 @@ pub struct Gathered {
     pub exact_key: u64,
     /// Reflected indirect light (radiance units; 0 when `buried`).
     pub indirect: Rgb,
+    /// A bound on the standard error of `indirect`'s luminance where hemisphere rays at the
+    /// point estimated it (the `full` gather's vertices: ρ_max × the rays' spread / √rays, which
+    /// overstates a stratified estimate's), radiance units; 0 where it was interpolated or
+    /// fitted (the `cache` gather's records, [`local_fit`]) or the point is buried.
+    pub indirect_error: f64,
     /// Some emitter is partly hidden from the point: it lies in a penumbra.
     pub penumbra: bool,
     /// The point is buried under contact geometry and keeps the bake's value.
@@ -329,6 +334,7 @@ impl Gathered {
             direct: [0.0; 3],
             exact_key: 0,
             indirect: [0.0; 3],
+            indirect_error: 0.0,
             penumbra: false,
             buried: true,
         }
@@ -340,11 +346,10 @@ impl Gatherer<'_> {
     /// light by `rays` hemisphere rays.
     pub(crate) fn full(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> Gathered {
         let (direct, penumbra, exact) = self.reflected_direct(spot, GATHER_MAX_SHADOW_RAYS, rng);
-        let indirect = self.indirect(spot.x, spot.n, spot.patch, &exact, rays, rng);
-        let p = spot.patch as usize;
-        let rho = self.patches.reflectance[p];
-        let indirect = std::array::from_fn(|c| rho[c] * indirect[c]);
-        self.with_emission(p, (direct, penumbra, &exact), indirect)
+        let (indirect, error, _) = self.reflected_indirect(spot, &exact, rays, rng);
+        let mut g = self.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect);
+        g.indirect_error = error;
+        g
     }
 
     /// Le of patch `p` plus the reflected parts: `direct` as [`Gatherer::reflected_direct`]
@@ -363,6 +368,7 @@ impl Gatherer<'_> {
             direct,
             exact_key,
             indirect,
+            indirect_error: 0.0,
             penumbra,
             buried: false,
         }
