@@ -722,6 +722,16 @@ mod tests {
         }
     }
 
+    /// The RMS difference of channel 0 between `a` and `clean`.
+    fn rms_against(a: &[Rgb], clean: &[Rgb]) -> f64 {
+        let s: f64 = a
+            .iter()
+            .zip(clean)
+            .map(|(a, b)| (a[0] - b[0]).powi(2))
+            .sum();
+        (s / a.len() as f64).sqrt()
+    }
+
     #[test]
     fn the_indirect_lights_noise_is_fitted_away() {
         // A smooth indirect light (0.3 + 0.01 x − 5·10⁻⁴ x²) under a uniform direct light 1 on
@@ -742,14 +752,7 @@ mod tests {
         let (mut mesh, values) = grid(12, |_, _| 1.0, indirect);
         let done = correct(&mut mesh, &values, &[], 0.02);
         assert_eq!(done.denoised, 169);
-        let rms = |a: &[Rgb]| {
-            let s: f64 = a
-                .iter()
-                .zip(&clean.vertex_radiance)
-                .map(|(a, b)| (a[0] - b[0]).powi(2))
-                .sum();
-            (s / a.len() as f64).sqrt()
-        };
+        let rms = |a: &[Rgb]| rms_against(a, &clean.vertex_radiance);
         let gathered: Vec<Rgb> = values.iter().map(|g| g.radiance).collect();
         let (before, after) = (rms(&gathered), rms(&mesh.vertex_radiance));
         eprintln!("noise {before}, after {after}");
@@ -775,14 +778,7 @@ mod tests {
         let indirect = |x: f64, y: f64, v: usize| smooth(x, y, v) + noise(v);
         let (mut clean, values) = grid(12, |_, _| 1.0, smooth);
         correct(&mut clean, &values, &[], 0.02);
-        let rms = |a: &[Rgb]| {
-            let s: f64 = a
-                .iter()
-                .zip(&clean.vertex_radiance)
-                .map(|(a, b)| (a[0] - b[0]).powi(2))
-                .sum();
-            (s / a.len() as f64).sqrt()
-        };
+        let rms = |a: &[Rgb]| rms_against(a, &clean.vertex_radiance);
         let (mut mesh, mut values) = grid(12, |_, _| 1.0, indirect);
         let gathered: Vec<Rgb> = values.iter().map(|g| g.radiance).collect();
         let before = rms(&gathered);

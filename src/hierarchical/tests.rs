@@ -605,6 +605,27 @@ fn under_a_square_light(blocked: bool, max_edge: f64) -> Patches {
     mesh::subdivide(&b.build().unwrap(), max_edge, 30.0).unwrap()
 }
 
+/// The direct light [`direct::element_direct`] gives the tiny triangle of
+/// [`under_a_square_light`] from `emitters`, nothing outside the mesh.
+fn direct_at_the_tiny_triangle(
+    roots: &Patches,
+    emitters: &[direct::RootEmitter],
+) -> direct::Direct {
+    let tree = Tree::new(roots);
+    let receiver = (0..roots.len())
+        .find(|&r| roots.area[r] < 1e-6)
+        .expect("the tiny triangle is a root");
+    let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
+    let vis = Visibility::build(&corners);
+    let dark = crate::scene::Environment::default();
+    let outside = direct::Outside {
+        env: &dark,
+        vis: &vis,
+        lift: 0.0,
+    };
+    direct::element_direct(&tree, &vis, true, emitters, outside, receiver, 0, 1)
+}
+
 /// The direct light an element computes for itself ([`direct::element_direct`]) is Le times
 /// the exact point-to-polygon form factor: under the centre of a unit square at height 1,
 /// four Howell B-3 corners (the element is 1e-4 across, so its rule points see the same F
@@ -615,24 +636,12 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
         4.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
     for blocked in [false, true] {
         let roots = under_a_square_light(blocked, 10.0);
-        let tree = Tree::new(&roots);
         let emitters: Vec<direct::RootEmitter> = (0..roots.len())
             .filter(|&r| roots.emission[r][0] > 0.0)
             .map(|r| direct::RootEmitter::of(&roots, r))
             .collect();
         assert_eq!(emitters.len(), 2);
-        let receiver = (0..roots.len())
-            .find(|&r| roots.area[r] < 1e-6)
-            .expect("the tiny triangle is a root");
-        let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
-        let vis = Visibility::build(&corners);
-        let dark = crate::scene::Environment::default();
-        let outside = direct::Outside {
-            env: &dark,
-            vis: &vis,
-            lift: 0.0,
-        };
-        let d = direct::element_direct(&tree, &vis, true, &emitters, outside, receiver, 0, 1);
+        let d = direct_at_the_tiny_triangle(&roots, &emitters);
         let want = if blocked { 0.0 } else { 2.0 * f };
         for c in d.mean {
             assert!(
@@ -684,19 +693,7 @@ fn a_light_cut_into_patches_shines_as_its_triangles() {
 
     let f =
         4.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
-    let tree = Tree::new(&roots);
-    let receiver = (0..roots.len())
-        .find(|&r| roots.area[r] < 1e-6)
-        .expect("the tiny triangle is a root");
-    let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
-    let vis = Visibility::build(&corners);
-    let dark = crate::scene::Environment::default();
-    let outside = direct::Outside {
-        env: &dark,
-        vis: &vis,
-        lift: 0.0,
-    };
-    let d = direct::element_direct(&tree, &vis, true, &emitters, outside, receiver, 0, 1);
+    let d = direct_at_the_tiny_triangle(&roots, &emitters);
     for c in d.mean {
         assert!((c - 2.0 * f).abs() <= 1e-6 * 2.0 * f, "{c} vs {}", 2.0 * f);
     }
