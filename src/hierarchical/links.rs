@@ -467,7 +467,7 @@ fn cluster_pair_estimate(
 /// `n` indices drawn with probability ∝ `weights` by systematic sampling (one uniform `u` in
 /// [0, 1) offsets n evenly spaced positions on the cumulative weights); `None` when every
 /// weight is 0.
-fn pick_proportional(weights: &[f64], n: usize, u: f64) -> Option<Vec<usize>> {
+pub(super) fn pick_proportional(weights: &[f64], n: usize, u: f64) -> Option<Vec<usize>> {
     let total: f64 = weights.iter().sum();
     if total <= 0.0 {
         return None;

@@ -472,22 +472,10 @@ impl Tree {
                 stratified_triangle_barycentrics(1, rng, &mut b);
                 out.push((e, b[0]));
             } else {
-                let mut u = rng.next_f64() * burial.visible(e);
-                let mut pick = None;
-                for (k, &(bk, w)) in rule.iter().enumerate() {
-                    if buried & (1 << k) != 0 {
-                        continue;
-                    }
-                    pick = Some(bk);
-                    if u < w {
-                        break;
-                    }
-                    u -= w;
-                }
-                out.push((
-                    e,
-                    pick.expect("a root with seen area has an unburied point"),
-                ));
+                let weights = super::links::unburied_weights(buried);
+                let k = super::links::pick_proportional(&weights, 1, rng.next_f64())
+                    .expect("a root with seen area has an unburied point")[0];
+                out.push((e, rule[k].0));
             }
         }
     }
