@@ -286,7 +286,8 @@ pub struct MethodArgs {
     #[arg(long, value_parser = choice::<pipeline::Method>(), default_value_t = pipeline::Settings::default().method, help_heading = "Method")]
     pub method: pipeline::Method,
     /// Hierarchical: the most power one link may carry, as a fraction of the power the scene
-    /// emits; smaller = finer elements and more links.
+    /// emits; smaller = finer elements and more links. Given for the default --max-edge: a
+    /// finer --max-edge divides it by how much smaller the patches are by area (at most 25×).
     #[arg(long, default_value_t = hierarchical::Settings::default().epsilon, value_name = "X", allow_negative_numbers = true, help_heading = "Method")]
     pub epsilon: f64,
     /// Hierarchical: smallest element area, as a fraction of the scene's total area.

@@ -125,17 +125,24 @@ impl fmt::Display for Gather {
     }
 }
 
-/// Hemisphere rays of the whole `full` gather when the number per vertex is not given: the
-/// indirect light's noise falls as rays⁻½ while the cost grows with vertices × rays, so a
-/// fixed budget keeps a large scene's gather bounded. Against the point-wise benchmark's
-/// probes, the Cornell box's displayed error falls all the way from 64 rays a vertex to
-/// 1024, steeply up to about 128 and slowly after.
+/// Hemisphere rays of the whole `full` gather when the number per vertex is not given, at the
+/// scene's default patch size: the indirect light's noise falls as rays⁻½ while the cost grows
+/// with vertices × rays, so a fixed budget keeps a large scene's gather bounded. Against the
+/// point-wise benchmark's probes, the Cornell box's displayed error falls all the way from 64
+/// rays a vertex to 1024, steeply up to about 128 and slowly after. A finer `--max-edge`
+/// multiplies it ([`auto_rays`]).
 pub const AUTO_RAY_BUDGET: usize = 4_000_000;
 
-/// Hemisphere rays per vertex for `vertices` output vertices: [`AUTO_RAY_BUDGET`] shared out,
-/// at least [`MIN_AUTO_RAYS`] and at most 1024 each.
-pub fn auto_rays(vertices: usize) -> usize {
-    (AUTO_RAY_BUDGET / vertices.max(1)).clamp(MIN_AUTO_RAYS, 1024)
+/// Hemisphere rays per vertex for `vertices` output vertices when the patches are `finer`
+/// times smaller by area than the scene's default ([`crate::pipeline::Settings::finer`], ≥ 1):
+/// [`AUTO_RAY_BUDGET`] × `finer` shared out, at least [`MIN_AUTO_RAYS`] and at most 1024
+/// each. The budget grows with `finer` so that a vertex gets the rays it would get at the
+/// default size: the vertices multiply as the patches shrink, and a fixed budget would leave
+/// each one noisier, so a user asking for a finer mesh would see a worse picture (the Cornell
+/// box at a fifth of the default `--max-edge`: 140 rays a vertex instead of 1024).
+pub fn auto_rays(vertices: usize, finer: f64) -> usize {
+    debug_assert!(finer >= 1.0);
+    ((AUTO_RAY_BUDGET as f64 * finer / vertices.max(1) as f64) as usize).clamp(MIN_AUTO_RAYS, 1024)
 }
 
 /// The fewest hemisphere rays a vertex gets when their number is not given.

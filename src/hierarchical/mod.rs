@@ -88,7 +88,9 @@ pub use tree::{Node, Tree};
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Settings {
     /// Refinement threshold ε: a link may carry at most this fraction of the scene's emitted
-    /// power (ρ_r · L_s · F_rs · A_r / Σ Le·A, largest channels); in (0, 1).
+    /// power (ρ_r · L_s · F_rs · A_r / Σ Le·A, largest channels); in (0, 1). The bake's
+    /// settings give it at the scene's default patch size, and a finer `max_edge` divides it
+    /// ([`crate::pipeline::Settings::finer`]) before it reaches the solver.
     pub epsilon: f64,
     /// Smallest element area, as a fraction of the scene's total area; in (0, 1).
     pub min_area: f64,

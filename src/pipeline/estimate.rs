@@ -90,6 +90,12 @@ pub struct Estimate {
     /// Matrix: the most patches refinement may make (the budget; the patches without
     /// refinement); hierarchical: leaves estimated.
     pub max_patches: usize,
+    /// How much finer than the scene's default the patches are asked to be, by area
+    /// ([`super::Settings::finer`], ≥ 1).
+    pub finer: f64,
+    /// Hierarchical: ε as the solver takes it (the given one divided by `finer`); `None` for
+    /// the matrix method.
+    pub epsilon: Option<f64>,
     /// Matrix: the share of ordered pairs of patches that face each other, in [0, 1] (an upper
     /// bound on F's fill); `None` for the hierarchical method.
     pub facing_fraction: Option<f64>,
@@ -131,6 +137,8 @@ impl Estimate {
                     max_edge,
                     patches: roots,
                     max_patches: leaves,
+                    finer: s.finer(scene),
+                    epsilon: Some(s.hierarchical.epsilon),
                     facing_fraction: None,
                     max_entries: None,
                     vertices,
@@ -175,6 +183,8 @@ impl Estimate {
                     max_edge,
                     patches: n,
                     max_patches,
+                    finer: s.finer(scene),
+                    epsilon: None,
                     facing_fraction: Some(facing),
                     max_entries: Some(entries),
                     vertices,
@@ -195,9 +205,11 @@ impl Estimate {
                 e.seconds += GATHER_CACHE_SECONDS_PER_VERTEX * vertices as f64 * per_core;
             } else {
                 // The rays beside edges come on top ([`gather::EDGE_RAYS`]).
-                let rays = s.gather_rays.map_or(gather::AUTO_RAY_BUDGET as f64, |r| {
-                    r as f64 * vertices as f64
-                }) * (1.0 + gather::EDGE_RAYS);
+                let per_vertex = s.gather_rays.map_or_else(
+                    || gather::auto_rays(vertices, s.finer(scene)),
+                    |r| r as usize,
+                );
+                let rays = (per_vertex * vertices) as f64 * (1.0 + gather::EDGE_RAYS);
                 e.seconds += GATHER_SECONDS * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
             }
             // The lights outside the mesh: a shadow ray each at every output vertex and at
@@ -205,7 +217,7 @@ impl Estimate {
             let light_rays = s.environment.sharp_rays();
             if light_rays > 0 {
                 let hemisphere = match e.gather {
-                    Gather::Full | Gather::Cache => gather::auto_rays(vertices),
+                    Gather::Full | Gather::Cache => gather::auto_rays(vertices, s.finer(scene)),
                     _ => 0,
                 };
                 let refined = if s.gather_tolerance > 0.0 {

@@ -188,10 +188,16 @@ impl SceneInfo {
         let _ = match e.method {
             super::Method::Hierarchical => writeln!(
                 s,
-                "patches:      {} root elements at --max-edge {}, about {} leaves at --epsilon",
+                "patches:      {} root elements at --max-edge {}, about {} leaves at ε {}{}",
                 e.patches,
                 g(e.max_edge),
-                e.max_patches
+                e.max_patches,
+                g(e.epsilon.unwrap_or(f64::NAN)),
+                if e.finer > 1.0 {
+                    format!(" (--epsilon ÷ {}: the finer --max-edge)", g(e.finer))
+                } else {
+                    String::new()
+                }
             ),
             _ if e.max_patches > e.patches => writeln!(
                 s,

@@ -16,7 +16,7 @@ pub mod settings;
 
 pub use estimate::Estimate;
 pub use report::{Report, Seconds};
-pub use settings::{Method, Settings, WriteOptions, AUTO_MATRIX_MAX_PATCHES};
+pub use settings::{Method, Settings, WriteOptions, AUTO_MATRIX_MAX_PATCHES, MAX_FINER};
 
 use std::path::Path;
 use std::time::Instant;
@@ -419,9 +419,10 @@ fn bake_stage(
         .with_cache(mode == Gather::Cache);
         // A display refinement vertex of the `cache` gather gathers in full, with the rays a
         // `full` gather of the output would give each vertex.
-        let rays = settings
-            .gather_rays
-            .map_or_else(|| gather::auto_rays(sites.len()), |r| r as usize);
+        let rays = settings.gather_rays.map_or_else(
+            || gather::auto_rays(sites.len(), settings.finer(scene)),
+            |r| r as usize,
+        );
         let (values, cache) = gather::gather(
             &gatherer,
             &sites,
@@ -685,6 +686,45 @@ mod tests {
             .summary()
             .starts_with(&format!("{} patches, {} vertices", r.patches, r.vertices)));
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+
+    /// A `max_edge` finer than the scene's default asks for a finer answer: ε is divided by
+    /// how much smaller the patches are by area, and the gather's budget multiplied, so that a
+    /// vertex keeps the rays it gets at the default size; coarser or absent changes nothing,
+    /// and the factor stops at MAX_FINER.
+    #[test]
+    fn a_finer_max_edge_asks_for_a_finer_answer() {
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let default = mesh::default_max_edge(&scene);
+        let with = |max_edge| Settings {
+            max_edge,
+            ..Settings::default()
+        };
+        assert_eq!(with(None).finer(&scene), 1.0);
+        assert_eq!(with(Some(2.0 * default)).finer(&scene), 1.0);
+        let half = with(Some(0.5 * default));
+        assert!((half.finer(&scene) - 4.0).abs() < 1e-12);
+        assert_eq!(with(Some(0.01 * default)).finer(&scene), MAX_FINER);
+        let epsilon = Settings::default().hierarchical.epsilon;
+        let resolved = half.resolved(&scene).unwrap().hierarchical.epsilon;
+        assert!(
+            (resolved - epsilon / 4.0).abs() < 1e-12 * epsilon,
+            "{resolved}"
+        );
+        assert_eq!(
+            with(None).resolved(&scene).unwrap().hierarchical.epsilon,
+            epsilon
+        );
+        // Four times the vertices at a quarter of the area: the same rays each, within the
+        // bounds; the bounds hold.
+        for vertices in [500, 4_000, 20_000] {
+            assert_eq!(
+                gather::auto_rays(4 * vertices, 4.0),
+                gather::auto_rays(vertices, 1.0)
+            );
+        }
+        assert_eq!(gather::auto_rays(1, 25.0), 1024);
+        assert_eq!(gather::auto_rays(10_000_000, 1.0), gather::MIN_AUTO_RAYS);
     }
 
     #[test]

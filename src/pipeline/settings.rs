@@ -71,6 +71,12 @@ impl fmt::Display for Method {
 /// error at equal time (BENCHMARKS.md "Hierarchical radiosity"), so small scenes keep it.
 pub const AUTO_MATRIX_MAX_PATCHES: usize = 10_000;
 
+/// [`Settings::finer`] at most: a `max_edge` a fifth of the scene's default, or finer, divides
+/// the hierarchical ε by 25 and multiplies the gather's ray budget by 25. Without the bound a
+/// tenth of the default would divide ε by 100, and the links grow about as ε^-0.4 on top of the
+/// roots' growth.
+pub const MAX_FINER: f64 = 25.0;
+
 /// Everything that controls a bake.
 #[derive(Debug, Clone)]
 pub struct Settings {
@@ -116,7 +122,8 @@ pub struct Settings {
     /// Final gather at the output vertices ([`crate::gather`]).
     pub gather: Gather,
     /// Hemisphere rays per vertex of the `full` gather, in 1..=65536; `None` =
-    /// [`crate::gather::auto_rays`] (a budget of 4·10⁶ rays over the vertices, 64 to 1024 each).
+    /// [`crate::gather::auto_rays`] (a budget of 4·10⁶ rays over the vertices, times
+    /// [`Settings::finer`], 64 to 1024 each).
     /// From 122 rays on (12 × 12 strata), [`crate::gather::EDGE_RAYS`] more go beside edges of
     /// the incident light.
     pub gather_rays: Option<u32>,
@@ -153,8 +160,21 @@ impl Default for Settings {
 }
 
 impl Settings {
-    /// These settings with the scene file's lights added to [`Settings::environment`] and
-    /// `method = auto` resolved for `scene`: `matrix` when the scene cuts
+    /// How much finer than the scene's default ([`mesh::default_max_edge`]) `max_edge` asks
+    /// the patches to be, by area: (default / `max_edge`)², at least 1 (a coarser or no
+    /// `max_edge`) and at most [`MAX_FINER`]. A finer mesh asks for a finer answer, not only
+    /// for smaller patches: [`Settings::resolved`] divides the hierarchical ε by it, and the
+    /// `full` gather's ray budget is multiplied by it ([`crate::gather::auto_rays`]).
+    pub fn finer(&self, scene: &crate::scene::Scene) -> f64 {
+        self.max_edge.map_or(1.0, |e| {
+            (mesh::default_max_edge(scene) / e)
+                .powi(2)
+                .clamp(1.0, MAX_FINER)
+        })
+    }
+
+    /// These settings with the scene file's lights added to [`Settings::environment`], the
+    /// hierarchical ε divided by [`Settings::finer`], and `method = auto` resolved for `scene`: `matrix` when the scene cuts
     /// into at most [`AUTO_MATRIX_MAX_PATCHES`] patches at the matrix method's `max_edge` (the
     /// given one, or [`mesh::default_max_edge`]), or when a form-factor cache is given (it
     /// stores a matrix); else `hierarchical`. Other methods are kept.
@@ -167,6 +187,7 @@ impl Settings {
     pub fn resolved(&self, scene: &crate::scene::Scene) -> Result<Settings> {
         let mut s = self.clone();
         s.environment.add_scene_lights(scene);
+        s.hierarchical.epsilon = self.hierarchical.epsilon / self.finer(scene);
         if s.method == Method::Auto {
             s.method = if s.cache.is_some() {
                 Method::Matrix
