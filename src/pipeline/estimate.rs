@@ -130,8 +130,9 @@ impl Estimate {
                 let root_patches = mesh::subdivide(scene, max_edge, s.crease_degrees)?;
                 let roots = sides * root_patches.len();
                 let vertices = sides * output_vertices(&root_patches, s.crease_degrees);
-                let finer = (1e-4 / s.hierarchical.epsilon).powf(0.4);
-                let leaves = (LEAVES_PER_ROOT * roots as f64 * finer) as usize;
+                // The elements per root grow about as ε^-0.4 below the default ε.
+                let growth = (1e-4 / s.hierarchical.epsilon).powf(0.4);
+                let leaves = (LEAVES_PER_ROOT * roots as f64 * growth) as usize;
                 Estimate {
                     method: Method::Hierarchical,
                     max_edge,
@@ -143,9 +144,9 @@ impl Estimate {
                     max_entries: None,
                     vertices,
                     gather: s.gather.resolve(vertices, s.gather_rays.is_some()),
-                    memory_bytes: BASE_BYTES + HIERARCHICAL_BYTES_PER_ROOT * roots as f64 * finer,
+                    memory_bytes: BASE_BYTES + HIERARCHICAL_BYTES_PER_ROOT * roots as f64 * growth,
                     seconds: (HIERARCHICAL_SECONDS
-                        + HIERARCHICAL_SECONDS_PER_ROOT * roots as f64 * finer)
+                        + HIERARCHICAL_SECONDS_PER_ROOT * roots as f64 * growth)
                         * per_core,
                     threads,
                 }
