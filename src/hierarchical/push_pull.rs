@@ -259,8 +259,14 @@ impl OrientedRadiance {
         }
     }
 
-    /// The radiance leaving toward unit direction `d`; `None` when no face turns that way.
-    pub(super) fn toward(&self, d: DVec3) -> Option<Rgb> {
+    /// The radiance leaving toward unit direction `d`. Where no face turns that way by the
+    /// bins, the faces along an axis `d` does not move on (|d_a| ≤ [`GRAZING`], either sign)
+    /// meet `d` at grazing angles: the bins round their cosines to 0, but a link's form factor,
+    /// from true cosines at sampled points, counts them, so they send their own radiance. With
+    /// none of those either, nothing faces `d`: 0, not the cluster's mean, which would send the
+    /// light of faces turned away (a box whose top alone emits would light the floor under
+    /// it through the faces of its sides).
+    pub(super) fn toward(&self, d: DVec3) -> Rgb {
         let (mut w, mut s) = (0.0, [0.0; 3]);
         for a in 0..3 {
             let bin = axis_bin(d, a);
@@ -268,9 +274,25 @@ impl OrientedRadiance {
             w += k * self.weight[bin];
             s = add(s, self.sum[bin].map(|x| k * x));
         }
-        (w > 1e-300).then(|| s.map(|x| x / w))
+        if w <= 1e-300 {
+            for a in (0..3).filter(|&a| d[a].abs() <= GRAZING) {
+                for bin in [a, a + 3] {
+                    w += self.weight[bin];
+                    s = add(s, self.sum[bin]);
+                }
+            }
+        }
+        if w > 1e-300 {
+            s.map(|x| x / w)
+        } else {
+            [0.0; 3]
+        }
     }
 }
+
+/// A unit direction's component along an axis at most this counts as none
+/// ([`OrientedRadiance::toward`]): rounding of the centres that give a link's direction.
+pub const GRAZING: f64 = 1e-9;
 
 /// The visible-area-weighted mean radiance of (radiance, visible area, area) parts, with their
 /// total visible area; the area-weighted mean when nothing is visible.

@@ -182,11 +182,8 @@ impl Hierarchy<'_> {
             let cl = &self.tree.clusters[c];
             if cl.cone_cos < ORIENTED_CONE_COS {
                 let d = self.tree.sphere(l.receiver).0 - cl.centre;
-                if let Some(l) = d
-                    .try_normalize()
-                    .and_then(|d| self.cluster_oriented[c].toward(d))
-                {
-                    return l;
+                if let Some(d) = d.try_normalize() {
+                    return self.cluster_oriented[c].toward(d);
                 }
             }
         }
