@@ -123,6 +123,7 @@ impl Estimate {
         let s = settings.resolved(scene)?;
         let sides = if s.two_sided { 2 } else { 1 };
         let per_core = 2.0 / threads.max(1) as f64;
+        let finer = s.finer(scene);
         let mut e = match s.method {
             Method::Hierarchical => {
                 let (lo, hi) = scene.bounds();
@@ -138,7 +139,7 @@ impl Estimate {
                     max_edge,
                     patches: roots,
                     max_patches: leaves,
-                    finer: s.finer(scene),
+                    finer,
                     epsilon: Some(s.hierarchical.epsilon),
                     facing_fraction: None,
                     max_entries: None,
@@ -184,7 +185,7 @@ impl Estimate {
                     max_edge,
                     patches: n,
                     max_patches,
-                    finer: s.finer(scene),
+                    finer,
                     epsilon: None,
                     facing_fraction: Some(facing),
                     max_entries: Some(entries),
@@ -206,10 +207,9 @@ impl Estimate {
                 e.seconds += GATHER_CACHE_SECONDS_PER_VERTEX * vertices as f64 * per_core;
             } else {
                 // The rays beside edges come on top ([`gather::EDGE_RAYS`]).
-                let per_vertex = s.gather_rays.map_or_else(
-                    || gather::auto_rays(vertices, s.finer(scene)),
-                    |r| r as usize,
-                );
+                let per_vertex = s
+                    .gather_rays
+                    .map_or_else(|| gather::auto_rays(vertices, e.finer), |r| r as usize);
                 let rays = (per_vertex * vertices) as f64 * (1.0 + gather::EDGE_RAYS);
                 e.seconds += GATHER_SECONDS * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
             }
@@ -218,7 +218,7 @@ impl Estimate {
             let light_rays = s.environment.sharp_rays();
             if light_rays > 0 {
                 let hemisphere = match e.gather {
-                    Gather::Full | Gather::Cache => gather::auto_rays(vertices, s.finer(scene)),
+                    Gather::Full | Gather::Cache => gather::auto_rays(vertices, e.finer),
                     _ => 0,
                 };
                 let refined = if s.gather_tolerance > 0.0 {
