@@ -61,6 +61,24 @@ pub const MAX_EXACT_EMITTERS: usize = 8;
 /// is mostly the solution's own bias.
 pub const OTHER_LIGHT_SAMPLES: usize = 16;
 
+/// Shadow rays for the others at a point where the [`OTHER_LIGHT_PILOT`] rays disagree (some
+/// met their emitter, some did not: the point sees part of the other lights). In a furnished
+/// room lit through windows, the others are the far windows and lamps seen past desks,
+/// partitions and shelves: [`OTHER_LIGHT_SAMPLES`] rays leave the walls' direct light with a
+/// noise of several per cent at every vertex, which more rays where the pilot finds the others
+/// partly hidden take out where it arises. Four times as many halve that noise; more cost the
+/// many-light hall a sixth more bake time (its pilots disagree under every table) for no
+/// better display (BENCHMARKS.md "Large outputs: the `cache` gather").
+pub const OTHER_LIGHT_MAX_SAMPLES: usize = 4 * OTHER_LIGHT_SAMPLES;
+
+/// Shadow rays of the pilot that decides how many the others' estimate gets
+/// ([`OTHER_LIGHT_SAMPLES`] or [`OTHER_LIGHT_MAX_SAMPLES`]), drawn as the estimate's are.
+/// The estimate uses fresh rays only, never the pilot's: drawn independently of the pilot,
+/// they are unbiased whatever it decided. Adding the pilot's rays would not be: where they
+/// happen to agree (all seen, or all hidden) their mean is conditioned on that, and points
+/// that see most of the others would come out too bright, those that see little too dark.
+pub const OTHER_LIGHT_PILOT: usize = OTHER_LIGHT_SAMPLES;
+
 /// With more emitters than this in the scene, the others' shadow rays draw emitters from the
 /// scene-wide distribution of their power (Le_max × area, one binary search a ray) instead of
 /// weights computed at the point for every emitter: the cost per point and per near hit stays
@@ -199,7 +217,7 @@ impl Gatherer<'_> {
             }
         }
         if others > 0 && exact.len() < self.emitters.len() {
-            let other = self.others_direct(x, n, &from, ignore, exact, others, rng, &mut targets);
+            let other = self.others_adaptive(x, n, &from, ignore, exact, others, rng, &mut targets);
             for (s, o) in sum.iter_mut().zip(other) {
                 *s += o;
             }
@@ -234,6 +252,36 @@ impl Gatherer<'_> {
         e.radius <= SAMPLED_SPREAD * x.distance(e.centre)
     }
 
+    /// [`Gatherer::others_direct`] with `count` rays where that is one (a near hit's point, of
+    /// which a gather averages many), else with fresh rays as many as [`OTHER_LIGHT_PILOT`]
+    /// rays decide: `count` where they agree, [`OTHER_LIGHT_MAX_SAMPLES`] where some met their
+    /// emitter and some did not.
+    #[allow(clippy::too_many_arguments)]
+    fn others_adaptive(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        from: &Point,
+        ignore: u32,
+        exact: &[u32],
+        count: usize,
+        rng: &mut Rng,
+        targets: &mut Vec<[f64; 3]>,
+    ) -> Rgb {
+        let mut estimate =
+            |rays, rng: &mut Rng| self.others_direct(x, n, from, ignore, exact, rays, rng, targets);
+        if count < 2 {
+            return estimate(count, rng).0;
+        }
+        let (_, pilot) = estimate(OTHER_LIGHT_PILOT, rng);
+        let rays = if pilot.partial() {
+            OTHER_LIGHT_MAX_SAMPLES.max(count)
+        } else {
+            count
+        };
+        estimate(rays, rng).0
+    }
+
     /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays: emitters
     /// drawn with probability p_e ∝ w_e by systematic sampling, one point of each drawn
     /// emitter (area-uniform over its part above the horizon), each ray adding
@@ -248,9 +296,10 @@ impl Gatherer<'_> {
     ///   them, a draw that is not one of the others adding nothing.
     ///
     /// Unbiased up to V̄'s area (not G) weighting within one emitter, negligible for the
-    /// emitters that are not the point's largest ([`SAMPLED_SPREAD`]).
+    /// emitters that are not the point's largest ([`SAMPLED_SPREAD`]). Also returns what the
+    /// rays to those others met.
     #[allow(clippy::too_many_arguments)]
-    fn others_direct(
+    pub(super) fn others_direct(
         &self,
         x: DVec3,
         n: DVec3,
@@ -260,7 +309,7 @@ impl Gatherer<'_> {
         count: usize,
         rng: &mut Rng,
         targets: &mut Vec<[f64; 3]>,
-    ) -> Rgb {
+    ) -> (Rgb, Seen) {
         let is_other = |k: usize, e: &Emitter| {
             exact.binary_search(&(k as u32)).is_err()
                 && self.sampled(e, x)
@@ -296,8 +345,9 @@ impl Gatherer<'_> {
             (&weighed.0, Some(&weighed.1))
         };
         let mut sum = [0.0; 3];
+        let mut seen = Seen::default();
         let Some(&total) = cdf.last() else {
-            return sum;
+            return (sum, seen);
         };
         let offset = rng.next_f64();
         for j in 0..count {
@@ -318,13 +368,14 @@ impl Gatherer<'_> {
                 let to = self.surfaces.point(y + self.lift * e.normal);
                 visible = !self.surfaces.occluded(from, &to, ignore);
             });
+            seen.add(visible);
             if visible {
                 for (s, le) in sum.iter_mut().zip(e.le) {
                     *s += le * f / (count as f64 * p);
                 }
             }
         }
-        sum
+        (sum, seen)
     }
 
     /// Each patch's own direct light, Σ_e Le_e F V̄ averaged over its 7-point Gauss rule
@@ -394,15 +445,35 @@ impl Gatherer<'_> {
 
     /// The cost of a gathering point's direct light, in hemisphere rays: [`EXACT_EMITTER_COST`] per
     /// exact emitter (its visible pieces, [`visible`]; shadow rays only where they are too many to
-    /// compute), [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and the shadow rays of the
+    /// compute), the others' pilot and [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and the shadow rays of the
     /// lights outside the mesh
     /// ([`Environment::sharp_rays`](crate::scene::Environment::sharp_rays)).
     pub fn direct_cost_per_point(&self) -> usize {
         let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
-            OTHER_LIGHT_SAMPLES
+            OTHER_LIGHT_PILOT + OTHER_LIGHT_SAMPLES
         } else {
             0
         };
         EXACT_EMITTER_COST * self.exact_per_point() + others + self.env.sharp_rays()
+    }
+}
+
+/// What the shadow rays of [`Gatherer::others_direct`] met: whether any reached its emitter,
+/// whether any was stopped.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Seen {
+    visible: bool,
+    hidden: bool,
+}
+
+impl Seen {
+    fn add(&mut self, visible: bool) {
+        self.visible |= visible;
+        self.hidden |= !visible;
+    }
+
+    /// Some rays met their emitter and some did not: the point sees part of the others.
+    fn partial(self) -> bool {
+        self.visible && self.hidden
     }
 }

@@ -205,6 +205,61 @@ fn many_unoccluded_emitters_give_the_exact_direct_light() {
 }
 
 #[test]
+fn partly_hidden_other_lights_get_more_rays() {
+    // Seen from (1/2, 1/2, 0) the blocker hides half of the 4 × 4 grid: the exact emitters'
+    // shares are exact (no noise), and the others' sixteen pilot rays disagree at almost
+    // every call, so the estimate gets OTHER_LIGHT_MAX_SAMPLES fresh rays, four times
+    // OTHER_LIGHT_SAMPLES. Its variance falls at least as much as the rays' ratio (about
+    // twentyfold here: drawn systematically ∝ Le·F, 64 rays meet every one of the 24
+    // others several times, sixteen leave some out at each call). Bound: half; 400 calls
+    // each give a variance to about ±10 %, so no gain at all (ratio 1, as with a pilot
+    // that never adds rays) fails, and the gain measured cannot fall to it by chance.
+    // Where nothing is hidden the test above shows the same estimate exact.
+    let (scene, patches, _) = emitter_grid(true, 4);
+    let radiance = vec![[0.0; 3]; patches.len()];
+    let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
+    let x = DVec3::new(0.5, 0.5, 0.0);
+    let receiver = g.surfaces.closest(x + 0.1 * DVec3::Z, -DVec3::Z, NONE);
+    let receiver = receiver.unwrap().patch;
+    let exact = g.exact_emitters(x);
+    let from = g.surfaces.point(x + g.lift * DVec3::Z);
+    let variance = |calls: Vec<f64>| {
+        let n = calls.len() as f64;
+        let mean = calls.iter().sum::<f64>() / n;
+        calls.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / (n - 1.0)
+    };
+    let adaptive = variance(
+        (0..400)
+            .map(|seed| g.direct(x, DVec3::Z, receiver, &mut Rng::new(&[seed]))[0])
+            .collect(),
+    );
+    let plain = variance(
+        (0..400)
+            .map(|seed| {
+                let mut targets = Vec::new();
+                let rng = &mut Rng::new(&[seed]);
+                let (sum, _) = g.others_direct(
+                    x,
+                    DVec3::Z,
+                    &from,
+                    receiver,
+                    &exact,
+                    OTHER_LIGHT_SAMPLES,
+                    rng,
+                    &mut targets,
+                );
+                sum[0]
+            })
+            .collect(),
+    );
+    assert!(plain > 0.0, "sixteen rays to the others are noisy here");
+    assert!(
+        adaptive < 0.5 * plain,
+        "variance {adaptive} with the pilot against {plain} with {OTHER_LIGHT_SAMPLES} rays"
+    );
+}
+
+#[test]
 fn many_partly_hidden_emitters_are_estimated_without_bias() {
     // The blocker hides the grid's half x < 1/2 from the point (1/2, 1/2, 0): the exact
     // emitters' visible shares are then exactly 0 or 1, and the others' sampled rays are
