@@ -30,6 +30,8 @@
 
 use std::fmt;
 
+use glam::DVec3;
+
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -357,6 +359,26 @@ impl Gatherer<'_> {
         let mut g = self.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect);
         g.indirect_error = error;
         g
+    }
+
+    /// The `full` gather at the surface point `x` (unit normal `n`, on the side it faces) by
+    /// `rays` hemisphere rays, keyed by `seed`: what a vertex there would show with no display
+    /// in between, for diagnosis against point references (the tools' `gather_at_probes`).
+    /// The patch is the first one met from a thousandth of the scene's extent above `x`,
+    /// straight down; `None` where there is none, or it does not face `n`.
+    pub fn at_point(&self, x: DVec3, n: DVec3, rays: usize, seed: u64) -> Option<Gathered> {
+        let above = 1e-3 * self.extent();
+        let hit = self.surfaces.closest(x + above * n, -n, NONE)?;
+        if hit.t > 2.0 * above || self.patches.normal[hit.patch as usize].dot(n) <= 0.0 {
+            return None;
+        }
+        let spot = Spot {
+            x,
+            n,
+            patch: hit.patch,
+        };
+        let mut rng = Rng::new(&[self.seed, seed, 0x9_0B_E5]);
+        Some(self.full(&spot, rays, &mut rng))
     }
 
     /// Le of patch `p` plus the reflected parts: `direct` as [`Gatherer::reflected_direct`]

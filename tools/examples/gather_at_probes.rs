@@ -1,0 +1,135 @@
+//! Gathers at the probes of the point-wise benchmark themselves, from a default bake's
+//! solution: what the bake's vertices would show there with no display in between
+//! (`Gatherer::at_point`, the `full` gather). Its error against the references is what the
+//! solution and the gather leave; the baked mesh's displayed error (`score`) adds the
+//! display's. Two seeds apart, the difference is the gather's own noise (its RMS over √2 is
+//! one gather's). `cargo run --release -p radiosity-tools --example gather_at_probes --
+//! PROBES.csv SCENE [RAYS] [SEED]` (defaults 4096 rays, seed 1; the scene's own lights, the
+//! bake's default settings). With `GATHER_DUMP=FILE`, each probe's reference, gathered
+//! luminance, its direct and indirect parts at both seeds go to FILE as CSV.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use radiosity::color::luminance;
+use radiosity::gather::Gatherer;
+use radiosity::mesh::{self, Discontinuities};
+use radiosity::pipeline::{self, Method, Settings};
+use radiosity::scene::Scene;
+use radiosity::validation::pointwise;
+use rayon::prelude::*;
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let usage = "usage: gather_at_probes PROBES.csv SCENE [RAYS] [SEED]";
+    let (Some(probes), Some(scene)) = (args.first(), args.get(1)) else {
+        anyhow::bail!(usage);
+    };
+    let number = |k: usize, default: u64| -> Result<u64> {
+        args.get(k).map_or(Ok(default), |a| {
+            a.parse().with_context(|| usage.to_string())
+        })
+    };
+    let (rays, seed) = (number(2, 4096)? as usize, number(3, 1)?);
+    let probes = pointwise::read_csv(Path::new(probes))?;
+    let scene = Scene::load(Path::new(scene))?;
+    let mut settings = Settings::default();
+    // The gatherer reads the scene the solve's patches came from: where the matrix method
+    // splits the contact lines into the scene (the default), split them here and solve that.
+    let scene = if settings.resolved(&scene)?.method == Method::Matrix {
+        settings.discontinuities = Discontinuities::None;
+        mesh::split_contacts(&scene).0
+    } else {
+        scene
+    };
+    let out = pipeline::solve_scene(&scene, &settings)?;
+    let gatherer = Gatherer::new(
+        &scene,
+        &out.patches,
+        &out.solution.radiance,
+        &settings.environment,
+        settings.form_factors.seed,
+    );
+    let at = |s: u64| -> Vec<_> {
+        probes
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                gatherer.at_point(
+                    p.position,
+                    p.normal,
+                    rays,
+                    s.wrapping_mul(1 << 32) + i as u64,
+                )
+            })
+            .collect()
+    };
+    let (first, second) = (at(seed), at(seed + 1));
+    println!(
+        "{} probes, {:?} solve, {rays} rays a probe, seeds {seed} and {}",
+        probes.len(),
+        out.report.method,
+        seed + 1
+    );
+    println!("| gathered at the probes | scored | RMS | median | 90th pct | bias |\n|---|---|---|---|---|---|");
+    for (name, values) in [("seed", &first), ("next seed", &second)] {
+        let shown: Vec<_> = values.iter().map(|g| g.map(|g| g.radiance)).collect();
+        let s = pointwise::score(&probes, &shown);
+        println!(
+            "| {name} | {} | {:.2} % | {:.2} % | {:.2} % | {:+.2} % |",
+            s.scored,
+            100.0 * s.rms,
+            100.0 * s.median,
+            100.0 * s.p90,
+            100.0 * s.bias
+        );
+    }
+    // One gather's noise: the two seeds' relative difference, RMS over √2, at the probes the
+    // score counts (brighter than a tenth of the references' mean).
+    let floor =
+        0.1 * probes.iter().map(|p| luminance(p.radiance)).sum::<f64>() / probes.len() as f64;
+    let (mut sum, mut n) = (0.0, 0usize);
+    for ((p, a), b) in probes.iter().zip(&first).zip(&second) {
+        if let (Some(a), Some(b)) = (a, b) {
+            let reference = luminance(p.radiance);
+            if reference > floor {
+                sum += ((luminance(a.radiance) - luminance(b.radiance)) / reference).powi(2);
+                n += 1;
+            }
+        }
+    }
+    println!(
+        "noise of one gather: {:.2} % RMS",
+        100.0 * (sum / n.max(1) as f64 / 2.0).sqrt()
+    );
+    if let Some(dump) = std::env::var_os("GATHER_DUMP") {
+        let mut csv = String::from(
+            "triangle,reference,gathered,direct,indirect,gathered2,direct2,indirect2\n",
+        );
+        for ((p, a), b) in probes.iter().zip(&first).zip(&second) {
+            let y = |g: &Option<radiosity::gather::Gathered>| {
+                g.map_or([f64::NAN; 3], |g| {
+                    [
+                        luminance(g.radiance),
+                        luminance(g.direct),
+                        luminance(g.indirect),
+                    ]
+                })
+            };
+            let (a, b) = (y(a), y(b));
+            csv.push_str(&format!(
+                "{},{},{},{},{},{},{},{}\n",
+                p.triangle,
+                luminance(p.radiance),
+                a[0],
+                a[1],
+                a[2],
+                b[0],
+                b[1],
+                b[2]
+            ));
+        }
+        std::fs::write(&dump, csv).with_context(|| format!("writing {dump:?}"))?;
+    }
+    Ok(())
+}
