@@ -205,6 +205,28 @@ fn many_unoccluded_emitters_give_the_exact_direct_light() {
 }
 
 #[test]
+fn a_point_gather_finds_its_patch_and_the_exact_direct_light() {
+    // Under the unoccluded 4 × 4 grid every estimate of the direct light is exact (the test
+    // above), so the point gather's reflected direct light is ρ = 0.5 times it to rounding.
+    // Off the surface, or seen from the receiver's back, there is no point to gather at.
+    let (scene, patches, exact) = emitter_grid(false, 4);
+    let radiance = vec![[0.0; 3]; patches.len()];
+    let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
+    let x = DVec3::new(0.5, 0.5, 0.0);
+    let at = g
+        .at_point(x, DVec3::Z, 16, 3)
+        .expect("a point on the receiver");
+    assert!(!at.buried);
+    assert!(
+        (at.direct[0] - 0.5 * exact).abs() < 1e-12 * exact,
+        "{:?} vs {exact}",
+        at.direct
+    );
+    assert!(g.at_point(x + 0.2 * DVec3::Z, DVec3::Z, 16, 3).is_none());
+    assert!(g.at_point(x, -DVec3::Z, 16, 3).is_none());
+}
+
+#[test]
 fn partly_hidden_other_lights_get_more_rays() {
     // Seen from (1/2, 1/2, 0) the blocker hides half of the 4 × 4 grid: the exact emitters'
     // shares are exact (no noise), and the others' sixteen pilot rays disagree at almost
