@@ -443,10 +443,11 @@ impl Gatherer<'_> {
         self.emitters.len().min(MAX_EXACT_EMITTERS)
     }
 
-    /// The cost of a gathering point's direct light, in hemisphere rays: [`EXACT_EMITTER_COST`] per
-    /// exact emitter (its visible pieces, [`visible`]; shadow rays only where they are too many to
-    /// compute), the others' pilot and [`OTHER_LIGHT_SAMPLES`] when there are more emitters, and the shadow rays of the
-    /// lights outside the mesh
+    /// The cost of a gathering point's direct light, in hemisphere rays: [`EXACT_EMITTER_COST`]
+    /// per exact emitter (its visible pieces, [`visible`]; shadow rays only where they are too
+    /// many to compute), the others' pilot and [`OTHER_LIGHT_SAMPLES`] when there are more
+    /// emitters (where the pilot asks for [`OTHER_LIGHT_MAX_SAMPLES`], more), and the shadow
+    /// rays of the lights outside the mesh
     /// ([`Environment::sharp_rays`](crate::scene::Environment::sharp_rays)).
     pub fn direct_cost_per_point(&self) -> usize {
         let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
