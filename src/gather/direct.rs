@@ -134,7 +134,8 @@ impl Gatherer<'_> {
     /// [`Gatherer::direct`]: the emitters `exact` with `first` shadow rays per emitter and,
     /// when any emitter's disagree, up to `max` in all for every emitter, and the other
     /// emitters by `others` shadow rays in all ([`OTHER_LIGHT_SAMPLES`]; `rays = (first, max,
-    /// others)`); and whether some exact emitter is partly hidden (`x` is in a penumbra). The
+    /// others)`), or by [`OTHER_LIGHT_MAX_SAMPLES`] where a pilot finds them partly hidden
+    /// (`others` ≥ 2); and whether some exact emitter is partly hidden (`x` is in a penumbra). The
     /// point and spot lights outside the mesh get one shadow ray each, or, if `one_light` (a
     /// near hit's point, of which a gather averages many), one shadow ray in all
     /// ([`Environment::sharp_direct_sampled`]).
@@ -217,7 +218,18 @@ impl Gatherer<'_> {
             }
         }
         if others > 0 && exact.len() < self.emitters.len() {
-            let other = self.others_adaptive(x, n, &from, ignore, exact, others, rng, &mut targets);
+            let mut estimate = |rays, rng: &mut Rng| {
+                self.others_direct(x, n, &from, ignore, exact, rays, rng, &mut targets)
+            };
+            // A gathering point's rays are as many as a pilot decides ([`OTHER_LIGHT_PILOT`]:
+            // `others` where its rays agree, [`OTHER_LIGHT_MAX_SAMPLES`] where some met their
+            // emitter and some did not), the estimate's fresh; a near hit's one ray is not.
+            let rays = if others >= 2 && estimate(OTHER_LIGHT_PILOT, rng).1.partial() {
+                OTHER_LIGHT_MAX_SAMPLES.max(others)
+            } else {
+                others
+            };
+            let (other, _) = estimate(rays, rng);
             for (s, o) in sum.iter_mut().zip(other) {
                 *s += o;
             }
@@ -250,36 +262,6 @@ impl Gatherer<'_> {
     /// exactly one of the two estimators at a point, so their sum is unbiased.
     pub(super) fn sampled(&self, e: &Emitter, x: DVec3) -> bool {
         e.radius <= SAMPLED_SPREAD * x.distance(e.centre)
-    }
-
-    /// [`Gatherer::others_direct`] with `count` rays where that is one (a near hit's point, of
-    /// which a gather averages many), else with fresh rays as many as [`OTHER_LIGHT_PILOT`]
-    /// rays decide: `count` where they agree, [`OTHER_LIGHT_MAX_SAMPLES`] where some met their
-    /// emitter and some did not.
-    #[allow(clippy::too_many_arguments)]
-    fn others_adaptive(
-        &self,
-        x: DVec3,
-        n: DVec3,
-        from: &Point,
-        ignore: u32,
-        exact: &[u32],
-        count: usize,
-        rng: &mut Rng,
-        targets: &mut Vec<[f64; 3]>,
-    ) -> Rgb {
-        let mut estimate =
-            |rays, rng: &mut Rng| self.others_direct(x, n, from, ignore, exact, rays, rng, targets);
-        if count < 2 {
-            return estimate(count, rng).0;
-        }
-        let (_, pilot) = estimate(OTHER_LIGHT_PILOT, rng);
-        let rays = if pilot.partial() {
-            OTHER_LIGHT_MAX_SAMPLES.max(count)
-        } else {
-            count
-        };
-        estimate(rays, rng).0
     }
 
     /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays: emitters
