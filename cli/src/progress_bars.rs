@@ -1,14 +1,19 @@
 //! The binary's progress display: `indicatif` bars on stderr for the library's long stages
 //! ([`radiosity::progress`]), drawn only when stderr is a terminal and `--quiet` is not given,
 //! the verbose notes of `-v` and the warnings as they happen (printed above the bar, or
-//! plainly when there is none).
+//! plainly when there is none). Without a terminal, `-v` also prints a line on the stages that
+//! run long: how far they are and the time left ([`LOG_EVERY`]), so a log shows it too.
 
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use radiosity::pipeline::estimate::duration;
 use radiosity::progress::{set_observer, Observer};
+
+/// How often a verbose log without a terminal says how far a stage is.
+pub const LOG_EVERY: Duration = Duration::from_secs(15);
 
 /// Installs the observer for this run (always: warnings are shown as they happen, also with
 /// `--quiet` and when stderr is not a terminal).
@@ -24,15 +29,64 @@ pub fn install(quiet: bool, verbose: bool) {
 struct Bars {
     bars: bool,
     verbose: bool,
-    current: Mutex<Option<(String, ProgressBar)>>,
+    current: Mutex<Option<Current>>,
+}
+
+/// The stage running now.
+struct Current {
+    name: String,
+    /// Its bar, when bars are drawn.
+    bar: Option<ProgressBar>,
+    total: Option<u64>,
+    done: u64,
+    started: Instant,
+    /// When its last log line was printed (logs without a terminal).
+    logged: Instant,
+    /// Its last status.
+    status: String,
+}
+
+impl Current {
+    /// "gather: 45 % after 1.0 min, about 1.2 min left", or for a stage of unknown length
+    /// its time so far and status.
+    fn line(&self) -> String {
+        let elapsed = self.started.elapsed().as_secs_f64();
+        match self.total {
+            Some(total) if total > 0 && self.done > 0 => {
+                let f = (self.done as f64 / total as f64).min(1.0);
+                format!(
+                    "{}: {:.0} % after {}, about {} left",
+                    self.name,
+                    100.0 * f,
+                    duration(elapsed),
+                    duration(elapsed * (1.0 - f) / f)
+                )
+            }
+            _ if self.status.is_empty() => format!("{}: {} so far", self.name, duration(elapsed)),
+            _ => format!(
+                "{}: {} ({} so far)",
+                self.name,
+                self.status,
+                duration(elapsed)
+            ),
+        }
+    }
+
+    /// The progress line, if a log line is due.
+    fn due(&mut self) -> Option<String> {
+        (self.logged.elapsed() >= LOG_EVERY).then(|| {
+            self.logged = Instant::now();
+            self.line()
+        })
+    }
 }
 
 impl Observer for Bars {
     fn start(&self, name: &str, total: Option<u64>) {
-        if !self.bars {
+        if !self.bars && !self.verbose {
             return;
         }
-        let bar = match total {
+        let bar = self.bars.then(|| match total {
             Some(t) => ProgressBar::with_draw_target(Some(t), ProgressDrawTarget::stderr())
                 .with_style(
                     ProgressStyle::with_template(
@@ -50,35 +104,63 @@ impl Observer for Bars {
                 b.enable_steady_tick(Duration::from_millis(120));
                 b
             }
-        };
-        bar.set_message(name.to_string());
+        });
+        if let Some(b) = &bar {
+            b.set_message(name.to_string());
+        }
         if let Ok(mut c) = self.current.lock() {
-            if let Some((_, old)) = c.take() {
+            if let Some(old) = c.take().and_then(|o| o.bar) {
                 old.finish_and_clear();
             }
-            *c = Some((name.to_string(), bar));
+            *c = Some(Current {
+                name: name.to_string(),
+                bar,
+                total,
+                done: 0,
+                started: Instant::now(),
+                logged: Instant::now(),
+                status: String::new(),
+            });
         }
     }
 
     fn advance(&self, done: u64) {
-        if let Ok(c) = self.current.lock() {
-            if let Some((_, bar)) = c.as_ref() {
-                bar.inc(done);
+        let line = self.current.lock().ok().and_then(|mut c| {
+            let c = c.as_mut()?;
+            c.done += done;
+            match &c.bar {
+                Some(bar) => {
+                    bar.inc(done);
+                    None
+                }
+                None => c.due(),
             }
+        });
+        if let Some(line) = line {
+            eprintln!("{line}");
         }
     }
 
     fn status(&self, message: &str) {
-        if let Ok(c) = self.current.lock() {
-            if let Some((name, bar)) = c.as_ref() {
-                bar.set_message(format!("{name}: {message}"));
+        let line = self.current.lock().ok().and_then(|mut c| {
+            let c = c.as_mut()?;
+            c.status = message.to_string();
+            match &c.bar {
+                Some(bar) => {
+                    bar.set_message(format!("{}: {message}", c.name));
+                    None
+                }
+                None => c.due(),
             }
+        });
+        if let Some(line) = line {
+            eprintln!("{line}");
         }
     }
 
     fn finish(&self) {
         if let Ok(mut c) = self.current.lock() {
-            if let Some((_, bar)) = c.take() {
+            if let Some(bar) = c.take().and_then(|o| o.bar) {
                 bar.finish_and_clear();
             }
         }
@@ -98,9 +180,50 @@ impl Observer for Bars {
 impl Bars {
     /// A line on stderr, above the bar when one is drawn.
     fn line(&self, message: &str) {
-        match self.current.lock().ok().as_deref() {
-            Some(Some((_, bar))) => bar.println(message),
-            _ => eprintln!("{message}"),
+        let bar = self
+            .current
+            .lock()
+            .ok()
+            .and_then(|c| c.as_ref().and_then(|c| c.bar.clone()));
+        match bar {
+            Some(bar) => bar.println(message),
+            None => eprintln!("{message}"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stage(total: Option<u64>, done: u64, seconds: u64, status: &str) -> Current {
+        let started = Instant::now() - Duration::from_secs(seconds);
+        Current {
+            name: "gather".into(),
+            bar: None,
+            total,
+            done,
+            started,
+            logged: started,
+            status: status.into(),
+        }
+    }
+
+    #[test]
+    fn a_log_line_says_how_far_a_stage_is_and_the_time_left() {
+        // A quarter done in 30 s: three quarters left at that rate, 90 s.
+        assert_eq!(
+            stage(Some(200), 50, 30, "").line(),
+            "gather: 25 % after 30 s, about 1.5 min left"
+        );
+        // A stage of unknown length says its status and its time so far.
+        assert_eq!(
+            stage(None, 0, 20, "sweep 3: residual 1.00e-3").line(),
+            "gather: sweep 3: residual 1.00e-3 (20 s so far)"
+        );
+        // A line is due every LOG_EVERY, not more often.
+        let mut s = stage(Some(10), 1, 20, "");
+        assert!(s.due().is_some());
+        assert!(s.due().is_none());
     }
 }

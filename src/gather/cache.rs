@@ -382,11 +382,13 @@ impl Gatherer<'_> {
                 (share.round() as usize).clamp(MIN_RECORD_RAYS, MAX_RECORD_RAYS)
             })
         };
+        let progress = crate::progress::stage("gather: records", Some(records.len() as u64));
         let values: Vec<Rgb> = records
             .par_iter()
             .zip(&record_vertex)
             .enumerate()
             .map(|(k, (record, &v))| {
+                progress.advance(1);
                 let mut rng = Rng::new(&[self.seed(), v as u64, 0xCAC4E]);
                 let s = spot(v);
                 self.hemisphere(

@@ -473,10 +473,12 @@ pub fn gather(
     } else {
         Vec::new()
     };
+    let progress = crate::progress::stage("gather", Some(sites.len() as u64));
     let values = sites
         .par_iter()
         .enumerate()
         .map(|(v, site)| {
+            progress.advance(1);
             let mut rng = gatherer.vertex_rng(v);
             let Some(spot) = gatherer.spot(site, visible_fraction) else {
                 return Gathered::buried(baked[v]);
@@ -528,11 +530,13 @@ fn cached(
         })
         .collect();
     let (indirect, cache) = gatherer.cached_indirect(&spots, &areas, rays);
+    let progress = crate::progress::stage("gather: direct light", Some(spots.len() as u64));
     let values = spots
         .par_iter()
         .zip(indirect)
         .enumerate()
         .map(|(v, (spot, reflected))| {
+            progress.advance(1);
             let (Some(spot), Some(reflected)) = (spot, reflected) else {
                 return Gathered::buried(baked[v]);
             };

@@ -235,6 +235,9 @@ pub fn refine(
     // What the tests found at the midpoints, for the final fit of the values (those of the
     // edges split are dropped at the end: their midpoints became vertices).
     let mut midpoints: Vec<Midpoint> = Vec::new();
+    // Progress in points evaluated, out of the most the budget allows (tests and new
+    // vertices); a refinement that stops early ends its stage there.
+    let progress = crate::progress::stage("display refinement", Some((tests_left + budget) as u64));
 
     for _ in 0..MAX_LEVELS {
         let remaining = budget - done.vertices;
@@ -283,6 +286,7 @@ pub fn refine(
         let tests: Vec<(f64, Option<Rgb>)> = edges
             .par_iter()
             .map(|&(_, e, reference, _)| {
+                progress.advance(1);
                 let mut found = None;
                 let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
                 // The indirect light: endpoints that differ this much (a contact's fall-off).
@@ -399,6 +403,7 @@ pub fn refine(
         let new_values: Vec<Gathered> = (first..d.sites.len())
             .into_par_iter()
             .map(|v| {
+                progress.advance(1);
                 let site = &d.sites[v];
                 let endpoints = chosen[v - first];
                 let (va, vb) = (

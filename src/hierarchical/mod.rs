@@ -241,6 +241,7 @@ pub fn solve(
     settings.validate()?;
     solver.validate()?;
     env.validate()?;
+    let _progress = crate::progress::stage("hierarchical solve", None);
     let mut h = Hierarchy::new(roots, settings, env, seed);
     let mut warnings = Vec::new();
     let mut history = Vec::new();

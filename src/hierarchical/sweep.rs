@@ -51,10 +51,11 @@ impl Hierarchy<'_> {
     /// Sweeps until the residual is at most the tolerance or the sweep limit; true if
     /// converged.
     pub(super) fn converge(&mut self, solver: &solve::Settings, history: &mut Vec<f64>) -> bool {
+        let mut clock = solve::SweepClock::new(solver.tolerance);
         for _ in 0..solver.max_iterations {
             let r = self.sweep();
             history.push(r);
-            solve::report_sweep(self.stats.sweeps, r);
+            clock.report(self.stats.sweeps, r);
             if r <= solver.tolerance {
                 return true;
             }

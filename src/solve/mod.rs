@@ -219,6 +219,58 @@ pub(crate) fn report_sweep(iteration: u32, residual: f64) {
     crate::progress::note_status(|| format!("sweep {iteration}: residual {residual:.2e}"));
 }
 
+/// The time left of an iteration whose residual falls geometrically, for the progress
+/// display: a stationary iteration's error shrinks by the spectral radius q of its iteration
+/// matrix each sweep once the slowest mode dominates, so from the last two residuals
+/// r_{k−1}, r_k (q ≈ r_k / r_{k−1}) the sweeps left to the tolerance τ are
+/// ln(τ / r_k) / ln q, each taking the mean time of the sweeps so far.
+pub(crate) struct SweepClock {
+    started: std::time::Instant,
+    sweeps: u32,
+    previous: Option<f64>,
+    tolerance: f64,
+}
+
+impl SweepClock {
+    /// A clock for sweeps toward `tolerance` (relative residual).
+    pub(crate) fn new(tolerance: f64) -> SweepClock {
+        SweepClock {
+            started: std::time::Instant::now(),
+            sweeps: 0,
+            previous: None,
+            tolerance,
+        }
+    }
+
+    /// Reports sweep `iteration` with `residual`, and the time left when the residual falls
+    /// steadily (a status line; no effect on the result).
+    pub(crate) fn report(&mut self, iteration: u32, residual: f64) {
+        self.sweeps += 1;
+        let left = self
+            .previous
+            .and_then(|p| sweeps_left(p, residual, self.tolerance));
+        self.previous = Some(residual);
+        let per_sweep = self.started.elapsed().as_secs_f64() / self.sweeps as f64;
+        crate::progress::note_status(|| match left {
+            Some(n) => format!(
+                "sweep {iteration}: residual {residual:.2e}, about {n} more ({} left)",
+                crate::pipeline::estimate::duration(n as f64 * per_sweep)
+            ),
+            None => format!("sweep {iteration}: residual {residual:.2e}"),
+        });
+    }
+}
+
+/// Sweeps left from residual `now` (the previous one `before`) to `tolerance` at the rate
+/// now / before; `None` unless the residual is falling and still above the tolerance.
+pub(crate) fn sweeps_left(before: f64, now: f64, tolerance: f64) -> Option<u32> {
+    let q = now / before;
+    if !(q > 0.0 && q < 1.0 && now > tolerance && tolerance > 0.0) {
+        return None;
+    }
+    Some(((tolerance / now).ln() / q.ln()).ceil().min(1e6) as u32)
+}
+
 /// What one method returns: the radiance in C channels and its bookkeeping.
 pub(crate) struct Run<const C: usize> {
     pub radiance: Vec<[f64; C]>,

@@ -52,6 +52,7 @@ pub(crate) fn jacobi<const C: usize>(p: &Problem<C>, s: &Settings) -> Run<C> {
     let mut l = p.e.clone();
     let mut next = vec![[0.0; C]; l.len()];
     let mut history = Vec::new();
+    let mut clock = super::SweepClock::new(s.tolerance);
     let mut iterations = 0;
     let mut converged = false;
     while iterations < s.max_iterations {
@@ -72,7 +73,7 @@ pub(crate) fn jacobi<const C: usize>(p: &Problem<C>, s: &Settings) -> Run<C> {
         // Residual of the iterate just replaced; the new iterate's is ≤ ‖K‖ times smaller.
         let r_prev = diff / e_norm;
         history.push(r_prev);
-        super::report_sweep(iterations, r_prev);
+        clock.report(iterations, r_prev);
         if r_prev <= s.tolerance {
             converged = true;
             break;
@@ -109,6 +110,7 @@ pub(crate) fn gauss_seidel<const C: usize>(p: &Problem<C>, s: &Settings) -> Run<
     let omega = s.omega.unwrap_or(1.0);
     let mut l = p.e.clone();
     let mut history = Vec::new();
+    let mut clock = super::SweepClock::new(s.tolerance);
     let mut iterations = 0;
     let mut converged = false;
     let mut residual = p.relative_residual(&l);
@@ -160,7 +162,7 @@ pub(crate) fn gauss_seidel<const C: usize>(p: &Problem<C>, s: &Settings) -> Run<
         // changes L by about its residual) and at the last allowed sweep.
         let step = update.sqrt() / e_norm;
         history.push(step);
-        super::report_sweep(iterations, step);
+        clock.report(iterations, step);
         if !step.is_finite() {
             residual = step;
             break;

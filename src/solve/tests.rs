@@ -299,3 +299,35 @@ fn a_closed_enclosure_with_reflectance_one_is_refused_and_nothing_emitted_is_bla
     .unwrap();
     assert!(s.converged && s.iterations == 0 && s.radiance == dark);
 }
+
+#[test]
+fn the_time_left_of_a_sweep_follows_its_residuals() {
+    // Jacobi on a system whose residual falls by about ρ·row sum a sweep: from the
+    // residuals of sweeps k − 1 and k, the sweeps left to the tolerance are predicted
+    // within two of those the solve then took (the ratio of successive residuals settles
+    // on the spectral radius within a few sweeps; the first sweeps are left out).
+    let ff = random_form_factors(120, 0.8, 17);
+    let (rho, le) = random_materials(120, 18);
+    let system = System {
+        form_factors: &ff,
+        reflectance: &rho,
+        emission: &le,
+    };
+    let mut j = settings(Method::Jacobi);
+    j.tolerance = 1e-10;
+    let s = solve(&system, &j).unwrap();
+    let h = &s.residual_history;
+    assert!(s.converged && h.len() > 20, "{} sweeps", h.len());
+    for k in 5..h.len() - 1 {
+        let predicted = sweeps_left(h[k - 1], h[k], j.tolerance).unwrap() as i64;
+        let actual = (h.len() - 1 - k) as i64;
+        assert!(
+            (predicted - actual).abs() <= 2,
+            "sweep {k}: {predicted} against {actual}"
+        );
+    }
+    // Nothing is predicted once converged, or where the residual does not fall.
+    assert_eq!(sweeps_left(1e-3, 1e-11, 1e-10), None);
+    assert_eq!(sweeps_left(1e-3, 2e-3, 1e-10), None);
+    assert_eq!(sweeps_left(0.0, 0.0, 1e-10), None);
+}
