@@ -249,6 +249,7 @@ pub fn solve(
     if emitted > 0.0 && h.tree.root().is_some() {
         h.start();
         let mut passes = 0;
+        let mut previous_links = h.links.len() as f64;
         loop {
             if passes >= settings.max_passes {
                 warnings.push(format!(
@@ -256,15 +257,22 @@ pub fn solve(
                 ));
                 break;
             }
-            if h.links.len() as u64 > settings.max_links {
+            // The next pass may grow the links as much as the last one did: stop before it
+            // would pass the limit.
+            let links = h.links.len() as f64;
+            let growth = (links / previous_links.max(1.0)).max(1.0);
+            if links * growth > settings.max_links as f64 {
                 warnings.push(format!(
-                    "hierarchical refinement stopped at {} links (max_links {}): raise \
-                     --epsilon or --min-area for a finer solution in this memory",
+                    "hierarchical refinement stopped at {} links, short of what ε asks: the \
+                     next pass could pass {} (max_links, from the memory limit); the solution \
+                     is coarser than asked. Raise --epsilon or --min-area to bake within this \
+                     memory, or allow more with --max-memory",
                     h.links.len(),
                     settings.max_links
                 ));
                 break;
             }
+            previous_links = links;
             if h.refine_pass() {
                 passes += 1;
                 for _ in 0..PASS_SWEEPS {

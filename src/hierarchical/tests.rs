@@ -766,3 +766,35 @@ fn leaves_split_where_their_direct_light_varies() {
     );
     assert!(h.tree.elements.len() > 100, "{}", h.tree.elements.len());
 }
+
+/// The memory guard: a solve allowed fewer links than its ε asks for stops refining before
+/// the next pass could pass them, says so, and still returns a solution (coarser: the closed
+/// box's furnace answer L = Le / (1 − ρ) = 2 holds on every leaf whatever the links, its row
+/// sums being normalised, to the solver's tolerance and f32 rounding).
+#[test]
+fn refinement_stops_before_the_links_pass_their_limit() {
+    let roots = closed_box();
+    let solver = solve::Settings::default();
+    let fine = Settings {
+        epsilon: 1e-5,
+        min_area: 1e-6,
+        ..Settings::default()
+    };
+    let free = solve(&roots, &fine, &Default::default(), &solver, 1).unwrap();
+    let wanted = free.stats.links;
+    assert!(free.warnings.is_empty(), "{:?}", free.warnings);
+    let capped = Settings {
+        max_links: wanted / 4,
+        ..fine
+    };
+    let h = solve(&roots, &capped, &Default::default(), &solver, 1).unwrap();
+    assert!(h.stats.links <= capped.max_links, "{} links", h.stats.links);
+    assert!(
+        h.warnings.iter().any(|w| w.contains("refinement stopped")),
+        "{:?}",
+        h.warnings
+    );
+    for l in &h.solution.radiance {
+        assert!((l[0] - 2.0).abs() < 1e-3, "{l:?}");
+    }
+}

@@ -69,8 +69,9 @@ const GATHER_SECONDS: f64 = 4.2;
 /// ([`Estimate::vertices`]): the direct light computed exactly at every vertex and the
 /// records' hemisphere rays dominate it, so it grows with the scene's occluders and lights as
 /// well. Fitted to the generated office of 10⁵ triangles (12 lamps, sky panels, furniture;
-/// 6.5e-4 measured) and the generated hall of 10⁵ triangles (many small lamps; 7.8e-4).
-const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 7e-4;
+/// 5.8e-4 measured) and the generated hall of 10⁵ triangles (many small lamps; 5.7e-4), their
+/// vertices counted on the roots cut along the contact lines as the bake cuts them.
+const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 6e-4;
 /// Seconds on 2 cores per shadow ray to a light outside the mesh (a point or spot light, or
 /// the sun's [`crate::light::outside::SUN_RAYS`]) at an output vertex: every vertex of the gather
 /// and of its display refinement casts one to each (fitted to a LibreQuake level with over a
@@ -130,7 +131,7 @@ impl Estimate {
                 let max_edge = s.max_edge.unwrap_or((hi - lo).length());
                 let root_patches = mesh::subdivide(scene, max_edge, s.crease_degrees)?;
                 let roots = sides * root_patches.len();
-                let vertices = sides * output_vertices(&root_patches, s.crease_degrees);
+                let vertices = sides * display_vertices(scene, &s, &root_patches);
                 // The elements per root grow about as ε^-0.4 below the default ε.
                 let growth = (1e-4 / s.hierarchical.epsilon).powf(0.4);
                 let leaves = (LEAVES_PER_ROOT * roots as f64 * growth) as usize;
@@ -272,6 +273,44 @@ impl Estimate {
             Method::Hierarchical => "a larger --epsilon or --min-area, or a larger --max-edge",
             _ => "a larger --max-edge, a smaller --refine-max-patches, or --method hierarchical",
         }
+    }
+}
+
+/// Bytes of the peak memory that go with each hierarchical link: the 24-byte link, and in
+/// proportion the elements, clusters and refinement buffers that grow with them (the peaks
+/// of the LibreQuake levels and the hall of 10⁶ triangles, whose links dominate their memory,
+/// are 60–71 bytes a link; BENCHMARKS.md "Large scenes: the estimate against the bake").
+pub const PEAK_BYTES_PER_LINK: f64 = 72.0;
+
+/// The most hierarchical links a bake may make within `limit` bytes of memory
+/// ([`crate::hierarchical::Settings::max_links`]): what is left after [`BASE_BYTES`], at
+/// [`PEAK_BYTES_PER_LINK`] each. Refinement stops there with a warning, so a scene that links
+/// far more than its estimate (a detailed interior) ends with a coarser solution instead of
+/// running out of memory.
+pub fn links_within(limit: f64) -> u64 {
+    ((limit - BASE_BYTES).max(0.0) / PEAK_BYTES_PER_LINK) as u64
+}
+
+/// The output vertices of a hierarchical bake before any display refinement, counted on its
+/// root `patches` as the bake shares them out: cut along the scene's contact lines first where
+/// the bake's display will be ([`mesh::split_patches`]; `discontinuities = auto` with a final
+/// gather), which on detailed interiors (brushes meeting walls and floors) makes 1.2–2.3×
+/// the roots' vertices. The leaves add more where the solve splits roots; they are not known
+/// before it.
+fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> usize {
+    let plain = output_vertices(patches, s.crease_degrees);
+    let lit = scene.has_emitters() || s.environment.is_lit();
+    let gathered = s.gather.resolve(plain, s.gather_rays.is_some()) != Gather::None;
+    if s.discontinuities != mesh::Discontinuities::Auto || !lit || !gathered {
+        return plain;
+    }
+    let cut = mesh::contact_lines(scene).and_then(|lines| {
+        let (lo, hi) = scene.bounds();
+        mesh::split_patches(&lines, patches, (hi - lo).length())
+    });
+    match cut {
+        Some((cut, _, _)) => output_vertices(&cut, s.crease_degrees),
+        None => plain,
     }
 }
 

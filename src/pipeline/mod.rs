@@ -90,9 +90,16 @@ pub fn run_with(
     // What it will cost, before any of it is done: refused if it would not fit in memory,
     // announced if it is long.
     let estimate = Estimate::of(&scene, settings, rayon::current_num_threads())?;
-    check_estimate(input, &estimate, settings.max_memory)?;
+    let limit = check_estimate(input, &estimate, settings.max_memory)?;
+    // The hierarchy's links are what outgrows an estimate: refinement stops, with a warning,
+    // before they would pass the memory limit.
+    let mut settings = settings.clone();
+    if let Some(limit) = limit {
+        let most = estimate::links_within(limit);
+        settings.hierarchical.max_links = settings.hierarchical.max_links.min(most);
+    }
 
-    let mut outcome = solve_scene(&scene, settings)?;
+    let mut outcome = solve_scene(&scene, &settings)?;
 
     let t = Instant::now();
     let exposure = options
@@ -123,8 +130,12 @@ pub const LONG_BAKE_SECONDS: f64 = 60.0;
 /// Refuses a bake whose estimated memory is more than `max_memory` bytes (`None`: the memory
 /// the machine has available, when it can be read), naming what would bring it down; a bake
 /// estimated to take longer than [`LONG_BAKE_SECONDS`] says so through
-/// [`crate::progress::warning`] before it starts.
-fn check_estimate(input: &Path, estimate: &Estimate, max_memory: Option<f64>) -> Result<()> {
+/// [`crate::progress::warning`] before it starts. Returns the memory limit, bytes, if known.
+fn check_estimate(
+    input: &Path,
+    estimate: &Estimate,
+    max_memory: Option<f64>,
+) -> Result<Option<f64>> {
     let (limit, what) = match max_memory {
         Some(m) => (Some(m), "--max-memory allows"),
         None => (estimate::available_memory(), "is available now"),
@@ -148,8 +159,9 @@ fn check_estimate(input: &Path, estimate: &Estimate, max_memory: Option<f64>) ->
         if estimate.method == Method::Hierarchical && worst > limit {
             crate::progress::warning(&format!(
                 "{}: this bake should need about {}, but detailed interiors have needed up to \
-                 {}× the estimate ({}), more than the {} that {what}; if it runs out of memory, \
-                 try {}",
+                 {}× the estimate ({}), more than the {} that {what}; if it needs more, its \
+                 refinement stops at the limit with a coarser solution; for a finer one in this \
+                 memory, try {}",
                 input.display(),
                 estimate::bytes(estimate.memory_bytes),
                 estimate::HIERARCHICAL_MEMORY_SPREAD,
@@ -169,7 +181,7 @@ fn check_estimate(input: &Path, estimate: &Estimate, max_memory: Option<f64>) ->
             estimate.remedies()
         ));
     }
-    Ok(())
+    Ok(limit)
 }
 
 /// patches → BVH → form factors → matrix → solve (→ refine, again) → bake, for a scene in
