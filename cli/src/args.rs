@@ -448,6 +448,12 @@ pub struct SolveArgs {
     /// info` with the same options prints the estimate.
     #[arg(long, value_name = "SIZE", value_parser = parse_bytes, allow_hyphen_values = true, help_heading = "Limits")]
     pub max_memory: Option<f64>,
+    /// A time budget for the bake: seconds, or with a unit (90s, 2m, 1.5h). Settings the
+    /// estimate says would take longer are coarsened first (a larger ε, then a lighter
+    /// display), with a line saying what was chosen; the refinements stop where their share
+    /// of the budget is spent.
+    #[arg(long, value_name = "DURATION", value_parser = parse_seconds, allow_hyphen_values = true, help_heading = "Limits")]
+    pub max_time: Option<f64>,
     #[command(flatten)]
     pub estimator: FormFactorArgs,
     /// Form-factor cache directory: F (geometry only) is stored there and reused by later
@@ -581,6 +587,8 @@ impl SolveArgs {
             refine_threshold: self.refine_threshold,
             refine_max_patches: self.refine_max_patches,
             max_memory: self.max_memory,
+            max_time: self.max_time,
+            display_deadline: None,
             cache: self.cache.clone(),
             discontinuities: self.discontinuities,
             gather: self.gather,
@@ -716,6 +724,29 @@ pub fn parse_bytes(text: &str) -> std::result::Result<f64, String> {
     Ok(x * 1024f64.powi(power))
 }
 
+/// A duration in seconds: a number, optionally followed by s, m (minutes) or h, e.g. `90`,
+/// `90s`, `2m`, `1.5h`.
+pub fn parse_seconds(text: &str) -> std::result::Result<f64, String> {
+    let t = text.trim();
+    let digits = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(digits);
+    let scale = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "s" | "sec" => 1.0,
+        "m" | "min" => 60.0,
+        "h" => 3600.0,
+        other => return Err(format!("unknown unit '{other}' (use s, m or h)")),
+    };
+    let x: f64 = number
+        .parse()
+        .map_err(|_| format!("'{text}' is not a duration such as 90s, 2m or 1.5h"))?;
+    if !(x > 0.0 && x.is_finite()) {
+        return Err(format!("'{text}' is not a positive duration"));
+    }
+    Ok(x * scale)
+}
+
 /// `--output` of a command that writes one kind of file must end in `.ext` (any case), and
 /// its directory must exist; checked before any work.
 pub fn check_output(path: &std::path::Path, command: &str, ext: &str) -> Result<(), Failure> {
@@ -819,6 +850,18 @@ mod tests {
         assert_eq!(parse_bytes("512 MB"), Ok(512.0 * 1024.0 * 1024.0));
         for bad in ["", "G", "0", "-1G", "4Q", "1e999"] {
             assert!(parse_bytes(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn durations_in_seconds_minutes_and_hours() {
+        assert_eq!(parse_seconds("90"), Ok(90.0));
+        assert_eq!(parse_seconds("90s"), Ok(90.0));
+        assert_eq!(parse_seconds("2m"), Ok(120.0));
+        assert_eq!(parse_seconds("1.5h"), Ok(5400.0));
+        assert_eq!(parse_seconds(" 3 min"), Ok(180.0));
+        for bad in ["", "m", "0", "-1m", "2d", "1e3"] {
+            assert!(parse_seconds(bad).is_err(), "{bad}");
         }
     }
 

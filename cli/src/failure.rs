@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 37] = [
+pub const FLAGS: [(&str, &str); 38] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -29,6 +29,7 @@ pub const FLAGS: [(&str, &str); 37] = [
     ("refine_threshold", "--refine-threshold"),
     ("refine_max_patches", "--refine-max-patches"),
     ("max_memory", "--max-memory"),
+    ("max_time", "--max-time"),
     ("environment.sky", "--sky"),
     ("environment.sun", "--sun"),
     ("environment.sky_model", "--sky-model"),

@@ -158,6 +158,10 @@ pub struct Refined {
     /// Tested midpoints of edges left whole that the vertex values were fitted to
     /// ([`super::local_fit`]).
     pub midpoints: usize,
+    /// Stopped at [`Plan::deadline`] (a bake's time budget) before its budget or its
+    /// candidates ran out.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub out_of_time: bool,
 }
 
 /// An undirected edge between output vertices (lower index first).
@@ -193,6 +197,8 @@ pub struct Plan {
     pub tolerance: f64,
     /// New vertices, at most ([`budget`]).
     pub budget: usize,
+    /// No level of tests starts after this instant (a bake's time budget); `None`: no limit.
+    pub deadline: Option<std::time::Instant>,
 }
 
 /// Refines `mesh` (whose vertices are `sites`, gathered as `values`; face i is patch i) in
@@ -212,6 +218,7 @@ pub fn refine(
         rays,
         tolerance,
         budget,
+        deadline,
     } = *plan;
     if mode == Gather::None || tolerance <= 0.0 || budget == 0 {
         mesh.vertex_radiance = values.iter().map(|g| g.radiance).collect();
@@ -242,6 +249,10 @@ pub fn refine(
     for _ in 0..MAX_LEVELS {
         let remaining = budget - done.vertices;
         if remaining == 0 || (candidates.is_empty() && deferred.is_empty()) {
+            break;
+        }
+        if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+            done.out_of_time = true;
             break;
         }
         let waiting: HashSet<Edge> = deferred.iter().map(|d| d.edge).collect();

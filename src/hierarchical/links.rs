@@ -186,6 +186,40 @@ pub fn estimate(
     }
 }
 
+/// F_rs of a link the refinement left [`Link::must_open`] when it stopped early (at a memory
+/// or time limit): the Monte Carlo estimate of the area formulation with `rays` sample pairs
+/// (as for any link with a cluster end), clamped to 1, the bound of any form factor. Noisy
+/// where the ends are close (the kernel 1/r² is unbounded there), but such a link then carries
+/// its light instead of none: a stop in the middle of opening the overlapping clusters would
+/// otherwise leave whole parts of the scene unlit.
+pub fn overlapping_estimate(
+    tree: &Tree,
+    vis: &Visibility,
+    link: &Link,
+    rays: usize,
+    burial: Burial,
+    seed: u64,
+) -> Estimate {
+    let mut rng = Rng::new(&[seed, link.receiver.id(), link.source.id(), 0x4F50454E]);
+    let sums = cluster_pair_estimate(
+        tree,
+        vis,
+        link.receiver,
+        link.source,
+        rays,
+        burial,
+        &mut rng,
+    );
+    let (f, cast) = sums.map_or((0.0, 0), |s| (s.f.min(1.0), s.cast));
+    Estimate {
+        link: Some(Link {
+            f: f as f32,
+            ..*link
+        }),
+        rays: cast,
+    }
+}
+
 /// Points of the rule that element receivers integrate with: the symmetric Gauss rule of
 /// degree 5 (7 points). Its points are also where burial is tested. The 3-point rule (degree
 /// 2) leaves large receivers low against the path-traced surface means (the Cornell box's

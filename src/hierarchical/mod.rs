@@ -107,6 +107,10 @@ pub struct Settings {
     /// Compute the emitters' direct light at every element ([`direct`]) when the scene
     /// qualifies ([`direct::chosen`]: few, small emitters); false: links carry all emission.
     pub direct: bool,
+    /// No refinement pass starts after this instant: refinement stops with a warning and the
+    /// solve converges on the links it has (the time budget of a bake, `--max-time`).
+    #[serde(skip)]
+    pub deadline: Option<std::time::Instant>,
 }
 
 impl Default for Settings {
@@ -118,6 +122,7 @@ impl Default for Settings {
             max_passes: 100,
             max_links: 100_000_000,
             direct: true,
+            deadline: None,
         }
     }
 }
@@ -223,6 +228,11 @@ pub const ORIENTED_CONE_COS: f64 = 0.8;
 /// 62,500 roots get the full [`CLOSURE_PROBES`] (4·10⁶ rays in all), 10⁶ roots 1.6·10⁷ rays.
 const MIN_CLOSURE_PROBES: usize = 16;
 
+/// Sample pairs per link ray of a link estimated where refinement stopped before opening it
+/// ([`Hierarchy::estimate_unopened`]): such links are few and coarse, and their kernel is
+/// unbounded, so they get more samples than a link of the finished refinement.
+const UNOPENED_SAMPLES: usize = 16;
+
 /// Sweeps between refinement passes: the oracle needs radiance of the right order, not a
 /// converged one (the final solve converges).
 const PASS_SWEEPS: u32 = 2;
@@ -250,6 +260,7 @@ pub fn solve(
         h.start();
         let mut passes = 0;
         let mut previous_links = h.links.len() as f64;
+        let mut stopped_early = false;
         loop {
             if passes >= settings.max_passes {
                 warnings.push(format!(
@@ -262,6 +273,7 @@ pub fn solve(
             let links = h.links.len() as f64;
             let growth = (links / previous_links.max(1.0)).max(1.0);
             if links * growth > settings.max_links as f64 {
+                stopped_early = true;
                 warnings.push(format!(
                     "hierarchical refinement stopped at {} links, short of what ε asks: the \
                      next pass could pass {} (max_links, from the memory limit); the solution \
@@ -269,6 +281,19 @@ pub fn solve(
                      memory, or allow more with --max-memory",
                     h.links.len(),
                     settings.max_links
+                ));
+                break;
+            }
+            if settings
+                .deadline
+                .is_some_and(|d| std::time::Instant::now() >= d)
+            {
+                stopped_early = true;
+                warnings.push(format!(
+                    "hierarchical refinement stopped at {} links after {passes} passes, short \
+                     of what ε asks: its share of the time budget (--max-time) was spent; the \
+                     solution is coarser than asked",
+                    h.links.len()
                 ));
                 break;
             }
@@ -296,6 +321,9 @@ pub fn solve(
             passes += 1;
         }
         h.stats.passes = passes;
+        if stopped_early {
+            h.estimate_unopened();
+        }
     }
     // The final solve on the final links, each gathering its source two levels down
     // ([`Hierarchy::link_radiance`]): from L = Le, N sweeps for Neumann (exactly the Neumann
@@ -307,7 +335,7 @@ pub fn solve(
     // few-ray row sums fall far below 1 (a few in a thousand, under 0.5, in a large hall)
     // would, normalised, inflate that bound over whole clusters: many more links, for the
     // same surfaces' means. A closed scene's are found again: the near corrections change them.
-    if h.stats.closed_roots > 0 {
+    if h.stats.closed_roots > 0 || h.cap_rows {
         h.row_sum = h.row_sums();
     }
     let converged = if emitted == 0.0 {
@@ -412,6 +440,10 @@ pub struct Hierarchy<'a> {
     /// Effective row sum of every element (0 where its root is not closed), or empty when no
     /// root is.
     row_sum: Vec<f64>,
+    /// Open elements whose rows sum to more than 1 are normalised too: set where links were
+    /// estimated as refinement stopped early ([`Hierarchy::estimate_unopened`]), whose noise
+    /// can take a row past what any receiver can send on.
+    cap_rows: bool,
     /// Per root: none of its probe rays escaped the scene or met the back of a surface.
     closed_roots: Vec<bool>,
     /// The emitters whose direct light the elements compute themselves ([`direct`]); empty
@@ -464,6 +496,7 @@ impl<'a> Hierarchy<'a> {
             settings: *settings,
             seed,
             row_sum: Vec::new(),
+            cap_rows: false,
             closed_roots: Vec::new(),
             buried: Vec::new(),
             visible: Vec::new(),
@@ -514,6 +547,38 @@ impl<'a> Hierarchy<'a> {
                 (max(self.roots.emission[i]) + max(reflected)) * self.roots.area[i]
             })
             .sum()
+    }
+
+    /// Gives the links still waiting to be opened when refinement stopped early their
+    /// estimate ([`links::overlapping_estimate`], with [`UNOPENED_SAMPLES`] × the link rays),
+    /// so they carry light; rows their noise takes past 1 are then normalised
+    /// ([`Hierarchy::cap_rows`]).
+    pub(super) fn estimate_unopened(&mut self) {
+        let rays = UNOPENED_SAMPLES * self.settings.rays as usize;
+        let estimates: Vec<(usize, links::Estimate)> = self
+            .links
+            .par_iter()
+            .enumerate()
+            .filter(|(_, l)| l.must_open)
+            .map(|(i, l)| {
+                let e = links::overlapping_estimate(
+                    &self.tree,
+                    &self.occluders,
+                    l,
+                    rays,
+                    self.burial(),
+                    self.seed,
+                );
+                (i, e)
+            })
+            .collect();
+        for (i, e) in estimates {
+            self.stats.rays_cast += e.rays;
+            if let Some(l) = e.link {
+                self.links[i] = l;
+            }
+        }
+        self.cap_rows = true;
     }
 
     /// The root's self-link, and the closure test.

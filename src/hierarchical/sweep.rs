@@ -115,14 +115,15 @@ impl Hierarchy<'_> {
     }
 
     /// Each element's effective row sum: Σ F over its own links and its ancestors'; 0 (not
-    /// normalised) for the elements of a root that is not closed.
+    /// normalised) for the elements of a root that is not closed, unless the rows are capped
+    /// ([`Hierarchy::cap_rows`]) and this one sums to more than 1.
     pub(super) fn row_sums(&self) -> Vec<f64> {
         let (ge, gc) = self.gather(false);
         let down = self.push_down(&ge, &gc);
         down.iter()
             .zip(&self.tree.elements)
             .map(|(g, el)| {
-                if self.closed_roots[el.root as usize] {
+                if self.closed_roots[el.root as usize] || (self.cap_rows && g[0] > 1.0) {
                     g[0]
                 } else {
                     0.0

@@ -798,3 +798,34 @@ fn refinement_stops_before_the_links_pass_their_limit() {
         assert!((l[0] - 2.0).abs() < 1e-3, "{l:?}");
     }
 }
+
+/// The time budget: a solve whose deadline has passed starts no refinement pass, says so,
+/// and still converges on the links it has (the closed box's furnace answer, 2 on every
+/// leaf, as in the memory guard's test).
+#[test]
+fn refinement_stops_at_its_deadline() {
+    let roots = closed_box();
+    let s = Settings {
+        epsilon: 1e-5,
+        min_area: 1e-6,
+        deadline: Some(std::time::Instant::now()),
+        ..Settings::default()
+    };
+    let h = solve(
+        &roots,
+        &s,
+        &Default::default(),
+        &solve::Settings::default(),
+        1,
+    )
+    .unwrap();
+    assert_eq!(h.stats.passes, 0);
+    assert!(
+        h.warnings.iter().any(|w| w.contains("time budget")),
+        "{:?}",
+        h.warnings
+    );
+    for l in &h.solution.radiance {
+        assert!((l[0] - 2.0).abs() < 1e-3, "{l:?}");
+    }
+}

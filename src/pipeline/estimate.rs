@@ -72,6 +72,14 @@ const GATHER_SECONDS: f64 = 4.2;
 /// 5.8e-4 measured) and the generated hall of 10⁵ triangles (many small lamps; 5.7e-4), their
 /// vertices counted on the roots cut along the contact lines as the bake cuts them.
 const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 6e-4;
+/// The share of [`GATHER_SECONDS`] left without the display refinement
+/// (`--gather-tolerance 0`): its new vertices and tests may cast twice the gather's rays
+/// again ([`gather::refine::budget`]).
+const FULL_UNREFINED_SHARE: f64 = 1.0 / 3.0;
+/// The share of [`GATHER_CACHE_SECONDS_PER_VERTEX`] left without the display refinement: the
+/// refinement's new vertices and tests evaluate the direct light about as many times as the
+/// gather did ([`gather::refine::CACHE_REFINE_SHARE`]).
+const CACHE_UNREFINED_SHARE: f64 = 0.5;
 /// Seconds on 2 cores per shadow ray to a light outside the mesh (a point or spot light, or
 /// the sun's [`crate::light::outside::SUN_RAYS`]) at an output vertex: every vertex of the gather
 /// and of its display refinement casts one to each (fitted to a LibreQuake level with over a
@@ -205,14 +213,25 @@ impl Estimate {
         if e.gather != Gather::None {
             let vertices = e.vertices;
             if e.gather == Gather::Cache {
-                e.seconds += GATHER_CACHE_SECONDS_PER_VERTEX * vertices as f64 * per_core;
+                let share = if s.gather_tolerance > 0.0 {
+                    1.0
+                } else {
+                    CACHE_UNREFINED_SHARE
+                };
+                e.seconds += GATHER_CACHE_SECONDS_PER_VERTEX * share * vertices as f64 * per_core;
             } else {
                 // The rays beside edges come on top ([`gather::EDGE_RAYS`]).
                 let per_vertex = s
                     .gather_rays
                     .map_or_else(|| gather::auto_rays(vertices, e.finer), |r| r as usize);
                 let rays = (per_vertex * vertices) as f64 * (1.0 + gather::EDGE_RAYS);
-                e.seconds += GATHER_SECONDS * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
+                let share = if s.gather_tolerance > 0.0 {
+                    1.0
+                } else {
+                    FULL_UNREFINED_SHARE
+                };
+                e.seconds +=
+                    GATHER_SECONDS * share * (rays / gather::AUTO_RAY_BUDGET as f64) * per_core;
             }
             // The lights outside the mesh: a shadow ray each at every output vertex and at
             // every vertex the display refinement adds (the bake's own refinement budget).
@@ -274,6 +293,83 @@ impl Estimate {
             _ => "a larger --max-edge, a smaller --refine-max-patches, or --method hierarchical",
         }
     }
+}
+
+/// The largest factor `--max-time` may raise ε by ([`fit_time`]).
+pub const MAX_EPSILON_RAISE: f64 = 16.0;
+
+/// Settings a bake of `scene` with `settings` on `threads` threads is estimated to finish
+/// within `budget` seconds with, and what was changed, in a sentence (`None` when nothing
+/// had to be). The coarsenings are tried in order of what they cost the picture least, each
+/// on top of the last, until the estimate fits: ε doubled (hierarchical; the solve's links
+/// and elements, at most [`MAX_EPSILON_RAISE`]×), or no refinement rounds (matrix); then no
+/// display refinement (`--gather-tolerance 0`); then `--gather direct` (the indirect light
+/// from the solution); then `--gather none` (the solution's own patches). If none fits, the cheapest is taken and the sentence says the estimate
+/// is still over. The estimate is only an estimate: the bake's refinements also stop where
+/// their share of the budget is spent ([`super::SOLVE_SHARE`], [`super::DISPLAY_SHARE`]).
+pub fn fit_time(
+    scene: &Scene,
+    settings: &Settings,
+    threads: usize,
+    budget: f64,
+) -> Result<(Settings, Option<String>)> {
+    let first = Estimate::of(scene, settings, threads)?;
+    if first.seconds <= budget {
+        return Ok((settings.clone(), None));
+    }
+    let mut s = settings.clone();
+    let mut changes: Vec<String> = Vec::new();
+    let mut e = first.clone();
+    if e.method == Method::Hierarchical {
+        let mut raise = 1.0;
+        while e.seconds > budget && raise < MAX_EPSILON_RAISE {
+            raise *= 2.0;
+            s.hierarchical.epsilon = settings.hierarchical.epsilon * raise;
+            e = Estimate::of(scene, &s, threads)?;
+        }
+        if raise > 1.0 {
+            changes.push(format!(
+                "--epsilon {:.3e} ({raise}×)",
+                s.hierarchical.epsilon
+            ));
+        }
+    } else if s.refine_rounds > 0 {
+        s.refine_rounds = 0;
+        e = Estimate::of(scene, &s, threads)?;
+        changes.push("--refine 0".into());
+    }
+    if e.seconds > budget && e.gather != Gather::None && s.gather_tolerance > 0.0 {
+        s.gather_tolerance = 0.0;
+        e = Estimate::of(scene, &s, threads)?;
+        changes.push("--gather-tolerance 0".into());
+    }
+    if e.seconds > budget && matches!(e.gather, Gather::Full | Gather::Cache) {
+        s.gather = Gather::Direct;
+        e = Estimate::of(scene, &s, threads)?;
+        changes.push("--gather direct".into());
+    }
+    if e.seconds > budget && e.gather != Gather::None {
+        s.gather = Gather::None;
+        e = Estimate::of(scene, &s, threads)?;
+        changes.push("--gather none".into());
+    }
+    let fits = if e.seconds <= budget {
+        "fits".to_string()
+    } else {
+        "is still over; the refinements stop where their share of the budget is spent".into()
+    };
+    let sentence = format!(
+        "the estimate, {}, is over --max-time {}: baking with {}, whose estimate, {}, {fits}",
+        duration(first.seconds),
+        duration(budget),
+        if changes.is_empty() {
+            "the same settings".to_string()
+        } else {
+            changes.join(", ")
+        },
+        duration(e.seconds)
+    );
+    Ok((s, Some(sentence)))
 }
 
 /// Bytes of the peak memory that go with each hierarchical link: the 24-byte link, and in

@@ -19,7 +19,7 @@ pub use report::{Report, Seconds};
 pub use settings::{Method, Settings, WriteOptions, AUTO_MATRIX_MAX_PATCHES, MAX_FINER};
 
 use std::path::Path;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::bake::{self, BakedMesh};
 use crate::form_factor::{self, cache, FormFactors, Needed, Reuse};
@@ -89,11 +89,23 @@ pub fn run_with(
 
     // What it will cost, before any of it is done: refused if it would not fit in memory,
     // announced if it is long.
-    let estimate = Estimate::of(&scene, settings, rayon::current_num_threads())?;
+    // A time budget: coarser settings where the estimate says these would take longer, and
+    // the refinements stop where their share of it is spent.
+    let mut settings = settings.clone();
+    if let Some(budget) = settings.max_time {
+        let threads = rayon::current_num_threads();
+        let (fitted, chosen) = estimate::fit_time(&scene, &settings, threads, budget)?;
+        if let Some(chosen) = chosen {
+            crate::progress::warning(&format!("{}: {chosen}", input.display()));
+        }
+        settings = fitted;
+        settings.hierarchical.deadline = Some(t + Duration::from_secs_f64(SOLVE_SHARE * budget));
+        settings.display_deadline = Some(t + Duration::from_secs_f64(DISPLAY_SHARE * budget));
+    }
+    let estimate = Estimate::of(&scene, &settings, rayon::current_num_threads())?;
     let limit = check_estimate(input, &estimate, settings.max_memory)?;
     // The hierarchy's links are what outgrows an estimate: refinement stops, with a warning,
     // before they would pass the memory limit.
-    let mut settings = settings.clone();
     if let Some(limit) = limit {
         let most = estimate::links_within(limit);
         settings.hierarchical.max_links = settings.hierarchical.max_links.min(most);
@@ -123,6 +135,14 @@ pub fn run_with(
 fn lit(scene: &Scene, settings: &Settings) -> bool {
     scene.has_emitters() || settings.environment.is_lit()
 }
+
+/// The share of `--max-time` after which no hierarchical refinement pass starts (the gather
+/// and its display come after the solve, and take about as long on large scenes).
+pub const SOLVE_SHARE: f64 = 0.45;
+
+/// The share of `--max-time` after which no display refinement level starts (the local fits
+/// and the write come after it).
+pub const DISPLAY_SHARE: f64 = 0.9;
 
 /// Seconds past which a bake says, before it starts, how long it will take.
 pub const LONG_BAKE_SECONDS: f64 = 60.0;
@@ -454,6 +474,7 @@ fn bake_stage(
                 gatherer.direct_cost_per_point(),
                 sites.len(),
             ),
+            deadline: settings.display_deadline,
         };
         let refined = gather::refine(
             &gatherer,
@@ -465,6 +486,13 @@ fn bake_stage(
             visible_fraction,
         );
         report.vertices = baked.positions.len();
+        if refined.out_of_time {
+            report.warnings.push(format!(
+                "the display refinement stopped after {} of its levels, {} new vertices of \
+                 the {} it could add: its share of the time budget (--max-time) was spent",
+                refined.levels, refined.vertices, plan.budget
+            ));
+        }
         report.display_refinement = refined;
         report.gather_cache = cache.map(|c| c.stats);
         report.seconds.gather = t.elapsed().as_secs_f64();

@@ -114,6 +114,14 @@ pub struct Settings {
     /// ([`super::Estimate`]): [`super::run`] refuses a larger one before it starts; `None` =
     /// the memory the machine has available ([`super::estimate::available_memory`]).
     pub max_memory: Option<f64>,
+    /// The time budget of a bake, seconds, finite and > 0; `None` = no budget. [`super::run`]
+    /// coarsens the settings the estimate says would take longer ([`super::estimate::fit_time`]),
+    /// and the hierarchical refinement and the display refinement stop where their share of
+    /// it is spent.
+    pub max_time: Option<f64>,
+    /// No display refinement level starts after this instant (set by [`super::run`] from
+    /// `max_time`; `None`: no limit).
+    pub display_deadline: Option<std::time::Instant>,
     /// Form-factor cache directory: F is read from it when these patches and estimator
     /// settings were computed before, and stored otherwise ([`crate::form_factor::cache`]).
     pub cache: Option<PathBuf>,
@@ -150,6 +158,8 @@ impl Default for Settings {
             refine_threshold: refine::DEFAULT_THRESHOLD,
             refine_max_patches: None,
             max_memory: None,
+            max_time: None,
+            display_deadline: None,
             cache: None,
             discontinuities: mesh::Discontinuities::Auto,
             gather: Gather::Auto,
@@ -252,6 +262,14 @@ impl Settings {
                 ));
             }
         }
+        if let Some(t) = self.max_time {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(Error::setting(
+                    "max_time",
+                    format!("{t} is not a positive number of seconds"),
+                ));
+            }
+        }
         if !(self.gather_tolerance >= 0.0 && self.gather_tolerance.is_finite()) {
             return Err(Error::setting(
                 "gather_tolerance",
@@ -309,8 +327,10 @@ mod tests {
     fn validate_names_the_first_bad_setting() {
         Settings::default().validate().unwrap();
         type Breakage = (fn(&mut Settings), &'static str);
-        let cases: [Breakage; 16] = [
+        let cases: [Breakage; 18] = [
             (|s| s.max_memory = Some(0.0), "max_memory"),
+            (|s| s.max_time = Some(0.0), "max_time"),
+            (|s| s.max_time = Some(f64::NAN), "max_time"),
             (|s| s.refine_max_patches = Some(0), "refine_max_patches"),
             (|s| s.gather_rays = Some(0), "gather_rays"),
             (|s| s.gather_tolerance = -0.01, "gather_tolerance"),

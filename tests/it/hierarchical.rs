@@ -612,3 +612,29 @@ fn the_estimate_counts_the_display_vertices_the_bake_makes() {
     assert_eq!(estimate.vertices, out.report.vertices);
     assert!(estimate.vertices > 2 * scene.triangles.len() / 3);
 }
+
+/// `--max-time`: a budget the estimate fits leaves the settings alone; one it does not
+/// coarsens them in order (ε first, up to its limit, then the display) and says what it
+/// chose and whether that fits; the coarsened estimate is never above the first.
+#[test]
+fn a_time_budget_coarsens_the_settings_the_estimate_says_are_too_slow() {
+    let scene = scenes::living_room().unwrap();
+    let s = pipeline::Settings {
+        method: Method::Hierarchical,
+        ..pipeline::Settings::default()
+    };
+    let first = pipeline::Estimate::of(&scene, &s, 2).unwrap();
+    let (same, said) = pipeline::estimate::fit_time(&scene, &s, 2, 2.0 * first.seconds).unwrap();
+    assert!(said.is_none());
+    assert_eq!(same.hierarchical.epsilon, s.hierarchical.epsilon);
+    let (fitted, said) = pipeline::estimate::fit_time(&scene, &s, 2, 0.01 * first.seconds).unwrap();
+    let said = said.expect("a sentence");
+    let raise = pipeline::estimate::MAX_EPSILON_RAISE;
+    assert_eq!(fitted.hierarchical.epsilon, raise * s.hierarchical.epsilon);
+    assert!(
+        said.contains("--epsilon") && said.contains("still over"),
+        "{said}"
+    );
+    let after = pipeline::Estimate::of(&scene, &fitted, 2).unwrap();
+    assert!(after.seconds < first.seconds);
+}
