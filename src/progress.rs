@@ -107,3 +107,14 @@ pub fn note(message: impl FnOnce() -> String) {
         o.note(&message());
     }
 }
+
+/// Seconds as "4 s", "2.5 min", "1.2 h".
+pub fn duration(s: f64) -> String {
+    if s < 90.0 {
+        format!("{:.0} s", s.max(1.0))
+    } else if s < 5400.0 {
+        format!("{:.1} min", s / 60.0)
+    } else {
+        format!("{:.1} h", s / 3600.0)
+    }
+}

@@ -26,6 +26,7 @@ use serde::Serialize;
 use super::{Method, Settings};
 use crate::gather::{self, Gather};
 use crate::mesh::{self, refine, Patches};
+pub use crate::progress::duration;
 use crate::scene::Scene;
 use crate::Result;
 
@@ -459,17 +460,6 @@ pub fn bytes(b: f64) -> String {
         format!("{:.1} GiB", b / (1024.0 * MIB))
     } else {
         format!("{:.0} MiB", (b / MIB).max(1.0))
-    }
-}
-
-/// Seconds as "4 s", "2.5 min", "1.2 h".
-pub fn duration(s: f64) -> String {
-    if s < 90.0 {
-        format!("{:.0} s", s.max(1.0))
-    } else if s < 5400.0 {
-        format!("{:.1} min", s / 60.0)
-    } else {
-        format!("{:.1} h", s / 3600.0)
     }
 }
 

@@ -254,7 +254,7 @@ impl SweepClock {
         crate::progress::note_status(|| match left {
             Some(n) => format!(
                 "sweep {iteration}: residual {residual:.2e}, about {n} more ({} left)",
-                crate::pipeline::estimate::duration(n as f64 * per_sweep)
+                crate::progress::duration(n as f64 * per_sweep)
             ),
             None => format!("sweep {iteration}: residual {residual:.2e}"),
         });
