@@ -1,5 +1,6 @@
-//! Progress of the long stages (form factors, solve, render) and verbose notes, for people
-//! watching a terminal. The library only reports: [`stage`] opens a counter and [`note`] says
+//! Progress of the long stages (form factors, solve, gather, display refinement, render) and
+//! verbose notes, for people watching a terminal, and how a duration reads to them
+//! ([`duration`]). The library only reports: [`stage`] opens a counter and [`note`] says
 //! a sentence; where they go is decided once by the program through [`set_observer`] (the
 //! `radiosity` binary draws `indicatif` bars on stderr when it is a terminal, and prints notes
 //! with `-v`). Without an observer — the library's default, and in tests — every call is a
