@@ -380,10 +380,10 @@ pub fn fit_time(
 pub const PEAK_BYTES_PER_LINK: f64 = 72.0;
 
 /// The most hierarchical links a bake may make within `limit` bytes of memory
-/// ([`crate::hierarchical::Settings::max_links`]): what is left after [`BASE_BYTES`], at
-/// [`PEAK_BYTES_PER_LINK`] each. Refinement stops there with a warning, so a scene that links
-/// far more than its estimate (a detailed interior) ends with a coarser solution instead of
-/// running out of memory.
+/// ([`crate::hierarchical::Settings::max_links`]): what is left after the program's own
+/// base, at [`PEAK_BYTES_PER_LINK`] each. Refinement stops there with a warning, so a scene
+/// that links far more than its estimate (a detailed interior) ends with a coarser solution
+/// instead of running out of memory.
 pub fn links_within(limit: f64) -> u64 {
     ((limit - BASE_BYTES).max(0.0) / PEAK_BYTES_PER_LINK) as u64
 }
