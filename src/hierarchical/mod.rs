@@ -437,8 +437,8 @@ pub struct Hierarchy<'a> {
     visible: Vec<f64>,
     /// Nothing can be buried (no face can occlude: a convex enclosure).
     convex: bool,
-    /// Effective row sum of every element (0 where its root is not closed), or empty when no
-    /// root is.
+    /// Effective row sum of every element (0 where its root is not closed, unless
+    /// [`Hierarchy::cap_rows`] and it is over 1), or empty when no row is normalised.
     row_sum: Vec<f64>,
     /// Open elements whose rows sum to more than 1 are normalised too: set where links were
     /// estimated as refinement stopped early ([`Hierarchy::estimate_unopened`]), whose noise
