@@ -122,6 +122,8 @@ pub struct Estimate {
     pub memory_bytes: f64,
     /// Wall-clock seconds on `threads` threads (scaled from 2 cores; see the module).
     pub seconds: f64,
+    /// The final gather's and its display refinement's part of `seconds`.
+    pub gather_seconds: f64,
     /// Worker threads the estimate is for.
     pub threads: usize,
 }
@@ -160,6 +162,7 @@ impl Estimate {
                         + HIERARCHICAL_SECONDS_PER_ROOT * roots as f64 * growth)
                         * per_core,
                     threads,
+                    gather_seconds: 0.0,
                 }
             }
             _ => {
@@ -204,6 +207,7 @@ impl Estimate {
                     memory_bytes: BASE_BYTES + bytes * entries,
                     seconds: secs * entries * per_core,
                     threads,
+                    gather_seconds: 0.0,
                 }
             }
         };
@@ -211,6 +215,7 @@ impl Estimate {
         if neumann || !(scene.has_emitters() || s.environment.is_lit()) {
             e.gather = Gather::None;
         }
+        let before_gather = e.seconds;
         if e.gather != Gather::None {
             let vertices = e.vertices;
             if e.gather == Gather::Cache {
@@ -252,6 +257,7 @@ impl Estimate {
                     * per_core;
             }
         }
+        e.gather_seconds = e.seconds - before_gather;
         Ok(e)
     }
 
@@ -527,6 +533,15 @@ mod tests {
         assert!(fine.max_patches > coarse.max_patches);
         assert!(fine.memory_bytes > coarse.memory_bytes && fine.seconds > coarse.seconds);
         assert!(e.summary().contains("matrix") && fine.summary().contains("hierarchical"));
+        // The gather's part: some of the time with a gather, none without one.
+        assert!(e.gather_seconds > 0.0 && e.gather_seconds < e.seconds);
+        let bare = Settings {
+            gather: Gather::None,
+            ..matrix.clone()
+        };
+        let b = Estimate::of(&scene, &bare, 2).unwrap();
+        assert_eq!(b.gather_seconds, 0.0);
+        assert!((b.seconds - (e.seconds - e.gather_seconds)).abs() < 1e-9 * e.seconds);
     }
 
     #[test]

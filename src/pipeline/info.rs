@@ -215,16 +215,18 @@ impl SceneInfo {
         };
         let _ = writeln!(
             s,
-            "estimate:     {} peak memory, {} on {} thread{} (gather {}; {})",
+            "estimate:     {} peak memory, {} on {} thread{} (of it the gather, {}: {}; {})",
             super::estimate::bytes(e.memory_bytes),
             super::estimate::duration(e.seconds),
             e.threads,
             if e.threads == 1 { "" } else { "s" },
             e.gather,
+            super::estimate::duration(e.gather_seconds),
             if e.method == super::Method::Hierarchical {
-                "±50 % on open halls, up to 5× low on detailed interiors"
+                "time within 2× on the benchmark's interiors; memory up to 4× low on detailed \
+                 interiors, whose refinement then stops at the memory limit"
             } else {
-                "an upper bound from the patches that face each other"
+                "memory an upper bound from the patches that face each other"
             }
         );
         let _ = writeln!(s, "materials:    {}", self.materials.len());
