@@ -306,23 +306,23 @@ impl Estimate {
 pub const MAX_EPSILON_RAISE: f64 = 16.0;
 
 /// Settings a bake of `scene` with `settings` on `threads` threads is estimated to finish
-/// within `budget` seconds with, and what was changed, in a sentence (`None` when nothing
-/// had to be). The coarsenings are tried in order of what they cost the picture least, each
+/// within `budget` seconds with, their estimate, and what was changed, in a sentence (`None`
+/// when nothing had to be). The coarsenings are tried in order of what they cost the picture least, each
 /// on top of the last, until the estimate fits: ε doubled (hierarchical; the solve's links
 /// and elements, at most [`MAX_EPSILON_RAISE`]×), or no refinement rounds (matrix); then no
 /// display refinement (`--gather-tolerance 0`); then `--gather direct` (the indirect light
-/// from the solution); then `--gather none` (the solution's own patches). If none fits, the cheapest is taken and the sentence says the estimate
-/// is still over. The estimate is only an estimate: the bake's refinements also stop where
+/// from the solution); then `--gather none` (the solution's own patches). If none fits, the
+/// cheapest is taken and the sentence says the estimate is still over. The estimate is only an estimate: the bake's refinements also stop where
 /// their share of the budget is spent ([`super::SOLVE_SHARE`], [`super::DISPLAY_SHARE`]).
 pub fn fit_time(
     scene: &Scene,
     settings: &Settings,
     threads: usize,
     budget: f64,
-) -> Result<(Settings, Option<String>)> {
+) -> Result<(Settings, Estimate, Option<String>)> {
     let first = Estimate::of(scene, settings, threads)?;
     if first.seconds <= budget {
-        return Ok((settings.clone(), None));
+        return Ok((settings.clone(), first, None));
     }
     let mut s = settings.clone();
     let mut changes: Vec<String> = Vec::new();
@@ -376,7 +376,7 @@ pub fn fit_time(
         },
         duration(e.seconds)
     );
-    Ok((s, Some(sentence)))
+    Ok((s, e, Some(sentence)))
 }
 
 /// Bytes of the peak memory that go with each hierarchical link: the 24-byte link, and in

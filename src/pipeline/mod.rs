@@ -91,18 +91,20 @@ pub fn run_with(
     // announced if it is long.
     // A time budget: coarser settings where the estimate says these would take longer, and
     // the refinements stop where their share of it is spent.
-    let mut settings = settings.clone();
-    if let Some(budget) = settings.max_time {
-        let threads = rayon::current_num_threads();
-        let (fitted, chosen) = estimate::fit_time(&scene, &settings, threads, budget)?;
-        if let Some(chosen) = chosen {
-            crate::progress::warning(&format!("{}: {chosen}", input.display()));
+    let threads = rayon::current_num_threads();
+    let (mut settings, estimate) = match settings.max_time {
+        Some(budget) => {
+            let (mut fitted, estimate, chosen) =
+                estimate::fit_time(&scene, settings, threads, budget)?;
+            if let Some(chosen) = chosen {
+                crate::progress::warning(&format!("{}: {chosen}", input.display()));
+            }
+            fitted.hierarchical.deadline = Some(t + Duration::from_secs_f64(SOLVE_SHARE * budget));
+            fitted.display_deadline = Some(t + Duration::from_secs_f64(DISPLAY_SHARE * budget));
+            (fitted, estimate)
         }
-        settings = fitted;
-        settings.hierarchical.deadline = Some(t + Duration::from_secs_f64(SOLVE_SHARE * budget));
-        settings.display_deadline = Some(t + Duration::from_secs_f64(DISPLAY_SHARE * budget));
-    }
-    let estimate = Estimate::of(&scene, &settings, rayon::current_num_threads())?;
+        None => (settings.clone(), Estimate::of(&scene, settings, threads)?),
+    };
     let limit = check_estimate(input, &estimate, settings.max_memory)?;
     // The hierarchy's links are what outgrows an estimate: refinement stops, with a warning,
     // before they would pass the memory limit.

@@ -624,10 +624,13 @@ fn a_time_budget_coarsens_the_settings_the_estimate_says_are_too_slow() {
         ..pipeline::Settings::default()
     };
     let first = pipeline::Estimate::of(&scene, &s, 2).unwrap();
-    let (same, said) = pipeline::estimate::fit_time(&scene, &s, 2, 2.0 * first.seconds).unwrap();
+    let (same, kept, said) =
+        pipeline::estimate::fit_time(&scene, &s, 2, 2.0 * first.seconds).unwrap();
     assert!(said.is_none());
     assert_eq!(same.hierarchical.epsilon, s.hierarchical.epsilon);
-    let (fitted, said) = pipeline::estimate::fit_time(&scene, &s, 2, 0.01 * first.seconds).unwrap();
+    assert_eq!(kept.seconds, first.seconds);
+    let (fitted, fitted_estimate, said) =
+        pipeline::estimate::fit_time(&scene, &s, 2, 0.01 * first.seconds).unwrap();
     let said = said.expect("a sentence");
     let raise = pipeline::estimate::MAX_EPSILON_RAISE;
     assert_eq!(fitted.hierarchical.epsilon, raise * s.hierarchical.epsilon);
@@ -637,4 +640,7 @@ fn a_time_budget_coarsens_the_settings_the_estimate_says_are_too_slow() {
     );
     let after = pipeline::Estimate::of(&scene, &fitted, 2).unwrap();
     assert!(after.seconds < first.seconds);
+    // The estimate it returns is that of the settings it returns (the bake uses it as is).
+    assert_eq!(fitted_estimate.seconds, after.seconds);
+    assert_eq!(fitted_estimate.memory_bytes, after.memory_bytes);
 }
