@@ -62,6 +62,7 @@ pub mod direct;
 pub mod links;
 pub mod near;
 pub mod output;
+pub mod pilot;
 mod push_pull;
 mod refine;
 mod sweep;
@@ -461,6 +462,9 @@ pub struct Hierarchy<'a> {
     /// Absolute ε (radiance × area) and minimum area (scene units²).
     epsilon: f64,
     min_area: f64,
+    /// A pilot's sample ([`pilot`]): only links whose receiver it holds are refined, and only
+    /// its leaves split for their direct light; `None` in a solve.
+    sample: Option<pilot::Sample>,
     pub stats: Stats,
 }
 
@@ -472,7 +476,22 @@ impl<'a> Hierarchy<'a> {
         env: &Environment,
         seed: u64,
     ) -> Hierarchy<'a> {
+        Hierarchy::with_sample(roots, settings, env, seed, None)
+    }
+
+    /// [`Hierarchy::new`] for a pilot ([`pilot`]) that will sample each unit of roots with
+    /// probability `p`: the sample is drawn now, inactive (refinement is not restricted until
+    /// the pilot activates it), and the roots outside it compute their direct light at one
+    /// point of the rule, not all (their mean is all the pilot reads of it).
+    pub(super) fn with_sample(
+        roots: &'a Patches,
+        settings: &Settings,
+        env: &Environment,
+        seed: u64,
+        p: Option<f64>,
+    ) -> Hierarchy<'a> {
         let tree = Tree::new(roots);
+        let sample = p.map(|p| pilot::Sample::draw(&tree, p, seed));
         let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
         let vis = Visibility::build(&corners);
         let can_occlude = occluders(roots);
@@ -520,6 +539,7 @@ impl<'a> Hierarchy<'a> {
             convex: false,
             epsilon: 0.0,
             min_area: settings.min_area * total_area,
+            sample,
             stats: Stats::default(),
         };
         h.convex = convex;
@@ -583,6 +603,12 @@ impl<'a> Hierarchy<'a> {
 
     /// The root's self-link, and the closure test.
     pub(super) fn start(&mut self) {
+        self.start_with(4_000_000, MIN_CLOSURE_PROBES);
+    }
+
+    /// [`Hierarchy::start`] with about `closure_rays` probe rays in all (at least `min` and
+    /// at most [`CLOSURE_PROBES`] a root).
+    pub(super) fn start_with(&mut self, closure_rays: usize, min: usize) {
         let root = self.tree.root().expect("a root");
         self.set_links(match root.as_cluster() {
             Some(_) => vec![Link {
@@ -599,8 +625,7 @@ impl<'a> Hierarchy<'a> {
         // the whole scene, form_factor::compute); the leaves of a root none of whose rays
         // escapes or meets the back of a surface have their row sums normalised.
         let n = self.roots.len();
-        let probes =
-            (4_000_000 / n.max(1)).clamp(MIN_CLOSURE_PROBES, CLOSURE_PROBES as usize) as u32;
+        let probes = (closure_rays / n.max(1)).clamp(min, CLOSURE_PROBES as usize) as u32;
         let (roots, vis, seed) = (self.roots, &self.vis, self.seed);
         self.closed_roots = (0..n)
             .into_par_iter()
@@ -644,6 +669,20 @@ impl<'a> Hierarchy<'a> {
             self.visible.push(visible);
         }
         let (emitters, occluders, buried) = (&self.emitters, &self.occluders, &self.buried);
+        // A pilot's roots outside its sample: the first unburied rule point alone.
+        let one_point = |e: usize| {
+            let out = self
+                .sample
+                .as_ref()
+                .is_some_and(|s| !s.has_root(tree.elements[e].root as usize));
+            match (
+                out,
+                (0..links::RECEIVER_POINTS).find(|k| buried[e] & (1 << k) == 0),
+            ) {
+                (true, Some(k)) => !(1u16 << k),
+                _ => buried[e],
+            }
+        };
         let (shadows, seed) = (!convex, self.seed);
         let outside = direct::Outside {
             env: &self.env,
@@ -654,12 +693,25 @@ impl<'a> Hierarchy<'a> {
             .into_par_iter()
             .map(|e| {
                 direct::element_direct(
-                    tree, occluders, shadows, emitters, outside, e, buried[e], seed,
+                    tree,
+                    occluders,
+                    shadows,
+                    emitters,
+                    outside,
+                    e,
+                    one_point(e),
+                    seed,
                 )
             })
             .collect();
         for d in new {
             self.stats.rays_cast += d.rays;
+            let e = self.direct.len();
+            if let Some(s) = self.sample.as_mut() {
+                if s.has_root(self.tree.elements[e].root as usize) {
+                    s.direct_rays += d.rays;
+                }
+            }
             self.direct.push(d);
         }
         if from == 0 {

@@ -21,6 +21,9 @@ impl Hierarchy<'_> {
             .links
             .par_iter()
             .map(|l| {
+                if !self.refines(l.receiver) {
+                    return Action::Keep;
+                }
                 // Bounded by the brightest leaf below the source, not its mean: a link from a
                 // cluster gathers its area-mean radiance, which dilutes a small light among
                 // dark surfaces the receiver may not see at all (energy lost). With the bound,
@@ -124,7 +127,8 @@ impl Hierarchy<'_> {
             self.elem_l.push(self.elem_l[p]);
             self.elem_max.push(self.elem_max[p]);
         }
-        if self.stats.closed_scene {
+        // (A pilot's sampling phase finds them once its links are stable.)
+        if self.stats.closed_scene && self.sample.as_ref().is_none_or(|s| !s.active) {
             self.row_sum = self.row_sums();
         }
         true
@@ -161,6 +165,7 @@ impl Hierarchy<'_> {
                 let el = &t.elements[e];
                 el.first_child == tree::NO_CHILD
                     && 0.25 * el.area >= self.min_area
+                    && self.refines(Node::element(e))
                     && self.max_reflectance(Node::element(e)) * self.direct[e].spread * el.area
                         > self.epsilon
             })
@@ -198,6 +203,14 @@ impl Hierarchy<'_> {
             .map(|&(r, s)| links::grandchild_shares(t, r, s))
             .collect();
         self.grandchild_shares = GrandchildShares { slot, shares };
+    }
+
+    /// Whether links with `node` as receiver are refined: always, but in a pilot's sampling
+    /// phase only where its sample holds the receiver ([`super::pilot`]).
+    pub(super) fn refines(&self, node: Node) -> bool {
+        self.sample
+            .as_ref()
+            .is_none_or(|s| !s.active || s.holds(&self.tree, node))
     }
 
     /// Largest reflectance channel of a node.

@@ -222,11 +222,19 @@ impl SceneInfo {
             if e.threads == 1 { "" } else { "s" },
             e.gather,
             super::estimate::duration(e.gather_seconds),
-            if e.method == super::Method::Hierarchical {
-                "time within 2× on the benchmark's interiors; memory up to 4× low on detailed \
-                 interiors, whose refinement then stops at the memory limit"
-            } else {
-                "memory an upper bound from the patches that face each other"
+            match (e.method, &e.pilot) {
+                (super::Method::Hierarchical, Some(p)) => format!(
+                    "a pilot solve of {} sampled roots counts {:.3e} links; within 2× on the \
+                     benchmark's scenes",
+                    p.sampled, p.links
+                ),
+                (super::Method::Hierarchical, None) => format!(
+                    "from the roots alone (a pilot runs from {} roots); memory up to {}× low on \
+                     detailed interiors, whose refinement then stops at the memory limit",
+                    super::estimate::PILOT_MIN_ROOTS,
+                    super::estimate::HIERARCHICAL_MEMORY_SPREAD
+                ),
+                _ => "memory an upper bound from the patches that face each other".to_string(),
             }
         );
         let _ = writeln!(s, "materials:    {}", self.materials.len());

@@ -177,16 +177,16 @@ fn check_estimate(
                 ),
             ));
         }
-        let worst = estimate.memory_bytes * estimate::HIERARCHICAL_MEMORY_SPREAD;
+        let worst = estimate.memory_bytes * estimate.memory_spread();
         if estimate.method == Method::Hierarchical && worst > limit {
             crate::progress::warning(&format!(
-                "{}: this bake should need about {}, but detailed interiors have needed up to \
-                 {}× the estimate ({}), more than the {} that {what}; if it needs more, its \
+                "{}: this bake should need about {}, but bakes have needed up to {}× such an \
+                 estimate ({}), more than the {} that {what}; if it needs more, its \
                  refinement stops at the limit with a coarser solution; for a finer one in this \
                  memory, try {}",
                 input.display(),
                 estimate::bytes(estimate.memory_bytes),
-                estimate::HIERARCHICAL_MEMORY_SPREAD,
+                estimate.memory_spread(),
                 estimate::bytes(worst),
                 estimate::bytes(limit),
                 estimate.remedies()

@@ -121,11 +121,20 @@ pub struct ContactStats {
 /// plane; `None` when the scene is two-sided (twins must stay pairs of identical faces), has
 /// fewer than two triangles, or has no contact.
 pub fn contact_lines(scene: &Scene) -> Option<Vec<Vec<[DVec3; 2]>>> {
+    contact_lines_on(scene, &|_| true)
+}
+
+/// [`contact_lines`] on the triangles `on` picks alone (the others get none): the segments of
+/// a sample of the triangles, at that share of the cost.
+pub fn contact_lines_on(
+    scene: &Scene,
+    on: &(dyn Fn(usize) -> bool + Sync),
+) -> Option<Vec<Vec<[DVec3; 2]>>> {
     let (lo, hi) = scene.bounds();
     let faces: Vec<Face> = (0..scene.triangles.len())
         .map(|t| Face::new(scene, t))
         .collect();
-    lines_on(scene, &faces, (hi - lo).length(), false)
+    lines_on(scene, &faces, (hi - lo).length(), false, on)
 }
 
 /// [`contact_lines`] for the scene's `faces` (one per triangle) and its extent, with the
@@ -135,6 +144,7 @@ fn lines_on(
     faces: &[Face],
     extent: f64,
     near_shadows: bool,
+    on: &(dyn Fn(usize) -> bool + Sync),
 ) -> Option<Vec<Vec<[DVec3; 2]>>> {
     let n = faces.len();
     if !scene.twin.is_empty() || n < 2 {
@@ -158,6 +168,9 @@ fn lines_on(
         .map(|a| {
             let fa = &faces[a];
             let mut found = Vec::new();
+            if !on(a) {
+                return found;
+            }
             bvh.aabb_traverse(fa.aabb(0.0), |bvh, node| {
                 let node = &bvh.nodes[node as usize];
                 for k in node.first_index..node.first_index + node.prim_count {
@@ -193,7 +206,7 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
     let (lo, hi) = scene.bounds();
     let extent = (hi - lo).length();
     let faces: Vec<Face> = (0..n).map(|t| Face::new(scene, t)).collect();
-    let Some(segments) = lines_on(scene, &faces, extent, true) else {
+    let Some(segments) = lines_on(scene, &faces, extent, true, &|_| true) else {
         return (scene.clone(), stats);
     };
 
