@@ -103,7 +103,7 @@ const LEAVES_PER_ROOT: f64 = 2.0;
 /// ray, and per unit of the direct light's cost at a point as the gather prices it in
 /// hemisphere rays ([`gather_direct_cost`]: it costs about 5× that price). Two constants fitted
 /// to two bakes, the Cornell box (one light; 5.7 s) and the generated hall of 10⁴ triangles
-/// (82 lamps; 31 s): the rays and the direct light dominate one each.
+/// (82 emitting triangles; 31 s): the rays and the direct light dominate one each.
 const GATHER_SECONDS_PER_RAY: f64 = 0.39e-6;
 const GATHER_SECONDS_PER_DIRECT: f64 = 2.2e-6;
 /// Seconds on 2 cores of the `cache` gather and its display refinement
