@@ -10,7 +10,7 @@
 //!
 //! 1. **A coarse solution of the whole scene**: the solve's own refinement passes until the
 //!    links reach [`COARSE_LINKS_PER_ROOT`] per root, the links still unopened estimated as a
-//!    solve stopped early estimates them ([`Hierarchy::estimate_unopened`]), then sweeps to a
+//!    solve stopped early estimates them (`Hierarchy::estimate_unopened`), then sweeps to a
 //!    loose tolerance. It gives every element radiance of the right order, indirect light
 //!    included, which is what the oracle judges a link's source by.
 //! 2. **Refinement of a sample's receivers only**: the roots are drawn as whole subtrees of
@@ -195,7 +195,7 @@ pub struct Pilot {
     pub seconds: f64,
 }
 
-/// The pilot of [`super::solve`] on `roots` with the same arguments, sampling about `sample`
+/// The pilot of [`solve()`](super::solve()) on `roots` with the same arguments, sampling about `sample`
 /// roots (all of them when the scene has no more); see the module documentation. A scene
 /// without light makes no links.
 pub fn pilot(

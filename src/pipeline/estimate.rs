@@ -196,7 +196,7 @@ impl Estimate {
                 let root_patches = mesh::subdivide(scene, max_edge, s.crease_degrees)?;
                 let roots = sides * root_patches.len();
                 let pilot = match reuse {
-                    Some(p) => Some(p.clone()),
+                    Some(p) => Some(*p),
                     None if roots >= PILOT_MIN_ROOTS => Some(run_pilot(scene, &s, max_edge)?),
                     None => None,
                 };
@@ -567,7 +567,7 @@ fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> usize {
     }
 }
 
-/// Triangles whose contact lines the estimate finds, at most ([`display_vertices`]): on
+/// Triangles whose contact lines the estimate finds, at most (for the display's vertices): on
 /// more, a random sample of this many stands for all (every one below).
 pub const DISPLAY_SAMPLE: usize = 20_000;
 
