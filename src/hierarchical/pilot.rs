@@ -243,6 +243,8 @@ pub fn pilot(
         // As a solve stopped early: the unopened links estimated, and the rows their noise
         // takes past 1 normalised (else the coarse solution can grow without bound).
         h.estimate_unopened();
+    }
+    if h.cap_rows || h.stats.closed_scene {
         h.row_sum = h.row_sums();
     }
     let loose = solve::Settings {

@@ -127,8 +127,8 @@ impl Hierarchy<'_> {
             self.elem_l.push(self.elem_l[p]);
             self.elem_max.push(self.elem_max[p]);
         }
-        // (A pilot's sampling phase finds them once its links are stable.)
-        if self.stats.closed_scene && self.sample.as_ref().is_none_or(|s| !s.active) {
+        // (A pilot finds them once, before each of its convergences.)
+        if self.stats.closed_scene && self.sample.is_none() {
             self.row_sum = self.row_sums();
         }
         true
