@@ -432,13 +432,21 @@ impl Gatherer<'_> {
     /// rays of the lights outside the mesh
     /// ([`Environment::sharp_rays`](crate::scene::Environment::sharp_rays)).
     pub fn direct_cost_per_point(&self) -> usize {
-        let others = if self.emitters.len() > MAX_EXACT_EMITTERS {
-            OTHER_LIGHT_PILOT + OTHER_LIGHT_SAMPLES
-        } else {
-            0
-        };
-        EXACT_EMITTER_COST * self.exact_per_point() + others + self.env.sharp_rays()
+        emitters_cost(self.emitters.len()) + self.env.sharp_rays()
     }
+}
+
+/// What `emitters` emitters in the mesh cost a gathering point's direct light, in hemisphere
+/// rays ([`Gatherer::direct_cost_per_point`] without the lights outside the mesh):
+/// [`EXACT_EMITTER_COST`] for each of at most [`MAX_EXACT_EMITTERS`] exact ones, and the
+/// others' pilot and [`OTHER_LIGHT_SAMPLES`] when there are more.
+pub fn emitters_cost(emitters: usize) -> usize {
+    let others = if emitters > MAX_EXACT_EMITTERS {
+        OTHER_LIGHT_PILOT + OTHER_LIGHT_SAMPLES
+    } else {
+        0
+    };
+    EXACT_EMITTER_COST * emitters.min(MAX_EXACT_EMITTERS) + others
 }
 
 /// What the shadow rays of [`Gatherer::others_direct`] met: whether any reached its emitter,

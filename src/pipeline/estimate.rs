@@ -403,9 +403,8 @@ impl Estimate {
 }
 
 /// What the `full` gather's direct light costs at a point, in hemisphere rays, as the gather
-/// prices it ([`crate::gather::Gatherer::direct_cost_per_point`], less the lights outside
-/// the mesh, counted apart): its exact emitters' visible pieces, and the others' samples when
-/// there are more, the scene's emitting triangles standing for its emitters.
+/// prices it ([`gather::emitters_cost`]; the lights outside the mesh are counted apart), the
+/// scene's emitting triangles standing for its emitters.
 fn gather_direct_cost(scene: &Scene) -> f64 {
     let emitters = scene
         .triangles
@@ -417,12 +416,7 @@ fn gather_direct_cost(scene: &Scene) -> f64 {
                 .is_some_and(crate::scene::Material::is_emitter)
         })
         .count();
-    let others = if emitters > gather::MAX_EXACT_EMITTERS {
-        gather::OTHER_LIGHT_PILOT + gather::OTHER_LIGHT_SAMPLES
-    } else {
-        0
-    };
-    (gather::EXACT_EMITTER_COST * emitters.min(gather::MAX_EXACT_EMITTERS) + others) as f64
+    gather::emitters_cost(emitters) as f64
 }
 
 /// The pilot of the hierarchical solve of `scene` ([`crate::hierarchical::pilot`]), on the
