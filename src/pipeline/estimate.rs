@@ -42,8 +42,8 @@ use crate::scene::Scene;
 use crate::Result;
 
 /// Roots the hierarchical pilot samples ([`crate::hierarchical::pilot`]): the links per root
-/// vary several-fold within a scene, so a sample of this size (drawn as about 60 subtrees of
-/// nearby roots) counts the links within about 15 % on the benchmark's scenes.
+/// vary several-fold within a scene, so a sample of this size (drawn as 30–70 subtrees of
+/// nearby roots) counts the links within 19 % on the benchmark's scenes.
 pub const PILOT_SAMPLE: usize = 2000;
 
 /// Roots from which the hierarchical estimate runs the pilot. Below, the pilot would sample
@@ -88,10 +88,11 @@ const HIERARCHICAL_BYTES_PER_ROOT: f64 = 3.7 * 1024.0;
 const HIERARCHICAL_SECONDS: f64 = 4.0;
 const HIERARCHICAL_SECONDS_PER_ROOT: f64 = 140e-6;
 /// How far above its estimate the hierarchical method's peak memory may be without a pilot
-/// (fewer than [`PILOT_MIN_ROOTS`] roots): several times on LibreQuake's detailed interiors (BENCHMARKS.md "A Quake-class level: LibreQuake"), which
-/// link each element to many more than the generated halls the model was fitted to; the
-/// largest such ratio seen, with a margin. A bake whose estimate fits but
-/// whose estimate times this does not is warned of before it starts.
+/// (fewer than [`PILOT_MIN_ROOTS`] roots): several times on LibreQuake's detailed interiors
+/// (BENCHMARKS.md "A Quake-class level: LibreQuake"), which link each element to many more
+/// than the generated halls the model was fitted to; the largest such ratio seen, with a
+/// margin. A bake whose estimate fits but whose estimate times this does not is warned of
+/// before it starts.
 pub const HIERARCHICAL_MEMORY_SPREAD: f64 = 5.5;
 /// How far above a piloted estimate the hierarchical peak memory may be: the pilots' counts
 /// and the fitted bytes came within 30 % of the bakes' peaks on the benchmark's scenes; twice
@@ -197,7 +198,9 @@ impl Estimate {
                 let roots = sides * root_patches.len();
                 let pilot = match reuse {
                     Some(p) => Some(*p),
-                    None if roots >= PILOT_MIN_ROOTS => Some(run_pilot(scene, &s, max_edge)?),
+                    None if roots >= PILOT_MIN_ROOTS => {
+                        Some(run_pilot(scene, &s, max_edge, &root_patches)?)
+                    }
                     None => None,
                 };
                 let vertices = sides * display_vertices(scene, &s, &root_patches);
@@ -248,8 +251,7 @@ impl Estimate {
             }
             _ => {
                 let max_edge = s.max_edge.unwrap_or_else(|| mesh::default_max_edge(scene));
-                let contacts = s.discontinuities != mesh::Discontinuities::None;
-                let split = contacts.then(|| mesh::split_contacts(scene).0);
+                let split = s.cuts_contacts().then(|| mesh::split_contacts(scene).0);
                 let cut = split.as_ref().unwrap_or(scene);
                 let patches = mesh::subdivide(cut, max_edge, s.crease_degrees)?;
                 let n = sides * patches.len();
@@ -421,15 +423,19 @@ fn gather_direct_cost(scene: &Scene) -> f64 {
 
 /// The pilot of the hierarchical solve of `scene` ([`crate::hierarchical::pilot`]), on the
 /// roots the bake will make (resolved settings `s`, roots cut to `max_edge`).
-fn run_pilot(scene: &Scene, s: &Settings, max_edge: f64) -> Result<Pilot> {
-    let contacts = s.discontinuities == mesh::Discontinuities::Contacts;
-    let split = contacts.then(|| mesh::split_contacts(scene).0);
-    let cut = split.as_ref().unwrap_or(scene);
-    let two = s.two_sided.then(|| cut.to_two_sided());
-    let cut = two.as_ref().unwrap_or(cut);
-    let roots = mesh::subdivide(cut, max_edge, s.crease_degrees)?;
+fn run_pilot(scene: &Scene, s: &Settings, max_edge: f64, plain: &Patches) -> Result<Pilot> {
+    // The roots as the bake makes them ([`super::solve_scene`]); `plain` (the scene's own,
+    // cut to `max_edge`) when neither contacts nor back sides change them.
+    let split = s.cuts_contacts().then(|| mesh::split_contacts(scene).0);
+    let two = s
+        .two_sided
+        .then(|| split.as_ref().unwrap_or(scene).to_two_sided());
+    let made = match two.as_ref().or(split.as_ref()) {
+        Some(cut) => Some(mesh::subdivide(cut, max_edge, s.crease_degrees)?),
+        None => None,
+    };
     crate::hierarchical::pilot::pilot(
-        &roots,
+        made.as_ref().unwrap_or(plain),
         &s.hierarchical,
         &s.environment,
         &s.solver,

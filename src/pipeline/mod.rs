@@ -214,11 +214,9 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     let input_triangles = scene.triangles.len();
     // Contact lines become edges (before the back sides are made: twins stay identical).
     let t = Instant::now();
-    let contacts = match settings.discontinuities {
-        mesh::Discontinuities::Auto => settings.method == Method::Matrix,
-        d => d == mesh::Discontinuities::Contacts,
-    };
-    let split = contacts.then(|| mesh::split_contacts(scene));
+    let split = settings
+        .cuts_contacts()
+        .then(|| mesh::split_contacts(scene));
     let scene = split.as_ref().map_or(scene, |(s, _)| s);
     let contact_seconds = t.elapsed().as_secs_f64();
     let two_sided = settings.two_sided.then(|| scene.to_two_sided());

@@ -183,6 +183,16 @@ impl Settings {
         })
     }
 
+    /// Whether the solve's patches are cut along the scene's contact lines (resolved
+    /// settings): `auto` cuts them for the matrix method only (the hierarchical method cuts its
+    /// display instead), `contacts` always, `none` never.
+    pub fn cuts_contacts(&self) -> bool {
+        match self.discontinuities {
+            crate::mesh::Discontinuities::Auto => self.method == Method::Matrix,
+            d => d == crate::mesh::Discontinuities::Contacts,
+        }
+    }
+
     /// These settings with the scene file's lights added to [`Settings::environment`], the
     /// hierarchical ε divided by [`Settings::finer`], and `method = auto` resolved for `scene`: `matrix` when the scene cuts
     /// into at most [`AUTO_MATRIX_MAX_PATCHES`] patches at the matrix method's `max_edge` (the
