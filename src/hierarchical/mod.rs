@@ -238,6 +238,12 @@ const UNOPENED_SAMPLES: usize = 16;
 /// converged one (the final solve converges).
 const PASS_SWEEPS: u32 = 2;
 
+/// A refinement pass is followed by [`PASS_SWEEPS`] sweeps only when it changed the number of
+/// links by at least this share. The last passes of a large solve open a few thousand links
+/// of tens of millions each, and their sweeps (and a closed scene's row sums) cost as much as
+/// a pass for a radiance that hardly moves.
+const SWEEP_AFTER_GROWTH: f64 = 0.01;
+
 /// The hierarchical solve of `roots` (patches that are the roots of the element trees).
 /// `solver` gives the stopping rule (tolerance on the relative change per sweep, sweep
 /// limit) and, for `neumann`, the number of bounces of the final solve; `seed` keys every
@@ -301,8 +307,12 @@ pub fn solve(
             previous_links = links;
             if h.refine_pass() {
                 passes += 1;
-                for _ in 0..PASS_SWEEPS {
-                    history.push(h.sweep());
+                // A pass that changed few links leaves the radiance the oracle reads about
+                // where it was: no sweeps (the final convergence comes after the last pass).
+                if (h.links.len() as f64 - links).abs() >= SWEEP_AFTER_GROWTH * links {
+                    for _ in 0..PASS_SWEEPS {
+                        history.push(h.sweep());
+                    }
                 }
                 crate::progress::note_status(|| {
                     format!(
@@ -323,7 +333,7 @@ pub fn solve(
         }
         h.stats.passes = passes;
         if stopped_early {
-            h.estimate_unopened();
+            h.estimate_unopened(UNOPENED_SAMPLES);
         }
     }
     // The final solve on the final links, each gathering its source two levels down
@@ -337,7 +347,7 @@ pub fn solve(
     // would, normalised, inflate that bound over whole clusters: many more links, for the
     // same surfaces' means. A closed scene's are found again: the near corrections change them.
     if h.stats.closed_roots > 0 || h.cap_rows {
-        h.row_sum = h.row_sums();
+        h.refresh_rows();
     }
     let converged = if emitted == 0.0 {
         true
@@ -351,6 +361,11 @@ pub fn solve(
     } else {
         h.converge(solver, &mut history)
     };
+    // The links are done with: free them before the output is built, which would otherwise
+    // set the peak memory of the largest bakes (10⁶ triangles: about 1 GB of links and
+    // shares alive beside a mesh of 2·10⁶ vertices).
+    let mut stats = h.finish_stats();
+    h.free_links();
     let output::Leaves {
         patches,
         radiance,
@@ -372,8 +387,7 @@ pub fn solve(
             }
         })
         .collect();
-    h.stats.rays_cast += patches.len() as u64;
-    let stats = h.finish_stats();
+    stats.rays_cast += patches.len() as u64;
     let solution = solve::Solution {
         radiance: radiance.clone(),
         iterations: stats.sweeps,
@@ -415,7 +429,9 @@ pub struct Hierarchy<'a> {
     near: Vec<near::Correction>,
     roots: &'a Patches,
     vis: Visibility,
-    occluders: Visibility,
+    /// The roots that can occlude ([`occluders`]), when not all of them can; else `vis`
+    /// serves (a copy of it would take as much memory again: 140 MB at 10⁶ triangles).
+    occluders: Option<Visibility>,
     settings: Settings,
     seed: u64,
     /// Radiance every element sends through links, W·sr⁻¹·m⁻² (leaves: solved; inner:
@@ -441,6 +457,8 @@ pub struct Hierarchy<'a> {
     /// Effective row sum of every element (0 where its root is not closed, unless
     /// [`Hierarchy::cap_rows`] and it is over 1), or empty when no row is normalised.
     row_sum: Vec<f64>,
+    /// The links changed since `row_sum` was found: the next sweep finds it again.
+    rows_stale: bool,
     /// Open elements whose rows sum to more than 1 are normalised too: set where links were
     /// estimated as refinement stopped early ([`Hierarchy::estimate_unopened`]), whose noise
     /// can take a row past what any receiver can send on.
@@ -496,7 +514,9 @@ impl<'a> Hierarchy<'a> {
         let vis = Visibility::build(&corners);
         let can_occlude = occluders(roots);
         let convex = !can_occlude.contains(&true);
-        let occluders = vis.restricted(&can_occlude);
+        let occluders = can_occlude
+            .contains(&false)
+            .then(|| vis.restricted(&can_occlude));
         let total_area = roots.total_area();
         let mut h = Hierarchy {
             elem_l: Vec::new(),
@@ -515,6 +535,7 @@ impl<'a> Hierarchy<'a> {
             settings: *settings,
             seed,
             row_sum: Vec::new(),
+            rows_stale: false,
             cap_rows: false,
             closed_roots: Vec::new(),
             buried: Vec::new(),
@@ -555,6 +576,11 @@ impl<'a> Hierarchy<'a> {
         h
     }
 
+    /// The visibility links and direct light are traced through: the roots that can occlude.
+    pub(super) fn occluders(&self) -> &Visibility {
+        self.occluders.as_ref().unwrap_or(&self.vis)
+    }
+
     /// Σ max-channel(Le)·A over the roots, and the light the sky and the sun bring to them,
     /// Σ max-channel(ρ·D_env)·A (radiance × area, as Le·A): the scale of ε.
     pub fn emitted_power(&self) -> f64 {
@@ -570,20 +596,20 @@ impl<'a> Hierarchy<'a> {
     }
 
     /// Gives the links still waiting to be opened when refinement stopped early their
-    /// estimate ([`links::overlapping_estimate`], with [`UNOPENED_SAMPLES`] × the link rays),
-    /// so they carry light; rows their noise takes past 1 are then normalised
-    /// ([`Hierarchy::cap_rows`]).
-    pub(super) fn estimate_unopened(&mut self) {
-        let rays = UNOPENED_SAMPLES * self.settings.rays as usize;
+    /// estimate ([`links::overlapping_estimate`], with `samples` × the link rays; a solve
+    /// uses [`UNOPENED_SAMPLES`]), so they carry light; rows their noise takes past 1 are then
+    /// normalised ([`Hierarchy::cap_rows`]).
+    pub(super) fn estimate_unopened(&mut self, samples: usize) {
+        let rays = samples * self.settings.rays as usize;
         let estimates: Vec<(usize, links::Estimate)> = self
             .links
             .par_iter()
             .enumerate()
-            .filter(|(_, l)| l.must_open)
+            .filter(|(_, l)| l.must_open())
             .map(|(i, l)| {
                 let e = links::overlapping_estimate(
                     &self.tree,
-                    &self.occluders,
+                    self.occluders(),
                     l,
                     rays,
                     self.burial(),
@@ -611,14 +637,7 @@ impl<'a> Hierarchy<'a> {
     pub(super) fn start_with(&mut self, closure_rays: usize, min: usize) {
         let root = self.tree.root().expect("a root");
         self.set_links(match root.as_cluster() {
-            Some(_) => vec![Link {
-                receiver: root,
-                source: root,
-                f: 0.0,
-                bound: 0.0,
-                must_open: true,
-                children: [0; 4],
-            }],
+            Some(_) => vec![Link::opening(root, root)],
             None => Vec::new(),
         });
         // Closure, root by root: probe rays from every root (as the matrix estimators do for
@@ -668,7 +687,7 @@ impl<'a> Hierarchy<'a> {
             self.buried.push(mask);
             self.visible.push(visible);
         }
-        let (emitters, occluders, buried) = (&self.emitters, &self.occluders, &self.buried);
+        let (emitters, occluders, buried) = (&self.emitters, self.occluders(), &self.buried);
         // A pilot's roots outside its sample: the first unburied rule point alone.
         let one_point = |e: usize| {
             let out = self
@@ -737,6 +756,16 @@ impl<'a> Hierarchy<'a> {
         } else {
             self.roots.emission[r]
         }
+    }
+
+    /// Drops the links and what is found from them (their shares, the near corrections, the
+    /// receivers' runs): the solve is over, the radiance stays.
+    fn free_links(&mut self) {
+        self.links = Vec::new();
+        self.receiver_starts = Vec::new();
+        self.grandchild_shares = GrandchildShares::default();
+        self.near = Vec::new();
+        self.row_sum = Vec::new();
     }
 
     pub(super) fn finish_stats(&self) -> Stats {

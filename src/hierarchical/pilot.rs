@@ -58,6 +58,13 @@ const PILOT_CLOSURE_RAYS: usize = 500_000;
 /// Closure probe rays per root of the pilot at least (a solve casts at least 16).
 const PILOT_MIN_CLOSURE_PROBES: usize = 4;
 
+/// Sample pairs per link ray of the coarse solution's unopened links
+/// ([`Hierarchy::estimate_unopened`]), a quarter of a solve's: at 10⁶ roots about half of the
+/// coarse links are unopened, and at the solve's 16 their estimate was a third of the pilot's
+/// time. The coarse solution only gives the radiance the oracle weighs links by, summed over
+/// many links a receiver, so a noisier estimate of each moves the count little.
+const PILOT_UNOPENED_SAMPLES: usize = 4;
+
 /// The relative change per sweep the coarse solution is converged to: radiance of the right
 /// order is all the oracle needs.
 const COARSE_TOLERANCE: f64 = 1e-2;
@@ -242,10 +249,10 @@ pub fn pilot(
     if !stable {
         // As a solve stopped early: the unopened links estimated, and the rows their noise
         // takes past 1 normalised (else the coarse solution can grow without bound).
-        h.estimate_unopened();
+        h.estimate_unopened(PILOT_UNOPENED_SAMPLES);
     }
     if h.cap_rows || h.stats.closed_scene {
-        h.row_sum = h.row_sums();
+        h.refresh_rows();
     }
     let loose = solve::Settings {
         tolerance: COARSE_TOLERANCE.max(solver.tolerance),
@@ -270,7 +277,7 @@ pub fn pilot(
             continue;
         }
         if h.cap_rows || h.stats.closed_scene {
-            h.row_sum = h.row_sums();
+            h.refresh_rows();
         }
         h.converge(&loose, &mut history);
         if !h.refine_pass() {

@@ -6,6 +6,8 @@
 //! finds its shares through its source's grandchildren, so the final solve gathers its source
 //! two levels down ([`super::links::grandchild_shares`]).
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use rayon::prelude::*;
 
 use super::links::{self, Action, Link};
@@ -61,60 +63,64 @@ impl Hierarchy<'_> {
         }
         self.update_new_elements();
         // The kept links compacted in place (a second list of them would double the peak
-        // memory at the largest scenes: 6·10⁷ links are 1.4 GB), the rest turned into pairs.
+        // memory at the largest scenes: 6·10⁷ links are 1.2 GB), the others replaced by pairs
+        // one level down, estimated a chunk of links at a time: the largest pass of a solve
+        // at 10⁶ triangles makes about 10⁷ new links, and a list of all their pairs and
+        // estimates beside the new links would raise the peak by 200 MB.
         let mut kept = std::mem::take(&mut self.links);
+        let n = kept.len();
+        let children = |node: Node| match node.as_element() {
+            Some(e) if self.tree.elements[e].first_child == tree::NO_CHILD => 0,
+            Some(_) => 4,
+            None => self.tree.clusters[node.as_cluster().unwrap()].count as usize,
+        };
+        let total: usize = (0..n)
+            .map(|i| match actions[i] {
+                Action::Keep => 0,
+                Action::SplitReceiver => children(kept[i].receiver),
+                Action::SplitSource => children(kept[i].source),
+                Action::SplitBoth => children(kept[i].receiver).pow(2),
+            })
+            .sum();
+        let mut new = Vec::with_capacity(total);
+        let rays = self.settings.rays as usize;
+        let cast = AtomicU64::new(0);
         let mut w = 0;
         let mut pairs = Vec::new();
-        for i in 0..kept.len() {
-            let l = kept[i];
-            match actions[i] {
-                Action::Keep => {
+        for chunk in (0..n).step_by(REFINE_CHUNK) {
+            pairs.clear();
+            for i in chunk..(chunk + REFINE_CHUNK).min(n) {
+                let l = kept[i];
+                if actions[i] == Action::Keep {
+                    // w ≤ i: only links already read are overwritten.
                     kept[w] = l;
                     w += 1;
-                }
-                Action::SplitReceiver => {
-                    for c in self.tree.children(l.receiver) {
-                        pairs.push((c, l.source));
-                    }
-                }
-                Action::SplitSource => {
-                    for c in self.tree.children(l.source) {
-                        pairs.push((l.receiver, c));
-                    }
-                }
-                Action::SplitBoth => {
-                    let kids = self.tree.children(l.receiver);
-                    for &a in &kids {
-                        for &b in &kids {
-                            pairs.push((a, b));
-                        }
-                    }
+                } else {
+                    pairs.extend(self.pairs_of(&l, actions[i]));
                 }
             }
+            let estimates: Vec<Option<Link>> = pairs
+                .par_iter()
+                .map(|&(r, s)| {
+                    let e = links::estimate(
+                        &self.tree,
+                        self.occluders(),
+                        r,
+                        s,
+                        rays,
+                        self.burial(),
+                        self.seed,
+                    );
+                    cast.fetch_add(e.rays, Ordering::Relaxed);
+                    e.link
+                })
+                .collect();
+            new.extend(estimates.into_iter().flatten());
         }
         kept.truncate(w);
         kept.shrink_to_fit();
         drop(actions);
-        let rays = self.settings.rays as usize;
-        let estimates: Vec<links::Estimate> = pairs
-            .par_iter()
-            .map(|&(r, s)| {
-                links::estimate(
-                    &self.tree,
-                    &self.occluders,
-                    r,
-                    s,
-                    rays,
-                    self.burial(),
-                    self.seed,
-                )
-            })
-            .collect();
-        let mut new = Vec::with_capacity(estimates.len());
-        for e in estimates {
-            self.stats.rays_cast += e.rays;
-            new.extend(e.link);
-        }
+        self.stats.rays_cast += cast.into_inner();
         // The kept links are still in order: sort the new ones and merge (a full sort of all
         // links every pass would be a large share of a fine solve's time).
         new.par_sort_unstable_by_key(link_key);
@@ -127,11 +133,38 @@ impl Hierarchy<'_> {
             self.elem_l.push(self.elem_l[p]);
             self.elem_max.push(self.elem_max[p]);
         }
-        // (A pilot finds them once, before each of its convergences.)
-        if self.stats.closed_scene && self.sample.is_none() {
-            self.row_sum = self.row_sums();
+        // A closed scene's row sums, found again before the next sweep needs them
+        // ([`Hierarchy::sweep`]): a pass that no sweep follows costs no gather of them.
+        if self.stats.closed_scene {
+            self.rows_stale = true;
         }
         true
+    }
+
+    /// The (receiver, source) pairs that replace link `l` under `action` (none for
+    /// [`Action::Keep`]).
+    fn pairs_of(&self, l: &Link, action: Action) -> Vec<(Node, Node)> {
+        match action {
+            Action::Keep => Vec::new(),
+            Action::SplitReceiver => self
+                .tree
+                .children(l.receiver)
+                .into_iter()
+                .map(|c| (c, l.source))
+                .collect(),
+            Action::SplitSource => self
+                .tree
+                .children(l.source)
+                .into_iter()
+                .map(|c| (l.receiver, c))
+                .collect(),
+            Action::SplitBoth => {
+                let kids = self.tree.children(l.receiver);
+                kids.iter()
+                    .flat_map(|&a| kids.iter().map(move |&b| (a, b)))
+                    .collect()
+            }
+        }
     }
 
     /// Replaces the links, sorted by receiver (then source), and finds each receiver's run.
@@ -176,7 +209,7 @@ impl Hierarchy<'_> {
     pub(super) fn find_grandchild_shares(&mut self) {
         let t = &self.tree;
         // Only links from a source whose children are split have shares: a first pass finds
-        // them, so memory goes to those alone (4 bytes a link, 16 more for each such link).
+        // them, so memory goes to those alone (a bit a link, 16 bytes for each such link).
         let deep = |l: &Link| match (l.receiver.as_element(), l.source.as_element()) {
             (Some(r), Some(s)) => {
                 let first = t.elements[s].first_child;
@@ -187,22 +220,29 @@ impl Hierarchy<'_> {
             }
             _ => None,
         };
-        let mut slot = Vec::with_capacity(self.links.len());
+        let mut has = vec![0u64; self.links.len().div_ceil(64)];
         let mut pairs = Vec::new();
-        for l in &self.links {
-            match deep(l) {
-                Some(pair) => {
-                    slot.push(pairs.len() as u32);
-                    pairs.push(pair);
-                }
-                None => slot.push(NO_SHARES),
+        for (i, l) in self.links.iter().enumerate() {
+            if let Some(pair) = deep(l) {
+                has[i / 64] |= 1 << (i % 64);
+                pairs.push(pair);
             }
         }
         let shares = pairs
             .par_iter()
             .map(|&(r, s)| links::grandchild_shares(t, r, s))
             .collect();
-        self.grandchild_shares = GrandchildShares { slot, shares };
+        let mut before = Vec::with_capacity(has.len());
+        let mut count = 0u32;
+        for word in &has {
+            before.push(count);
+            count += word.count_ones();
+        }
+        self.grandchild_shares = GrandchildShares {
+            has,
+            before,
+            shares,
+        };
     }
 
     /// Whether links with `node` as receiver are refined: always, but in a pilot's sampling
@@ -236,27 +276,36 @@ impl Hierarchy<'_> {
     }
 }
 
-/// No shares for this link ([`GrandchildShares::slot`]).
-const NO_SHARES: u32 = u32::MAX;
-
 /// The shares of each link's form factor through its element source's 16 grandchildren
-/// ([`links::grandchild_shares`]), for the links whose source's children are split: per link
-/// its place among `shares`, or [`NO_SHARES`].
+/// ([`links::grandchild_shares`]), for the links whose source's children are split. Which
+/// links have shares is a bit per link, and a link's place among `shares` the number of set
+/// bits before it (a rank): an index per link would take 4 bytes a link, 150 MB at 10⁶
+/// triangles, where few links have shares.
 #[derive(Debug, Default)]
 pub(super) struct GrandchildShares {
-    slot: Vec<u32>,
+    /// Bit i % 64 of word i / 64: link i has shares.
+    has: Vec<u64>,
+    /// Per word of `has`: the set bits in the words before it.
+    before: Vec<u32>,
     shares: Vec<[u8; 16]>,
 }
 
 impl GrandchildShares {
     /// Link `i`'s shares, if it has any.
     pub(super) fn get(&self, i: usize) -> Option<&[u8; 16]> {
-        match self.slot.get(i) {
-            Some(&k) if k != NO_SHARES => self.shares.get(k as usize),
-            _ => None,
+        let (w, b) = (i / 64, i % 64);
+        let word = *self.has.get(w)?;
+        if word & (1 << b) == 0 {
+            return None;
         }
+        let below = (word & ((1u64 << b) - 1)).count_ones();
+        self.shares.get((self.before[w] + below) as usize)
     }
 }
+
+/// Links refined a chunk at a time ([`Hierarchy::refine_pass`]): enough pairs for the threads
+/// to share, few enough that their list and estimates take little memory.
+const REFINE_CHUNK: usize = 1 << 18;
 
 /// The order of the links: by receiver, then source (each pair at most once).
 fn link_key(l: &Link) -> (Node, Node) {

@@ -19,6 +19,9 @@ impl Hierarchy<'_> {
     /// Returns the relative change ‖ΔL‖ / ‖Le‖ over the leaves (area-weighted 2-norms): the
     /// residual E − (I − K)L of the linear system the links define.
     pub fn sweep(&mut self) -> f64 {
+        if self.rows_stale {
+            self.refresh_rows();
+        }
         let (ge, gc) = self.gather(true);
         let old = std::mem::take(&mut self.elem_l);
         self.push_pull(&ge, &gc, true);
@@ -112,6 +115,12 @@ impl Hierarchy<'_> {
             gc[c] = cg;
         }
         (ge, gc)
+    }
+
+    /// Finds [`Hierarchy::row_sums`] for the current links.
+    pub(super) fn refresh_rows(&mut self) {
+        self.row_sum = self.row_sums();
+        self.rows_stale = false;
     }
 
     /// Each element's effective row sum: Σ F over its own links and its ancestors'; 0 (not
