@@ -417,8 +417,9 @@ pub struct Hierarchy<'a> {
     pub tree: Tree,
     /// The links, sorted by receiver; set through `set_links`.
     pub links: Vec<Link>,
-    /// Where each receiver's run of `links` starts, and `links.len()` last.
-    receiver_starts: Vec<usize>,
+    /// Per node (the elements, then the clusters), where its run of `links` as receiver
+    /// starts; `links.len()` last, so node k's run is `first_link[k]..first_link[k + 1]`.
+    first_link: Vec<usize>,
     /// Per link, once the links are final: the shares of its form factor through each of its
     /// element source's 16 grandchildren ([`links::grandchild_shares`]); empty before, and
     /// none for links whose source has no split child.
@@ -526,7 +527,7 @@ impl<'a> Hierarchy<'a> {
             cluster_max: Vec::new(),
             tree,
             links: Vec::new(),
-            receiver_starts: vec![0],
+            first_link: Vec::new(),
             grandchild_shares: GrandchildShares::default(),
             near: Vec::new(),
             roots,
@@ -762,7 +763,7 @@ impl<'a> Hierarchy<'a> {
     /// receivers' runs): the solve is over, the radiance stays.
     fn free_links(&mut self) {
         self.links = Vec::new();
-        self.receiver_starts = Vec::new();
+        self.first_link = Vec::new();
         self.grandchild_shares = GrandchildShares::default();
         self.near = Vec::new();
         self.row_sum = Vec::new();

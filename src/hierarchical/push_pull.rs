@@ -6,6 +6,7 @@
 //! cluster also keeps its radiance by the direction it leaves in ([`OrientedRadiance`]).
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::tree;
 use super::{Hierarchy, ORIENTED_CONE_COS};
@@ -21,15 +22,18 @@ impl Hierarchy<'_> {
         self.elem_l = vec![[0.0; 3]; n];
         self.cluster_l = vec![[0.0; 3]; self.tree.clusters.len()];
         let gz = vec![ClusterGather::default(); self.tree.clusters.len()];
-        self.push_pull(&zero, &gz, false);
+        self.push_pull(zero, gz, false);
     }
 
     /// What each element gathers through its own links and all its ancestors' (clusters'
     /// included): the push half of push-pull. A root element takes from its clusters what
     /// its own orientation receives ([`ClusterGather::at`]).
-    pub(super) fn push_down(&self, ge: &[Rgb], gc: &[ClusterGather]) -> Vec<Rgb> {
+    ///
+    /// Both gathers are summed down in place (copies of them would add 100 MB to every sweep
+    /// at 10⁶ triangles).
+    pub(super) fn push_down(&self, ge: Vec<Rgb>, gc: Vec<ClusterGather>) -> Vec<Rgb> {
         let t = &self.tree;
-        let mut cdown = gc.to_vec();
+        let mut cdown = gc;
         for c in 0..t.clusters.len() {
             let cl = &t.clusters[c];
             for k in cl.first..cl.first + cl.count {
@@ -39,17 +43,21 @@ impl Hierarchy<'_> {
                 }
             }
         }
-        let mut down = ge.to_vec();
-        for e in 0..t.elements.len() {
-            let p = t.elements[e].parent;
-            let above = if p != tree::NO_CHILD {
-                down[p as usize]
-            } else if t.clusters.is_empty() {
-                [0.0; 3]
-            } else {
-                cdown[t.root_parent[e] as usize].at(t.elements[e].normal)
-            };
-            down[e] = add(down[e], above);
+        // The roots (the first elements, no parent) take from their clusters, in parallel;
+        // then the elements split from them, each after its parent.
+        let mut down = ge;
+        let roots = t.roots.min(down.len());
+        down[..roots].par_iter_mut().enumerate().for_each(|(e, d)| {
+            if !t.clusters.is_empty() {
+                *d = add(
+                    *d,
+                    cdown[t.root_parent[e] as usize].at(t.elements[e].normal),
+                );
+            }
+        });
+        for e in roots..t.elements.len() {
+            let p = t.elements[e].parent as usize;
+            down[e] = add(down[e], down[p]);
         }
         down
     }
@@ -58,7 +66,7 @@ impl Hierarchy<'_> {
     /// G what the links bring, normalised by the row sum in closed scenes; Le only the
     /// emission links carry), inner elements and clusters the area-weighted mean of their
     /// children.
-    pub(super) fn push_pull(&mut self, ge: &[Rgb], gc: &[ClusterGather], with_direct: bool) {
+    pub(super) fn push_pull(&mut self, ge: Vec<Rgb>, gc: Vec<ClusterGather>, with_direct: bool) {
         let down = self.push_down(ge, gc);
         let t = &self.tree;
         let n = t.elements.len();
@@ -68,33 +76,63 @@ impl Hierarchy<'_> {
         // count it as blocked, so its darkness must not dilute the visible part's radiance.
         let mut visible_area = vec![0.0; n];
         let mut lmax = vec![0.0f64; n];
-        for e in (0..n).rev() {
+        // A leaf: (L, visible area, largest channel).
+        let leaf = |e: usize| {
             let el = &t.elements[e];
-            if el.first_child == tree::NO_CHILD {
-                let r = el.root as usize;
-                let norm = match self.row_sum.get(e) {
-                    Some(&s) if s > 0.0 => 1.0 / s,
-                    _ => 1.0,
-                };
-                let le = self.carried_emission(r);
-                let d = if with_direct {
-                    self.direct[e].mean
-                } else {
-                    [0.0; 3]
-                };
-                let rho = self.roots.reflectance[r];
-                for c in 0..3 {
-                    l[e][c] = le[c] + rho[c] * (d[c] + down[e][c] * norm);
-                }
-                visible_area[e] = el.area * self.visible[e];
-                lmax[e] = l[e].iter().copied().fold(0.0, f64::max);
+            let r = el.root as usize;
+            let norm = match self.row_sum.get(e) {
+                Some(&s) if s > 0.0 => 1.0 / s,
+                _ => 1.0,
+            };
+            let le = self.carried_emission(r);
+            let d = if with_direct {
+                self.direct[e].mean
             } else {
-                let kids = el.first_child as usize..el.first_child as usize + 4;
-                lmax[e] = kids.clone().map(|k| lmax[k]).fold(0.0, f64::max);
-                (l[e], visible_area[e]) =
-                    weighted_mean(kids.map(|k| (l[k], visible_area[k], t.elements[k].area)));
-            }
+                [0.0; 3]
+            };
+            let rho = self.roots.reflectance[r];
+            let l: Rgb = std::array::from_fn(|c| le[c] + rho[c] * (d[c] + down[e][c] * norm));
+            (
+                l,
+                el.area * self.visible[e],
+                l.iter().copied().fold(0.0, f64::max),
+            )
+        };
+        // An inner element from its four children, which come after every root (`tail`
+        // holds the elements from `roots` on).
+        let roots = t.roots.min(n);
+        let inner = |e: usize, l: &[Rgb], va: &[f64], lm: &[f64]| {
+            let first = t.elements[e].first_child as usize - roots;
+            let kids = first..first + 4;
+            let max = kids.clone().map(|k| lm[k]).fold(0.0, f64::max);
+            let (mean, visible) =
+                weighted_mean(kids.map(|k| (l[k], va[k], t.elements[roots + k].area)));
+            (mean, visible, max)
+        };
+        let (l_roots, l_tail) = l.split_at_mut(roots);
+        let (va_roots, va_tail) = visible_area.split_at_mut(roots);
+        let (lm_roots, lm_tail) = lmax.split_at_mut(roots);
+        // The split elements first, children before parents; then the roots, in parallel.
+        for e in (roots..n).rev() {
+            let i = e - roots;
+            (l_tail[i], va_tail[i], lm_tail[i]) = if t.elements[e].first_child == tree::NO_CHILD {
+                leaf(e)
+            } else {
+                inner(e, l_tail, va_tail, lm_tail)
+            };
         }
+        l_roots
+            .par_iter_mut()
+            .zip(va_roots.par_iter_mut())
+            .zip(lm_roots.par_iter_mut())
+            .enumerate()
+            .for_each(|(e, ((l, va), lm))| {
+                (*l, *va, *lm) = if t.elements[e].first_child == tree::NO_CHILD {
+                    leaf(e)
+                } else {
+                    inner(e, l_tail, va_tail, lm_tail)
+                };
+            });
         let mut cl = vec![[0.0; 3]; t.clusters.len()];
         // Refilled in place: on a scene of 10⁶ triangles it is about 100 MB.
         let mut oriented = std::mem::take(&mut self.cluster_oriented);

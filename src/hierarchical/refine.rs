@@ -167,18 +167,27 @@ impl Hierarchy<'_> {
         }
     }
 
-    /// Replaces the links, sorted by receiver (then source), and finds each receiver's run.
+    /// Replaces the links, sorted by receiver (then source), and finds each node's run.
     pub(super) fn set_links(&mut self, links: Vec<Link>) {
         debug_assert!(links.windows(2).all(|w| link_key(&w[0]) < link_key(&w[1])));
         self.grandchild_shares = GrandchildShares::default();
         self.near.clear();
-        self.receiver_starts.clear();
+        // Elements first, then clusters, as the links sort.
+        let elements = self.tree.elements.len();
+        let nodes = elements + self.tree.clusters.len();
+        let index = |n: Node| match n.as_element() {
+            Some(e) => e,
+            None => elements + n.as_cluster().unwrap(),
+        };
+        self.first_link.clear();
+        self.first_link.reserve_exact(nodes + 1);
         for (i, l) in links.iter().enumerate() {
-            if i == 0 || links[i - 1].receiver != l.receiver {
-                self.receiver_starts.push(i);
+            let r = index(l.receiver);
+            while self.first_link.len() <= r {
+                self.first_link.push(i);
             }
         }
-        self.receiver_starts.push(links.len());
+        self.first_link.resize(nodes + 1, links.len());
         self.links = links;
         self.links.shrink_to_fit();
     }

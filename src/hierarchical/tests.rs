@@ -398,7 +398,7 @@ fn leaves_below_a_near_link_gather_their_own_form_factor() {
     assert_eq!(leaves.len(), 16);
     let own = |h: &Hierarchy| {
         let (ge, gc) = h.gather(false);
-        h.push_down(&ge, &gc)
+        h.push_down(ge, gc)
     };
     let exact: Vec<f64> = leaves
         .iter()
