@@ -103,7 +103,7 @@ pub struct Settings {
     /// Refinement passes at most (each splits one level; a guard, not a tuning knob).
     pub max_passes: u32,
     /// Links at most: refinement stops with a warning beyond this (memory guard: a link takes
-    /// 24 bytes).
+    /// 20 bytes).
     pub max_links: u64,
     /// Compute the emitters' direct light at every element ([`direct`]) when the scene
     /// qualifies ([`direct::chosen`]: few, small emitters); false: links carry all emission.

@@ -521,10 +521,12 @@ pub fn fit_time(
     Ok((s, e, Some(sentence)))
 }
 
-/// Bytes of the peak memory that go with each hierarchical link: the 24-byte link, and in
+/// Bytes of the peak memory that go with each hierarchical link: the 20-byte link, and in
 /// proportion the elements, clusters and refinement buffers that grow with them (the peaks
 /// of the LibreQuake levels and the hall of 10⁶ triangles, whose links dominate their memory,
-/// are 60–71 bytes a link; BENCHMARKS.md "Large scenes: the estimate against the bake").
+/// were 60–71 bytes a link when a link took 24 bytes and the refinement and sweeps kept
+/// larger buffers; BENCHMARKS.md "Large scenes: the estimate against the bake"). The guard
+/// is on the safe side since.
 pub const PEAK_BYTES_PER_LINK: f64 = 72.0;
 
 /// The most hierarchical links a bake may make within `limit` bytes of memory
