@@ -69,20 +69,7 @@ impl Hierarchy<'_> {
         // estimates beside the new links would raise the peak by 200 MB.
         let mut kept = std::mem::take(&mut self.links);
         let n = kept.len();
-        let children = |node: Node| match node.as_element() {
-            Some(e) if self.tree.elements[e].first_child == tree::NO_CHILD => 0,
-            Some(_) => 4,
-            None => self.tree.clusters[node.as_cluster().unwrap()].count as usize,
-        };
-        let total: usize = (0..n)
-            .map(|i| match actions[i] {
-                Action::Keep => 0,
-                Action::SplitReceiver => children(kept[i].receiver),
-                Action::SplitSource => children(kept[i].source),
-                Action::SplitBoth => children(kept[i].receiver).pow(2),
-            })
-            .sum();
-        let mut new = Vec::with_capacity(total);
+        let mut new = Vec::new();
         let rays = self.settings.rays as usize;
         let cast = AtomicU64::new(0);
         let mut w = 0;
@@ -91,12 +78,30 @@ impl Hierarchy<'_> {
             pairs.clear();
             for i in chunk..(chunk + REFINE_CHUNK).min(n) {
                 let l = kept[i];
-                if actions[i] == Action::Keep {
-                    // w ≤ i: only links already read are overwritten.
-                    kept[w] = l;
-                    w += 1;
-                } else {
-                    pairs.extend(self.pairs_of(&l, actions[i]));
+                match actions[i] {
+                    Action::Keep => {
+                        // w ≤ i: only links already read are overwritten.
+                        kept[w] = l;
+                        w += 1;
+                    }
+                    Action::SplitReceiver => {
+                        for c in self.tree.children(l.receiver) {
+                            pairs.push((c, l.source));
+                        }
+                    }
+                    Action::SplitSource => {
+                        for c in self.tree.children(l.source) {
+                            pairs.push((l.receiver, c));
+                        }
+                    }
+                    Action::SplitBoth => {
+                        let kids = self.tree.children(l.receiver);
+                        for &a in &kids {
+                            for &b in &kids {
+                                pairs.push((a, b));
+                            }
+                        }
+                    }
                 }
             }
             let estimates: Vec<Option<Link>> = pairs
@@ -115,6 +120,9 @@ impl Hierarchy<'_> {
                     e.link
                 })
                 .collect();
+            // Room for exactly this chunk (growth by doubling could leave as much again
+            // unused).
+            new.reserve_exact(estimates.len());
             new.extend(estimates.into_iter().flatten());
         }
         kept.truncate(w);
@@ -139,32 +147,6 @@ impl Hierarchy<'_> {
             self.rows_stale = true;
         }
         true
-    }
-
-    /// The (receiver, source) pairs that replace link `l` under `action` (none for
-    /// [`Action::Keep`]).
-    fn pairs_of(&self, l: &Link, action: Action) -> Vec<(Node, Node)> {
-        match action {
-            Action::Keep => Vec::new(),
-            Action::SplitReceiver => self
-                .tree
-                .children(l.receiver)
-                .into_iter()
-                .map(|c| (c, l.source))
-                .collect(),
-            Action::SplitSource => self
-                .tree
-                .children(l.source)
-                .into_iter()
-                .map(|c| (l.receiver, c))
-                .collect(),
-            Action::SplitBoth => {
-                let kids = self.tree.children(l.receiver);
-                kids.iter()
-                    .flat_map(|&a| kids.iter().map(move |&b| (a, b)))
-                    .collect()
-            }
-        }
     }
 
     /// Replaces the links, sorted by receiver (then source), and finds each node's run.
