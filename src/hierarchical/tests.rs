@@ -901,20 +901,15 @@ fn a_pilot_counts_the_links_the_solve_makes() {
     let full = solve(&roots, &s, &env, &solver, 1).unwrap();
     let every = pilot::pilot(&roots, &s, &env, &solver, 1, roots.len()).unwrap();
     assert_eq!(every.sampled, roots.len());
-    let ratio = every.links / full.stats.links as f64;
-    assert!(
-        (0.8..1.25).contains(&ratio),
-        "{} against {}",
-        every.links,
-        full.stats.links
-    );
-    let ratio = every.elements / full.stats.elements as f64;
-    assert!(
-        (0.8..1.25).contains(&ratio),
-        "{} against {}",
-        every.elements,
-        full.stats.elements
-    );
+    let within = |counted: f64, made: usize, what: &str| {
+        let ratio = counted / made as f64;
+        assert!(
+            (0.8..1.25).contains(&ratio),
+            "{what}: {counted} against {made}"
+        );
+    };
+    within(every.links, full.stats.links as usize, "links");
+    within(every.elements, full.stats.elements, "elements");
     let third = roots.len() / 3;
     let on = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
