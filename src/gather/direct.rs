@@ -243,7 +243,7 @@ impl Gatherer<'_> {
                 lift: self.lift,
             };
             let sun = if one_light {
-                self.env.sharp_direct_sampled(&at, rng)
+                self.env.sharp_direct_sampled(&self.light_tree, &at, rng)
             } else {
                 self.env.sharp_direct(&at, rng)
             };

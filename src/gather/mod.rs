@@ -39,7 +39,7 @@ use crate::bake::Site;
 use crate::choice::Choice;
 use crate::color::Rgb;
 use crate::light::emitter::GATHER_MAX_SHADOW_RAYS;
-use crate::light::Emitter;
+use crate::light::{Emitter, LightTree};
 use crate::mesh::Patches;
 use crate::sampling::Rng;
 use crate::scene::{Environment, Scene};
@@ -209,6 +209,9 @@ pub struct Gatherer<'a> {
     /// The lights outside the mesh ([`crate::light::outside`]): the sun and the point lights are
     /// part of the direct term, the sky comes through the hemisphere rays that leave the scene.
     env: Environment,
+    /// The tree over `env`'s point lights, to draw one at a near hit's point
+    /// ([`Environment::sharp_direct_sampled`]).
+    light_tree: LightTree,
     /// The gather is `cache` ([`Gatherer::with_cache`]).
     cache: bool,
     /// For the `cache` gather in a scene of more than [`MAX_WEIGHED_EMITTERS`] emitters: the
@@ -260,6 +263,7 @@ impl<'a> Gatherer<'a> {
             seed,
             edge_rays: EDGE_RAYS,
             env: env.clone(),
+            light_tree: LightTree::new(&env.lights),
             cache: false,
             unsampled: None,
         }

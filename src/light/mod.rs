@@ -19,10 +19,12 @@ use crate::visibility::Visibility;
 
 pub mod emitter;
 pub mod outside;
+pub mod tree;
 
 pub use emitter::{Emitter, Share};
 
 pub use outside::{patch_light, SKY_RAYS};
+pub use tree::LightTree;
 
 /// A point where the lights outside the mesh are evaluated: the estimators' common arguments.
 #[derive(Clone, Copy)]

@@ -36,7 +36,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::Receiver;
+use super::{LightTree, Receiver};
 use crate::color::Rgb;
 use crate::geometry::orthonormal_basis;
 use crate::mesh::Patches;
@@ -98,12 +98,26 @@ impl Environment {
         self.sharp_direct_with(at, (EXACT_LIGHTS, SAMPLED_LIGHTS), rng)
     }
 
-    /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together,
-    /// drawn as there: unbiased, and noisy alone. For the many points of a gather that are
-    /// averaged (a near hit's reflected light), where a level's hundred lamps would otherwise
-    /// cost a hundred rays at every one.
-    pub fn sharp_direct_sampled(&self, at: &Receiver, rng: &mut Rng) -> Rgb {
-        self.sharp_direct_with(at, (0, 1), rng)
+    /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together:
+    /// unbiased, and noisy alone. For the many points of a gather that are averaged (a near
+    /// hit's reflected light), where a level's hundred lamps would otherwise cost a hundred
+    /// rays at every one. Up to [`EXACT_LIGHTS`] + [`SAMPLED_LIGHTS`] lights, the light is
+    /// drawn in proportion to what it would bring unoccluded, all weighed; beyond that, by the
+    /// light tree `tree` (built over this environment's lights), in O(log n) instead of
+    /// weighing every lamp at every point.
+    pub fn sharp_direct_sampled(&self, tree: &LightTree, at: &Receiver, rng: &mut Rng) -> Rgb {
+        if self.lights.len() <= EXACT_LIGHTS + SAMPLED_LIGHTS {
+            return self.sharp_direct_with(at, (0, 1), rng);
+        }
+        debug_assert_eq!(tree.len(), self.lights.len(), "the tree of these lights");
+        let mut d = self.sun_direct(at, rng);
+        if let Some((k, p)) = tree.sample(&self.lights, at.origin(), at.n, rng.next_f64()) {
+            let l = self.point_direct(&self.lights[k], at);
+            for (d, l) in d.iter_mut().zip(l) {
+                *d += l / p;
+            }
+        }
+        d
     }
 
     /// [`Environment::sharp_direct`] with `exact` strongest lights and `sampled` shadow rays
@@ -553,8 +567,9 @@ mod tests {
         let mut rng = Rng::new(&[5]);
         for x in [DVec3::ZERO, DVec3::new(0.5, -0.3, 0.0)] {
             let exact = env.sharp_direct(&at(&vis, x, DVec3::Z, 1e-6), &mut rng);
+            let tree = LightTree::new(&env.lights);
             assert_unbiased(exact, 40_000, || {
-                env.sharp_direct_sampled(&at(&vis, x, DVec3::Z, 1e-6), &mut rng)
+                env.sharp_direct_sampled(&tree, &at(&vis, x, DVec3::Z, 1e-6), &mut rng)
             });
         }
     }
@@ -635,6 +650,11 @@ mod tests {
             for c in 0..3 {
                 assert!(sd[c] < 0.5 * exact[c], "{sd:?} {exact:?}");
             }
+            // One light drawn by the light tree: unbiased too.
+            let tree = LightTree::new(&env.lights);
+            assert_unbiased(exact, 40_000, || {
+                env.sharp_direct_sampled(&tree, &at(&vis, x, DVec3::Z, 1e-6), &mut rng)
+            });
         }
     }
 }
