@@ -132,7 +132,7 @@ impl LightTree {
                         self.importance(lights, l, x, n),
                         self.importance(lights, r, x, n),
                     );
-                    if !(a + b > 0.0) {
+                    if a + b <= 0.0 {
                         return None;
                     }
                     let left = a / (a + b);
