@@ -60,9 +60,10 @@ const PILOTED_BYTES_PER_LINK: f64 = 47.0;
 const PILOTED_BYTES_PER_ELEMENT: f64 = 700.0;
 /// The piloted hierarchical solve's seconds on 2 cores: per link (its estimate's rays, the
 /// sweeps over it) and per ray of the elements' direct light (many lamps). Fitted as the
-/// bytes above.
-const PILOTED_SECONDS_PER_LINK: f64 = 4.6e-6;
-const PILOTED_SECONDS_PER_DIRECT_RAY: f64 = 0.106e-6;
+/// bytes above, then scaled to the benchmark machine of `tools/bench_large.sh` (the solve
+/// took 0.4–0.8× the earlier fit's seconds there).
+const PILOTED_SECONDS_PER_LINK: f64 = 2.3e-6;
+const PILOTED_SECONDS_PER_DIRECT_RAY: f64 = 0.053e-6;
 
 /// Patches whose facing pairs are counted to estimate F's fill (every patch when fewer).
 pub const FILL_SAMPLES: usize = 256;
@@ -74,8 +75,9 @@ const BYTES_PER_ENTRY_REFINED: f64 = 32.0;
 /// Bytes per non-zero without refinement (fitted to the Cornell box at a fine `--max-edge`).
 const BYTES_PER_ENTRY: f64 = 17.0;
 /// Seconds per non-zero on 2 cores, form factors and solve, with refinement rounds (fitted
-/// to the Cornell box at the defaults and at `--max-edge 40`).
-const SECONDS_PER_ENTRY_REFINED: f64 = 165e-9;
+/// to the Cornell box at the defaults and at `--max-edge 40`, on the machine of
+/// `tools/bench_estimate.sh`).
+const SECONDS_PER_ENTRY_REFINED: f64 = 115e-9;
 /// The same without refinement (fitted to the Cornell box at fine `--max-edge`).
 const SECONDS_PER_ENTRY: f64 = 80e-9;
 /// Memory of the program, the scene and the patches apart from F, bytes.
@@ -103,18 +105,19 @@ const LEAVES_PER_ROOT: f64 = 2.0;
 /// Seconds on 2 cores of the `full` final gather and its display refinement per hemisphere
 /// ray, and per unit of the direct light's cost at a point as the gather prices it in
 /// hemisphere rays ([`gather_direct_cost`]: it costs about 5× that price). Two constants fitted
-/// to two bakes, the Cornell box (one light; 5.7 s) and the generated hall of 10⁴ triangles
-/// (82 emitting triangles; 31 s): the rays and the direct light dominate one each.
-const GATHER_SECONDS_PER_RAY: f64 = 0.39e-6;
-const GATHER_SECONDS_PER_DIRECT: f64 = 2.2e-6;
+/// to two bakes, the Cornell box (one light) and the generated hall of 10⁴ triangles
+/// (82 emitting triangles): the rays and the direct light dominate one each.
+const GATHER_SECONDS_PER_RAY: f64 = 0.21e-6;
+const GATHER_SECONDS_PER_DIRECT: f64 = 1.2e-6;
 /// Seconds on 2 cores of the `cache` gather and its display refinement
 /// ([`gather::refine::budget_for`]) per output vertex counted on the roots
 /// ([`Estimate::vertices`]): the direct light computed exactly at every vertex and the
 /// records' hemisphere rays dominate it, so it grows with the scene's occluders and lights as
-/// well. Fitted to the generated office of 10⁵ triangles (12 lamps, sky panels, furniture;
-/// 5.8e-4 measured) and the generated hall of 10⁵ triangles (many small lamps; 5.7e-4), their
-/// vertices counted on the roots cut along the contact lines as the bake cuts them.
-const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 6e-4;
+/// well. Between the generated offices (12 lamps and large sky panels, whose vertices also
+/// cast [`gather::cache::EMISSION_RAYS`]; about 3e-4 measured) and the LibreQuake levels and
+/// the generated hall of 10⁵ triangles (1.0–1.7e-4), their vertices counted on the roots cut
+/// along the contact lines as the bake cuts them (`tools/bench_large.sh`).
+const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 2e-4;
 /// The share of [`GATHER_CACHE_SECONDS_PER_VERTEX`] left without the display refinement: the
 /// refinement's new vertices and tests evaluate the direct light about as many times as the
 /// gather did ([`gather::refine::CACHE_REFINE_SHARE`]).
@@ -122,8 +125,8 @@ const CACHE_UNREFINED_SHARE: f64 = 0.5;
 /// Seconds on 2 cores per shadow ray to a light outside the mesh (a point or spot light, or
 /// the sun's [`crate::light::outside::SUN_RAYS`]) at an output vertex: every vertex of the gather
 /// and of its display refinement casts one to each (fitted to a LibreQuake level with over a
-/// hundred lamps).
-const GATHER_SECONDS_PER_LIGHT_RAY: f64 = 0.57e-6;
+/// hundred lamps, scaled to the benchmark machine as the constants above).
+const GATHER_SECONDS_PER_LIGHT_RAY: f64 = 0.34e-6;
 
 /// The estimate; see the module documentation.
 #[derive(Debug, Clone, Serialize)]
