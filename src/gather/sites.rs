@@ -122,10 +122,7 @@ impl Gatherer<'_> {
             .iter()
             .any(|&d| {
                 let from = x + self.lift * n - reach * d;
-                self.surfaces
-                    .vis()
-                    .closest_hit(from, d, 2.0 * reach, ignore)
-                    .is_some()
+                self.surfaces.vis().blocked(from, d, 2.0 * reach, ignore)
             })
     }
 

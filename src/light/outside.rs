@@ -95,7 +95,7 @@ impl Environment {
     /// lighting calculations", with the strongest lights split off as in Ward 1991, "Adaptive
     /// shadow testing for ray tracing").
     pub fn sharp_direct(&self, at: &Receiver, rng: &mut Rng) -> Rgb {
-        self.sharp_direct_with(at, (EXACT_LIGHTS, SAMPLED_LIGHTS), rng)
+        self.sharp_direct_with(at, (EXACT_LIGHTS, SAMPLED_LIGHTS), SUN_RAYS, rng)
     }
 
     /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together:
@@ -107,10 +107,10 @@ impl Environment {
     /// weighing every lamp at every point.
     pub fn sharp_direct_sampled(&self, tree: &LightTree, at: &Receiver, rng: &mut Rng) -> Rgb {
         if self.lights.len() <= EXACT_LIGHTS + SAMPLED_LIGHTS {
-            return self.sharp_direct_with(at, (0, 1), rng);
+            return self.sharp_direct_with(at, (0, 1), 1, rng);
         }
         debug_assert_eq!(tree.len(), self.lights.len(), "the tree of these lights");
-        let mut d = self.sun_direct(at, rng);
+        let mut d = self.sun_direct(at, 1, rng);
         if let Some((k, p)) = tree.sample(&self.lights, at.origin(), at.n, rng.next_f64()) {
             let l = self.point_direct(&self.lights[k], at);
             for (d, l) in d.iter_mut().zip(l) {
@@ -121,14 +121,16 @@ impl Environment {
     }
 
     /// [`Environment::sharp_direct`] with `exact` strongest lights and `sampled` shadow rays
-    /// for the rest (all exactly when that many or fewer can bring light).
+    /// for the rest (all exactly when that many or fewer can bring light), and `sun_rays`
+    /// rays to the sun.
     fn sharp_direct_with(
         &self,
         at: &Receiver,
         (exact, sampled): (usize, usize),
+        sun_rays: usize,
         rng: &mut Rng,
     ) -> Rgb {
-        let mut d = self.sun_direct(at, rng);
+        let mut d = self.sun_direct(at, sun_rays, rng);
         let mut add = |p: Rgb, scale: f64| {
             for (d, p) in d.iter_mut().zip(p) {
                 *d += p * scale;
@@ -202,18 +204,17 @@ impl Environment {
             return [0.0; 3];
         };
         // The segment to the light, short of it by the lift (nothing stands on a point light).
-        if at
-            .vis
-            .closest_hit(origin, to, 1.0 - at.lift / r, at.ignore)
-            .is_some()
-        {
+        if at.vis.blocked(origin, to, 1.0 - at.lift / r, at.ignore) {
             return [0.0; 3];
         }
         light.intensity.map(|i| i * falloff * cos / (r2 * PI))
     }
 
-    /// The sun's part of [`Environment::direct`]: E_sun cos θ V̄ / π.
-    pub fn sun_direct(&self, at: &Receiver, rng: &mut Rng) -> Rgb {
+    /// The sun's part of [`Environment::direct`]: E_sun cos θ V̄ / π, V̄ by `rays` shadow rays
+    /// to points of the disc stratified over its solid angle ([`SUN_RAYS`] at a point that is
+    /// shown; one, unbiased and noisy alone, at a near hit's point, of which a gather averages
+    /// many).
+    pub fn sun_direct(&self, at: &Receiver, rays: usize, rng: &mut Rng) -> Rgb {
         let (Some(sun), Some(s)) = (self.sun, self.sun_direction()) else {
             return [0.0; 3];
         };
@@ -226,22 +227,17 @@ impl Environment {
         let cos_max = (0.5 * SUN_DIAMETER_DEGREES).to_radians().cos();
         let origin = at.origin();
         let mut seen = 0usize;
-        for k in 0..SUN_RAYS {
+        for k in 0..rays {
             // Uniform over the disc's solid angle: cos uniform in [cos_max, 1], stratified.
-            let c = 1.0 - (k as f64 + rng.next_f64()) / SUN_RAYS as f64 * (1.0 - cos_max);
+            let c = 1.0 - (k as f64 + rng.next_f64()) / rays as f64 * (1.0 - cos_max);
             let phi = 2.0 * PI * rng.next_f64();
             let sin = (1.0 - c * c).max(0.0).sqrt();
             let dir = c * s + sin * (phi.cos() * t + phi.sin() * b);
-            if dir.dot(n) > 0.0
-                && at
-                    .vis
-                    .closest_hit(origin, dir, f64::INFINITY, at.ignore)
-                    .is_none()
-            {
+            if dir.dot(n) > 0.0 && !at.vis.blocked(origin, dir, f64::INFINITY, at.ignore) {
                 seen += 1;
             }
         }
-        let v = seen as f64 / SUN_RAYS as f64;
+        let v = seen as f64 / rays.max(1) as f64;
         sun.irradiance.map(|e| e * cos * v / PI)
     }
 
@@ -268,11 +264,7 @@ impl Environment {
                 continue;
             }
             cast += 1;
-            if at
-                .vis
-                .closest_hit(origin, dir, f64::INFINITY, at.ignore)
-                .is_some()
-            {
+            if at.vis.blocked(origin, dir, f64::INFINITY, at.ignore) {
                 continue;
             }
             open += 1;

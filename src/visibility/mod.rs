@@ -462,6 +462,19 @@ impl Visibility {
         best.map(|b| ray.hit(b, m))
     }
 
+    /// True if [`Visibility::closest_hit`] with the same arguments would hit anything: the same
+    /// answer, bit for bit (the same ray, the same exact test per triangle), but the walk ends
+    /// at the first triangle met instead of seeking the nearest. For shadow rays.
+    pub fn blocked(&self, origin: DVec3, dir: DVec3, t_max: f64, ignore: u32) -> bool {
+        let Some((ray, _)) = self.direction_ray(origin, dir, t_max) else {
+            return false;
+        };
+        self.bvh.any_hit(&ray, |i| {
+            !self.ignored(i, [ignore, ignore])
+                && ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi).is_some()
+        })
+    }
+
     /// True when the surface point `x` (unit normal `n`, on triangle `ignore`) is buried: the
     /// first surface hit straight along its normal is seen from behind, i.e. `x` lies inside a
     /// closed object or under a surface lying on it (the floor under a block, the ceiling behind

@@ -165,6 +165,8 @@ fn bvh_matches_brute_force() {
         let fast = vis.closest_hit(origin, dir, t_max, ignore);
         let slow = vis.closest_hit_brute_force(origin, dir, t_max, ignore);
         assert_eq!(fast, slow, "ray {k}: {origin} + t {dir}, t_max {t_max}");
+        // The shadow ray's answer is the closest hit's, ray for ray.
+        assert_eq!(vis.blocked(origin, dir, t_max, ignore), fast.is_some(), "ray {k}");
         if let Some(h) = fast {
             hits += 1;
             assert!(h.t > 0.0 && h.t <= t_max && h.triangle != ignore);
@@ -531,6 +533,7 @@ fn twins_block_like_one_surface_and_report_the_side_facing_the_ray() {
             two.closest_hit_brute_force(origin, dir, f64::INFINITY, ignore)
         );
         assert_eq!(b, two.closest_hit(origin, dir, f64::INFINITY, ignore));
+        assert_eq!(two.blocked(origin, dir, f64::INFINITY, ignore), b.is_some());
         let (Some(a), Some(b)) = (a, b) else {
             assert_eq!(a.is_none(), b.is_none(), "ray {k}");
             continue;
