@@ -166,7 +166,11 @@ fn bvh_matches_brute_force() {
         let slow = vis.closest_hit_brute_force(origin, dir, t_max, ignore);
         assert_eq!(fast, slow, "ray {k}: {origin} + t {dir}, t_max {t_max}");
         // The shadow ray's answer is the closest hit's, ray for ray.
-        assert_eq!(vis.blocked(origin, dir, t_max, ignore), fast.is_some(), "ray {k}");
+        assert_eq!(
+            vis.blocked(origin, dir, t_max, ignore),
+            fast.is_some(),
+            "ray {k}"
+        );
         if let Some(h) = fast {
             hits += 1;
             assert!(h.t > 0.0 && h.t <= t_max && h.triangle != ignore);
