@@ -48,3 +48,31 @@ impl Receiver<'_> {
         self.x + self.lift * self.n
     }
 }
+
+/// `n` point lights scattered over a floor at z = 0 for the tests: most above it, every
+/// seventh below, every fifth a spot aimed down, of varied colours (more than
+/// [`outside::EXACT_LIGHTS`] + [`outside::SAMPLED_LIGHTS`] for n ≥ 33).
+#[cfg(test)]
+pub(crate) fn scattered_lights(n: usize) -> Vec<crate::scene::PointLight> {
+    use crate::scene::{PointLight, Spot};
+    (0..n)
+        .map(|k| {
+            let a = k as f64 * 0.61;
+            let r = 0.3 + 0.15 * (k % 17) as f64;
+            let z = if k % 7 == 0 {
+                -1.0
+            } else {
+                0.5 + 0.1 * (k % 5) as f64
+            };
+            PointLight {
+                position: DVec3::new(r * a.cos(), r * a.sin(), z),
+                intensity: [1.0 + (k % 3) as f64, 1.0, 0.5 + (k % 4) as f64],
+                spot: (k % 5 == 0).then(|| Spot {
+                    direction: DVec3::new(0.2, 0.0, -1.0).normalize(),
+                    inner_degrees: 20.0,
+                    outer_degrees: 50.0,
+                }),
+            }
+        })
+        .collect()
+}

@@ -597,26 +597,7 @@ mod tests {
         // 60 lights over the floor (more than EXACT_LIGHTS + SAMPLED_LIGHTS): some hidden
         // from the origin by the square, some below the floor, some spots. The exact sum of
         // their parts, one shadow ray each, against the mean of the hybrid estimate.
-        let lights: Vec<PointLight> = (0..60)
-            .map(|k| {
-                let a = k as f64 * 0.61;
-                let r = 0.3 + 0.15 * (k % 17) as f64;
-                let z = if k % 7 == 0 {
-                    -1.0
-                } else {
-                    0.5 + 0.1 * (k % 5) as f64
-                };
-                PointLight {
-                    position: DVec3::new(r * a.cos(), r * a.sin(), z),
-                    intensity: [1.0 + (k % 3) as f64, 1.0, 0.5 + (k % 4) as f64],
-                    spot: (k % 5 == 0).then(|| Spot {
-                        direction: DVec3::new(0.2, 0.0, -1.0).normalize(),
-                        inner_degrees: 20.0,
-                        outer_degrees: 50.0,
-                    }),
-                }
-            })
-            .collect();
+        let lights = crate::light::scattered_lights(60);
         let env = Environment {
             lights,
             up: Up::Z,

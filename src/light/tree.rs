@@ -182,30 +182,8 @@ impl LightTree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::lights::Spot;
 
-    fn lights(n: usize) -> Vec<PointLight> {
-        (0..n)
-            .map(|k| {
-                let a = k as f64 * 0.61;
-                let r = 0.3 + 0.15 * (k % 17) as f64;
-                let z = if k % 7 == 0 {
-                    -1.0
-                } else {
-                    0.5 + 0.1 * (k % 5) as f64
-                };
-                PointLight {
-                    position: DVec3::new(r * a.cos(), r * a.sin(), z),
-                    intensity: [1.0 + (k % 3) as f64, 1.0, 0.5 + (k % 4) as f64],
-                    spot: (k % 5 == 0).then(|| Spot {
-                        direction: DVec3::new(0.2, 0.0, -1.0).normalize(),
-                        inner_degrees: 20.0,
-                        outer_degrees: 50.0,
-                    }),
-                }
-            })
-            .collect()
-    }
+    use crate::light::scattered_lights as lights;
 
     /// Every light's chance of being drawn, by walking the tree (the product of the shares
     /// down to its leaf), in the order the draws' u-intervals take them; `None` for a subtree
