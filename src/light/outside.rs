@@ -98,8 +98,8 @@ impl Environment {
         self.sharp_direct_with(at, (EXACT_LIGHTS, SAMPLED_LIGHTS), SUN_RAYS, rng)
     }
 
-    /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together:
-    /// unbiased, and noisy alone. For the many points of a gather that are averaged (a near
+    /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together
+    /// and one to the sun: unbiased, and noisy alone. For the many points of a gather that are averaged (a near
     /// hit's reflected light), where a level's hundred lamps would otherwise cost a hundred
     /// rays at every one. Up to [`EXACT_LIGHTS`] + [`SAMPLED_LIGHTS`] lights, the light is
     /// drawn in proportion to what it would bring unoccluded, all weighed; beyond that, by the
