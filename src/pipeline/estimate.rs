@@ -50,14 +50,15 @@ pub const PILOT_SAMPLE: usize = 2000;
 /// most of the scene (as long as the solve itself), and the estimate counts the roots alone.
 pub const PILOT_MIN_ROOTS: usize = 5000;
 
-/// The piloted hierarchical estimate's peak memory: a base (the program, the scene, the
-/// final gather's caches), bytes per link (the 24-byte link, and the refinement's buffers
-/// that grow with the links) and per element. Fitted by least squares to the peaks of the
-/// LibreQuake levels, the generated offices and halls (BENCHMARKS.md "Large scenes: the
-/// estimate against the bake").
-const PILOTED_BASE_BYTES: f64 = 77.0 * 1024.0 * 1024.0;
-const PILOTED_BYTES_PER_LINK: f64 = 47.0;
-const PILOTED_BYTES_PER_ELEMENT: f64 = 700.0;
+/// The piloted hierarchical estimate's peak memory: a base (the program, the scene), bytes
+/// per element, and the larger of two phases' own: the solve's links (20 bytes each) and the
+/// final gather's output vertices (the display mesh, its records and refinement; the links are
+/// freed before it). Fitted to the peaks of the LibreQuake levels, the generated offices, halls
+/// and a roofless hall under sky and sun, all within 0.90–1.12× (`tools/bench_large.sh`).
+const PILOTED_BASE_BYTES: f64 = 75.0 * 1024.0 * 1024.0;
+const PILOTED_BYTES_PER_LINK: f64 = 20.0;
+const PILOTED_BYTES_PER_ELEMENT: f64 = 800.0;
+const PILOTED_BYTES_PER_GATHERED_VERTEX: f64 = 1600.0;
 /// The piloted hierarchical solve's seconds on 2 cores: per link (its estimate's rays, the
 /// sweeps over it) and per ray of the elements' direct light (many lamps). Fitted as the
 /// bytes above, then scaled to the benchmark machine of `tools/bench_large.sh` (the solve
@@ -111,22 +112,25 @@ const GATHER_SECONDS_PER_RAY: f64 = 0.21e-6;
 const GATHER_SECONDS_PER_DIRECT: f64 = 1.2e-6;
 /// Seconds on 2 cores of the `cache` gather and its display refinement
 /// ([`gather::refine::budget_for`]) per output vertex counted on the roots
-/// ([`Estimate::vertices`]): the direct light computed exactly at every vertex and the
-/// records' hemisphere rays dominate it, so it grows with the scene's occluders and lights as
-/// well. Between the generated offices (12 lamps and large sky panels, whose vertices also
-/// cast [`gather::cache::EMISSION_RAYS`]; about 3e-4 measured) and the LibreQuake levels and
-/// the generated hall of 10⁵ triangles (1.0–1.7e-4), their vertices counted on the roots cut
-/// along the contact lines as the bake cuts them (`tools/bench_large.sh`).
-const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 2e-4;
+/// ([`Estimate::vertices`]): the records' hemisphere rays and what every vertex's direct light
+/// costs apart from its emitters (the sun's rays alone: the roofless hall of 10⁵ triangles
+/// under sky and sun, 4.5e-5 measured), plus per vertex and per unit of the emitters' cost at a
+/// point as the gather prices it ([`gather_direct_cost`]): their exact visible pieces among
+/// the occluders. Fitted between the generated office (large sky panels seen past desks and
+/// chairs, 3.0–3.5e-4 a vertex) and the generated hall of 10⁵ triangles (small panels,
+/// 1.7e-4), both of cost 48 (`tools/bench_large.sh`).
+const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 0.43e-4;
+const GATHER_CACHE_SECONDS_PER_DIRECT: f64 = 3.9e-6;
 /// The share of [`GATHER_CACHE_SECONDS_PER_VERTEX`] left without the display refinement: the
 /// refinement's new vertices and tests evaluate the direct light about as many times as the
 /// gather did ([`gather::refine::CACHE_REFINE_SHARE`]).
 const CACHE_UNREFINED_SHARE: f64 = 0.5;
 /// Seconds on 2 cores per shadow ray to a light outside the mesh (a point or spot light, or
 /// the sun's [`crate::light::outside::SUN_RAYS`]) at an output vertex: every vertex of the gather
-/// and of its display refinement casts one to each (fitted to a LibreQuake level with over a
-/// hundred lamps, scaled to the benchmark machine as the constants above).
-const GATHER_SECONDS_PER_LIGHT_RAY: f64 = 0.34e-6;
+/// and of its display refinement casts one to each, weighs a level's lamps to choose them
+/// ([`crate::light::outside::EXACT_LIGHTS`]) and draws more at its near hits. Fitted between
+/// two LibreQuake levels of 673 and 489 lamps (2.8e-6 and 1.2e-6 measured).
+const GATHER_SECONDS_PER_LIGHT_RAY: f64 = 1.8e-6;
 
 /// The estimate; see the module documentation.
 #[derive(Debug, Clone, Serialize)]
@@ -207,6 +211,12 @@ impl Estimate {
                     None => None,
                 };
                 let vertices = sides * display_vertices(scene, &s, &root_patches);
+                let gather = s.gather.resolve(vertices, s.gather_rays.is_some());
+                let gathered_bytes = if gather == Gather::None {
+                    0.0
+                } else {
+                    PILOTED_BYTES_PER_GATHERED_VERTEX * vertices as f64
+                };
                 // The links and elements grow about as ε^-0.4 (the generated hall of 10⁴
                 // triangles between ε = 10⁻⁴ and 10⁻⁵).
                 let (leaves, memory, solve) = match &pilot {
@@ -218,8 +228,8 @@ impl Estimate {
                         (
                             roots + (0.75 * grown) as usize,
                             PILOTED_BASE_BYTES
-                                + PILOTED_BYTES_PER_LINK * links
-                                + PILOTED_BYTES_PER_ELEMENT * (roots as f64 + grown),
+                                + PILOTED_BYTES_PER_ELEMENT * (roots as f64 + grown)
+                                + (PILOTED_BYTES_PER_LINK * links).max(gathered_bytes),
                             PILOTED_SECONDS_PER_LINK * links
                                 + PILOTED_SECONDS_PER_DIRECT_RAY * direct_rays,
                         )
@@ -244,7 +254,7 @@ impl Estimate {
                     facing_fraction: None,
                     max_entries: None,
                     vertices,
-                    gather: s.gather.resolve(vertices, s.gather_rays.is_some()),
+                    gather,
                     memory_bytes: memory,
                     seconds: solve * per_core + pilot.as_ref().map_or(0.0, |p| p.seconds),
                     threads,
@@ -311,7 +321,9 @@ impl Estimate {
                 } else {
                     CACHE_UNREFINED_SHARE
                 };
-                e.seconds += GATHER_CACHE_SECONDS_PER_VERTEX * share * vertices as f64 * per_core;
+                let per_vertex = GATHER_CACHE_SECONDS_PER_VERTEX
+                    + GATHER_CACHE_SECONDS_PER_DIRECT * gather_direct_cost(scene);
+                e.seconds += per_vertex * share * vertices as f64 * per_core;
             } else {
                 // In hemisphere rays: at each vertex its rays, the rays beside edges
                 // ([`gather::EDGE_RAYS`]) and its direct light; then the display refinement's
