@@ -18,10 +18,11 @@
 //!   a detailed game level), so from [`PILOT_MIN_ROOTS`] roots on they are measured: a pilot
 //!   solve refines a random sample of the roots for real against a coarse solution of the
 //!   whole scene and extrapolates ([`crate::hierarchical::pilot`], a few seconds, a small
-//!   share of the solve). Memory and the solve's time are then linear in the links, the
-//!   elements and the rays of their direct light (constants fitted by least squares to the
-//!   benchmark's bakes; within 2× of the bake on each of them, BENCHMARKS.md "Large scenes:
-//!   the estimate against the bake"). A pilot estimates, it does not bound: the memory guard
+//!   share of the solve). The solve's time is then linear in the links and the rays of the
+//!   elements' direct light, and the peak memory in the elements plus the larger of the
+//!   links (the solve) and the gathered vertices (the gather, after the links are freed)
+//!   (constants fitted to the benchmark's bakes; within 2× of the bake on each of them,
+//!   BENCHMARKS.md "Large scenes: the estimate against the bake"). A pilot estimates, it does not bound: the memory guard
 //!   ([`links_within`]) is what holds a bake to its memory. On smaller scenes the estimate
 //!   grows with the roots alone, and with ε as ε^-0.4 (fitted to the generated halls: within
 //!   about ±50 % there, but several times low on detailed interiors, so a bake is warned of
