@@ -28,25 +28,57 @@ pub fn split_patches(
     patches: &Patches,
     extent: f64,
 ) -> Option<(Patches, Vec<u32>, ContactStats)> {
+    split_patches_binned(lines, patches, extent, GRID_MIN_SEGMENTS)
+}
+
+/// [`split_patches`], binning the segments of triangles with more than `grid_from` of them
+/// ([`SegmentGrid`]; the same result whatever `grid_from`).
+pub(super) fn split_patches_binned(
+    lines: &[Vec<[DVec3; 2]>],
+    patches: &Patches,
+    extent: f64,
+    grid_from: usize,
+) -> Option<(Patches, Vec<u32>, ContactStats)> {
     if patches.twin.iter().any(|&t| t != NO_TWIN) {
         return None;
     }
     let touch = TOUCH * extent;
     let n = patches.len();
-    // Each patch's part of its source triangle's segments.
+    // Each patch's part of its source triangle's segments: of a triangle with many (a floor
+    // under a hall's furniture has thousands, and thousands of patches), only those whose box
+    // comes within `touch` of the patch's, which are all that can cross it.
+    let grids: Vec<Option<SegmentGrid>> = lines
+        .par_iter()
+        .map(|segs| (segs.len() > grid_from).then(|| SegmentGrid::new(segs)))
+        .collect();
     let cut: Vec<(Face, Vec<[DVec3; 2]>)> = (0..n)
         .into_par_iter()
         .map(|i| {
             let face = Face::from_corners(patches.corners(i));
+            let t = patches.source_triangle[i] as usize;
             let segs = lines
-                .get(patches.source_triangle[i] as usize)
+                .get(t)
                 .map(|segs| {
-                    segs.iter()
-                        .filter_map(|&[p, q]| {
-                            face.clip([face.to_2d(p), face.to_2d(q)], touch / face.size)
-                        })
-                        .map(|[p, q]| [face.point_at(p), face.point_at(q)])
-                        .collect()
+                    let clip = |&[p, q]: &[DVec3; 2]| {
+                        face.clip([face.to_2d(p), face.to_2d(q)], touch / face.size)
+                            .map(|[p, q]| [face.point_at(p), face.point_at(q)])
+                    };
+                    match &grids[t] {
+                        Some(grid) => {
+                            let (lo, hi) = face
+                                .corners
+                                .iter()
+                                .fold((face.corners[0], face.corners[0]), |(lo, hi), &c| {
+                                    (lo.min(c), hi.max(c))
+                                });
+                            let reach = DVec3::splat(2.0 * touch);
+                            grid.near(lo - reach, hi + reach)
+                                .into_iter()
+                                .filter_map(|k| clip(&segs[k as usize]))
+                                .collect()
+                        }
+                        None => segs.iter().filter_map(clip).collect(),
+                    }
                 })
                 .unwrap_or_default();
             (face, segs)
@@ -137,4 +169,77 @@ pub fn split_patches(
     }
     stats.triangles = out.len();
     Some((out, parent, stats))
+}
+
+/// Segments of one source triangle from which [`split_patches`] bins them ([`SegmentGrid`]).
+pub(super) const GRID_MIN_SEGMENTS: usize = 32;
+
+/// One source triangle's contact segments binned by their boxes on a grid over the two widest
+/// axes of their bounds (they lie in the triangle's plane), about one segment a cell: which
+/// segments may come near a box, without testing them all.
+struct SegmentGrid {
+    lo: DVec3,
+    /// The two binned axes, the cells along each and their size.
+    axes: [usize; 2],
+    dims: [usize; 2],
+    size: [f64; 2],
+    /// Per cell (row-major), the segments whose boxes overlap it, in ascending order.
+    cells: Vec<Vec<u32>>,
+}
+
+impl SegmentGrid {
+    fn new(segs: &[[DVec3; 2]]) -> SegmentGrid {
+        let (lo, hi) = segs.iter().flatten().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        let extent = hi - lo;
+        let mut order = [0, 1, 2];
+        order.sort_by(|&a, &b| extent[b].total_cmp(&extent[a]));
+        let axes = [order[0], order[1]];
+        let side = (segs.len() as f64).sqrt().ceil().max(1.0) as usize;
+        let dims = axes.map(|a| if extent[a] > 0.0 { side } else { 1 });
+        let size = [0, 1].map(|k| (extent[axes[k]] / dims[k] as f64).max(f64::MIN_POSITIVE));
+        let mut grid = SegmentGrid {
+            lo,
+            axes,
+            dims,
+            size,
+            cells: vec![Vec::new(); dims[0] * dims[1]],
+        };
+        for (k, &[p, q]) in segs.iter().enumerate() {
+            let ([x0, x1], [y0, y1]) = grid.span(p.min(q), p.max(q));
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    grid.cells[y * dims[0] + x].push(k as u32);
+                }
+            }
+        }
+        grid
+    }
+
+    /// The cells (x and y ranges, inclusive) a box overlaps, clamped to the grid.
+    fn span(&self, lo: DVec3, hi: DVec3) -> ([usize; 2], [usize; 2]) {
+        let cell = |k: usize, v: f64| {
+            let c = ((v - self.lo[self.axes[k]]) / self.size[k]).floor();
+            c.clamp(0.0, (self.dims[k] - 1) as f64) as usize
+        };
+        let range = |k: usize| [cell(k, lo[self.axes[k]]), cell(k, hi[self.axes[k]])];
+        (range(0), range(1))
+    }
+
+    /// The segments whose cells the box overlaps, each once, in ascending order (a superset of
+    /// those whose boxes overlap it).
+    fn near(&self, lo: DVec3, hi: DVec3) -> Vec<u32> {
+        let ([x0, x1], [y0, y1]) = self.span(lo, hi);
+        let mut out = Vec::new();
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                out.extend_from_slice(&self.cells[y * self.dims[0] + x]);
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
 }

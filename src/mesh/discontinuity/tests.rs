@@ -189,6 +189,32 @@ fn split_patches_cut_along_the_footprint_and_stay_conforming() {
     }
 }
 
+/// The display cut with the segments binned on a grid is the cut with every segment tried
+/// at every patch, point for point: 49 small boxes on the floor give its two triangles about
+/// a hundred contact segments each, past the grid's threshold.
+#[test]
+fn binned_contact_segments_cut_the_display_as_all_of_them_do() {
+    let (mut b, white, _) = floor();
+    for i in 0..7 {
+        for j in 0..7 {
+            let lo = DVec3::new(0.2 + 0.55 * i as f64, 0.25 + 0.53 * j as f64, 0.0);
+            add_box(&mut b, lo, lo + DVec3::new(0.3, 0.2, 0.3), false, white);
+        }
+    }
+    let scene = b.build().unwrap();
+    let patches = crate::mesh::subdivide(&scene, 0.2, 0.0).unwrap();
+    let lines = contact_lines(&scene).expect("the boxes touch the floor");
+    assert!(lines.iter().any(|l| l.len() > display::GRID_MIN_SEGMENTS));
+    let binned = display::split_patches_binned(&lines, &patches, 6.0, display::GRID_MIN_SEGMENTS);
+    let all = display::split_patches_binned(&lines, &patches, 6.0, usize::MAX);
+    let ((a, pa, sa), (b, pb, sb)) = (binned.unwrap(), all.unwrap());
+    assert!(sa.faces_split > 0, "{sa:?}");
+    assert_eq!(pa, pb);
+    assert_eq!(a.positions, b.positions);
+    assert_eq!(a.triangles, b.triangles);
+    assert_eq!(format!("{sa:?}"), format!("{sb:?}"));
+}
+
 #[test]
 fn the_hierarchical_display_is_cut_along_the_contact_lines() {
     // The hierarchy's roots stay the input triangles; the gathered display's faces stop at
