@@ -65,14 +65,8 @@ pub(super) fn split_patches_binned(
                     };
                     match &grids[t] {
                         Some(grid) => {
-                            let (lo, hi) = face
-                                .corners
-                                .iter()
-                                .fold((face.corners[0], face.corners[0]), |(lo, hi), &c| {
-                                    (lo.min(c), hi.max(c))
-                                });
-                            let reach = DVec3::splat(2.0 * touch);
-                            grid.near(lo - reach, hi + reach)
+                            let (lo, hi) = face.bounds(2.0 * touch);
+                            grid.near(lo, hi)
                                 .into_iter()
                                 .filter_map(|k| clip(&segs[k as usize]))
                                 .collect()

@@ -55,9 +55,14 @@ impl Face {
         (b - a).cross(c - a).length() / self.size.max(f64::MIN_POSITIVE)
     }
 
+    /// The box of its corners, widened by `pad` on every side, scene units.
+    pub(super) fn bounds(&self, pad: f64) -> (DVec3, DVec3) {
+        let [a, b, c] = self.corners;
+        (a.min(b).min(c) - pad, a.max(b).max(c) + pad)
+    }
+
     pub(super) fn aabb(&self, pad: f64) -> Aabb {
-        let lo = self.corners[0].min(self.corners[1]).min(self.corners[2]) - pad;
-        let hi = self.corners[0].max(self.corners[1]).max(self.corners[2]) + pad;
+        let (lo, hi) = self.bounds(pad);
         // f32 boxes: widen by a rounding step so no touching face is missed.
         let widen = |x: f64, down: bool| {
             let f = x as f32;
