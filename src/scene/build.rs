@@ -301,11 +301,8 @@ impl SceneBuilder {
     /// Adds a material (ρ per RGB channel in [0, 1], Le in W·sr⁻¹·m⁻² per channel, ≥ 0)
     /// and returns its index. Values are checked by [`SceneBuilder::build`].
     pub fn material(&mut self, name: &str, reflectance: [f64; 3], emission: [f64; 3]) -> u32 {
-        self.materials.push(Material {
-            name: name.to_string(),
-            reflectance,
-            emission,
-        });
+        self.materials
+            .push(Material::opaque(name, reflectance, emission));
         (self.materials.len() - 1) as u32
     }
 

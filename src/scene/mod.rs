@@ -64,9 +64,38 @@ pub struct Material {
     pub reflectance: [f64; 3],
     /// Le, emitted radiance, W·sr⁻¹·m⁻² per RGB channel, each finite and ≥ 0.
     pub emission: [f64; 3],
+    /// t, the share of the light reaching a face that passes through it unchanged, in
+    /// [0, 1]; 0 (opaque) for almost every material. A face with t > 0 is a screen with holes
+    /// over the share t of its area (MTL `d` = 1 − t or `Tr` = t, glTF alpha blending and
+    /// `KHR_materials_transmission`): `reflectance` and `emission` are the area's means, the
+    /// file's values times the covered share 1 − t (set by [`Material::with_transmittance`]),
+    /// and a ray crossing the face carries on with weight t ([`crate::visibility`]). A face
+    /// with t = 1 adds nothing to the scene and is left out when it is built.
+    pub transmittance: f64,
 }
 
 impl Material {
+    /// An opaque material (t = 0): ρ per RGB channel in [0, 1], Le in W·sr⁻¹·m⁻² per channel.
+    pub fn opaque(name: impl Into<String>, reflectance: [f64; 3], emission: [f64; 3]) -> Material {
+        Material {
+            name: name.into(),
+            reflectance,
+            emission,
+            transmittance: 0.0,
+        }
+    }
+
+    /// This material as a screen that lets the share `t` ∈ [0, 1] of the light through
+    /// (clamped; a NaN is opaque): ρ and Le are scaled by the covered share 1 − t.
+    pub fn with_transmittance(mut self, t: f64) -> Material {
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        let cover = 1.0 - t;
+        self.reflectance = self.reflectance.map(|r| r * cover);
+        self.emission = self.emission.map(|e| e * cover);
+        self.transmittance = t;
+        self
+    }
+
     /// True if any channel of the emitted radiance is positive.
     pub fn is_emitter(&self) -> bool {
         self.emission.iter().any(|&e| e > 0.0)
@@ -148,11 +177,7 @@ impl Scene {
     /// named "default", ρ = 0.5 in every channel (a mid grey that neither absorbs nor
     /// reflects nearly everything), Le = 0.
     pub fn default_material() -> Material {
-        Material {
-            name: "default".into(),
-            reflectance: [0.5; 3],
-            emission: [0.0; 3],
-        }
+        Material::opaque("default", [0.5; 3], [0.0; 3])
     }
 
     /// Checks the invariants that make the scene usable: at least one triangle, vertex and

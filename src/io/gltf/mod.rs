@@ -461,11 +461,11 @@ impl Loader<'_> {
         {
             emission = [0, 1, 2].map(|c| emission[c] * mean[c]);
         }
-        self.materials.push(Material {
+        self.materials.push(Material::opaque(
             name,
-            reflectance: reflectance.map(|r| r.clamp(0.0, 1.0)),
-            emission: emission.map(|e| if e.is_finite() { e.max(0.0) } else { 0.0 }),
-        });
+            reflectance.map(|r| r.clamp(0.0, 1.0)),
+            emission.map(|e| if e.is_finite() { e.max(0.0) } else { 0.0 }),
+        ));
         let k = (self.materials.len() - 1) as u32;
         self.material_of[index] = Some(k);
         k

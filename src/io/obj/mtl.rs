@@ -193,11 +193,7 @@ pub(super) fn convert_material(
             values.try_into().ok()
         })
         .unwrap_or([0.0; 3]);
-    Material {
-        name: m.name.clone(),
-        reflectance,
-        emission,
-    }
+    Material::opaque(m.name.clone(), reflectance, emission)
 }
 
 /// Applies what the MTL files had beyond `Kd` and `Ke` to the converted `materials`:

@@ -390,11 +390,11 @@ pub fn load(path: &Path) -> Result<Scene> {
                 key[k] = (x + 0.0).to_bits();
             }
             *by_value.entry(key).or_insert_with(|| {
-                materials.push(Material {
-                    name: format!("ply_{}", materials.len()),
-                    reflectance: rho,
-                    emission: le,
-                });
+                materials.push(Material::opaque(
+                    format!("ply_{}", materials.len()),
+                    rho,
+                    le,
+                ));
                 (materials.len() - 1) as u32
             })
         } else {
