@@ -277,6 +277,23 @@ pub fn compute(
     compute_reusing(patches, vis, settings, needed, None)
 }
 
+/// Scales column j of `matrix` by the covered share 1 − t_j of patch j (`transmittance`: one
+/// t per patch in [0, 1], or empty for an opaque scene, which changes nothing): a receiver
+/// gathers from a partly transparent patch only what its material covers, the rest of that
+/// solid angle reaching it from behind through the segments the patch lets through
+/// ([`crate::visibility::Visibility::with_transmittance`]). So rows stay ≤ 1 (= 1 in a closed
+/// scene) and reciprocity holds for the covered areas.
+fn cover_columns(matrix: &mut CsMatI<f32, u32>, transmittance: &[f64]) {
+    if transmittance.is_empty() {
+        return;
+    }
+    for mut row in matrix.outer_iterator_mut() {
+        for (j, f) in row.iter_mut() {
+            *f *= (1.0 - transmittance[j]) as f32;
+        }
+    }
+}
+
 /// [`compute`], taking the entries of unchanged pairs from `reuse` (pair estimators only; the
 /// hemisphere estimator's rows change when any patch they hit is split). A reused entry equals
 /// what computing it again with the earlier indices would give, up to one f32 rounding.
@@ -316,6 +333,7 @@ pub fn compute_reusing(
         needed
     };
     stats.rows_skipped = needed.rows.iter().filter(|&&r| !r).count() as u64;
+    let transmittance = patches.transmittance();
     let emitter: Vec<bool> = patches
         .emission
         .iter()
@@ -352,7 +370,7 @@ pub fn compute_reusing(
                 estimator: Estimator::Contour,
                 ..*settings
             };
-            let exact = pairwise::pairwise(
+            let mut exact = pairwise::pairwise(
                 patches,
                 vis,
                 &contour,
@@ -361,6 +379,7 @@ pub fn compute_reusing(
                 &mut stats,
                 &mut visible_fraction,
             )?;
+            cover_columns(&mut exact, &transmittance);
             &shot + &exact
         } else {
             shot
@@ -378,8 +397,13 @@ pub fn compute_reusing(
     };
     // The pair estimator's own matrix, for the next refinement round, when what follows
     // changes it.
-    let pair_matrix =
-        (pair_estimator && (normalise || settings.reciprocity)).then(|| matrix.clone());
+    let pair_matrix = (pair_estimator
+        && (normalise || settings.reciprocity || !transmittance.is_empty()))
+    .then(|| matrix.clone());
+    if pair_estimator {
+        // The hemisphere's rays already pass partly transparent patches by chance.
+        cover_columns(&mut matrix, &transmittance);
+    }
     if normalise {
         let sums: Vec<f64> = row_sums_of(&matrix);
         let factor: Vec<f64> = sums
@@ -390,11 +414,14 @@ pub fn compute_reusing(
     }
     stats.patches_partly_hidden = visible_fraction.iter().filter(|&&v| v < 1.0).count() as u64;
     if settings.reciprocity {
+        // A partly transparent patch's material covers 1 − t of its area: reciprocity holds
+        // for the covered areas (the columns were scaled by them, `cover_columns`).
         let visible_area: Vec<f64> = patches
             .area
             .iter()
             .zip(&visible_fraction)
-            .map(|(a, v)| a * v)
+            .enumerate()
+            .map(|(i, (a, v))| a * v * (1.0 - transmittance.get(i).copied().unwrap_or(0.0)))
             .collect();
         matrix = symmetric_part(&matrix, &visible_area)?;
     }

@@ -74,6 +74,9 @@ pub struct Coarse {
     /// [`crate::visibility::NONE`] for a patch that does not occlude. A segment from a patch
     /// ignores that triangle (the segment leaves its plane at once, so nothing changes).
     pub of_patch: Vec<u32>,
+    /// The transmittance of each of `triangles` (its patches' material's); empty when every
+    /// one is opaque. For [`crate::visibility::Visibility::with_transmittance`].
+    pub transmittance: Vec<f64>,
 }
 
 impl Coarse {
@@ -92,6 +95,8 @@ impl Coarse {
         }
         let mut triangles = Vec::with_capacity(groups.len());
         let mut of_patch = vec![NONE; n];
+        let per_patch = patches.transmittance();
+        let mut transmittance = Vec::new();
         for members in groups.values() {
             let area: f64 = members.iter().map(|&i| patches.area[i]).sum();
             match spanned_triangle(patches, members) {
@@ -100,11 +105,17 @@ impl Coarse {
                         of_patch[i] = triangles.len() as u32;
                     }
                     triangles.push(t);
+                    if !per_patch.is_empty() {
+                        transmittance.push(per_patch[members[0]]);
+                    }
                 }
                 _ => {
                     for &i in members {
                         of_patch[i] = triangles.len() as u32;
                         triangles.push(patches.corners(i));
+                        if !per_patch.is_empty() {
+                            transmittance.push(per_patch[i]);
+                        }
                     }
                 }
             }
@@ -112,6 +123,7 @@ impl Coarse {
         Coarse {
             triangles,
             of_patch,
+            transmittance,
         }
     }
 }
@@ -214,7 +226,9 @@ mod tests {
         let mask = occluders(&patches);
         let fine = vis.restricted(&mask);
         let coarse = Coarse::of(&patches, &mask);
-        let blockers = vis.in_frame_of(&coarse.triangles);
+        let blockers = vis
+            .in_frame_of(&coarse.triangles)
+            .with_transmittance(&coarse.transmittance);
         let mut rng = Rng::new(&[7, n as u64]);
         let mut point = |i: usize| {
             let (u, v) = (rng.next_f64(), rng.next_f64());

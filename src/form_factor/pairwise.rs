@@ -52,7 +52,9 @@ pub(super) fn pairwise(
     // Traced as the scene triangles the occluding patches were cut from, in `vis`'s frame
     // (the sample points are prepared in it).
     let coarse = Coarse::of(patches, &occluder_mask);
-    let blockers = vis.in_frame_of(&coarse.triangles);
+    let blockers = vis
+        .in_frame_of(&coarse.triangles)
+        .with_transmittance(&coarse.transmittance);
     stats.occluder_triangles = coarse.triangles.len() as u64;
     // The sample points of every patch, and which of them contact geometry buries.
     let samples = SamplePoints::place(patches, vis, settings);

@@ -192,7 +192,10 @@ impl Gatherer<'_> {
         let spread = (squares / count - luminance(out).powi(2)).max(0.0);
         if self.env.sky_model == SkyModel::Uniform {
             // A uniform sky by the ratio estimate: exact where nothing is in the way.
-            for (o, l) in out.iter_mut().zip(self.env.uniform_sky(n, open, above)) {
+            for (o, l) in out
+                .iter_mut()
+                .zip(self.env.uniform_sky(n, open as f64, above))
+            {
                 *o += l;
             }
         }

@@ -170,7 +170,7 @@ impl Surfaces {
                 }
             }
         }
-        let vis = Visibility::build(&coarse.triangles);
+        let vis = Visibility::build(&coarse.triangles).with_transmittance(&coarse.transmittance);
         Surfaces {
             vis,
             triangles: coarse.triangles,

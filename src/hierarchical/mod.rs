@@ -488,6 +488,24 @@ pub struct Hierarchy<'a> {
 }
 
 impl<'a> Hierarchy<'a> {
+    /// The share of an element source's area its material covers, 1 − t
+    /// ([`crate::scene::Material::transmittance`]): a link gathers from a partly transparent
+    /// source only what its covered part sends (what lies behind arrives through the links
+    /// past it, whose rays the source lets through). 1 for clusters and opaque sources.
+    pub(super) fn coverage(&self, source: Node) -> f64 {
+        let t = &self.roots.material_transmittance;
+        match source.as_element() {
+            Some(e) if !t.is_empty() => {
+                let root = self.tree.elements[e].root as usize;
+                1.0 - t
+                    .get(self.roots.material[root] as usize)
+                    .copied()
+                    .unwrap_or(0.0)
+            }
+            _ => 1.0,
+        }
+    }
+
     /// Hierarchies over `roots`, no links yet, L = Le, lit also by `env`.
     pub fn new(
         roots: &'a Patches,
@@ -512,7 +530,7 @@ impl<'a> Hierarchy<'a> {
         let tree = Tree::new(roots);
         let sample = p.map(|p| pilot::Sample::draw(&tree, p, seed));
         let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
-        let vis = Visibility::build(&corners);
+        let vis = Visibility::build(&corners).with_transmittance(&roots.transmittance());
         let can_occlude = occluders(roots);
         let convex = !can_occlude.contains(&true);
         let occluders = can_occlude

@@ -23,6 +23,7 @@ pub struct Leaves {
 /// each triangle's radiance taken from `radiance` (indexed by element).
 pub fn leaves(tree: &Tree, roots: &Patches, radiance: &[Rgb]) -> Leaves {
     let mut out = Patches::with_capacity(tree.positions.clone(), tree.elements.len());
+    out.material_transmittance = roots.material_transmittance.clone();
     let mut out_radiance = Vec::new();
     let mut out_root = Vec::new();
     let mut chain = Vec::new();

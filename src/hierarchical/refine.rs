@@ -117,7 +117,10 @@ impl Hierarchy<'_> {
                         self.seed,
                     );
                     cast.fetch_add(e.rays, Ordering::Relaxed);
-                    e.link
+                    e.link.map(|mut l| {
+                        l.f *= self.coverage(l.source) as f32;
+                        l
+                    })
                 })
                 .collect();
             // Room for exactly this chunk (growth by doubling could leave as much again

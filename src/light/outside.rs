@@ -189,8 +189,9 @@ impl Environment {
         sun + self.lights.len().min(EXACT_LIGHTS + SAMPLED_LIGHTS)
     }
 
-    /// One point light's part: I · falloff · cos θ / r² / π, 0 where something lies between
-    /// (one shadow ray: a point casts hard shadows).
+    /// One point light's part: I · falloff · cos θ / r² / π, times the share that passes
+    /// what lies between (one shadow ray, [`Visibility::transmittance`]: a point casts hard
+    /// shadows, a pane of transmittance t passes t of its light).
     pub fn point_direct(&self, light: &PointLight, at: &Receiver) -> Rgb {
         let origin = at.origin();
         let Some(Toward {
@@ -204,14 +205,20 @@ impl Environment {
             return [0.0; 3];
         };
         // The segment to the light, short of it by the lift (nothing stands on a point light).
-        if at.vis.blocked(origin, to, 1.0 - at.lift / r, at.ignore) {
+        let pass = at
+            .vis
+            .transmittance(origin, to, 1.0 - at.lift / r, at.ignore);
+        if pass == 0.0 {
             return [0.0; 3];
         }
-        light.intensity.map(|i| i * falloff * cos / (r2 * PI))
+        light
+            .intensity
+            .map(|i| i * falloff * cos * pass / (r2 * PI))
     }
 
-    /// The sun's part of [`Environment::direct`]: E_sun cos θ V̄ / π, V̄ by `rays` shadow rays
-    /// to points of the disc stratified over its solid angle ([`SUN_RAYS`] at a point that is
+    /// The sun's part of [`Environment::direct`]: E_sun cos θ V̄ / π, V̄ the mean share that
+    /// passes ([`Visibility::transmittance`]: 0 or 1, or the product of the panes'
+    /// transmittances on the way) over `rays` shadow rays to points of the disc stratified over its solid angle ([`SUN_RAYS`] at a point that is
     /// shown; one, unbiased and noisy alone, at a near hit's point, of which a gather averages
     /// many).
     pub fn sun_direct(&self, at: &Receiver, rays: usize, rng: &mut Rng) -> Rgb {
@@ -226,18 +233,18 @@ impl Environment {
         let (t, b) = orthonormal_basis(s);
         let cos_max = (0.5 * SUN_DIAMETER_DEGREES).to_radians().cos();
         let origin = at.origin();
-        let mut seen = 0usize;
+        let mut seen = 0.0;
         for k in 0..rays {
             // Uniform over the disc's solid angle: cos uniform in [cos_max, 1], stratified.
             let c = 1.0 - (k as f64 + rng.next_f64()) / rays as f64 * (1.0 - cos_max);
             let phi = 2.0 * PI * rng.next_f64();
             let sin = (1.0 - c * c).max(0.0).sqrt();
             let dir = c * s + sin * (phi.cos() * t + phi.sin() * b);
-            if dir.dot(n) > 0.0 && !at.vis.blocked(origin, dir, f64::INFINITY, at.ignore) {
-                seen += 1;
+            if dir.dot(n) > 0.0 {
+                seen += at.vis.transmittance(origin, dir, f64::INFINITY, at.ignore);
             }
         }
-        let v = seen as f64 / rays.max(1) as f64;
+        let v = seen / rays.max(1) as f64;
         sun.irradiance.map(|e| e * cos * v / PI)
     }
 
@@ -254,7 +261,8 @@ impl Environment {
         }
         let (t, b) = orthonormal_basis(n);
         let origin = at.origin();
-        let (mut cast, mut open, mut drawn) = (0usize, 0usize, 0usize);
+        // `open`: the rays' summed share that leaves the scene ([`Visibility::transmittance`]).
+        let (mut cast, mut open, mut drawn) = (0usize, 0.0, 0usize);
         let mut sum = [0.0; 3];
         while cast < rays && drawn < MAX_SKY_DRAWS * rays {
             let s = ((drawn % rays) as f64 + rng.next_f64()) / rays as f64;
@@ -264,12 +272,13 @@ impl Environment {
                 continue;
             }
             cast += 1;
-            if at.vis.blocked(origin, dir, f64::INFINITY, at.ignore) {
+            let pass = at.vis.transmittance(origin, dir, f64::INFINITY, at.ignore);
+            if pass == 0.0 {
                 continue;
             }
-            open += 1;
+            open += pass;
             for (s, l) in sum.iter_mut().zip(self.sky_radiance(dir)) {
-                *s += l;
+                *s += pass * l;
             }
         }
         if cast == 0 {
@@ -287,14 +296,15 @@ impl Environment {
 
     /// A uniform sky's D at a surface of unit normal `n` by the ratio estimate: its exact
     /// unoccluded value L_sky (1 + n·up)/2 times the share `open / above` of the rays above the
-    /// horizon that left the scene (0 when no ray was above it). [`Environment::sky_direct`]
+    /// horizon that left the scene (`open` counts each ray by the share of it that passed,
+    /// 1 without panes on the way; 0 when no ray was above it). [`Environment::sky_direct`]
     /// and the final gather's hemisphere rays both estimate it so.
-    pub fn uniform_sky(&self, n: DVec3, open: usize, above: usize) -> Rgb {
+    pub fn uniform_sky(&self, n: DVec3, open: f64, above: usize) -> Rgb {
         if above == 0 {
             return [0.0; 3];
         }
         let unoccluded = 0.5 * (1.0 + n.dot(self.up.axis()));
-        let share = open as f64 / above as f64;
+        let share = open / above as f64;
         self.sky.map(|l| l * unoccluded * share)
     }
 
@@ -317,7 +327,7 @@ pub fn patch_light(patches: &Patches, env: &Environment, seed: u64) -> Vec<Rgb> 
         return vec![[0.0; 3]; patches.len()];
     }
     let corners: Vec<[DVec3; 3]> = (0..patches.len()).map(|i| patches.corners(i)).collect();
-    let vis = Visibility::build(&corners);
+    let vis = Visibility::build(&corners).with_transmittance(&patches.transmittance());
     let (lo, hi) = patches
         .positions
         .iter()

@@ -77,6 +77,10 @@ pub struct Patches {
     /// different vertex indices) in reverse order, opposite normals, the same area, and come
     /// from twin scene triangles.
     pub twin: Vec<u32>,
+    /// The transmittance t of each of the scene's materials (indexed like
+    /// [`Patches::material`]'s values, not by patch; [`crate::scene::Material::transmittance`]):
+    /// empty when every material is opaque. [`Patches::transmittance`] gives it per patch.
+    pub material_transmittance: Vec<f64>,
 }
 
 /// What a triangle cut from a larger one takes from it ([`Patches::push_inside`]).
@@ -110,7 +114,26 @@ impl Patches {
             emission: Vec::with_capacity(n),
             source_triangle: Vec::with_capacity(n),
             twin: Vec::with_capacity(n),
+            material_transmittance: Vec::new(),
         }
+    }
+
+    /// The transmittance t in [0, 1] of each patch ([`Patches::material_transmittance`]),
+    /// for [`crate::visibility::Visibility::with_transmittance`]; empty when every patch is
+    /// opaque.
+    pub fn transmittance(&self) -> Vec<f64> {
+        if !self.material_transmittance.iter().any(|&t| t > 0.0) {
+            return Vec::new();
+        }
+        self.material
+            .iter()
+            .map(|&m| {
+                self.material_transmittance
+                    .get(m as usize)
+                    .copied()
+                    .unwrap_or(0.0)
+            })
+            .collect()
     }
 
     /// Number of patches.

@@ -160,6 +160,9 @@ fn build(
     let n = tris.len();
     let smooth = corner_normals(scene, crease_degrees);
     let mut patches = Patches::with_capacity(positions, n);
+    if scene.materials.iter().any(|m| m.transmittance > 0.0) {
+        patches.material_transmittance = scene.materials.iter().map(|m| m.transmittance).collect();
+    }
     for (t, src) in tris {
         let [a, b, c] = t.map(|v| patches.positions[v as usize]);
         let cross = (b - a).cross(c - a);

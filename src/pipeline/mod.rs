@@ -599,7 +599,7 @@ fn form_factors(
     }
     let t = Instant::now();
     let corners: Vec<_> = (0..patches.len()).map(|i| patches.corners(i)).collect();
-    let visibility = Visibility::build(&corners);
+    let visibility = Visibility::build(&corners).with_transmittance(&patches.transmittance());
     let bvh_seconds = t.elapsed().as_secs_f64();
     report.seconds.bvh += bvh_seconds;
 

@@ -114,7 +114,7 @@ pub(crate) fn finish(
             (b - a).cross(c - a).length() > threshold
         })
         .collect();
-    let (triangles, face_lines) = retain(triangles, face_lines, &keep);
+    let (mut triangles, mut face_lines) = retain(triangles, face_lines, &keep);
     let dropped = total - triangles.len();
     if triangles.is_empty() {
         return Err(Error::Input {
@@ -126,6 +126,66 @@ pub(crate) fn finish(
         warnings.push(format!(
             "skipped {dropped} zero-area triangle{} (|e1 × e2| ≤ {ZERO_AREA_RELATIVE:e} × bounding-box diagonal²)",
             if dropped == 1 { "" } else { "s" }
+        ));
+    }
+
+    // 3b. Leave out the faces of fully clear materials (t = 1): they pass all light and
+    // reflect none, so they add nothing but rays (Material::transmittance).
+    let clear: Vec<bool> = triangles
+        .iter()
+        .map(|t| {
+            materials
+                .get(t.material as usize)
+                .is_some_and(|m| m.transmittance >= 1.0)
+        })
+        .collect();
+    let n_clear = clear.iter().filter(|&&c| c).count();
+    if n_clear > 0 {
+        let mut names: Vec<String> = Vec::new();
+        for (t, _) in triangles.iter().zip(&clear).filter(|(_, &c)| c) {
+            let name = &materials[t.material as usize].name;
+            if !names.contains(name) {
+                names.push(name.clone());
+            }
+        }
+        let keep: Vec<bool> = clear.iter().map(|&c| !c).collect();
+        let (kept, lines) = retain(triangles, face_lines, &keep);
+        if kept.is_empty() {
+            return Err(Error::Input {
+                path: source_path(&source),
+                message: format!(
+                    "every face is fully transparent (transmittance 1: MTL `d 0` or `Tr 1`, \
+                     glTF alpha 0 or transmission 1): nothing to bake ({})",
+                    listed_names(&names)
+                ),
+            });
+        }
+        warnings.push(format!(
+            "left out {n_clear} face{} of fully transparent material{} (transmittance 1: \
+             they let all light through and reflect none): {}",
+            if n_clear == 1 { "" } else { "s" },
+            if names.len() == 1 { "" } else { "s" },
+            listed_names(&names)
+        ));
+        triangles = kept;
+        face_lines = lines;
+    }
+    let transparent: Vec<String> = materials
+        .iter()
+        .filter(|m| m.transmittance > 0.0 && m.transmittance < 1.0)
+        .map(|m| m.name.clone())
+        .collect();
+    if triangles.iter().any(|t| {
+        let m = &materials[t.material as usize];
+        m.transmittance > 0.0
+    }) {
+        warnings.push(format!(
+            "{} partly transparent material{} (MTL `d` < 1 or `Tr` > 0, glTF alpha blending or \
+             transmission): the share t passes, straight and untinted; ρ and Le are the \
+             covered share's: {}",
+            transparent.len(),
+            if transparent.len() == 1 { "" } else { "s" },
+            listed_names(&transparent)
         ));
     }
 

@@ -67,10 +67,12 @@ pub struct Material {
     /// t, the share of the light reaching a face that passes through it unchanged, in
     /// [0, 1]; 0 (opaque) for almost every material. A face with t > 0 is a screen with holes
     /// over the share t of its area (MTL `d` = 1 − t or `Tr` = t, glTF alpha blending and
-    /// `KHR_materials_transmission`): `reflectance` and `emission` are the area's means, the
-    /// file's values times the covered share 1 − t (set by [`Material::with_transmittance`]),
-    /// and a ray crossing the face carries on with weight t ([`crate::visibility`]). A face
-    /// with t = 1 adds nothing to the scene and is left out when it is built.
+    /// `KHR_materials_transmission`): `reflectance` and `emission` are its material's, over
+    /// the covered share 1 − t; a ray crossing the face carries on with weight t
+    /// ([`crate::visibility::Visibility::with_transmittance`]), and what others gather from
+    /// the face is scaled by 1 − t ([`crate::form_factor::FormFactors::cover`], the
+    /// hierarchy's links). A face with t = 1 adds nothing and is left out when the scene is
+    /// built.
     pub transmittance: f64,
 }
 
@@ -86,13 +88,9 @@ impl Material {
     }
 
     /// This material as a screen that lets the share `t` ∈ [0, 1] of the light through
-    /// (clamped; a NaN is opaque): ρ and Le are scaled by the covered share 1 − t.
+    /// (clamped; a NaN is opaque).
     pub fn with_transmittance(mut self, t: f64) -> Material {
-        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
-        let cover = 1.0 - t;
-        self.reflectance = self.reflectance.map(|r| r * cover);
-        self.emission = self.emission.map(|e| e * cover);
-        self.transmittance = t;
+        self.transmittance = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
         self
     }
 

@@ -316,6 +316,27 @@ impl Bvh4 {
         )
     }
 
+    /// Calls `visit(i)` once for every triangle `i` the ray meets with internal parameter in
+    /// `[ray.t_lo, ray.t_hi]` (the four-lane test, exact as the scalar one), in no particular
+    /// order, until `visit` returns true (then returns true).
+    pub fn each_hit(&self, ray: &WatertightRay, mut visit: impl FnMut(usize) -> bool) -> bool {
+        if self.root == EMPTY {
+            return false;
+        }
+        let r4 = Ray4::new(ray);
+        let (t_lo, t_hi) = (f32x4::splat(ray.t_lo), f32x4::splat(ray.t_hi));
+        self.walk(
+            |node| r4.enter(node, t_lo, t_hi).0,
+            |p| {
+                let mask = r4.hits(p, ray.t_lo, ray.t_hi);
+                lanes(mask).any(|lane| {
+                    // A packet repeats a triangle to fill its lanes: visit each once.
+                    !p.prim[..lane].contains(&p.prim[lane]) && visit(p.prim[lane] as usize)
+                })
+            },
+        )
+    }
+
     /// Depth first over the tree until `leaf` returns true (then returns true): `enter(node)`
     /// gives a bit per child to descend into, and `leaf(packet)` is called for every packet
     /// reached, a node's leaf children before its inner children are opened (so a query that

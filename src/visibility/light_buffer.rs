@@ -290,13 +290,14 @@ impl<'a> LightBuffer<'a> {
         if last != usize::MAX
             && !vis.ignored(last, both)
             && ray.intersect(&vis.tris[last], ray.t_lo, ray.t_hi).is_some()
+            && !vis.lets_through(last, &ray)
         {
             return true;
         }
         // The BVH calls the filter only for triangles the ray meets: one that passes blocks.
         let blocker = std::cell::Cell::new(usize::MAX);
         let blocked = vis.bvh.any_hit(&ray, |i| {
-            let blocks = !vis.ignored(i, both);
+            let blocks = !vis.ignored(i, both) && !vis.lets_through(i, &ray);
             if blocks {
                 blocker.set(i);
             }
@@ -351,7 +352,8 @@ impl<'a> LightBuffer<'a> {
             let Some(r) = vis.segment_ray_along(p, d, length) else {
                 return false;
             };
-            if r.intersect(&vis.tris[last], r.t_lo, r.t_hi).is_some() {
+            if r.intersect(&vis.tris[last], r.t_lo, r.t_hi).is_some() && !vis.lets_through(last, &r)
+            {
                 return true;
             }
             ray = Some(r);
@@ -371,7 +373,7 @@ impl<'a> LightBuffer<'a> {
                 let Some(r) = &ray else {
                     return false;
                 };
-                if r.intersect(&vis.tris[t], r.t_lo, r.t_hi).is_some() {
+                if r.intersect(&vis.tris[t], r.t_lo, r.t_hi).is_some() && !vis.lets_through(t, r) {
                     self.last.set(t);
                     return true;
                 }

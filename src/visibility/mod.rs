@@ -159,6 +159,10 @@ pub struct Visibility {
     scale: f64,
     /// `MIN_DISTANCE_REL × largest extent`, canonical units.
     min_distance: f64,
+    /// Each input triangle's transmittance t ([`Visibility::with_transmittance`]) as a
+    /// threshold t·2³² on a ray's hash ([`Visibility::lets_through`]); empty when every
+    /// triangle is opaque (the common case, which then costs one length test per hit).
+    clear: Vec<u64>,
 }
 
 impl fmt::Debug for Visibility {
@@ -247,6 +251,61 @@ impl Visibility {
             centre,
             scale,
             min_distance,
+            clear: Vec::new(),
+        }
+    }
+
+    /// These triangles with transmittances `t` (indexed as the triangles given to
+    /// [`Visibility::build`], each in [0, 1]; an empty slice, or all zeros, leaves them
+    /// opaque). A triangle with t > 0 is a screen with holes over the share t of its area
+    /// ([`crate::scene::Material::transmittance`]), so every query treats it as follows:
+    /// - [`Visibility::transmittance`] multiplies the t of every triangle along a ray: the
+    ///   exact share of a light's rays that get through (sun, sky and lamps);
+    /// - every other query (segments, closest hits, shadow rays' yes-or-no) lets a given
+    ///   ray through with chance t, decided by a hash of the ray and the triangle (hashed
+    ///   stochastic transparency, after Enderton, Sintorn, Shirley & Luebke, "Stochastic
+    ///   transparency", I3D 2010, and Wyman & McGuire, "Hashed alpha testing", I3D 2017): the
+    ///   same ray always gets the same answer, whatever the thread or the traversal order, and
+    ///   any estimate that averages rays (form factors, gathers) converges to the transmitted
+    ///   share.
+    ///
+    /// # Panics
+    /// If `t` is neither empty nor one value per triangle.
+    pub fn with_transmittance(mut self, t: &[f64]) -> Visibility {
+        assert!(
+            t.is_empty() || t.len() == self.len,
+            "one transmittance per triangle"
+        );
+        if t.iter().any(|&t| t > 0.0) {
+            self.clear = t.iter().map(|&t| clear_threshold(t)).collect();
+        } else {
+            self.clear = Vec::new();
+        }
+        self
+    }
+
+    /// True if some triangle lets light through ([`Visibility::with_transmittance`]).
+    pub fn has_transmittance(&self) -> bool {
+        !self.clear.is_empty()
+    }
+
+    /// True when primitive `i` lets this ray through: the hash of the ray and the triangle
+    /// falls under the triangle's transmittance threshold. Always false for opaque triangles.
+    #[inline(always)]
+    pub(in crate::visibility) fn lets_through(&self, i: usize, ray: &WatertightRay) -> bool {
+        if self.clear.is_empty() {
+            return false;
+        }
+        let threshold = self.clear[self.ids[i] as usize];
+        threshold != 0 && ray_hash(ray, self.ids[i]) < threshold
+    }
+
+    /// The transmittance of primitive `i`: 0 for opaque.
+    #[inline(always)]
+    fn passing(&self, i: usize) -> f64 {
+        match self.clear.get(self.ids[i] as usize) {
+            Some(&c) => c as f64 / CLEAR_ONE as f64,
+            None => 0.0,
         }
     }
 
@@ -326,6 +385,7 @@ impl Visibility {
         kept.sort_unstable_by_key(|&(id, _)| id);
         let (ids, tris): (Vec<u32>, Vec<[Vec3A; 3]>) = kept.into_iter().unzip();
         out.set_triangles(tris, ids);
+        out.clear = self.clear.clone();
         out
     }
 
@@ -420,7 +480,9 @@ impl Visibility {
         let Some(ray) = self.canonical_segment_ray(p, q) else {
             return false;
         };
-        self.bvh.any_hit(&ray, |i| !self.ignored(i, ignore))
+        self.bvh.any_hit(&ray, |i| {
+            !self.ignored(i, ignore) && !self.lets_through(i, &ray)
+        })
     }
 
     /// Oracle for tests: [`Visibility::occluded`] answered by testing every triangle with the
@@ -430,7 +492,9 @@ impl Visibility {
             return false;
         };
         (0..self.tris.len()).any(|i| {
-            !self.ignored(i, ignore) && ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi).is_some()
+            !self.ignored(i, ignore)
+                && ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi).is_some()
+                && !self.lets_through(i, &ray)
         })
     }
 
@@ -449,7 +513,7 @@ impl Visibility {
         let (ray, m) = self.direction_ray(origin, dir, t_max)?;
         let mut best: Option<(f32, u32, f32, f32)> = None;
         self.bvh.closest(&ray, |i| {
-            if self.ignored(i, [ignore, ignore]) {
+            if self.ignored(i, [ignore, ignore]) || self.lets_through(i, &ray) {
                 return None;
             }
             let (t, u, v) = ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi)?;
@@ -472,7 +536,42 @@ impl Visibility {
         self.bvh.any_hit(&ray, |i| {
             !self.ignored(i, [ignore, ignore])
                 && ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi).is_some()
+                && !self.lets_through(i, &ray)
         })
+    }
+
+    /// The share of light along the ray `origin + t·dir`, `t ∈ (t_min, t_max]` as in
+    /// [`Visibility::closest_hit`], that passes every triangle on the way (but `ignore` and its
+    /// twin): the product of their transmittances ([`Visibility::with_transmittance`]), in
+    /// [0, 1]. Without transparent triangles it is exactly 0 where [`Visibility::blocked`]
+    /// holds and 1 elsewhere. For the light of the sun, the sky and lamps through panes: no
+    /// noise, where the yes-or-no of one hashed ray would give t on average.
+    pub fn transmittance(&self, origin: DVec3, dir: DVec3, t_max: f64, ignore: u32) -> f64 {
+        if self.clear.is_empty() {
+            return if self.blocked(origin, dir, t_max, ignore) {
+                0.0
+            } else {
+                1.0
+            };
+        }
+        let Some((ray, _)) = self.direction_ray(origin, dir, t_max) else {
+            return 1.0;
+        };
+        let mut share = 1.0;
+        let opaque = self.bvh.each_hit(&ray, |i| {
+            if self.ignored(i, [ignore, ignore])
+                || ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi).is_none()
+            {
+                return false;
+            }
+            share *= self.passing(i);
+            share == 0.0
+        });
+        if opaque {
+            0.0
+        } else {
+            share
+        }
     }
 
     /// True when the surface point `x` (unit normal `n`, on triangle `ignore`) is buried: the
@@ -604,7 +703,7 @@ impl Visibility {
         let (ray, m) = self.direction_ray(origin, dir, t_max)?;
         let mut best: Option<(f32, u32, f32, f32)> = None;
         for (i, tri) in self.tris.iter().enumerate() {
-            if self.ignored(i, [ignore, ignore]) {
+            if self.ignored(i, [ignore, ignore]) || self.lets_through(i, &ray) {
                 continue;
             }
             if let Some((t, u, v)) = ray.intersect(tri, ray.t_lo, ray.t_hi) {
@@ -716,6 +815,42 @@ impl Visibility {
         let ray = WatertightRay::new(self.to_canonical(origin), d, t_lo, t_max * m)?;
         Some((ray, m))
     }
+}
+
+/// [`Visibility::with_transmittance`]'s threshold for t = 1: every hash is below it.
+const CLEAR_ONE: u64 = 1 << 32;
+
+/// The hash threshold of transmittance `t` (clamped to [0, 1], NaN opaque): t·2³².
+fn clear_threshold(t: f64) -> u64 {
+    if t.is_nan() {
+        return 0;
+    }
+    (t.clamp(0.0, 1.0) * CLEAR_ONE as f64).round() as u64
+}
+
+/// A hash in [0, 2³²) of a ray (its canonical origin, direction and interval, as `f32`
+/// bits) and an input triangle: SplitMix64's finaliser (Steele, Lea & Flood, "Fast
+/// splittable pseudorandom number generators", OOPSLA 2014) over the words in turn. The same
+/// ray and triangle always give the same value; different rays, unrelated values.
+#[inline]
+fn ray_hash(ray: &WatertightRay, triangle: u32) -> u64 {
+    let mix = |mut z: u64| {
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    let o = ray.origin.to_array().map(f32::to_bits);
+    let d = ray.dir.to_array().map(f32::to_bits);
+    let words = [
+        u64::from(o[0]) | u64::from(o[1]) << 32,
+        u64::from(o[2]) | u64::from(d[0]) << 32,
+        u64::from(d[1]) | u64::from(d[2]) << 32,
+        u64::from(ray.t_hi.to_bits()) | u64::from(triangle) << 32,
+    ];
+    let h = words
+        .iter()
+        .fold(0x9e37_79b9_7f4a_7c15u64, |h, &w| mix(h ^ w));
+    h >> 32
 }
 
 #[cfg(test)]

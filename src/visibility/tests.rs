@@ -1026,3 +1026,83 @@ fn scene_bounds(tris: &[[DVec3; 3]]) -> (DVec3, DVec3) {
             (lo.min(v), hi.max(v))
         })
 }
+
+/// Partly transparent triangles ([`Visibility::with_transmittance`]): two parallel squares of
+/// transmittance 0.6 and 0.5 across the rays' path and one opaque square beside them.
+/// - `transmittance` is the product of the t of every square a ray crosses, exactly (0.3
+///   through both, 0.6 or 0.5 through one, 1 past them, 0 through the opaque one), and the
+///   same through the BVH as through each query alone;
+/// - every yes-or-no query (segments, shadow rays, closest hits) lets a ray through with
+///   chance t, the same answer for the same ray every time: over 20,000 rays through both
+///   squares the share that passes is 0.3 within 4 standard deviations (σ = √(0.3·0.7/20000)
+///   ≈ 0.0032), and a closest hit reports the first square in the way that stopped it;
+/// - without transmittance (or with all zeros) the answers are the opaque ones, bit for bit.
+#[test]
+fn partly_transparent_triangles_pass_their_share_of_rays() {
+    let square = |z: f64, x0: f64| -> [[DVec3; 3]; 2] {
+        let p = |x: f64, y: f64| dvec3(x0 + x, y, z);
+        [
+            [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0)],
+            [p(0.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)],
+        ]
+    };
+    let mut tris = Vec::new();
+    tris.extend(square(1.0, 0.0)); // 0, 1: t = 0.6
+    tris.extend(square(2.0, 0.0)); // 2, 3: t = 0.5
+    tris.extend(square(1.5, 2.0)); // 4, 5: opaque
+    let t = [0.6, 0.6, 0.5, 0.5, 0.0, 0.0];
+    let opaque = Visibility::build(&tris);
+    let vis = opaque.clone().with_transmittance(&t);
+    assert!(vis.has_transmittance() && !opaque.has_transmittance());
+    let zeros = opaque.clone().with_transmittance(&[0.0; 6]);
+    assert!(!zeros.has_transmittance());
+
+    let mut rng = Rng(sampling::Rng::new(&[41]));
+    let up = dvec3(0.0, 0.0, 1.0);
+    let (n, mut passed_segment, mut passed_ray) = (20_000, 0usize, 0usize);
+    for _ in 0..n {
+        let (x, y) = (rng.range(0.05, 0.95), rng.range(0.05, 0.95));
+        let from = dvec3(x, y, 0.0);
+        // Exact shares through both, one and none of the squares.
+        assert!((vis.transmittance(from, up, 3.0, NONE) - 0.3).abs() < 1e-6);
+        assert!((vis.transmittance(from, up, 1.5, NONE) - 0.6).abs() < 1e-6);
+        assert!((vis.transmittance(from + 1.2 * up, up, 3.0, NONE) - 0.5).abs() < 1e-6);
+        assert_eq!(vis.transmittance(from, up, 0.5, NONE), 1.0);
+        // Ignoring the lower square's triangle under the ray (the triangle below the diagonal
+        // x = y is 0).
+        let under = if y < x { 0 } else { 1 };
+        assert_eq!(
+            vis.transmittance(from, up, 3.0, under),
+            0.5,
+            "ignoring {under}"
+        );
+        let beside = from + dvec3(2.0, 0.0, 0.0);
+        assert_eq!(vis.transmittance(beside, up, 3.0, NONE), 0.0);
+        assert_eq!(opaque.transmittance(from, up, 3.0, NONE), 0.0);
+        assert_eq!(opaque.transmittance(from, up, 0.5, NONE), 1.0);
+        // Yes-or-no queries: chance, the same answer for the same ray.
+        let to = from + 3.0 * up;
+        let open = !vis.occluded(from, to, [NONE, NONE]);
+        assert_eq!(open, !vis.occluded(from, to, [NONE, NONE]));
+        assert_eq!(open, !vis.occluded_brute_force(from, to, [NONE, NONE]));
+        passed_segment += usize::from(open);
+        let blocked = vis.blocked(from, up, 3.0, NONE);
+        let hit = vis.closest_hit(from, up, 3.0, NONE);
+        assert_eq!(blocked, hit.is_some(), "blocked and the closest hit agree");
+        assert_eq!(hit, vis.closest_hit_brute_force(from, up, 3.0, NONE));
+        if let Some(h) = hit {
+            assert!(h.triangle < 4, "a square in the way: {h:?}");
+        }
+        passed_ray += usize::from(!blocked);
+        assert!(opaque.occluded(from, to, [NONE, NONE]) && opaque.blocked(from, up, 3.0, NONE));
+        assert_eq!(
+            zeros.closest_hit(from, up, 3.0, NONE),
+            opaque.closest_hit(from, up, 3.0, NONE)
+        );
+    }
+    let sigma = (0.3f64 * 0.7 / n as f64).sqrt();
+    for (what, passed) in [("segments", passed_segment), ("rays", passed_ray)] {
+        let share = passed as f64 / n as f64;
+        assert!((share - 0.3).abs() < 4.0 * sigma, "{what}: {share}");
+    }
+}

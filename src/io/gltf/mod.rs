@@ -461,11 +461,23 @@ impl Loader<'_> {
         {
             emission = [0, 1, 2].map(|c| emission[c] * mean[c]);
         }
-        self.materials.push(Material::opaque(
-            name,
-            reflectance.map(|r| r.clamp(0.0, 1.0)),
-            emission.map(|e| if e.is_finite() { e.max(0.0) } else { 0.0 }),
-        ));
+        // What passes: the uncovered share 1 − α of a blended material, and the share τ of
+        // the rest that KHR_materials_transmission transmits (its tint and texture not read).
+        let alpha = match m.alpha_mode() {
+            gltf::material::AlphaMode::Blend => f64::from(base[3]).clamp(0.0, 1.0),
+            _ => 1.0,
+        };
+        let tau = m
+            .transmission()
+            .map_or(0.0, |t| f64::from(t.transmission_factor()).clamp(0.0, 1.0));
+        self.materials.push(
+            Material::opaque(
+                name,
+                reflectance.map(|r| r.clamp(0.0, 1.0)),
+                emission.map(|e| if e.is_finite() { e.max(0.0) } else { 0.0 }),
+            )
+            .with_transmittance((1.0 - alpha) + alpha * tau),
+        );
         let k = (self.materials.len() - 1) as u32;
         self.material_of[index] = Some(k);
         k

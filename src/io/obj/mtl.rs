@@ -196,6 +196,45 @@ pub(super) fn convert_material(
     Material::opaque(m.name.clone(), reflectance, emission)
 }
 
+/// The share of light a material lets through, from its MTL statements: `d` (dissolve, the
+/// covered share: t = 1 − d) when given, else `Tr` (t = Tr, the same thing written the other
+/// way), else 0; clamped to [0, 1] by [`Material::with_transmittance`].
+fn transmittance(m: &tobj::Material) -> f64 {
+    if let Some(d) = m.dissolve {
+        return 1.0 - f64::from(d);
+    }
+    m.unknown_param
+        .get("Tr")
+        .and_then(|v| v.split_whitespace().next()?.parse::<f64>().ok())
+        .unwrap_or(0.0)
+}
+
+/// Applies each material's `d` / `Tr` ([`transmittance`]) to the converted `materials` (in
+/// the order of `originals`, [`Material::with_transmittance`]). Some exporters write `d 0` or `Tr 1` on every
+/// material, meaning opaque (the inverse of the MTL convention): when every material would
+/// let all light through there would be nothing to bake, so they stay opaque, with a warning.
+pub(super) fn apply_transmittance(
+    materials: &mut [Material],
+    originals: &[tobj::Material],
+    warnings: &mut Vec<String>,
+) {
+    let t: Vec<f64> = originals.iter().map(transmittance).collect();
+    if t.iter().all(|&t| t == 0.0) {
+        return;
+    }
+    if t.iter().all(|&t| t >= 1.0) {
+        warnings.push(format!(
+            "every material is fully transparent by its `d` or `Tr` ({} of them): read as \
+             opaque, taking `d 0` / `Tr 1` for an exporter's inverted convention",
+            t.len()
+        ));
+        return;
+    }
+    for (m, t) in materials.iter_mut().zip(t) {
+        *m = m.clone().with_transmittance(t);
+    }
+}
+
 /// Applies what the MTL files had beyond `Kd` and `Ke` to the converted `materials`:
 /// `extras` holds each material's [`Extras`] with its MTL file (the last definition of a name
 /// wins; texture paths are relative to the MTL's directory). A texture's mean colour
@@ -256,7 +295,7 @@ pub(super) fn apply_extras(
             }
         }
         let shiny = e.specular.is_some_and(|ks| ks.iter().any(|&k| k > 0.0));
-        if shiny && m.reflectance.iter().all(|&r| r == 0.0) {
+        if shiny && m.transmittance == 0.0 && m.reflectance.iter().all(|&r| r == 0.0) {
             specular_only.push(m.name.clone());
         }
     }
@@ -274,7 +313,8 @@ pub(super) fn apply_extras(
         let n = specular_only.len();
         warnings.push(format!(
             "{n} material{} specular only (Kd 0 with Ks > 0): the solver is diffuse and \
-             reads Kd as ρ, so {} black; give {} a reflectance with --reflectance NAME=R,G,B: {}",
+             reads Kd as ρ, so {} black; give {} a reflectance with --reflectance NAME=R,G,B, \
+             or, for glass, `d` below 1 in the MTL so that light passes: {}",
             if n == 1 { " is" } else { "s are" },
             if n == 1 { "it bakes" } else { "they bake" },
             if n == 1 { "it" } else { "them" },

@@ -40,7 +40,9 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
-use super::mtl::{apply_extras, convert_material, read_mtl, tobj_failure, Extras};
+use super::mtl::{
+    apply_extras, apply_transmittance, convert_material, read_mtl, tobj_failure, Extras,
+};
 use super::{parse_number, read_text};
 use crate::io::parse_error;
 use crate::scene::camera::{Camera, CameraLine};
@@ -136,6 +138,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         .iter()
         .map(|m| convert_material(m, textured(&m.name), &mut warnings))
         .collect();
+    apply_transmittance(&mut materials, &tobj_materials, &mut warnings);
     let (textures, texture_of) = apply_extras(&mut materials, &extras, &mut warnings);
     // tobj keeps faces in file order and fan-triangulates a face of n vertices into n − 2
     // triangles (corners 0, j + 1, j + 2), so triangle k comes from the k-th (face, j) below

@@ -125,6 +125,7 @@ pub(super) fn split_patches_binned(
         ..ContactStats::default()
     };
     let mut out = Patches::with_capacity(patches.positions.clone(), n);
+    out.material_transmittance = patches.material_transmittance.clone();
     let mut parent = Vec::with_capacity(n);
     let mut index: HashMap<[u64; 3], u32> = HashMap::new();
     let min_area = ZERO_AREA_RELATIVE * extent * extent;
