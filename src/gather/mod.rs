@@ -241,7 +241,9 @@ impl<'a> Gatherer<'a> {
                 continue;
             }
             emitter_of[t] = emitters.len() as u32;
-            emitters.push(Emitter::new(corners, normal.normalize(), m.emission));
+            // A partly transparent emitter sends from its covered share only.
+            let sent = m.emission.map(|e| e * (1.0 - m.transmittance));
+            emitters.push(Emitter::new(corners, normal.normalize(), sent));
         }
         let (lo, hi) = scene.bounds();
         let power_cdf = emitters

@@ -81,7 +81,7 @@ impl RootEmitter {
     pub fn of(roots: &Patches, r: usize) -> RootEmitter {
         RootEmitter {
             roots: vec![r as u32],
-            emitter: Emitter::new(roots.corners(r), roots.normal[r], roots.emission[r]),
+            emitter: Emitter::new(roots.corners(r), roots.normal[r], roots.sent_emission(r)),
         }
     }
 }
@@ -108,7 +108,7 @@ pub fn merged(roots: &Patches, emitting: &[usize]) -> Vec<RootEmitter> {
                 let r = group[0];
                 out.push(RootEmitter {
                     roots: group.iter().map(|&r| r as u32).collect(),
-                    emitter: Emitter::new(corners, roots.normal[r], roots.emission[r]),
+                    emitter: Emitter::new(corners, roots.normal[r], roots.sent_emission(r)),
                 });
             }
             None => out.extend(group.iter().map(|&r| RootEmitter::of(roots, r))),

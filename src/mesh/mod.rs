@@ -118,6 +118,24 @@ impl Patches {
         }
     }
 
+    /// The share 1 − t of patch `i`'s area its material covers ([`Patches::transmittance`]):
+    /// 1 for an opaque patch.
+    pub fn coverage(&self, i: usize) -> f64 {
+        1.0 - self
+            .material_transmittance
+            .get(self.material[i] as usize)
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// Patch `i`'s emission as the light its whole area sends, W·sr⁻¹·m⁻² per channel: Le
+    /// times the covered share ([`Patches::coverage`]); Le itself for an opaque patch. What
+    /// emitters' exact direct light uses.
+    pub fn sent_emission(&self, i: usize) -> [f64; 3] {
+        let c = self.coverage(i);
+        self.emission[i].map(|e| e * c)
+    }
+
     /// The transmittance t in [0, 1] of each patch ([`Patches::material_transmittance`]),
     /// for [`crate::visibility::Visibility::with_transmittance`]; empty when every patch is
     /// opaque.

@@ -366,6 +366,16 @@ impl SceneBuilder {
         (self.materials.len() - 1) as u32
     }
 
+    /// Makes material `material` (an index [`SceneBuilder::material`] returned) let the share
+    /// `t` ∈ [0, 1] of the light through ([`Material::transmittance`]).
+    ///
+    /// # Panics
+    /// If `material` is not a material of this builder.
+    pub fn set_transmittance(&mut self, material: u32, t: f64) {
+        let m = &mut self.materials[material as usize];
+        *m = m.clone().with_transmittance(t);
+    }
+
     /// Adds a vertex and returns its index.
     pub fn vertex(&mut self, p: DVec3) -> u32 {
         self.positions.push(p);

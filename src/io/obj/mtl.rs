@@ -23,6 +23,10 @@ pub(super) struct Extras {
     pub texture: Option<(String, usize)>,
     /// `Ks`, the specular colour (ignored by the solver).
     pub specular: Option<[f64; 3]>,
+    /// `d`, the covered share (dissolve), in [0, 1].
+    pub dissolve: Option<f64>,
+    /// `Tr`, the transmitted share (1 − d), in [0, 1].
+    pub tr: Option<f64>,
 }
 
 /// Reads the MTL file `mtl` named by the `mtllib` at `obj:line` and returns its normalised
@@ -81,6 +85,28 @@ fn scan_mtl(path: &Path, text: &str) -> Result<(String, Vec<Extras>)> {
             "map_Kd" => {
                 if let (Some(e), Some(file)) = (extras.last_mut(), words.last()) {
                     e.texture = Some((file.to_string(), ln));
+                }
+            }
+            "d" | "Tr" => {
+                // `d -halo 0.5`: the value is the last word.
+                let Some(word) = words.last() else {
+                    return Err(parse_error(path, ln, format!("{keyword} without a value")));
+                };
+                let what = format!("material '{}': {keyword}", current.unwrap_or("?"));
+                let v = f64::from(parse_number(path, ln, &what, word)?);
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(parse_error(
+                        path,
+                        ln,
+                        format!("{what} = {v}: must be in [0, 1] (a share of the light)"),
+                    ));
+                }
+                if let Some(e) = extras.last_mut() {
+                    if keyword == "d" {
+                        e.dissolve = Some(v);
+                    } else {
+                        e.tr = Some(v);
+                    }
                 }
             }
             "Ks" => {
@@ -198,27 +224,35 @@ pub(super) fn convert_material(
 
 /// The share of light a material lets through, from its MTL statements: `d` (dissolve, the
 /// covered share: t = 1 − d) when given, else `Tr` (t = Tr, the same thing written the other
-/// way), else 0; clamped to [0, 1] by [`Material::with_transmittance`].
-fn transmittance(m: &tobj::Material) -> f64 {
-    if let Some(d) = m.dissolve {
-        return 1.0 - f64::from(d);
+/// way), else 0.
+fn transmittance(e: &Extras) -> f64 {
+    match (e.dissolve, e.tr) {
+        (Some(d), _) => 1.0 - d,
+        (None, Some(tr)) => tr,
+        (None, None) => 0.0,
     }
-    m.unknown_param
-        .get("Tr")
-        .and_then(|v| v.split_whitespace().next()?.parse::<f64>().ok())
-        .unwrap_or(0.0)
 }
 
-/// Applies each material's `d` / `Tr` ([`transmittance`]) to the converted `materials` (in
-/// the order of `originals`, [`Material::with_transmittance`]). Some exporters write `d 0` or `Tr 1` on every
+/// Applies each material's `d` / `Tr` ([`transmittance`]; `extras` as for [`apply_extras`],
+/// the last definition of a name winning) to the converted `materials`
+/// ([`Material::with_transmittance`]). Some exporters write `d 0` or `Tr 1` on every
 /// material, meaning opaque (the inverse of the MTL convention): when every material would
 /// let all light through there would be nothing to bake, so they stay opaque, with a warning.
 pub(super) fn apply_transmittance(
     materials: &mut [Material],
-    originals: &[tobj::Material],
+    extras: &[(std::path::PathBuf, Extras)],
     warnings: &mut Vec<String>,
 ) {
-    let t: Vec<f64> = originals.iter().map(transmittance).collect();
+    let t: Vec<f64> = materials
+        .iter()
+        .map(|m| {
+            extras
+                .iter()
+                .rev()
+                .find(|(_, e)| e.name == m.name)
+                .map_or(0.0, |(_, e)| transmittance(e))
+        })
+        .collect();
     if t.iter().all(|&t| t == 0.0) {
         return;
     }

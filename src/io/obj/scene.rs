@@ -138,7 +138,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         .iter()
         .map(|m| convert_material(m, textured(&m.name), &mut warnings))
         .collect();
-    apply_transmittance(&mut materials, &tobj_materials, &mut warnings);
+    apply_transmittance(&mut materials, &extras, &mut warnings);
     let (textures, texture_of) = apply_extras(&mut materials, &extras, &mut warnings);
     // tobj keeps faces in file order and fan-triangulates a face of n vertices into n − 2
     // triangles (corners 0, j + 1, j + 2), so triangle k comes from the k-th (face, j) below
@@ -464,6 +464,61 @@ mod tests {
     fn normal(s: &Scene, t: usize) -> DVec3 {
         let [a, b, c] = s.triangles[t].vertices.map(|v| s.positions[v as usize]);
         (b - a).cross(c - a).normalize()
+    }
+
+    #[test]
+    fn d_and_tr_make_panes_and_fully_clear_faces_are_left_out() {
+        // `d` is the covered share (t = 1 − d) and wins over `Tr` (t = Tr); ρ and Le stay the
+        // material's. A fully clear material's faces are left out with a warning; a glassy
+        // material that lets light through is not called "specular only".
+        let mtl = "newmtl wall\nKd 0.5\n\
+                   newmtl glass\nKd 0 0 0\nKs 0.9\nd 0.25\n\
+                   newmtl tinted\nKd 0.4\nTr 0.3\n\
+                   newmtl both\nKd 0.4\nd 0.8\nTr 0.9\n\
+                   newmtl air\nKd 0.5\nd 0\n";
+        let obj = format!(
+            "mtllib m.mtl\n{TRIANGLE}v 0 0 1\nv 1 1 1\nusemtl wall\nf 1 2 3\nusemtl glass\n\
+             f 1 2 4\nusemtl tinted\nf 1 3 4\nusemtl both\nf 2 3 4\nusemtl air\nf 2 3 5\n"
+        );
+        let s = load_text("obj-transparency", &obj, &[("m.mtl", mtl)]).unwrap();
+        let m = |name: &str| s.materials.iter().find(|m| m.name == name).unwrap();
+        assert_eq!(m("wall").transmittance, 0.0);
+        assert!((m("glass").transmittance - 0.75).abs() < 1e-7);
+        assert!(
+            (m("tinted").transmittance - 0.3).abs() < 1e-7,
+            "read as f32"
+        );
+        assert!(
+            (m("both").transmittance - 0.2).abs() < 1e-7,
+            "d wins over Tr"
+        );
+        assert_eq!(
+            m("tinted").reflectance,
+            [f64::from(0.4f32); 3],
+            "ρ stays the material's"
+        );
+        assert_eq!(m("air").transmittance, 1.0);
+        assert_eq!(s.triangles.len(), 4, "the clear face is left out");
+        let w = s.warnings.join("\n");
+        assert!(w.contains("left out 1 face") && w.contains("'air'"), "{w}");
+        assert!(
+            w.contains("partly transparent") && w.contains("'glass'"),
+            "{w}"
+        );
+        assert!(!w.contains("specular only"), "{w}");
+
+        // Every material clear: an exporter's inverted convention, read as opaque.
+        let mtl = "newmtl a\nKd 0.5\nd 0\nnewmtl b\nKd 0.7\nTr 1\n";
+        let obj =
+            format!("mtllib m.mtl\n{TRIANGLE}v 0 0 1\nusemtl a\nf 1 2 3\nusemtl b\nf 1 2 4\n");
+        let s = load_text("obj-inverted-d", &obj, &[("m.mtl", mtl)]).unwrap();
+        assert!(s.materials.iter().all(|m| m.transmittance == 0.0));
+        assert_eq!(s.triangles.len(), 2);
+        assert!(
+            s.warnings.iter().any(|w| w.contains("inverted convention")),
+            "{:?}",
+            s.warnings
+        );
     }
 
     #[test]
