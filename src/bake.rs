@@ -21,7 +21,7 @@ use glam::DVec3;
 
 use crate::color::{self, Rgb};
 use crate::mesh::{groups, Patches, VertexFaces};
-use crate::scene::Camera;
+use crate::scene::{Camera, Sky};
 use crate::{Error, Result};
 
 /// Patches whose normals differ by at most this many degrees share output vertices in the
@@ -101,6 +101,7 @@ pub fn bake_sites(
         faces: patches.triangles.clone(),
         face_radiance: radiance.to_vec(),
         camera: None,
+        sky: None,
     };
     // out_vertex[slot of a (vertex, patch) incidence] = its output vertex.
     let mut out_vertex = vec![u32::MAX; around.len()];
@@ -184,13 +185,42 @@ pub struct BakedMesh {
     /// The scene file's camera, repeated in the output (`comment camera: …` in PLY, `# camera:
     /// …` in OBJ) so a picture of the baked file uses it too; `None` if the scene had none.
     pub camera: Option<Camera>,
+    /// The bake's sky, which a picture shows where its rays leave the scene (`comment sky: …`
+    /// in PLY, so a picture of the baked file shows it too); `None` without a sky.
+    pub sky: Option<Sky>,
 }
 
 impl BakedMesh {
     /// The exposure the colours are taken at unless one is given: [`color::auto_exposure`]
-    /// over the vertex radiance (the 95th percentile of lit vertices' luminance maps to white).
+    /// over the vertex radiance, each vertex weighted by the area it stands for
+    /// ([`BakedMesh::vertex_areas`]): the area-weighted log-average luminance maps to the key
+    /// 0.18 of white, with at most 2 % of the lit area clipping.
     pub fn auto_exposure(&self) -> f64 {
-        color::auto_exposure(&self.vertex_radiance)
+        color::auto_exposure(&self.vertex_radiance, &self.vertex_areas())
+    }
+
+    /// The area each vertex stands for, scene units²: a third of the area of every face it is
+    /// a corner of (0 for a vertex of no face). Indices out of range are skipped.
+    pub fn vertex_areas(&self) -> Vec<f64> {
+        let mut areas = vec![0.0; self.positions.len()];
+        for face in &self.faces {
+            let Some(p) = face
+                .iter()
+                .map(|&v| {
+                    self.positions
+                        .get(v as usize)
+                        .map(|p| DVec3::from_array(*p))
+                })
+                .collect::<Option<Vec<_>>>()
+            else {
+                continue;
+            };
+            let third = (p[1] - p[0]).cross(p[2] - p[0]).length() / 6.0;
+            for &v in face {
+                areas[v as usize] += third;
+            }
+        }
+        areas
     }
 
     /// Sets to 0 the negative values of rounding size in its radiance ([`clamp_rounding`]),
@@ -351,38 +381,49 @@ mod tests {
     }
 
     #[test]
-    fn auto_exposure_uses_lit_vertices_95th_percentile() {
-        // 100 black vertices and grey vertices with Y = 1..=20 (times a scale), in scrambled
-        // order. Over the 20 lit vertices the nearest rank is ⌈0.95 · 20⌉ = 19, so the
-        // exposure is 1 / (19 · scale); counting the black ones would give rank 114 of 120,
-        // i.e. Y = 14.
-        let scale = 0.37;
-        let mut radiance = vec![[0.0; 3]; 100];
-        for k in 1..=20 {
-            let y = k as f64 * scale;
-            radiance.push([y, y, y]);
-        }
-        radiance.reverse();
-        radiance.swap(3, 110);
+    fn auto_exposure_weights_vertices_by_their_area() {
+        // Two triangles of a strip sharing no vertex: a small bright one (area 0.005) and a
+        // large dim one (area 0.5). Weighted by area the dim one sets the key; black vertices
+        // do not count.
         let mesh = BakedMesh {
-            positions: vec![[0.0; 3]; radiance.len()],
-            vertex_radiance: radiance,
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [0.1, 0.0, 0.0],
+                [0.0, 0.1, 0.0],
+                [1.0, 0.0, 0.0],
+                [2.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [5.0, 5.0, 5.0],
+            ],
+            vertex_radiance: vec![
+                [8.0; 3], [8.0; 3], [8.0; 3], [0.5; 3], [0.5; 3], [0.5; 3], [0.0; 3],
+            ],
+            faces: vec![[0, 1, 2], [3, 4, 5]],
             ..BakedMesh::default()
         };
-        let y19 = color::luminance([19.0 * scale; 3]);
-        assert_eq!(mesh.auto_exposure(), 1.0 / y19);
-        assert!((mesh.auto_exposure() * 19.0 * scale - 1.0).abs() < 1e-12);
+        let areas = mesh.vertex_areas();
+        assert!((areas[0] - 0.005 / 3.0).abs() < 1e-15 && (areas[3] - 0.5 / 3.0).abs() < 1e-15);
+        assert_eq!(areas[6], 0.0);
+        // L̄ = exp((0.005 ln 8 + 0.5 ln 0.5) / 0.505); the bright 1 % of the area may clip.
+        let log_avg = ((0.005 * 8.0f64.ln() + 0.5 * 0.5f64.ln()) / 0.505).exp();
+        assert!((mesh.auto_exposure() * log_avg / color::KEY - 1.0).abs() < 1e-12);
     }
 
     #[test]
     fn auto_exposure_weights_channels_by_luminance() {
-        // Only blue: Y = 0.0722 · B; one lit vertex is its own 95th percentile.
+        // Only blue: Y = 0.0722 · B, and the key would put B = 2 at 2.5: it may not clip.
         let mesh = BakedMesh {
             positions: vec![[0.0; 3]; 2],
             vertex_radiance: vec![[0.0, 0.0, 2.0], [0.0; 3]],
             ..BakedMesh::default()
         };
-        assert_eq!(mesh.auto_exposure(), 1.0 / (0.0722 * 2.0));
+        assert_eq!(mesh.auto_exposure(), 0.5);
+        // Only green: Y = 0.7152 · G, and the key puts G at 0.25.
+        let mesh = BakedMesh {
+            vertex_radiance: vec![[0.0, 3.0, 0.0], [0.0; 3]],
+            ..mesh
+        };
+        assert!((mesh.auto_exposure() - color::KEY / (0.7152 * 3.0)).abs() < 1e-12);
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Colour: the [`Rgb`] triple every stage carries (radiance in W·sr⁻¹·m⁻², reflectance, or a
 //! per-channel factor), Rec.709 luminance, and the radiance → display colour pipeline shared
-//! by the writers and the rasteriser: the auto-exposure rule, the exact sRGB transfer
+//! by the writers and the rasteriser: the auto-exposure rule (a photographic key from the
+//! area-weighted log-average luminance, [`auto_exposure`]), the exact sRGB transfer
 //! function and quantisation to 8 bits. An 8-bit channel is
 //! `round(255 · srgb_encode(clamp(radiance · exposure, 0, 1)))`. It does not know about files
 //! or formats ([`crate::io`]) or pictures ([`crate::render`]).
@@ -51,34 +52,84 @@ pub fn luminance(rgb: Rgb) -> f64 {
     0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
 }
 
-/// Exposure: the factor radiance is multiplied by before the sRGB curve.
+/// The display value the log-average luminance maps to in [`auto_exposure`]: a fraction of
+/// the display's white (dimensionless), photography's middle grey.
+pub const KEY: f64 = 0.18;
+
+/// The largest share of the lit area [`auto_exposure`] lets clip (some channel above the
+/// display's white), dimensionless.
+pub const CLIP_SHARE: f64 = 0.02;
+
+/// Luminance below this fraction of the brightest counts as unlit in [`auto_exposure`]
+/// (dimensionless): Reinhard's small δ that keeps black out of the logarithm.
+pub const UNLIT: f64 = 1e-6;
+
+/// Exposure: the factor radiance (W·sr⁻¹·m⁻²) is multiplied by before the sRGB curve, in
+/// sr·m²·W⁻¹, from the key of the scene as photographic tone mapping takes it (Reinhard,
+/// Stark, Shirley & Ferwerda 2002, "Photographic tone reproduction for digital images",
+/// SIGGRAPH, equations 1 and 2).
 ///
-/// Rule: let Y = 0.2126 R + 0.7152 G + 0.0722 B (Rec.709 / sRGB luminance of the linear
-/// radiance) for every vertex; over the vertices with Y > 0 take the 95th percentile of Y by
-/// nearest rank (the value at 1-based rank ⌈0.95 n⌉ of the n values sorted ascending);
-/// the exposure is 1 / that value. So at most the brightest 5 % of lit vertices (typically
-/// the emitters) have luminance above 1 and saturate; unlit vertices do not count, so a large
-/// shadowed area does not push the exposure up. If no vertex has Y > 0 the exposure is 1.
-/// (Subnormal Y counts as 0, so the result is always finite.) Deterministic: it depends only
-/// on the multiset of vertex radiances, not on their order or on threads.
+/// Samples are `radiance[i]` with weight `area[i]` (the area each stands for, any unit; all
+/// weights are taken as 1 if they sum to 0). Let Y = 0.2126 R + 0.7152 G + 0.0722 B (Rec.709
+/// luminance). Samples with Y below [`UNLIT`] × the largest Y, or not finite, are unlit: they
+/// show black at any exposure and are left out (the backs of a two-sided bake, surfaces no
+/// light reaches). Over the lit samples:
 ///
-/// Values whose luminance is not a normal positive number (0, subnormal, negative, NaN)
-/// count as unlit, which keeps `1 / percentile` finite.
-pub fn auto_exposure(vertex_radiance: &[[f64; 3]]) -> f64 {
-    let mut lit: Vec<f64> = vertex_radiance
+/// 1. the log-average luminance L̄ = exp(Σ wᵢ ln Yᵢ / Σ wᵢ), and the exposure k = a / L̄ with
+///    the key a = [`KEY`]: the scene's typical luminance maps to middle grey (a uniform scene
+///    of luminance L gets k = a / L);
+/// 2. then at most [`CLIP_SHARE`] of the lit weight may clip: with m the largest channel of a
+///    sample and m* the smallest value such that the samples with m > m* weigh at most that
+///    share, k = min(k, 1 / m*).
+///
+/// A few very bright samples (the emitters, sunlit patches) barely move L̄, so the rest of the
+/// scene is not darkened to make room for them; the clamp keeps a scene that is mostly bright
+/// from washing out. If no sample is lit the exposure is 1. The result is finite and > 0, and
+/// depends only on the samples (not on threads).
+pub fn auto_exposure(radiance: &[Rgb], area: &[f64]) -> f64 {
+    let y_max = radiance
         .iter()
         .map(|&rgb| luminance(rgb))
-        .filter(|&y| y >= f64::MIN_POSITIVE && y.is_finite())
-        .collect();
-    if lit.is_empty() {
+        .filter(|y| y.is_finite())
+        .fold(0.0, f64::max);
+    if y_max < f64::MIN_POSITIVE {
         return 1.0;
     }
-    lit.sort_unstable_by(f64::total_cmp);
-    // Nearest rank: the smallest value with at least 95 % of the values at or below it,
-    // 1-based rank ⌈0.95 n⌉, in integer arithmetic so no rounding can move it.
-    let n = lit.len();
-    let rank = (95 * n).div_ceil(100);
-    1.0 / lit[rank - 1]
+    let floor = (UNLIT * y_max).max(f64::MIN_POSITIVE);
+    let weights_count = area.iter().any(|&w| w > 0.0 && w.is_finite());
+    // (luminance, largest channel, weight) of the lit samples.
+    let mut lit: Vec<(f64, f64, f64)> = radiance
+        .iter()
+        .zip(area.iter().copied().chain(std::iter::repeat(0.0)))
+        .filter_map(|(&rgb, w)| {
+            let y = luminance(rgb);
+            let w = if weights_count { w } else { 1.0 };
+            let m = rgb.into_iter().fold(0.0, f64::max);
+            (y >= floor && y.is_finite() && w > 0.0 && w.is_finite() && m.is_finite())
+                .then_some((y, m, w))
+        })
+        .collect();
+    let total: f64 = lit.iter().map(|s| s.2).sum();
+    if lit.is_empty() || total <= 0.0 || !total.is_finite() {
+        return 1.0;
+    }
+    let log_mean = lit.iter().map(|&(y, _, w)| w * y.ln()).sum::<f64>() / total;
+    let mut exposure = KEY / log_mean.exp();
+    // The brightest samples first: those within the clip share may clip, the next may not.
+    lit.sort_unstable_by(|a, b| b.1.total_cmp(&a.1));
+    let mut clipped = 0.0;
+    for &(_, m, w) in &lit {
+        clipped += w;
+        if clipped > CLIP_SHARE * total {
+            exposure = exposure.min(1.0 / m);
+            break;
+        }
+    }
+    if exposure.is_finite() && exposure > 0.0 {
+        exposure
+    } else {
+        1.0
+    }
 }
 
 /// An exposure must be finite and > 0: an [`Error::Setting`] named `exposure` otherwise (the
@@ -157,17 +208,64 @@ mod tests {
     }
 
     #[test]
-    fn nearest_rank_percentile() {
-        // One value: itself. Twenty values 1..=20: rank 19.
-        let green = [0.0, 4.0 / 0.7152, 0.0];
-        assert_eq!(auto_exposure(&[green]), 1.0 / luminance(green));
-        assert!((auto_exposure(&[green]) - 0.25).abs() < 1e-15);
-        let grey: Vec<[f64; 3]> = (1..=20).map(|k| [k as f64; 3]).collect();
-        assert_eq!(auto_exposure(&grey), 1.0 / luminance([19.0; 3]));
-        // 21 values: ⌈19.95⌉ = 20.
-        let grey: Vec<[f64; 3]> = (1..=21).map(|k| [k as f64; 3]).collect();
-        assert_eq!(auto_exposure(&grey), 1.0 / luminance([20.0; 3]));
-        // Subnormal luminance counts as black.
-        assert_eq!(auto_exposure(&[[1e-310, 0.0, 0.0]]), 1.0);
+    fn uniform_scene_of_radiance_l_gets_the_key_over_l() {
+        for l in [1e-6, 0.02, 1.0, 350.0] {
+            let e = auto_exposure(&[[l; 3]; 7], &[0.5, 1.0, 2.0, 0.1, 3.0, 1.0, 1.0]);
+            assert!((e * l / KEY - 1.0).abs() < 1e-12, "{l}: {e}");
+        }
+        // Coloured: by luminance.
+        let green = [0.0, 4.0, 0.0];
+        let e = auto_exposure(&[green], &[1.0]);
+        assert!((e - KEY / (0.7152 * 4.0)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_few_bright_samples_do_not_darken_the_rest() {
+        // 98 % of the area dim (0.01 to 0.03, mean 0.02), 2 % a thousand times brighter.
+        let mut radiance = Vec::new();
+        let mut area = Vec::new();
+        for k in 0..98 {
+            radiance.push([0.01 + 0.02 * (k % 3) as f64 / 2.0; 3]);
+            area.push(1.0);
+        }
+        radiance.extend([[20.0; 3]; 2]);
+        area.extend([1.0; 2]);
+        let e = auto_exposure(&radiance, &area);
+        // The dim part's mean maps near the key (the bright 2 % lift the log-average by
+        // 1000^0.02 ≈ 1.15), not near black.
+        let shown = 0.02 * e;
+        assert!(shown > 0.12 && shown < KEY, "{shown}");
+        // The 95th percentile rule this replaced put 20 at white: the dim part at 0.001.
+        assert!(shown > 100.0 * 0.02 / 20.0);
+        // The bright 2 % clip, the rest does not.
+        assert!(20.0 * e > 1.0 && 0.03 * e < 1.0);
+    }
+
+    #[test]
+    fn at_most_the_clip_share_of_the_area_clips() {
+        // Half the area at 1, half at 100: the log-average 10 would put 100 at 1.8 (clipping
+        // half the area); the clamp puts the brighter half at white.
+        let e = auto_exposure(&[[1.0; 3], [100.0; 3]], &[1.0, 1.0]);
+        assert!((e - 0.01).abs() < 1e-15, "{e}");
+        // By area: a bright sample of 1 % of the area may clip.
+        let e = auto_exposure(&[[1.0; 3], [100.0; 3]], &[99.0, 1.0]);
+        assert!((e * 100.0f64.powf(0.01) - KEY).abs() < 1e-12, "{e}");
+        // Clipping is per channel: a saturated blue (key alone: 50 · 0.18 / (0.0722 · 50) =
+        // 2.5) counts by its blue.
+        let e = auto_exposure(&[[0.0, 0.0, 50.0]], &[1.0]);
+        assert!((e - 1.0 / 50.0).abs() < 1e-15, "{e}");
+    }
+
+    #[test]
+    fn unlit_samples_and_weights_are_left_out() {
+        // Black and subnormal samples do not count; no lit sample gives 1.
+        assert_eq!(auto_exposure(&[[1e-310, 0.0, 0.0]], &[1.0]), 1.0);
+        assert_eq!(auto_exposure(&[[0.0; 3]; 3], &[1.0; 3]), 1.0);
+        assert_eq!(auto_exposure(&[], &[]), 1.0);
+        let with_black = auto_exposure(&[[0.5; 3], [0.0; 3], [1e-12; 3]], &[1.0, 5.0, 5.0]);
+        assert!((with_black - KEY / 0.5).abs() < 1e-15);
+        // Zero weights everywhere count each sample once.
+        let e = auto_exposure(&[[0.5; 3], [2.0; 3]], &[0.0, 0.0]);
+        assert!((e - KEY).abs() < 1e-12, "{e}");
     }
 }

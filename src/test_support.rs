@@ -88,6 +88,7 @@ pub fn sample_mesh(vertices: usize, faces: usize) -> BakedMesh {
         faces: face_list,
         face_radiance,
         camera: None,
+        sky: None,
     }
 }
 

@@ -219,8 +219,8 @@ pub struct BakeArgs {
     /// Write ASCII PLY instead of binary.
     #[arg(long, help_heading = "Output")]
     pub ascii: bool,
-    /// Radiance multiplier before the sRGB curve [default: automatic — the 95th percentile
-    /// of vertex luminance maps to white].
+    /// Radiance multiplier before the sRGB curve [default: automatic — the area-weighted
+    /// log-average luminance maps to 0.18 of white, at most 2 % of the lit area clipping].
     #[arg(
         long,
         value_name = "X",
@@ -363,7 +363,8 @@ pub struct SolveArgs {
     pub crease: f64,
     /// The scene's up axis: the sky's horizon, the sun's elevation, and the automatic framing
     /// of pictures (when neither --camera nor the file gives a camera, the picture looks level
-    /// at the bounding box from the side, of four, that shows the most front faces).
+    /// about this axis, from outside the bounding box or at eye height inside it, whichever
+    /// shows more front faces; from above only if no level view shows any).
     #[arg(long, value_parser = choice::<Up>(), default_value = "y", value_name = "AXIS", help_heading = "Light")]
     pub up: Up,
     /// A sky above the horizon with this radiance, W·sr⁻¹·m⁻² (R,G,B or one value for grey;
@@ -777,8 +778,8 @@ impl BakeArgs {
 impl ViewArgs {
     /// The picture of `mesh` these options ask for at `exposure`, checked by the library
     /// ([`View::validate`]). The camera is [`render::camera_for`]'s: `--camera` if given, else
-    /// the one the scene file carries, else the framing of the mesh's bounding box around
-    /// `--up` that shows the most front faces.
+    /// the one the scene file carries, else the automatic camera, level about `--up`
+    /// ([`render::best_framing`]).
     pub fn view(&self, mesh: &BakedMesh, exposure: f64, up: Up) -> Result<View, Failure> {
         let (width, height) = parse_size(&self.size)?;
         let given = self.camera.as_deref().map(Camera::parse).transpose()?;

@@ -538,6 +538,7 @@ mod tests {
             face_radiance: vec![[0.0; 3]; faces.len()],
             faces,
             camera: None,
+            sky: None,
         };
         (mesh, values)
     }

@@ -182,11 +182,13 @@ pub struct ReadBack {
     pub face_radiance: Option<Vec<[f32; 3]>>,
     /// The camera line of the file (`comment camera: …` / `# camera: …`), if it has one.
     pub camera: Option<Camera>,
+    /// The sky line of the file (`comment sky: …`, PLY only), if it has one.
+    pub sky: Option<crate::scene::Sky>,
 }
 
 impl ReadBack {
     /// The baked mesh a PLY written by [`write()`] holds (positions and radiance widened to
-    /// f64, with its camera); `None` for a file without radiance (an OBJ, or a PLY from
+    /// f64, with its camera and sky); `None` for a file without radiance (an OBJ, or a PLY from
     /// another tool read as ours).
     pub fn into_baked(self) -> Option<BakedMesh> {
         let (vertex_radiance, face_radiance) = (self.vertex_radiance?, self.face_radiance?);
@@ -197,6 +199,7 @@ impl ReadBack {
             faces: self.faces,
             face_radiance: f64s(face_radiance),
             camera: self.camera,
+            sky: self.sky,
         })
     }
 }

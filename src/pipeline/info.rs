@@ -79,8 +79,8 @@ pub struct SceneInfo {
     /// The camera the scene file carries, which pictures use unless `--camera` is given;
     /// `None` (JSON `null`) when it has none and pictures frame the bounding box.
     pub camera: Option<CameraInfo>,
-    /// When the file has no camera: the framing pictures take around the options' up axis
-    /// ([`crate::render::best_framing`]).
+    /// When the file has no camera: the automatic camera pictures take, level about the
+    /// options' up axis ([`crate::render::best_framing`]).
     pub framing: Option<CameraInfo>,
     /// Warnings from loading (and cleaning) the scene.
     pub warnings: Vec<String>,
@@ -309,9 +309,10 @@ impl SceneInfo {
                 });
                 let _ = writeln!(
                     s,
-                    "camera:       none in the file; pictures look level at the bounding box from \
-                     the side that shows the most front faces (around --up): eye ({}), target ({}), \
-                     up ({}), vertical field of view {}°",
+                    "camera:       none in the file; pictures look level about --up, from outside \
+                     the bounding box or at eye height inside it, whichever shows more front faces \
+                     (from above only if no level view shows any): eye ({}), target ({}), up ({}), \
+                     vertical field of view {}°",
                     v(c.eye),
                     v(c.target),
                     v(c.up),

@@ -419,7 +419,7 @@ fn display_contacts(
 }
 
 /// Bake: patch radiance → the output mesh's vertices (→ final gather at them, unless
-/// `gather = none`), with the scene's camera; fills the report's vertex count and bake and
+/// `gather = none`), with the scene's camera and the environment's sky (for pictures); fills the report's vertex count and bake and
 /// gather seconds.
 fn bake_stage(
     scene: &Scene,
@@ -433,6 +433,7 @@ fn bake_stage(
     let display_crease = settings.crease_degrees.min(bake::FACET_DEGREES);
     let (mut baked, sites) = bake::bake_sites(patches, radiance, display_crease);
     baked.camera = scene.camera;
+    baked.sky = settings.environment.sky();
     report.vertices = baked.positions.len();
     report.seconds.bake = t.elapsed().as_secs_f64();
     let mode = gather_mode(scene, settings, sites.len());

@@ -6,6 +6,12 @@
 //! radiosity solution is view-independent: the picture is a look-up). A surface made of a
 //! face and its reversed twin over the same corners (a two-sided bake) shows each side's own
 //! radiance: the BVH reports the face whose front faces the ray ([`Visibility::closest_hit`]).
+//! A ray that leaves the scene shows the sky the bake had ([`BakedMesh::sky`], carried by its
+//! PLY), through the same exposure and sRGB mapping; without a sky it is black.
+//!
+//! The automatic camera ([`best_framing`]) is level about the scene's up axis: from outside
+//! the bounding box, or at eye height from inside it when that sees much more (a room), and
+//! from above only when no level view sees anything.
 
 use std::path::Path;
 
@@ -69,8 +75,8 @@ impl View {
 }
 
 /// The camera a picture of `mesh` is taken with: `given` if there is one, else the camera the
-/// scene file carried ([`BakedMesh::camera`]), else the framing of the mesh's bounding box
-/// around `up` that sees the most front faces ([`best_framing`]).
+/// scene file carried ([`BakedMesh::camera`]), else the automatic view of the mesh's bounding
+/// box, level about `up` ([`best_framing`]).
 pub fn camera_for(mesh: &BakedMesh, given: Option<Camera>, up: Up) -> Camera {
     given
         .or(mesh.camera)
@@ -88,11 +94,22 @@ fn triangles(mesh: &BakedMesh) -> Vec<[DVec3; 3]> {
 /// Rays per side of the grid [`coverage`] casts.
 pub const COVERAGE_GRID: u32 = 24;
 
-/// Of the five framings of the bounding box of `triangles` for `up` ([`Camera::framings`]:
-/// four sides and above), the one whose picture shows the most front faces ([`coverage`]);
-/// the first on a tie. A box
-/// open on one side (McGuire's Cornell box opens toward +z) is looked into through its
-/// opening, and a z-up level is seen level with `Up::Z`.
+/// The automatic camera for `triangles` with the scene's `up` axis: a level view about `up`
+/// whenever one sees anything, chosen by [`coverage`] (the share of the picture that shows the
+/// front of a face):
+///
+/// 1. the best of the four views from outside the bounding box's sides ([`Camera::framings`],
+///    the first on a tie), unless
+/// 2. the best of the four eye-height views from just inside them
+///    ([`Camera::eye_height_views`]) sees more than twice as much: a room whose walls face
+///    inward shows only their backs from outside, or a little through a doorway, and is then
+///    seen from within;
+/// 3. the view from above only when no level view sees any front face (a flat ground plane,
+///    seen edge-on from every side).
+///
+/// So a box open on one side (McGuire's Cornell box opens toward +z) is looked into through
+/// its opening, a z-up level is seen level with `Up::Z`, and a roofless room is not seen from
+/// above however much floor it has.
 pub fn best_framing(triangles: &[[DVec3; 3]], up: Up) -> Camera {
     let (lo, hi) = triangles
         .iter()
@@ -105,14 +122,31 @@ pub fn best_framing(triangles: &[[DVec3; 3]], up: Up) -> Camera {
         return framings[0];
     }
     let vis = Visibility::build(triangles);
-    let mut best = (framings[0], -1.0);
-    for c in framings {
-        let seen = coverage(triangles, &vis, &c, COVERAGE_GRID);
-        if seen > best.1 {
-            best = (c, seen);
+    // The first camera of `cameras` with the most coverage, and that coverage.
+    let best = |cameras: &[Camera]| {
+        let mut best = (cameras[0], -1.0);
+        for c in cameras {
+            let seen = coverage(triangles, &vis, c, COVERAGE_GRID);
+            if seen > best.1 {
+                best = (*c, seen);
+            }
         }
+        best
+    };
+    let outside = best(&framings[..4]);
+    // A box with no height (a flat ground plane) has no eye height: its eye would lie on it.
+    let inside = if (hi - lo).dot(up.axis()) > 0.0 {
+        best(&Camera::eye_height_views(lo, hi, up))
+    } else {
+        (framings[4], 0.0)
+    };
+    if inside.1 > 2.0 * outside.1 {
+        inside.0
+    } else if outside.1 > 0.0 {
+        outside.0
+    } else {
+        framings[4]
     }
-    best.0
 }
 
 /// The share of a `grid` × `grid` set of primary rays of `camera` (square picture) that meet
@@ -151,7 +185,9 @@ pub fn sees_nothing(mesh: &BakedMesh, camera: &Camera) -> bool {
     coverage(&tris, &vis, camera, COVERAGE_GRID) == 0.0
 }
 
-/// Render `mesh` as `view` says (a [`View::validate`]d view). Back faces and misses are black.
+/// Render `mesh` as `view` says (a [`View::validate`]d view). Back faces are black; a ray that
+/// misses every face shows the bake's sky in its direction ([`BakedMesh::sky`]), black without
+/// one or below the horizon.
 pub fn render(mesh: &BakedMesh, view: &View) -> RgbImage {
     let tris = triangles(mesh);
     let vis = Visibility::build(&tris);
@@ -305,7 +341,10 @@ fn shade(
     flat: bool,
 ) -> [f64; 3] {
     let Some(hit) = vis.closest_hit(eye, dir, f64::INFINITY, NONE) else {
-        return [0.0; 3];
+        // Leaves the scene: the bake's sky there (black below the horizon), else black.
+        return mesh
+            .sky
+            .map_or([0.0; 3], |sky| sky.radiance_toward(dir.normalize()));
     };
     let f = hit.triangle as usize;
     let [a, b, c] = tris[f];
@@ -357,6 +396,7 @@ mod tests {
             faces: vec![[0, 2, 1], [0, 3, 2]],
             face_radiance: vec![[0.5; 3]; 2],
             camera: None,
+            sky: None,
         };
         let view = View {
             camera: Camera {
@@ -395,6 +435,191 @@ mod tests {
             },
         );
         assert_eq!(fc.get_pixel(64, 40).0, false_colour(0.5));
+    }
+
+    /// An axis-aligned rectangle on the plane `axis` = `at`, spanning [lo, hi] on the other
+    /// two axes, as two triangles whose front faces the side `facing` (±1) of the plane.
+    fn rect(axis: usize, at: f64, lo: [f64; 2], hi: [f64; 2], facing: f64) -> Vec<[DVec3; 3]> {
+        let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+        let corner = |u: f64, v: f64| {
+            let mut p = DVec3::ZERO;
+            p[axis] = at;
+            p[a] = u;
+            p[b] = v;
+            p
+        };
+        let q = [
+            corner(lo[0], lo[1]),
+            corner(hi[0], lo[1]),
+            corner(hi[0], hi[1]),
+            corner(lo[0], hi[1]),
+        ];
+        let mut n = DVec3::ZERO;
+        n[axis] = facing;
+        [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+            .map(|[p, q, r]| {
+                if (q - p).cross(r - p).dot(n) > 0.0 {
+                    [p, q, r]
+                } else {
+                    [p, r, q]
+                }
+            })
+            .to_vec()
+    }
+
+    /// A closed box [lo, hi], faces outward.
+    fn solid(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
+        let mut t = Vec::new();
+        for axis in 0..3 {
+            let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+            let span = ([lo[a], lo[b]], [hi[a], hi[b]]);
+            t.extend(rect(axis, lo[axis], span.0, span.1, -1.0));
+            t.extend(rect(axis, hi[axis], span.0, span.1, 1.0));
+        }
+        t
+    }
+
+    /// A z-up room 6 × 4 m, walls 2.5 m high facing in, a floor, no ceiling, three boxes.
+    fn roofless_room_z_up() -> Vec<[DVec3; 3]> {
+        let mut t = rect(2, 0.0, [0.0, 0.0], [6.0, 4.0], 1.0);
+        t.extend(rect(0, 0.0, [0.0, 0.0], [4.0, 2.5], 1.0));
+        t.extend(rect(0, 6.0, [0.0, 0.0], [4.0, 2.5], -1.0));
+        t.extend(rect(1, 0.0, [0.0, 0.0], [2.5, 6.0], 1.0));
+        t.extend(rect(1, 4.0, [0.0, 0.0], [2.5, 6.0], -1.0));
+        t.extend(solid(DVec3::new(1.0, 1.0, 0.0), DVec3::new(2.0, 1.8, 0.9)));
+        t.extend(solid(DVec3::new(3.5, 2.5, 0.0), DVec3::new(4.5, 3.2, 0.5)));
+        t.extend(solid(DVec3::new(4.8, 0.5, 0.0), DVec3::new(5.5, 1.2, 1.1)));
+        t
+    }
+
+    #[test]
+    fn a_roofless_room_is_framed_level_about_its_up_axis() {
+        let z_up = roofless_room_z_up();
+        let cam = best_framing(&z_up, Up::Z);
+        let dir = (cam.target - cam.eye).normalize();
+        assert!(dir.dot(DVec3::Z).abs() < 1e-9, "level: {dir}");
+        assert_eq!(cam.up, DVec3::Z);
+        // From inside the room (its walls face in: from outside only their backs show), at
+        // half the wall's height.
+        assert!(cam.eye.x > 0.0 && cam.eye.x < 6.0 && cam.eye.y > 0.0 && cam.eye.y < 4.0);
+        assert!((cam.eye.z - 1.25).abs() < 1e-9, "{}", cam.eye);
+        let vis = Visibility::build(&z_up);
+        let seen = coverage(&z_up, &vis, &cam, COVERAGE_GRID);
+        // The floor, the far walls and the boxes; the sky above the walls is the rest.
+        assert!(seen > 0.6, "{seen}");
+
+        // The same room turned y-up (z → y, y → −z: a rotation, faces keep their fronts).
+        let turn = |p: DVec3| DVec3::new(p.x, p.z, -p.y);
+        let y_up: Vec<[DVec3; 3]> = z_up.iter().map(|t| t.map(turn)).collect();
+        let cam_y = best_framing(&y_up, Up::Y);
+        let dir_y = (cam_y.target - cam_y.eye).normalize();
+        assert!(dir_y.dot(DVec3::Y).abs() < 1e-9, "level: {dir_y}");
+        assert_eq!(cam_y.up, DVec3::Y);
+        assert!((cam_y.eye.y - 1.25).abs() < 1e-9, "{}", cam_y.eye);
+        // It is one of the turned room's eye-height views, and sees what the z-up one sees
+        // from the corresponding place.
+        let (lo, hi) = (DVec3::new(0.0, 0.0, -4.0), DVec3::new(6.0, 2.5, 0.0));
+        assert!(Camera::eye_height_views(lo, hi, Up::Y).contains(&cam_y));
+        let vis_y = Visibility::build(&y_up);
+        let turned = Camera {
+            eye: turn(cam.eye),
+            target: turn(cam.target),
+            up: turn(cam.up),
+            ..cam
+        };
+        let seen_y = coverage(&y_up, &vis_y, &cam_y, COVERAGE_GRID);
+        assert!(seen_y >= coverage(&y_up, &vis_y, &turned, COVERAGE_GRID) - 0.01);
+        assert!((seen_y - seen).abs() < 0.05, "{seen_y} vs {seen}");
+    }
+
+    #[test]
+    fn a_flat_ground_plane_is_seen_from_above_and_an_open_box_from_its_open_side() {
+        // Edge-on from every side, a floor shows nothing level: the view from above.
+        let floor = rect(2, 0.0, [0.0, 0.0], [4.0, 4.0], 1.0);
+        let cam = best_framing(&floor, Up::Z);
+        assert!((cam.target - cam.eye)
+            .normalize()
+            .abs_diff_eq(-DVec3::Z, 1e-12));
+        // A box open toward +z (y up) is looked into from outside its opening.
+        let mut open = rect(2, 0.0, [0.0, 0.0], [1.0, 1.0], 1.0);
+        open.extend(rect(0, 0.0, [0.0, 0.0], [1.0, 1.0], 1.0));
+        open.extend(rect(0, 1.0, [0.0, 0.0], [1.0, 1.0], -1.0));
+        open.extend(rect(1, 0.0, [0.0, 0.0], [1.0, 1.0], 1.0));
+        open.extend(rect(1, 1.0, [0.0, 0.0], [1.0, 1.0], -1.0));
+        let cam = best_framing(&open, Up::Y);
+        assert!(cam.eye.z > 1.0, "{}", cam.eye);
+        assert_eq!(
+            cam.vfov_degrees,
+            crate::scene::camera::cornell_vfov_degrees()
+        );
+    }
+
+    #[test]
+    fn rays_that_leave_the_scene_show_the_sky() {
+        use crate::scene::{Sky, SkyModel};
+        // A floor quad (y up) under a uniform sky, seen level from above its edge: the upper
+        // half of the picture is sky, the lower half floor.
+        let sky = Sky {
+            radiance: [0.8, 0.9, 1.2],
+            model: SkyModel::Uniform,
+            up: Up::Y,
+        };
+        let mesh = BakedMesh {
+            positions: vec![
+                [-50.0, 0.0, -50.0],
+                [50.0, 0.0, -50.0],
+                [50.0, 0.0, 50.0],
+                [-50.0, 0.0, 50.0],
+            ],
+            vertex_radiance: vec![[0.3; 3]; 4],
+            faces: vec![[0, 2, 1], [0, 3, 2]],
+            face_radiance: vec![[0.3; 3]; 2],
+            camera: None,
+            sky: Some(sky),
+        };
+        let view = View {
+            camera: Camera {
+                eye: DVec3::new(0.0, 1.0, 0.0),
+                target: DVec3::new(0.0, 1.0, 1.0),
+                up: DVec3::Y,
+                vfov_degrees: 60.0,
+            },
+            width: 16,
+            height: 16,
+            spp: 1,
+            flat: false,
+            false_colour: false,
+            exposure: 0.7,
+        };
+        let img = render(&mesh, &view);
+        let expected = radiance_to_srgb8(sky.radiance, 0.7);
+        for y in 0..8 {
+            for x in 0..16 {
+                assert_eq!(img.get_pixel(x, y).0, expected, "({x}, {y})");
+            }
+        }
+        // Below the horizon, the floor.
+        assert_eq!(img.get_pixel(8, 15).0, radiance_to_srgb8([0.3; 3], 0.7));
+        // Without a sky, black.
+        let dark = render(
+            &BakedMesh {
+                sky: None,
+                ..mesh.clone()
+            },
+            &view,
+        );
+        assert_eq!(dark.get_pixel(8, 2).0, [0; 3]);
+        // Overcast: brighter toward the zenith.
+        let overcast = BakedMesh {
+            sky: Some(Sky {
+                model: SkyModel::Overcast,
+                ..sky
+            }),
+            ..mesh
+        };
+        let img = render(&overcast, &view);
+        let lum = |p: [u8; 3]| p.iter().map(|&c| c as u32).sum::<u32>();
+        assert!(lum(img.get_pixel(8, 0).0) > lum(img.get_pixel(8, 7).0));
     }
 
     #[test]

@@ -5,10 +5,12 @@
 //! files repeat it ([`crate::io`]), and [`crate::render`] renders with it. It casts no
 //! rays.
 //!
-//! Which camera a picture uses: `--camera` if given, else the scene file's camera, else one of
-//! the five framings of the bounding box for the scene's up axis ([`Camera::framings`]: four
-//! sides and above, `--up`; [`crate::render::camera_for`] takes the one that sees the most
-//! front faces).
+//! Which camera a picture uses: `--camera` if given, else the scene file's camera, else an
+//! automatic view of the bounding box that is level about the scene's up axis (`--up`): one of
+//! the four views from outside its sides ([`Camera::framings`]) or of the four eye-height views
+//! from just inside them ([`Camera::eye_height_views`], a room seen from within), and the view
+//! from above only when no level view sees a front face (a flat ground plane);
+//! [`crate::render::camera_for`] chooses by what each sees.
 //!
 //! Text form: ten numbers `EX EY EZ TX TY TZ UX UY UZ FOV` (eye, target and up in scene units,
 //! the vertical field of view in degrees), separated by commas and/or whitespace. Written with
@@ -204,8 +206,8 @@ impl Camera {
 
     /// The five views of the bounding box [lo, hi] for the `up` axis: looking horizontally at
     /// its centre from each side in turn (first along [`Up::forward`], then turning 90° at a
-    /// time), then looking straight down from above (a courtyard or a roofless model is seen
-    /// from there), with the Cornell box's published lens ([`cornell_vfov_degrees`]), far
+    /// time), then looking straight down from above (what a flat ground plane is seen from,
+    /// when no level view sees it), with the Cornell box's published lens ([`cornell_vfov_degrees`]), far
     /// enough back that the box's near face fills the picture's height or width.
     pub fn framings(lo: DVec3, hi: DVec3, up: Up) -> [Camera; 5] {
         let vfov_degrees = cornell_vfov_degrees();
@@ -231,6 +233,46 @@ impl Camera {
                 target: centre,
                 up: picture_up,
                 vfov_degrees,
+            }
+        })
+    }
+}
+
+/// Vertical field of view of the eye-height views from inside the bounding box
+/// ([`Camera::eye_height_views`]), degrees: a wide lens, as interiors are photographed.
+pub const INSIDE_VFOV_DEGREES: f64 = 60.0;
+
+/// How far inside the bounding box the eye of an eye-height view stands, as a share of the
+/// box's depth along the view (from the side it looks from).
+pub const INSIDE_INSET: f64 = 0.05;
+
+impl Camera {
+    /// The four level views of the bounding box [lo, hi] from just inside it, for the `up`
+    /// axis: the eye [`INSIDE_INSET`] of the box's depth in from one side (in the order of
+    /// [`Camera::framings`]' sides), halfway up the box (its height along `up`), looking
+    /// horizontally across at the far side with a [`INSIDE_VFOV_DEGREES`] lens and `up` as the
+    /// picture's up. A room whose walls face inward shows only their backs from outside; from
+    /// here it is seen as someone standing in it sees it.
+    pub fn eye_height_views(lo: DVec3, hi: DVec3, up: Up) -> [Camera; 4] {
+        let centre = 0.5 * (lo + hi);
+        let half = 0.5 * (hi - lo);
+        let (up, first) = (up.axis(), up.forward());
+        let side = first.cross(up);
+        [first, side, -first, -side].map(|forward| {
+            // The half-depth along the view, and the eye that far back from the centre less
+            // the inset; the target ahead at the same height, so the view stays level (a box
+            // flat along the view still gets a target apart from the eye).
+            let depth = half.dot(forward.abs());
+            let eye = centre - forward * (depth * (1.0 - 2.0 * INSIDE_INSET));
+            let reach = [depth, half.length(), 1.0]
+                .into_iter()
+                .find(|&d| d > 0.0)
+                .unwrap_or(1.0);
+            Camera {
+                eye,
+                target: eye + forward * reach,
+                up,
+                vfov_degrees: INSIDE_VFOV_DEGREES,
             }
         })
     }

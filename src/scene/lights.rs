@@ -272,17 +272,89 @@ impl Environment {
     }
 
     /// The sky's radiance arriving from direction `dir` (unit, pointing away from the
-    /// receiver): 0 below the horizon.
+    /// receiver): 0 below the horizon ([`Sky::radiance_toward`]).
     pub fn sky_radiance(&self, dir: DVec3) -> Rgb {
+        Sky {
+            radiance: self.sky,
+            model: self.sky_model,
+            up: self.up,
+        }
+        .radiance_toward(dir)
+    }
+
+    /// The sky alone, as pictures show it where a ray leaves the scene; `None` when there is
+    /// no sky (radiance 0 in every channel).
+    pub fn sky(&self) -> Option<Sky> {
+        self.sky.iter().any(|&l| l > 0.0).then_some(Sky {
+            radiance: self.sky,
+            model: self.sky_model,
+            up: self.up,
+        })
+    }
+}
+
+/// The sky on its own: its radiance, model and horizon. A bake hands it to pictures
+/// ([`crate::bake::BakedMesh::sky`]) and its PLY output carries it as a header comment
+/// (`comment sky: R G B MODEL UP`, [`Sky::to_text`]) so a picture of the baked file shows the
+/// same sky where its rays leave the scene.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Sky {
+    /// Radiance above the horizon (the zenith's for `overcast`), W·sr⁻¹·m⁻² per channel,
+    /// finite and ≥ 0.
+    pub radiance: Rgb,
+    /// How the radiance varies with direction.
+    pub model: SkyModel,
+    /// The up axis: the horizon is the plane across it.
+    pub up: Up,
+}
+
+/// The marker that starts a sky line in a baked PLY header: `comment sky: R G B MODEL UP`.
+pub const SKY_KEYWORD: &str = "sky:";
+
+impl Sky {
+    /// Radiance arriving from unit direction `dir` (pointing away from the receiver),
+    /// W·sr⁻¹·m⁻² per channel: 0 at and below the horizon; above it `radiance` (uniform) or
+    /// `radiance` · (1 + 2 sin α)/3 at elevation α (overcast).
+    pub fn radiance_toward(&self, dir: DVec3) -> Rgb {
         let sin_elevation = dir.dot(self.up.axis());
         if sin_elevation <= 0.0 {
             return [0.0; 3];
         }
-        let f = match self.sky_model {
+        let f = match self.model {
             SkyModel::Uniform => 1.0,
             SkyModel::Overcast => (1.0 + 2.0 * sin_elevation) / 3.0,
         };
-        self.sky.map(|l| l * f)
+        self.radiance.map(|l| l * f)
+    }
+
+    /// `R G B MODEL UP`: the radiance in Rust's shortest round-trip decimals, the model's and
+    /// the axis's names (`1 0.9 0.8 overcast z`).
+    pub fn to_text(&self) -> String {
+        use crate::Choice;
+        let [r, g, b] = self.radiance;
+        format!("{r} {g} {b} {} {}", self.model.name(), self.up.name())
+    }
+
+    /// Parses [`Sky::to_text`]'s form; the error says what is wrong, in words.
+    pub fn from_text(text: &str) -> std::result::Result<Sky, String> {
+        use crate::Choice;
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let [r, g, b, model, up] = words[..] else {
+            return Err(format!(
+                "expected R G B MODEL UP (five words), got {}",
+                words.len()
+            ));
+        };
+        let number = |w: &str| match w.parse::<f64>() {
+            Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+            _ => Err(format!("{w:?} is not a finite radiance ≥ 0")),
+        };
+        Ok(Sky {
+            radiance: [number(r)?, number(g)?, number(b)?],
+            model: SkyModel::from_name(model)
+                .ok_or_else(|| format!("{model:?} is not a sky model"))?,
+            up: Up::from_name(up).ok_or_else(|| format!("{up:?} is not an axis (x, y, z)"))?,
+        })
     }
 }
 

@@ -37,7 +37,7 @@ mod two_sided;
 pub(crate) use build::{finish, listed_names};
 pub use build::{SceneBuilder, MAX_LISTED_PAIRS};
 pub use camera::{Camera, Up};
-pub use lights::{Environment, LightSources, PointLight, SkyModel, Spot, Sun};
+pub use lights::{Environment, LightSources, PointLight, Sky, SkyModel, Spot, Sun};
 pub use overrides::{Override, Property};
 pub use texture::{Texture, UvMap, NO_UV};
 

@@ -92,6 +92,7 @@ fn fuzz_lite_mutated_ply_never_panics() {
         faces: vec![[0, 1, 2], [0, 2, 3]],
         face_radiance: vec![[0.5; 3]; 2],
         camera: None,
+        sky: None,
     };
     let mut binary = Vec::new();
     radiosity::io::ply::write_to(&mut binary, &mesh, 1.0, false).unwrap();

@@ -210,6 +210,7 @@ fn baked_files_carry_the_camera() {
         faces: vec![[0, 1, 2]],
         face_radiance: vec![[0.5; 3]],
         camera: Some(odd),
+        sky: None,
     };
     for (name, format) in [
         ("m.ply", Format::Ply { ascii: false }),
@@ -318,7 +319,8 @@ fn without_a_camera_the_picture_looks_into_the_open_side_and_says_when_it_shows_
     let eye = json["framing"]["eye"][2].as_f64().unwrap();
     assert!(eye > 1.0, "looks in from +z: eye z = {eye}");
 
-    // A closed room seen from outside: every side shows backs, and the run says so.
+    // A closed room: from outside every side shows backs, so the picture is taken from
+    // inside at eye height and shows something; a camera outside it is warned about.
     let furnace = dir.join("furnace.obj");
     let o = radiosity(&["generate", "furnace", "-o", &s(&furnace)]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -336,6 +338,34 @@ fn without_a_camera_the_picture_looks_into_the_open_side_and_says_when_it_shows_
         "none",
         "--max-edge",
         "0.5",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("shows nothing"), "{}", stderr(&o));
+    let o = radiosity(&["info", &s(&furnace), "--json"]);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let eye: Vec<f64> = (0..3)
+        .map(|k| json["framing"]["eye"][k].as_f64().unwrap())
+        .collect();
+    let (lo, hi) = (&json["bounds_min"], &json["bounds_max"]);
+    for k in 0..3 {
+        let (lo, hi) = (lo[k].as_f64().unwrap(), hi[k].as_f64().unwrap());
+        assert!(eye[k] > lo && eye[k] < hi, "inside the room: eye {eye:?}");
+    }
+    let o = radiosity(&[
+        "render",
+        &s(&furnace),
+        "-o",
+        &s(&png),
+        "--size",
+        "32",
+        "--refine",
+        "0",
+        "--gather",
+        "none",
+        "--max-edge",
+        "0.5",
+        "--camera",
+        "0.5,0.5,-5,0.5,0.5,0.5,0,1,0,40",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(

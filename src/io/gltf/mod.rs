@@ -799,6 +799,7 @@ mod tests {
             faces: vec![[0, 1, 2], [0, 2, 3]],
             face_radiance: vec![[0.4; 3], [0.2; 3]],
             camera: None,
+            sky: None,
         }
     }
 

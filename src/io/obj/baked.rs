@@ -89,6 +89,7 @@ pub fn read(path: &Path) -> Result<ReadBack> {
         faces: Vec::new(),
         face_radiance: None,
         camera: None,
+        sky: None,
     };
     let mut camera = CameraLine::default();
     // Faces with the line they came from, checked against the vertex count at the end.
@@ -216,6 +217,7 @@ mod tests {
             faces: vec![[0, 1, 2]],
             face_radiance: vec![[1.0; 3]],
             camera: None,
+            sky: None,
         };
         let mut bytes = Vec::new();
         write_to(&mut bytes, &mesh, 1.0).unwrap();

@@ -3,7 +3,8 @@
 //! and `float radiance_r/g/b` (linear W·sr⁻¹·m⁻², which MeshLab drops but plyfile/trimesh
 //! keep); per face: `list uchar int vertex_indices` and `float radiance_r/g/b`. The header
 //! records the exposure in a comment, and the scene's camera (`comment camera: EX EY EZ TX TY
-//! TZ UX UY UZ FOV`, see [`crate::scene::camera`]) when it has one. This file owns the byte
+//! TZ UX UY UZ FOV`, see [`crate::scene::camera`]) when it has one, and the bake's sky
+//! (`comment sky: R G B MODEL UP`, [`crate::scene::Sky`]) when it had one, for pictures. This file owns the byte
 //! layout only; atomic file replacement is in [`crate::io::atomic`], the colour pipeline in
 //! [`crate::color`], the header's syntax in [`super::header`]. The reader accepts our layout
 //! (any comments) and nothing else; any other PLY is a scene ([`super::load`]).
@@ -15,7 +16,7 @@ use super::header::{parse_error, Header};
 use crate::bake::BakedMesh;
 use crate::color::radiance_to_srgb8;
 use crate::io::ReadBack;
-use crate::scene::camera;
+use crate::scene::{camera, lights};
 use crate::{Error, Result};
 
 /// First header comment: what the numbers mean.
@@ -69,6 +70,9 @@ pub fn write_to(
     if let Some(camera) = &mesh.camera {
         writeln!(w, "comment {} {}", camera::FILE_KEYWORD, camera.to_text())?;
     }
+    if let Some(sky) = &mesh.sky {
+        writeln!(w, "comment {} {}", lights::SKY_KEYWORD, sky.to_text())?;
+    }
     writeln!(w, "element vertex {}", mesh.positions.len())?;
     for p in VERTEX_PROPERTIES {
         writeln!(w, "{p}")?;
@@ -121,7 +125,8 @@ fn put_f32s(out: &mut [u8], values: [f32; 3]) {
 }
 
 /// Reads a PLY file written by [`write_to`] (ASCII or binary little-endian, as its header
-/// says), with the camera of its `comment camera: …` line if it has one. The header goes
+/// says), with the camera of its `comment camera: …` line and the sky of its `comment sky: …`
+/// line if it has them. The header goes
 /// through the shared header layer (`Header::parse`) and must then declare exactly our
 /// elements and properties. Header and ASCII body problems are [`Error::Parse`] with the
 /// line; binary body problems are [`Error::Input`] naming the vertex or face.
@@ -129,12 +134,27 @@ pub fn read(path: &Path) -> Result<ReadBack> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let header = Header::parse(path, &bytes)?;
     let layout = Layout::of(path, &header)?;
+    let sky = match &header.sky {
+        None => None,
+        Some((line, text)) => Some(lights::Sky::from_text(text).map_err(|why| {
+            parse_error(
+                path,
+                *line,
+                format!(
+                    "malformed sky line ({} R G B MODEL UP): {why}",
+                    lights::SKY_KEYWORD
+                ),
+            )
+        })?),
+    };
     let body = &bytes[header.body_start..];
-    if header.ascii {
+    let mut back = if header.ascii {
         read_ascii_body(path, &header, &layout, body)
     } else {
         read_binary_body(path, &header, &layout, body)
-    }
+    }?;
+    back.sky = sky;
+    Ok(back)
 }
 
 /// What a header declaring exactly our layout promises: the record counts.
@@ -227,6 +247,7 @@ fn read_ascii_body(path: &Path, header: &Header, layout: &Layout, body: &[u8]) -
         faces: Vec::with_capacity(cap(layout.faces)),
         face_radiance: None,
         camera: header.camera,
+        sky: None,
     };
     let mut vertex_radiance = Vec::with_capacity(cap(layout.vertices));
     let mut face_radiance = Vec::with_capacity(cap(layout.faces));
@@ -384,6 +405,7 @@ fn read_binary_body(
         faces,
         face_radiance: Some(face_radiance),
         camera: header.camera,
+        sky: None,
     })
 }
 

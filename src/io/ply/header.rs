@@ -4,12 +4,14 @@
 //! `element NAME COUNT` with its `property TYPE NAME` / `property list COUNT_TYPE TYPE NAME`
 //! lines, the eight scalar types and their sized aliases, `obj_info` and comments ignored, and
 //! one optional `comment camera: …` line ([`crate::scene::camera`]): a malformed one, or a
-//! second one, is an error at its line. Every error names the file and the header line.
+//! second one, is an error at its line; the first `comment sky: …` line is kept as text for
+//! the read-back of baked files. Every error names the file and the header line.
 
 use std::path::Path;
 
 pub(super) use crate::io::parse_error;
 use crate::scene::camera::{Camera, CameraLine};
+use crate::scene::lights::SKY_KEYWORD;
 use crate::Result;
 
 /// A PLY scalar type (`char`…`double`, or the sized aliases `int8`…`float64`).
@@ -163,6 +165,9 @@ pub(super) struct Header {
     pub lines: usize,
     /// The `comment camera: …` line's camera (at most one such line).
     pub camera: Option<Camera>,
+    /// The first `comment sky: …` line (a baked file's sky, [`crate::scene::Sky::from_text`]):
+    /// its header line and the text after the marker, unparsed.
+    pub sky: Option<(usize, String)>,
 }
 
 impl Header {
@@ -178,6 +183,7 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
     let mut number = 0;
     let mut format = None;
     let mut camera = CameraLine::default();
+    let mut sky = None;
     let mut elements: Vec<Element> = Vec::new();
     loop {
         number += 1;
@@ -211,6 +217,11 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
                 camera
                     .read(comment, number)
                     .map_err(|why| parse_error(path, number, why))?;
+                if let Some(text) = comment.trim_start().strip_prefix(SKY_KEYWORD) {
+                    // Kept as text: only the read-back of baked files reads it (a scene's
+                    // PLY may say anything in its comments).
+                    sky.get_or_insert((number, text.to_string()));
+                }
             }
             [] | ["obj_info", ..] => {}
             ["format", kind, "1.0"] => {
@@ -308,5 +319,6 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
         body_start: pos,
         lines: number,
         camera: camera.camera(),
+        sky,
     })
 }

@@ -63,4 +63,50 @@ mod tests {
             }
         }
     }
+    /// A baked file carries the bake's sky for pictures; the scene reader ignores the line,
+    /// the read-back refuses a malformed one at its line.
+    #[test]
+    fn baked_files_carry_the_sky() {
+        use crate::scene::{Sky, SkyModel, Up};
+        let dir = TestDir::new("ply-sky");
+        let path = dir.path().join("baked.ply");
+        let mut mesh = sample_mesh(3, 1);
+        mesh.positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        mesh.faces = vec![[0, 1, 2]];
+        let sky = Sky {
+            radiance: [0.1, 1.0 / 3.0, 2.5],
+            model: SkyModel::Overcast,
+            up: Up::Z,
+        };
+        mesh.sky = Some(sky);
+        for ascii in [true, false] {
+            let mut bytes = Vec::new();
+            write_to(&mut bytes, &mesh, 1.0, ascii).unwrap();
+            std::fs::write(&path, &bytes).unwrap();
+            let back = read(&path).unwrap();
+            assert_eq!(back.sky, Some(sky));
+            assert_eq!(back.into_baked().unwrap().sky, Some(sky));
+            assert!(load(&path).is_ok());
+        }
+        let mut bytes = Vec::new();
+        write_to(&mut bytes, &mesh, 1.0, true).unwrap();
+        let text = String::from_utf8(bytes).unwrap();
+        assert!(text.contains("comment sky: 0.1 0.3333333333333333 2.5 overcast z\n"));
+        let line = text
+            .lines()
+            .position(|l| l.starts_with("comment sky"))
+            .unwrap()
+            + 1;
+        std::fs::write(&path, text.replace("overcast z", "cloudy z")).unwrap();
+        match read(&path).unwrap_err() {
+            Error::Parse {
+                line: l, message, ..
+            } => {
+                assert_eq!(l, line, "{message}");
+                assert!(message.contains("sky model"), "{message}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(load(&path).is_ok(), "a scene's comments are its own");
+    }
 }

@@ -562,6 +562,7 @@ mod tests {
             faces: vec![[0, 1, 2], [1, 3, 2]],
             face_radiance: vec![[4.0, 5.0, 6.0]; 2],
             camera: None,
+            sky: None,
         };
         for ascii in [true, false] {
             let mut bytes = Vec::new();
