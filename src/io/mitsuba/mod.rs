@@ -20,7 +20,8 @@
 //! - BSDFs, nested in shapes or by `id` and `<ref id>`: `diffuse` (ρ = `reflectance`),
 //!   `twosided` (its inner BSDF, on both sides of the faces: they get twins,
 //!   [`Scene::make_two_sided_where`]), glass (`dielectric`, `thindielectric`,
-//!   `roughdielectric`: clear, transmittance 1, ρ 0), and any other BSDF by its diffuse
+//!   `roughdielectric`: clear, [`Material::transmittance`] 1 and ρ 0, which the solve does
+//!   not read yet: such faces block light), and any other BSDF by its diffuse
 //!   colour (`diffuse_reflectance`, `base_color` or `reflectance`; else ρ = 0.5), each with
 //!   one warning. Colours are `rgb`, `srgb` (decoded), `spectrum` (one value: grey; a
 //!   `wavelength:value` list: its mean value as grey, with a warning), `float`, or a `bitmap`
@@ -937,7 +938,8 @@ impl<'a, 'input> Reader<'a, 'input> {
         if width <= 0.0 || height <= 0.0 {
             return Err(self.error(node, "the film's width and height must be positive"));
         }
-        let fov = self.float_prop(node, &["fov"], 39.3077)?;
+        // Without a fov: Mitsuba's default lens, 50 mm on a 36 mm wide film.
+        let fov = self.float_prop(node, &["fov"], 2.0 * (18.0f64 / 50.0).atan().to_degrees())?;
         let axis = self.string_prop(node, "fov_axis")?.unwrap_or("x".into());
         let h_over_w = height / width;
         // tan(vfov/2) from tan(fov/2) along the named axis.
@@ -987,7 +989,9 @@ impl<'a, 'input> Reader<'a, 'input> {
         }
         if !self.glass.is_empty() {
             warnings.push(format!(
-                "{} glass BSDF(s) taken as clear glass (transmittance 1, no reflection): {}",
+                "{} glass BSDF(s) taken as clear glass (transmittance 1, ρ = 0); the solve \
+                 does not yet let light through a face, so until it does these faces are \
+                 black and block light: {}",
                 self.glass.len(),
                 self.glass.join(", ")
             ));
