@@ -40,8 +40,8 @@ fn closed_cube_room_from_xml_bakes_to_le_over_one_minus_rho() {
         "the faces are cut into patches"
     );
     for (i, l) in out.solution.radiance.iter().enumerate() {
-        for c in 0..3 {
-            assert_rel(&format!("patch {i} channel {c}"), l[c], 2.0, 1e-3);
+        for (c, &v) in l.iter().enumerate() {
+            assert_rel(&format!("patch {i} channel {c}"), v, 2.0, 1e-3);
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
