@@ -386,7 +386,7 @@ impl<'a, 'input> Reader<'a, 'input> {
     }
 
     /// The `to_world` transform of `node` (identity when it has none).
-    fn to_world(&mut self, node: Node<'a, 'input>) -> Result<DMat4> {
+    fn world_transform(&mut self, node: Node<'a, 'input>) -> Result<DMat4> {
         match self.prop(node, &["to_world"])? {
             Some(t) if t.has_tag_name("transform") => self.transform(t),
             Some(t) => Err(self.error(t, "to_world is not a <transform>")),
@@ -731,7 +731,7 @@ impl<'a, 'input> Reader<'a, 'input> {
                 return Ok(());
             }
         };
-        let to_world = self.to_world(node)?;
+        let to_world = self.world_transform(node)?;
         let flip = self.bool_prop(node, "flip_normals")? != (to_world.determinant() < 0.0);
 
         let mut bsdf = None;
@@ -821,7 +821,7 @@ impl<'a, 'input> Reader<'a, 'input> {
         let owner = self.label(node)?;
         match kind.as_str() {
             "point" | "spot" => {
-                let to_world = self.to_world(node)?;
+                let to_world = self.world_transform(node)?;
                 let position = match self.prop(node, &["position"])? {
                     Some(p) => self.xyz(p, 0.0, false)?,
                     None => to_world.transform_point3(DVec3::ZERO),
@@ -876,7 +876,7 @@ impl<'a, 'input> Reader<'a, 'input> {
                     .unwrap_or([1.0; 3]);
                 let direction = match self.prop(node, &["direction"])? {
                     Some(p) => self.xyz(p, 0.0, false)?,
-                    None => self.to_world(node)?.transform_vector3(DVec3::Z),
+                    None => self.world_transform(node)?.transform_vector3(DVec3::Z),
                 };
                 // Toward the sun is −direction; azimuth from north (+Z) toward east (−X)
                 // with +Y up ([`Sun`]).
@@ -959,7 +959,7 @@ impl<'a, 'input> Reader<'a, 'input> {
             }
         };
         let vfov = 2.0 * tan_v.atan().to_degrees();
-        let m = self.to_world(node)?;
+        let m = self.world_transform(node)?;
         let eye = m.transform_point3(DVec3::ZERO);
         let camera = Camera::new(
             eye,
