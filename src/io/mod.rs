@@ -1,5 +1,5 @@
 //! Files in and out: scene files read into a [`Scene`] ([`Scene::load`]: OBJ + MTL through
-//! [`obj`], PLY through [`ply`]), baked meshes written for MeshLab ([`write()`]: PLY or OBJ by
+//! [`obj`], PLY through [`ply`], glTF through [`gltf`], Mitsuba XML through [`mitsuba`]), baked meshes written for MeshLab ([`write()`]: PLY or OBJ by
 //! the output's extension, see [`Format`]) and read back ([`ReadBack`], for tests, `render` and
 //! later tools), procedural scenes saved as OBJ + MTL ([`obj::save`]), and the atomic
 //! replacement every writer goes through ([`atomic`]). Each format keeps its reader and its
@@ -10,6 +10,7 @@
 pub mod atomic;
 pub mod gltf;
 pub mod lights;
+pub mod mitsuba;
 pub mod obj;
 pub mod ply;
 
@@ -81,7 +82,8 @@ pub(crate) fn parse_error(path: &Path, line: usize, message: impl Into<String>) 
 
 impl Scene {
     /// Loads a scene file, dispatching on the extension: `.obj` (any case) goes to
-    /// [`obj::load`], `.ply` to [`ply::load`], `.gltf` and `.glb` to [`gltf::load`]. A missing path is [`Error::Io`], a directory or
+    /// [`obj::load`], `.ply` to [`ply::load`], `.gltf` and `.glb` to [`gltf::load`], `.xml`
+    /// (a Mitsuba scene) to [`mitsuba::load`]. A missing path is [`Error::Io`], a directory or
     /// any other extension [`Error::Input`]; all name the path. (Defined here, with the
     /// readers, so that the scene model does not depend on the file formats.)
     pub fn load(path: &Path) -> Result<Scene> {
@@ -89,7 +91,8 @@ impl Scene {
         if meta.is_dir() {
             return Err(Error::Input {
                 path: path.to_path_buf(),
-                message: "is a directory, expected a scene file (.obj, .ply, .gltf or .glb)".into(),
+                message: "is a directory, expected a scene file (.obj, .ply, .gltf, .glb or .xml)"
+                    .into(),
             });
         }
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -99,11 +102,14 @@ impl Scene {
             ply::load(path)
         } else if ext.eq_ignore_ascii_case("gltf") || ext.eq_ignore_ascii_case("glb") {
             gltf::load(path)
+        } else if ext.eq_ignore_ascii_case("xml") {
+            mitsuba::load(path)
         } else {
             Err(Error::Input {
                 path: path.to_path_buf(),
-                message: "unsupported scene format (expected a .obj, .ply, .gltf or .glb file)"
-                    .into(),
+                message:
+                    "unsupported scene format (expected a .obj, .ply, .gltf, .glb or .xml file)"
+                        .into(),
             })
         }
     }

@@ -64,6 +64,7 @@ pub(crate) fn finish(
         camera: None,
         lights: Vec::new(),
         sun: None,
+        sky: None,
         textures,
         uv_maps,
     };
@@ -258,6 +259,7 @@ pub(crate) fn finish(
         camera: None,
         lights: Vec::new(),
         sun: None,
+        sky: None,
         textures,
         uv_maps,
     };

@@ -407,12 +407,16 @@ impl LightSources {
 
 impl Environment {
     /// The scene file's own lights added (glTF's punctual lights, [`super::Scene::lights`] and
-    /// [`super::Scene::sun`]): its point and spot lights join these, after them, and its sun
-    /// is taken where these have none.
+    /// [`super::Scene::sun`], Mitsuba's [`super::Scene::sky`]): its point and spot lights join
+    /// these, after them, its sun is taken where these have none, and its sky where these
+    /// have none (a sky of radiance 0 counts as none; the sky model stays these settings').
     pub fn add_scene_lights(&mut self, scene: &super::Scene) {
         self.lights.extend(scene.lights.iter().copied());
         if self.sun.is_none() {
             self.sun = scene.sun;
+        }
+        if let (true, Some(sky)) = (self.sky.iter().all(|&l| l == 0.0), scene.sky) {
+            self.sky = sky;
         }
     }
 }

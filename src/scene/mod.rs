@@ -13,7 +13,8 @@
 //! (welded, so faces that share a corner share its index), every position is used by a
 //! triangle, no triangle has (relatively) zero area, every ρ is in [0, 1] and every Le is
 //! finite and ≥ 0, and there is at least one triangle. A loaded scene is one-sided
-//! ([`Scene::twin`] empty); [`Scene::make_two_sided`] gives faces a back side.
+//! ([`Scene::twin`] empty), except a Mitsuba scene's faces under a `twosided` BSDF, which come
+//! with their twins; [`Scene::make_two_sided`] gives faces a back side.
 //!
 //! # Two-sided scenes
 //! Every face is one-sided by default: its front is the counter-clockwise side, light arriving
@@ -142,6 +143,10 @@ pub struct Scene {
     pub lights: Vec<PointLight>,
     /// The sun the scene file carries (a glTF directional light); a bake's `--sun` replaces it.
     pub sun: Option<Sun>,
+    /// The uniform sky the scene file carries (a Mitsuba `constant` emitter), radiance
+    /// W·sr⁻¹·m⁻² per channel, finite and ≥ 0; a bake uses it when it is given no sky of its
+    /// own (`--sky`, a lights file) ([`Environment::add_scene_lights`]).
+    pub sky: Option<crate::color::Rgb>,
     /// Textures whose colour varies ρ across the faces that carry texture coordinates
     /// ([`texture`]); empty for most scenes.
     pub textures: Vec<Texture>,
@@ -500,6 +505,7 @@ mod tests {
             camera: None,
             lights: Vec::new(),
             sun: None,
+            sky: None,
             textures: Vec::new(),
             uv_maps: Vec::new(),
         };

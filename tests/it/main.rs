@@ -7,6 +7,7 @@
 //! - `solvers`, `form_factors`, `visibility`, `mesh`: each stage on real scenes, against oracles
 //!   (dense LU, brute-force visibility) and invariants (row sums, reciprocity, conformity);
 //! - `loaders`: hostile bytes through the scene loaders;
+//! - `mitsuba`: Mitsuba XML scenes through the pipeline (a closed room's closed form);
 //! - `hostile_geometry`: the unit of length and pathological meshes;
 //! - `materials`, `two_sided`: overrides and two-sided surfaces through the pipeline;
 //! - `lights`: the lights outside the mesh (sky, sun, lamps), closed forms and shadows, both
@@ -24,6 +25,7 @@ mod lights;
 mod loaders;
 mod materials;
 mod mesh;
+mod mitsuba;
 mod scenes;
 mod solvers;
 mod support;
