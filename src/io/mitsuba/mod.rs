@@ -20,8 +20,8 @@
 //! - BSDFs, nested in shapes or by `id` and `<ref id>`: `diffuse` (ρ = `reflectance`),
 //!   `twosided` (its inner BSDF, on both sides of the faces: they get twins,
 //!   [`Scene::make_two_sided_where`]), glass (`dielectric`, `thindielectric`,
-//!   `roughdielectric`: clear, [`Material::transmittance`] 1 and ρ 0, which the solve does
-//!   not read yet: such faces block light), and any other BSDF by its diffuse
+//!   `roughdielectric`: clear, [`Material::transmittance`] 1, so the faces are left out and
+//!   light passes straight), and any other BSDF by its diffuse
 //!   colour (`diffuse_reflectance`, `base_color` or `reflectance`; else ρ = 0.5), each with
 //!   one warning. Colours are `rgb`, `srgb` (decoded), `spectrum` (one value: grey; a
 //!   `wavelength:value` list: its mean value as grey, with a warning), `float`, or a `bitmap`
@@ -989,9 +989,9 @@ impl<'a, 'input> Reader<'a, 'input> {
         }
         if !self.glass.is_empty() {
             warnings.push(format!(
-                "{} glass BSDF(s) taken as clear glass (transmittance 1, ρ = 0); the solve \
-                 does not yet let light through a face, so until it does these faces are \
-                 black and block light: {}",
+                "{} glass BSDF(s) taken as clear glass (transmittance 1: the faces let all \
+                 light through, straight, and are left out; refraction and the panes' \
+                 reflection are not modelled): {}",
                 self.glass.len(),
                 self.glass.join(", ")
             ));

@@ -366,6 +366,7 @@ fn lights_sky_and_glass_are_read() {
              <emitter type="constant"><rgb name="radiance" value="0.2"/></emitter>
              <emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>
              <shape type="rectangle"><bsdf type="thindielectric" id="pane"/></shape>
+             <shape type="disk"><bsdf type="diffuse" id="frame"/></shape>
            </scene>"#,
     )
     .unwrap();
@@ -375,7 +376,17 @@ fn lights_sky_and_glass_are_read() {
     assert!(close(spot.direction, -DVec3::Y) && close(s.lights[1].position, 4.0 * DVec3::Y));
     assert_eq!((spot.inner_degrees, spot.outer_degrees), (22.5, 30.0));
     assert_eq!(s.sky, Some([0.2; 3]));
-    assert_eq!(s.materials[0].transmittance, 1.0);
+    // The clear pane is left out; the frame's faces stay.
+    let pane = s.materials.iter().find(|m| m.name == "pane").unwrap();
+    assert_eq!(pane.transmittance, 1.0);
+    assert!(s
+        .triangles
+        .iter()
+        .all(|t| s.materials[t.material as usize].name == "frame"));
+    assert!(s
+        .warnings
+        .iter()
+        .any(|w| w.contains("left out") && w.contains("pane")));
     assert!(s
         .warnings
         .iter()
