@@ -17,6 +17,7 @@ use radiosity::hierarchical;
 use radiosity::mesh::Discontinuities;
 use radiosity::pipeline::{self, WriteOptions};
 use radiosity::render::{self, View};
+use radiosity::scene::orient::Orient;
 use radiosity::scene::{Camera, Override, Property, Up};
 use radiosity::scene::{Environment, LightSources, PointLight, SkyModel, Spot, Sun};
 use radiosity::solve::{self, Method};
@@ -416,6 +417,11 @@ pub struct SolveArgs {
     /// material (ρ, Le) and its own radiance, and the output has both (twice the patches).
     #[arg(long, help_heading = "Discretisation")]
     pub two_sided: bool,
+    /// Faces wound the wrong way: `auto` makes each surface's faces agree and turns it to
+    /// face where the light and the rest of the scene see it from (a warning says what was
+    /// turned); `keep` bakes the winding as given.
+    #[arg(long, value_parser = choice::<Orient>(), default_value_t = pipeline::Settings::default().orient, help_heading = "Discretisation")]
+    pub orient: Orient,
     /// Adaptive refinement rounds: after each solve, split the patches whose radiance differs
     /// from a neighbour's (same surface) by more than --refine-threshold, and solve again.
     #[arg(
@@ -584,6 +590,7 @@ impl SolveArgs {
             crease_degrees: self.crease,
             environment: self.environment()?,
             two_sided: self.two_sided,
+            orient: self.orient,
             refine_rounds: self.refine,
             refine_threshold: self.refine_threshold,
             refine_max_patches: self.refine_max_patches,

@@ -27,10 +27,12 @@ use crate::gather::{self, Gather};
 use crate::hierarchical;
 use crate::io::{self, Format};
 use crate::mesh::{self, refine, Patches};
+use crate::scene::orient::{self, Orient};
 use crate::scene::{Override, Scene};
 use crate::solve::{self, Solution, System};
 use crate::visibility::Visibility;
 use crate::Result;
+use glam::DVec3;
 
 /// What [`solve_scene`] produces: every intermediate a caller may want to inspect.
 #[derive(Debug)]
@@ -212,6 +214,22 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     settings.validate()?;
     let settings = &settings.resolved(scene)?;
     let input_triangles = scene.triangles.len();
+    // Faces wound the wrong way turned round (not for a two-sided bake: both sides stay).
+    let t = Instant::now();
+    let oriented = (settings.orient == Orient::Auto
+        && !settings.two_sided
+        && scene.twin.is_empty())
+    .then(|| {
+        let lights: Vec<DVec3> = settings
+            .environment
+            .lights
+            .iter()
+            .map(|l| l.position)
+            .collect();
+        orient::orient(scene, &lights, settings.form_factors.seed)
+    });
+    let scene = oriented.as_ref().map_or(scene, |(s, _)| s);
+    let orient_seconds = t.elapsed().as_secs_f64();
     // Contact lines become edges (before the back sides are made: twins stay identical).
     let t = Instant::now();
     let split = settings
@@ -224,6 +242,12 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     scene.validate()?;
     let mut report = Report::new(settings);
     report.warnings.extend(scene.warnings.iter().cloned());
+    if let Some((_, o)) = &oriented {
+        if o.changed() {
+            report.warnings.push(o.summary());
+        }
+        report.orientation = Some(o.clone());
+    }
     for name in crate::scene::reach::unlit_emitters(scene, settings.form_factors.seed) {
         report.warnings.push(format!(
             "emitting material '{name}' lights nothing: none of {} rays from the front \
@@ -235,7 +259,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     report.stream_warnings();
     report.input_triangles = input_triangles;
     report.contacts = split.as_ref().map(|(_, stats)| stats.clone());
-    report.seconds.patches = contact_seconds;
+    report.seconds.patches = orient_seconds + contact_seconds;
 
     if settings.method == Method::Hierarchical {
         return hierarchical_scene(scene, settings, report);

@@ -51,6 +51,9 @@ pub struct Report {
     pub overrides: Vec<String>,
     /// Triangles in the input after triangulation and cleaning.
     pub input_triangles: usize,
+    /// What repairing the faces' orientation turned (`orient = auto`; `None` when it did
+    /// not run).
+    pub orientation: Option<crate::scene::orient::Orientation>,
     /// What making the contact lines edges did (`discontinuities = contacts`).
     pub contacts: Option<crate::mesh::ContactStats>,
     /// What cutting the display's faces along the contact lines did (the hierarchical
@@ -152,6 +155,7 @@ impl Report {
             output: None,
             overrides: Vec::new(),
             input_triangles: 0,
+            orientation: None,
             contacts: None,
             display_contacts: None,
             max_edge: 0.0,

@@ -100,6 +100,8 @@ pub struct Settings {
     pub environment: crate::scene::Environment,
     /// Give every face a back side with its material ([`crate::scene::Scene::make_two_sided`]).
     pub two_sided: bool,
+    /// Repair faces wound the wrong way before patching ([`crate::scene::orient`]).
+    pub orient: crate::scene::orient::Orient,
     /// Adaptive refinement: rounds of splitting the patches whose radiance jumps against a
     /// neighbour's by more than `refine_threshold` (relative), each followed by a new solve
     /// ([`mod@crate::mesh::refine`]); 0 = none.
@@ -154,6 +156,7 @@ impl Default for Settings {
             crease_degrees: mesh::DEFAULT_CREASE_DEGREES,
             environment: crate::scene::Environment::default(),
             two_sided: false,
+            orient: crate::scene::orient::Orient::Auto,
             refine_rounds: 2,
             refine_threshold: refine::DEFAULT_THRESHOLD,
             refine_max_patches: None,

@@ -30,6 +30,7 @@ mod build;
 pub mod camera;
 pub mod checks;
 pub mod lights;
+pub mod orient;
 pub mod overrides;
 pub mod reach;
 pub mod texture;

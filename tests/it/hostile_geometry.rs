@@ -251,3 +251,94 @@ fn b_slivers_scene() -> Scene {
     );
     b.build().unwrap()
 }
+
+/// A 4 × 3 × 4 room (y up) of one material with a ceiling lamp facing down and a box on the
+/// floor; `outward` winds every wall the wrong way (facing out of the room).
+fn room_with_lamp(outward: bool) -> Scene {
+    let mut b = SceneBuilder::new();
+    let wall = b.material("wall", [0.6; 3], [0.0; 3]);
+    let lamp = b.material("lamp", [0.0; 3], [5.0; 3]);
+    let boxm = b.material("box", [0.4; 3], [0.0; 3]);
+    let p = DVec3::new;
+    let (w, h, d) = (4.0, 3.0, 4.0);
+    let walls = [
+        [p(0., 0., 0.), p(0., 0., d), p(w, 0., d), p(w, 0., 0.)],
+        [p(0., h, 0.), p(w, h, 0.), p(w, h, d), p(0., h, d)],
+        [p(0., 0., 0.), p(w, 0., 0.), p(w, h, 0.), p(0., h, 0.)],
+        [p(0., 0., d), p(0., h, d), p(w, h, d), p(w, 0., d)],
+        [p(0., 0., 0.), p(0., h, 0.), p(0., h, d), p(0., 0., d)],
+        [p(w, 0., 0.), p(w, 0., d), p(w, h, d), p(w, h, 0.)],
+    ];
+    for q in walls {
+        b.quad(if outward { [q[0], q[3], q[2], q[1]] } else { q }, wall);
+    }
+    let y = h - 0.01;
+    b.quad(
+        [
+            p(1.5, y, 1.5),
+            p(2.5, y, 1.5),
+            p(2.5, y, 2.5),
+            p(1.5, y, 2.5),
+        ],
+        lamp,
+    );
+    scenes::add_box(&mut b, p(1.0, 0.0, 1.0), p(1.6, 0.6, 1.6), false, boxm);
+    b.build().unwrap()
+}
+
+#[test]
+fn walls_wound_outward_bake_as_the_right_room_does() {
+    // The staircase case: a room whose walls face out of it bakes black with the winding as
+    // given (`--orient keep`: the lamp sees only backs), and with the default orientation
+    // repair as the room wound right does. Both methods. The turned faces are the right
+    // room's faces with a corner order rotated, so the patches and their rays differ a
+    // little: surface means agree within 2 % (a tenth of the lamp's direct-light gradient
+    // across a patch here), every wall is lit, and the report says what was turned.
+    use radiosity::pipeline::Method as Way;
+    for method in [Way::Matrix, Way::Hierarchical] {
+        let s = radiosity::pipeline::Settings {
+            method,
+            max_edge: Some(0.5),
+            gather: Gather::None,
+            ..radiosity::pipeline::Settings::default()
+        };
+        let right = run(&room_with_lamp(false), &s);
+        let repaired = run(&room_with_lamp(true), &s);
+        let kept = run(
+            &room_with_lamp(true),
+            &radiosity::pipeline::Settings {
+                orient: radiosity::scene::orient::Orient::Keep,
+                ..s.clone()
+            },
+        );
+        let mean = |out: &Outcome, material: u32| {
+            let p = &out.patches;
+            let (mut sum, mut area) = (0.0, 0.0);
+            for i in 0..p.len() {
+                if p.material[i] == material {
+                    sum += out.solution.radiance[i][0] * p.area[i];
+                    area += p.area[i];
+                }
+            }
+            sum / area
+        };
+        let (r, f, k) = (mean(&right, 0), mean(&repaired, 0), mean(&kept, 0));
+        assert!(r > 0.01, "{method}: the right room's walls are lit: {r}");
+        assert!(
+            (f - r).abs() < 2e-2 * r,
+            "{method}: repaired {f} against right {r}"
+        );
+        assert!(
+            k < 1e-3 * r,
+            "{method}: kept, the walls face away and bake black: {k}"
+        );
+        let o = repaired.report.orientation.as_ref().unwrap();
+        assert_eq!((o.surfaces_turned, o.faces_turned), (1, 12), "{o:?}");
+        assert!(repaired
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("orientation repaired")));
+        assert!(!right.report.orientation.as_ref().unwrap().changed());
+    }
+}
