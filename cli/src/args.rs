@@ -297,6 +297,10 @@ pub struct MethodArgs {
     /// Hierarchical: visibility rays per link (the form factor uses a 7-point Gauss rule).
     #[arg(long, default_value_t = hierarchical::Settings::default().rays, value_name = "N", allow_negative_numbers = true, help_heading = "Method")]
     pub link_rays: u32,
+    /// Hierarchical: refinement passes at most (each opens links one level finer); reaching
+    /// it stops the refinement with a warning, the solution coarser than --epsilon asks.
+    #[arg(long, default_value_t = hierarchical::Settings::default().max_passes, value_name = "N", allow_negative_numbers = true, help_heading = "Method")]
+    pub max_passes: u32,
 }
 
 impl MethodArgs {
@@ -306,6 +310,7 @@ impl MethodArgs {
             epsilon: self.epsilon,
             min_area: self.min_area,
             rays: self.link_rays,
+            max_passes: self.max_passes,
             ..hierarchical::Settings::default()
         }
     }
@@ -914,6 +919,8 @@ mod tests {
             "1e-9",
             "--max-iterations",
             "77",
+            "--max-passes",
+            "9",
             "--omega",
             "1.3",
             "--exposure",
@@ -934,6 +941,7 @@ mod tests {
             (Method::Jacobi, 3, 1e-9)
         );
         assert_eq!((v.max_iterations, v.omega), (77, Some(1.3)));
+        assert_eq!(s.hierarchical.max_passes, 9);
         let w = b.write_options().unwrap();
         assert_eq!((w.ascii, w.exposure), (true, Some(0.5)));
         // Ranges are the library's: its error, named as the flag by crate::failure.
@@ -945,6 +953,15 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "invalid value for --samples: must be at least 1"
+        );
+        let e = bake(&["--max-passes", "0"])
+            .scene
+            .solve
+            .settings()
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid value for --max-passes: must be at least 1"
         );
     }
 

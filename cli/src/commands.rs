@@ -157,8 +157,13 @@ pub fn info(args: &InfoArgs) -> Result<u8, Failure> {
     let settings = args.solve.settings()?;
     let mut scene = Scene::load(&args.input)?;
     scene.apply_overrides(&overrides)?;
-    // The estimate describes the bake, which makes the back faces itself.
-    let estimate = pipeline::Estimate::of(&scene, &settings, rayon::current_num_threads())?;
+    // The estimate describes the bake, which makes the back faces itself; with --max-time,
+    // of the settings the bake would fit to it (the method and gather it would take).
+    let threads = rayon::current_num_threads();
+    let estimate = match settings.max_time {
+        Some(budget) => pipeline::estimate::fit_time(&scene, &settings, threads, budget)?.1,
+        None => pipeline::Estimate::of(&scene, &settings, threads)?,
+    };
     // The lights a bake uses: the options' and the scene file's own (glTF's).
     let environment = settings.resolved(&scene)?.environment;
     if settings.two_sided {

@@ -17,12 +17,13 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 38] = [
+pub const FLAGS: [(&str, &str); 39] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
     ("hierarchical.rays", "--link-rays"),
-    ("hierarchical.max_passes", "--epsilon"),
+    ("hierarchical.max_passes", "--max-passes"),
+    ("hierarchical.max_links", "--max-memory"),
     ("max_edge", "--max-edge"),
     ("crease_degrees", "--crease"),
     ("refine_rounds", "--refine"),

@@ -100,10 +100,11 @@ pub struct Settings {
     /// 7-point Gauss rule ([`links::RECEIVER_POINTS`]) whatever this is; the rays estimate
     /// the visible fraction.
     pub rays: u32,
-    /// Refinement passes at most (each splits one level; a guard, not a tuning knob).
+    /// Refinement passes at most, ≥ 1 (each splits one level; a guard, not a tuning knob):
+    /// refinement stops there with a warning (`--max-passes`).
     pub max_passes: u32,
-    /// Links at most: refinement stops with a warning beyond this (memory guard: a link takes
-    /// 20 bytes).
+    /// Links at most, ≥ 1: refinement stops with a warning beyond this (memory guard: a link
+    /// takes 20 bytes; a bake sets it from `--max-memory`).
     pub max_links: u64,
     /// Compute the emitters' direct light at every element ([`direct`]) when the scene
     /// qualifies ([`direct::chosen`]: few, small emitters); false: links carry all emission.
@@ -147,10 +148,16 @@ impl Settings {
                 format!("{} is not in 1..=1024", self.rays),
             ));
         }
-        if self.max_passes == 0 || self.max_links == 0 {
+        if self.max_passes == 0 {
             return Err(Error::setting(
                 "hierarchical.max_passes",
-                "max_passes and max_links must be ≥ 1",
+                "must be at least 1",
+            ));
+        }
+        if self.max_links == 0 {
+            return Err(Error::setting(
+                "hierarchical.max_links",
+                "must be at least 1",
             ));
         }
         Ok(())
@@ -211,6 +218,23 @@ pub struct Hierarchical {
     pub solution: solve::Solution,
     pub stats: Stats,
     pub warnings: Vec<String>,
+    /// The leaf with the largest effective row sum (Σ F over its links and its ancestors'),
+    /// found on the final links: where broken geometry (coincident or intersecting faces)
+    /// makes light; `None` when there were no links (nothing emits).
+    pub worst_row: Option<WorstLeaf>,
+}
+
+/// The leaf of [`Hierarchical::worst_row`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorstLeaf {
+    /// Its effective row sum Σ F (about 1 in a closed scene, at most 1 in an open one).
+    pub sum: f64,
+    /// The root patch it was cut from (an index into the roots given to [`solve()`]).
+    pub root: usize,
+    /// Its centroid, scene units.
+    pub centroid: DVec3,
+    /// Its area, scene units squared.
+    pub area: f64,
 }
 
 /// A cluster pushes what it gathers by its faces' orientation ([`ClusterGather`]) when some
@@ -271,7 +295,9 @@ pub fn solve(
         loop {
             if passes >= settings.max_passes {
                 warnings.push(format!(
-                    "hierarchical refinement stopped after {passes} passes (max_passes)"
+                    "hierarchical refinement stopped after {passes} passes, the most \
+                     --max-passes allows, before it found that ε asks for no more links: the \
+                     solution may be coarser than asked; raise --max-passes for a finer one"
                 ));
                 break;
             }
@@ -364,6 +390,15 @@ pub fn solve(
     // The links are done with: free them before the output is built, which would otherwise
     // set the peak memory of the largest bakes (10⁶ triangles: about 1 GB of links and
     // shares alive beside a mesh of 2·10⁶ vertices).
+    let worst_row = h.worst_row().map(|(e, sum)| {
+        let el = &h.tree.elements[e];
+        WorstLeaf {
+            sum,
+            root: el.root as usize,
+            centroid: el.centroid,
+            area: el.area,
+        }
+    });
     let mut stats = h.finish_stats();
     h.free_links();
     let output::Leaves {
@@ -409,6 +444,7 @@ pub fn solve(
         solution,
         stats,
         warnings,
+        worst_row,
     })
 }
 

@@ -128,6 +128,24 @@ impl Hierarchy<'_> {
             .collect()
     }
 
+    /// The leaf whose effective row sum (Σ F over its own links and its ancestors', as in
+    /// [`Hierarchy::row_sums`] but before any normalisation, for every root) is the largest:
+    /// its element index and that sum (ties: the lowest index); `None` without links.
+    pub(super) fn worst_row(&self) -> Option<(usize, f64)> {
+        if self.links.is_empty() {
+            return None;
+        }
+        let (ge, gc) = self.gather(false);
+        let down = self.push_down(ge, gc);
+        self.tree
+            .elements
+            .iter()
+            .enumerate()
+            .filter(|(_, el)| el.first_child == tree::NO_CHILD)
+            .map(|(e, _)| (e, down[e][0]))
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+    }
+
     /// The radiance link `l` gathers from its source, W·sr⁻¹·m⁻²: once an element source is
     /// split, its children's radiance weighted by the link's shares of the form factor
     /// through each ([`Link::children`]) times each child's visible fraction; else the

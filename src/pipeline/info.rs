@@ -82,8 +82,12 @@ pub struct SceneInfo {
     /// When the file has no camera: the automatic camera pictures take, level about the
     /// options' up axis ([`crate::render::best_framing`]).
     pub framing: Option<CameraInfo>,
-    /// Warnings from loading (and cleaning) the scene.
+    /// Warnings from loading (and cleaning) the scene, one line each (a list names at most
+    /// [`crate::scene::MAX_LISTED_PAIRS`] of its items).
     pub warnings: Vec<String>,
+    /// The full lists behind the list-type warnings ([`crate::scene::WarningDetail`]), as
+    /// `bake --report` writes them.
+    pub warning_details: Vec<crate::scene::WarningDetail>,
     /// The sky and the sun the options give (`None` when neither brings light).
     pub environment: Option<crate::scene::Environment>,
     /// What a bake with the options given will cost: method, patches, memory, time
@@ -150,6 +154,7 @@ impl SceneInfo {
                 CameraInfo::from(crate::render::best_framing(&tris, environment.up))
             }),
             warnings: scene.warnings.clone(),
+            warning_details: scene.warning_details.clone(),
             environment: environment.is_lit().then(|| environment.clone()),
             estimate,
         })

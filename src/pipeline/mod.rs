@@ -248,12 +248,24 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
         }
         report.orientation = Some(o.clone());
     }
-    for name in crate::scene::reach::unlit_emitters(scene, settings.form_factors.seed) {
+    report
+        .warning_details
+        .extend(scene.warning_details.iter().cloned());
+    let unlit = crate::scene::reach::unlit_emitters(scene, settings.form_factors.seed);
+    if !unlit.is_empty() {
+        let n = unlit.len();
+        let names =
+            crate::scene::listed_names_all("unlit_emitters", &unlit, &mut report.warning_details);
         report.warnings.push(format!(
-            "emitting material '{name}' lights nothing: none of {} rays from the front \
-             (counter-clockwise) side of its faces meets the front of a surface; if it faces \
-             away from the scene, reverse its winding or bake with --two-sided",
-            crate::scene::reach::PROBES
+            "{n} emitting material{} light{} nothing: none of {} rays from the front \
+             (counter-clockwise) side of {} faces meets the front of a surface; if {} away \
+             from the scene, reverse {} winding or bake with --two-sided: {names}",
+            if n == 1 { "" } else { "s" },
+            if n == 1 { "s" } else { "" },
+            crate::scene::reach::PROBES,
+            if n == 1 { "its" } else { "their" },
+            if n == 1 { "it faces" } else { "they face" },
+            if n == 1 { "its" } else { "their" },
         ));
     }
     report.stream_warnings();
@@ -360,6 +372,14 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     report.residual = h.solution.residual;
     report.converged = h.solution.converged;
     report.form_factors.rays_cast = h.stats.rays_cast;
+    report.worst_row = h.worst_row.map(|w| report::WorstRow {
+        sum: w.sum,
+        patch: w.root,
+        material: scene.materials[roots.material[w.root] as usize]
+            .name
+            .clone(),
+        centroid: w.centroid.to_array(),
+    });
     crate::progress::note(|| report::hierarchical_note(&h.stats, &h.solution));
     report.hierarchical = Some(h.stats);
 
@@ -896,6 +916,102 @@ mod tests {
         let sums = out.form_factors.unwrap().row_sums();
         let max = sums.iter().copied().fold(0.0, f64::max);
         assert!(max <= form_factor::ROW_SUM_LIMIT, "largest row sum {max}");
+    }
+
+    #[test]
+    fn the_report_holds_every_item_of_a_list_warning() {
+        // 50 overlapping quads in one plane: thousands of pairs of coincident faces.
+        let mut b = crate::scene::SceneBuilder::new();
+        let m = b.material("grey", [0.5; 3], [0.0; 3]);
+        for i in 0..50 {
+            let x = 0.01 * i as f64;
+            b.quad(
+                [
+                    glam::DVec3::new(x, 0.0, 0.0),
+                    glam::DVec3::new(x + 1.0, 0.0, 0.0),
+                    glam::DVec3::new(x + 1.0, 1.0, 0.0),
+                    glam::DVec3::new(x, 1.0, 0.0),
+                ],
+                m,
+            );
+        }
+        let scene = b.build().unwrap();
+        let pairs = crate::scene::checks::coincident_faces(&scene.positions, &scene.triangles, 2.0);
+        let settings = Settings {
+            method: Method::Matrix,
+            ..Settings::default()
+        };
+        let r = solve_scene(&scene, &settings).unwrap().report;
+        let line = r
+            .warnings
+            .iter()
+            .find(|w| w.contains("coincident overlapping faces"))
+            .unwrap();
+        assert!(line.starts_with(&pairs.len().to_string()), "{line}");
+        assert!(line.chars().count() < 400, "{line}");
+        let json = serde_json::to_value(&r).unwrap();
+        let details = json["warning_details"].as_array().unwrap();
+        let z = details.iter().find(|d| d["kind"] == "z_fighting").unwrap();
+        assert_eq!(z["count"], pairs.len());
+        let items = z["items"].as_array().unwrap();
+        assert_eq!(items.len(), pairs.len());
+        let (i, j) = pairs[pairs.len() - 1];
+        assert_eq!(items[pairs.len() - 1], format!("triangles {i} and {j}"));
+    }
+
+    #[test]
+    fn a_hierarchical_report_names_its_worst_row() {
+        // A closed room: every leaf's row sums to about 1. The hierarchy's rows are found
+        // with a few rays per link and a 7-point rule, before a closed root's are normalised:
+        // its worst leaf here sums to about 1.37.
+        let scene = scenes::furnace_room(0.5, 1.0).unwrap();
+        let settings = Settings {
+            method: Method::Hierarchical,
+            gather: Gather::None,
+            ..Settings::default()
+        };
+        let out = solve_scene(&scene, &settings).unwrap();
+        let w = out.report.worst_row.expect("a worst row");
+        assert!(w.sum > 0.9 && w.sum < 1.5, "worst row sum {}", w.sum);
+        assert!(w.patch < scene.triangles.len(), "root {}", w.patch);
+        let (lo, hi) = scene.bounds();
+        let c = glam::DVec3::from_array(w.centroid);
+        assert!(c.cmpge(lo).all() && c.cmple(hi).all(), "{c}");
+        assert_eq!(w.material, scene.materials[0].name);
+    }
+
+    #[test]
+    fn auto_counts_the_patches_after_the_contact_lines_are_cut() {
+        let scene = Scene::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj"),
+        )
+        .unwrap();
+        let count =
+            |scene: &Scene, e: f64| mesh::subdivide(scene, e, DEFAULT_CREASE).unwrap().len();
+        let cut = mesh::split_contacts(&scene).0;
+        // A patch size at which the scene alone cuts into few enough patches for the matrix,
+        // but not once its contact lines are cut too.
+        let crossing = (0..160)
+            .map(|k| 60.0 - 0.25 * k as f64)
+            .find(|&e| {
+                count(&scene, e) <= AUTO_MATRIX_MAX_PATCHES
+                    && count(&cut, e) > AUTO_MATRIX_MAX_PATCHES
+            })
+            .expect("a max_edge between the two counts");
+        for (e, method) in [
+            (Some(crossing), Method::Hierarchical),
+            (None, Method::Matrix),
+        ] {
+            let settings = Settings {
+                max_edge: e,
+                ..Settings::default()
+            };
+            assert_eq!(
+                settings.resolved(&scene).unwrap().method,
+                method,
+                "max_edge {e:?}"
+            );
+        }
     }
 
     #[test]

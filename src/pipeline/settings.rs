@@ -20,7 +20,8 @@ use crate::{form_factor, hierarchical, solve, Error, Result};
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// `matrix` when the scene cuts into at most [`AUTO_MATRIX_MAX_PATCHES`] patches at the
-    /// matrix method's `max_edge`, else `hierarchical` ([`Settings::resolved`]).
+    /// matrix method's `max_edge` (after its contact lines are cut), else `hierarchical`
+    /// ([`Settings::resolved`]).
     Auto,
     /// Every pair of patches gets a form factor (a sparse n × n matrix), solved by
     /// `solver`, with adaptive refinement rounds between solves. Cost ∝ n².
@@ -197,10 +198,14 @@ impl Settings {
     }
 
     /// These settings with the scene file's lights added to [`Settings::environment`], the
-    /// hierarchical ε divided by [`Settings::finer`], and `method = auto` resolved for `scene`: `matrix` when the scene cuts
-    /// into at most [`AUTO_MATRIX_MAX_PATCHES`] patches at the matrix method's `max_edge` (the
-    /// given one, or [`mesh::default_max_edge`]), or when a form-factor cache is given (it
-    /// stores a matrix); else `hierarchical`. Other methods are kept.
+    /// hierarchical ε divided by [`Settings::finer`], and `method = auto` resolved for
+    /// `scene`: `matrix` when the scene cuts into at most [`AUTO_MATRIX_MAX_PATCHES`] patches
+    /// as the matrix bake cuts it (along the contact lines first, as
+    /// [`Settings::cuts_contacts`] says, then to the matrix method's `max_edge`: the given
+    /// one, or [`mesh::default_max_edge`]; both sides with `two_sided`), or when a
+    /// form-factor cache is given (it stores a matrix); else `hierarchical`. Other methods
+    /// are kept. `bake` and `info` (through [`super::Estimate`]) both decide here, on the
+    /// same counts.
     ///
     /// The patches are counted by cutting the scene only when two lower bounds allow the
     /// matrix: every triangle is at least one patch, and a patch whose edges are at most
@@ -222,9 +227,20 @@ impl Settings {
                     .sum();
                 let by_area = area / (0.75f64.sqrt() / 2.0 * max_edge * max_edge);
                 let at_least = scene.triangles.len().max(by_area.floor() as usize);
-                let few = sides * at_least <= AUTO_MATRIX_MAX_PATCHES
-                    && sides * mesh::subdivide(scene, max_edge, s.crease_degrees)?.len()
-                        <= AUTO_MATRIX_MAX_PATCHES;
+                // Counted as the matrix bake cuts the scene: along its contact lines first
+                // (which only adds patches, so the bounds above stay lower bounds).
+                let matrix = Settings {
+                    method: Method::Matrix,
+                    ..s.clone()
+                };
+                let few = sides * at_least <= AUTO_MATRIX_MAX_PATCHES && {
+                    let split = matrix
+                        .cuts_contacts()
+                        .then(|| mesh::split_contacts(scene).0);
+                    let cut = split.as_ref().unwrap_or(scene);
+                    sides * mesh::subdivide(cut, max_edge, s.crease_degrees)?.len()
+                        <= AUTO_MATRIX_MAX_PATCHES
+                };
                 if few {
                     Method::Matrix
                 } else {

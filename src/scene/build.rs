@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use glam::DVec3;
+use serde::Serialize;
 
 use super::{
     checks, source_path, Material, Scene, SceneTriangle, Texture, UvMap, NO_UV, ZERO_AREA_RELATIVE,
@@ -28,13 +29,17 @@ use crate::{Error, Result};
 /// 6. warn (keeping every face) about coincident overlapping faces and inconsistent winding
 ///    between neighbours ([`checks`]), naming the triangles and, when `face_lines` gives the
 ///    source line of every raw triangle, the file and line of their faces.
+///
+/// `warnings` and `details` are the loader's own (details: the full lists of its list-type
+/// warnings, [`WarningDetail`]); every warning added here that lists things names at most
+/// [`MAX_LISTED_PAIRS`] of them and puts all of them in [`Scene::warning_details`].
 pub(crate) fn finish(
     source: Option<PathBuf>,
     positions: Vec<DVec3>,
     triangles: Vec<SceneTriangle>,
     materials: Vec<Material>,
     (textures, uv_maps): (Vec<Texture>, Vec<UvMap>),
-    mut warnings: Vec<String>,
+    (mut warnings, mut details): (Vec<String>, Vec<WarningDetail>),
     face_lines: Option<Vec<usize>>,
 ) -> Result<Scene> {
     let face_lines = face_lines.filter(|l| l.len() == triangles.len());
@@ -60,6 +65,7 @@ pub(crate) fn finish(
         triangles,
         materials,
         warnings: Vec::new(),
+        warning_details: Vec::new(),
         twin: Vec::new(),
         camera: None,
         lights: Vec::new(),
@@ -166,7 +172,7 @@ pub(crate) fn finish(
              they let all light through and reflect none): {}",
             if n_clear == 1 { "" } else { "s" },
             if names.len() == 1 { "" } else { "s" },
-            listed_names(&names)
+            listed_names_all("clear_materials", &names, &mut details)
         ));
         triangles = kept;
         face_lines = lines;
@@ -186,7 +192,7 @@ pub(crate) fn finish(
              covered share's: {}",
             transparent.len(),
             if transparent.len() == 1 { "" } else { "s" },
-            listed_names(&transparent)
+            listed_names_all("partly_transparent_materials", &transparent, &mut details)
         ));
     }
 
@@ -215,14 +221,15 @@ pub(crate) fn finish(
     if !duplicates.is_empty() {
         let name = |t: usize| face_name(t, &face_lines, &source);
         let n = duplicates.len();
-        let shown = duplicates
+        let all = duplicates
             .iter()
-            .map(|&(kept, dropped)| format!("kept {} and dropped {}", name(kept), name(dropped)));
+            .map(|&(kept, dropped)| format!("kept {} and dropped {}", name(kept), name(dropped)))
+            .collect();
         warnings.push(format!(
             "{n} duplicate face{} (the same vertices, facing the same way, as an earlier \
              face) merged into the earlier one, so their light is counted once: {}",
             if n == 1 { "" } else { "s" },
-            listed(shown, "; ")
+            listed_all("duplicate_faces", all, "; ", &mut details)
         ));
     }
     let (triangles, face_lines) = retain(triangles, face_lines, &keep);
@@ -255,6 +262,7 @@ pub(crate) fn finish(
         triangles,
         materials,
         warnings,
+        warning_details: details,
         twin: Vec::new(),
         camera: None,
         lights: Vec::new(),
@@ -268,11 +276,13 @@ pub(crate) fn finish(
     // 6. Likely modelling mistakes: warn, keep every face.
     let diagonal = (hi - lo).length();
     let name = |t: usize| face_name(t, &face_lines, &scene.source);
-    let list = |pairs: &[(usize, usize)]| {
-        let shown = pairs
+    let mut details = std::mem::take(&mut scene.warning_details);
+    let mut list = |kind: &'static str, pairs: &[(usize, usize)]| {
+        let all = pairs
             .iter()
-            .map(|&(i, j)| format!("triangles {} and {}", name(i), name(j)));
-        listed(shown, "; ")
+            .map(|&(i, j)| format!("triangles {} and {}", name(i), name(j)))
+            .collect();
+        listed_all(kind, all, "; ", &mut details)
     };
     let coincident = checks::coincident_faces(&scene.positions, &scene.triangles, diagonal);
     if !coincident.is_empty() {
@@ -282,7 +292,7 @@ pub(crate) fn finish(
              {}. Both faces of each pair are kept, so light exchanged with the overlap is \
              counted for both; move one face off the plane or cut a hole for it",
             if n == 1 { "" } else { "s" },
-            list(&coincident)
+            list("z_fighting", &coincident)
         ));
     }
     let flipped = checks::inconsistent_winding(&scene.triangles);
@@ -293,30 +303,85 @@ pub(crate) fn finish(
              the same way in both, so one of them faces the wrong way): {}. Faces emit and \
              reflect on their counter-clockwise side only",
             if n == 1 { "" } else { "s" },
-            list(&flipped)
+            list("inconsistent_winding", &flipped)
         ));
     }
+    scene.warning_details = details;
     Ok(scene)
 }
 
 /// Warnings list at most this many of what they name (pairs of faces, faces, materials) and
-/// count the rest.
+/// count the rest; the full list is in the report ([`WarningDetail`]).
 pub const MAX_LISTED_PAIRS: usize = 5;
 
-/// `items` joined by `separator`, at most [`MAX_LISTED_PAIRS`] of them and then "… N more":
-/// how every warning lists what it names.
-pub(crate) fn listed(items: impl ExactSizeIterator<Item = String>, separator: &str) -> String {
+/// The full list behind one warning that names things (pairs of faces, materials): what a
+/// warning line shows at most [`MAX_LISTED_PAIRS`] of. `--report` writes every one of them
+/// (`warning_details`), and `radiosity info --json` too.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct WarningDetail {
+    /// What is listed, in snake case: `z_fighting` (pairs of coincident overlapping faces),
+    /// `inconsistent_winding` (pairs of neighbours), `duplicate_faces` (kept and dropped
+    /// faces), `clear_materials`, `textured_materials`, … (material names).
+    pub kind: &'static str,
+    /// How many there are: the length of `items`, the number the warning gives.
+    pub count: usize,
+    /// Every one, worded as in the warning, in the warning's (deterministic) order.
+    pub items: Vec<String>,
+}
+
+/// `items` joined by `separator`, at most [`MAX_LISTED_PAIRS`] of them and then "… N more",
+/// followed by `more`.
+fn listed_with(
+    items: impl ExactSizeIterator<Item = String>,
+    separator: &str,
+    more: &str,
+) -> String {
     let n = items.len();
     let mut shown: Vec<String> = items.take(MAX_LISTED_PAIRS).collect();
     if n > MAX_LISTED_PAIRS {
-        shown.push(format!("… {} more", n - MAX_LISTED_PAIRS));
+        shown.push(format!("… {} more{more}", n - MAX_LISTED_PAIRS));
     }
     shown.join(separator)
 }
 
-/// Names (of materials) as a warning lists them: quoted, at most [`MAX_LISTED_PAIRS`].
+/// `items` joined by `separator`, at most [`MAX_LISTED_PAIRS`] of them and then "… N more":
+/// how an error message lists what it names (an error has no report to hold the rest).
+pub(crate) fn listed(items: impl ExactSizeIterator<Item = String>, separator: &str) -> String {
+    listed_with(items, separator, "")
+}
+
+/// How every warning lists what it names: at most [`MAX_LISTED_PAIRS`] of `items`, then
+/// "… N more (all in --report)"; all of them go to `details` as a [`WarningDetail`] of
+/// `kind`.
+pub(crate) fn listed_all(
+    kind: &'static str,
+    items: Vec<String>,
+    separator: &str,
+    details: &mut Vec<WarningDetail>,
+) -> String {
+    let shown = listed_with(items.iter().cloned(), separator, " (all in --report)");
+    details.push(WarningDetail {
+        kind,
+        count: items.len(),
+        items,
+    });
+    shown
+}
+
+/// Names (of materials) as an error lists them: quoted, at most [`MAX_LISTED_PAIRS`].
 pub(crate) fn listed_names(names: &[String]) -> String {
     listed(names.iter().map(|n| format!("'{n}'")), ", ")
+}
+
+/// Names (of materials) as a warning lists them: quoted, at most [`MAX_LISTED_PAIRS`], all of
+/// them in `details` ([`listed_all`]).
+pub(crate) fn listed_names_all(
+    kind: &'static str,
+    names: &[String],
+    details: &mut Vec<WarningDetail>,
+) -> String {
+    let quoted = names.iter().map(|n| format!("'{n}'")).collect();
+    listed_all(kind, quoted, ", ", details)
 }
 
 /// Triangle `t` as a warning names it: with its file and line when the loader gave them.
@@ -414,7 +479,7 @@ impl SceneBuilder {
             self.triangles,
             self.materials,
             (Vec::new(), Vec::new()),
-            Vec::new(),
+            (Vec::new(), Vec::new()),
             None,
         )
     }

@@ -36,8 +36,8 @@ pub mod reach;
 pub mod texture;
 mod two_sided;
 
-pub(crate) use build::{finish, listed_names};
-pub use build::{SceneBuilder, MAX_LISTED_PAIRS};
+pub(crate) use build::{finish, listed_all, listed_names_all};
+pub use build::{SceneBuilder, WarningDetail, MAX_LISTED_PAIRS};
 pub use camera::{Camera, Up};
 pub use lights::{Environment, LightSources, PointLight, Sky, SkyModel, Spot, Sun};
 pub use overrides::{Override, Property};
@@ -129,8 +129,12 @@ pub struct Scene {
     /// Materials referenced by [`SceneTriangle::material`]; may include unused ones
     /// (everything the MTL files defined), in file order.
     pub materials: Vec<Material>,
-    /// Human-readable warnings found while loading (e.g. "skipped 3 zero-area triangles").
+    /// Human-readable warnings found while loading (e.g. "skipped 3 zero-area triangles"),
+    /// one line each: a warning that lists things (faces, materials) names at most
+    /// [`MAX_LISTED_PAIRS`] of them.
     pub warnings: Vec<String>,
+    /// The full lists behind those warnings, one per list-type warning, in order.
+    pub warning_details: Vec<WarningDetail>,
     /// The other side of each triangle ([`Scene::make_two_sided`]): empty for a one-sided
     /// scene (every loaded or built scene); otherwise one entry per triangle, the index of its
     /// twin or [`NO_TWIN`]. Invariants: `twin[twin[t]] == t`, `twin[t] != t`, and a twin has
@@ -346,6 +350,70 @@ mod tests {
         assert_eq!(s.bounds(), (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0)));
     }
 
+    /// 50 quads in one plane, each shifted a little from the last so that all overlap:
+    /// many pairs of coincident faces (z-fighting).
+    pub(crate) fn stacked_quads(n: usize) -> SceneBuilder {
+        let mut b = SceneBuilder::new();
+        let m = b.material("grey", [0.5; 3], [0.0; 3]);
+        for i in 0..n {
+            let x = 0.01 * i as f64;
+            b.quad(
+                [
+                    DVec3::new(x, 0.0, 0.0),
+                    DVec3::new(x + 1.0, 0.0, 0.0),
+                    DVec3::new(x + 1.0, 1.0, 0.0),
+                    DVec3::new(x, 1.0, 0.0),
+                ],
+                m,
+            );
+        }
+        b
+    }
+
+    #[test]
+    fn a_long_list_warning_is_one_short_line_and_its_detail_holds_every_item() {
+        let s = stacked_quads(50).build().unwrap();
+        let pairs = checks::coincident_faces(&s.positions, &s.triangles, 2.0);
+        assert!(pairs.len() > 1000, "{} pairs", pairs.len());
+        assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+        let w = &s.warnings[0];
+        assert!(
+            w.starts_with(&format!(
+                "{} pairs of coincident overlapping faces",
+                pairs.len()
+            )),
+            "{w}"
+        );
+        assert!(
+            w.chars().count() < 400,
+            "{} characters: {w}",
+            w.chars().count()
+        );
+        assert!(!w.contains('\n'), "{w}");
+        let more = pairs.len() - MAX_LISTED_PAIRS;
+        assert!(
+            w.contains(&format!("… {more} more (all in --report)")),
+            "{w}"
+        );
+        assert_eq!(w.matches("triangles ").count(), MAX_LISTED_PAIRS, "{w}");
+        // The detail: every pair, in the warning's order.
+        assert_eq!(s.warning_details.len(), 1);
+        let d = &s.warning_details[0];
+        assert_eq!(
+            (d.kind, d.count, d.items.len()),
+            ("z_fighting", pairs.len(), pairs.len())
+        );
+        for (item, &(i, j)) in d.items.iter().zip(&pairs) {
+            assert_eq!(item, &format!("triangles {i} and {j}"));
+        }
+        // Deterministic: the same scene, the same words.
+        let again = stacked_quads(50).build().unwrap();
+        assert_eq!(
+            (&again.warnings, &again.warning_details),
+            (&s.warnings, &s.warning_details)
+        );
+    }
+
     #[test]
     fn build_welds_shared_corners_and_signed_zero() {
         let mut b = SceneBuilder::new();
@@ -502,6 +570,7 @@ mod tests {
             ],
             materials: vec![Scene::default_material()],
             warnings: vec![],
+            warning_details: vec![],
             twin: vec![],
             camera: None,
             lights: Vec::new(),

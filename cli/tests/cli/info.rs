@@ -153,3 +153,34 @@ fn info_estimates_the_bake_its_options_describe_and_bake_refuses_what_would_not_
     }
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// `info` names the method and the final gather the bake of the same scene with the same
+/// options takes (both decide on the patches after the contact lines are cut).
+#[test]
+fn info_names_the_method_and_gather_the_bake_takes() {
+    let input = cornell();
+    let dir = temp_dir("info-as-bake");
+    for extra in [&[][..], &["--max-edge", "25"][..]] {
+        let mut args = vec!["info", input.as_str(), "--json"];
+        args.extend_from_slice(extra);
+        let o = radiosity(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+
+        let report = dir.join(format!("report{}.json", extra.len()));
+        let report_arg = report.display().to_string();
+        let mut options = vec!["--report", report_arg.as_str()];
+        options.extend_from_slice(extra);
+        let out = dir.join(format!("lit{}.ply", extra.len()));
+        let o = crate::support::bake(&input, &out, &options);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let baked: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        for field in ["method", "gather"] {
+            assert_eq!(
+                info["estimate"][field], baked[field],
+                "{field} with {extra:?}: info vs the bake's report"
+            );
+        }
+    }
+}

@@ -50,7 +50,7 @@ use serde_json::json;
 
 use crate::bake::BakedMesh;
 use crate::color::Rgb;
-use crate::scene::{finish, listed_names, Camera, Material, Scene, SceneTriangle, Up};
+use crate::scene::{finish, listed_names_all, Camera, Material, Scene, SceneTriangle, Up};
 use crate::scene::{PointLight, Spot, Sun};
 use crate::{Error, Result};
 
@@ -120,6 +120,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         uv_maps,
         ..
     } = loader;
+    let mut details = Vec::new();
     if skipped_modes > 0 {
         warnings.push(format!(
             "skipped {skipped_modes} primitive(s) that are not triangle lists (points, lines, \
@@ -131,7 +132,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             "{} metallic material(s) keep only their diffuse part, ρ = (1 − metallic) × base \
              colour (the solver is diffuse): {}",
             metallic.len(),
-            listed_names(&metallic)
+            listed_names_all("metallic_materials", &metallic, &mut details)
         ));
     }
     if !textured.is_empty() {
@@ -140,7 +141,7 @@ pub fn load(path: &Path) -> Result<Scene> {
              over each patch of the faces with its texture coordinates, × its mean colour \
              elsewhere; the texture's detail finer than a patch is not baked: {}",
             textured.len(),
-            listed_names(&textured)
+            listed_names_all("textured_materials", &textured, &mut details)
         ));
     }
     if !double_sided.is_empty() {
@@ -148,7 +149,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             "{} material(s) are double-sided in the file; faces reflect on their front only \
              unless baked with --two-sided: {}",
             double_sided.len(),
-            listed_names(&double_sided)
+            listed_names_all("double_sided_materials", &double_sided, &mut details)
         ));
     }
     let mut out = finish(
@@ -157,7 +158,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         triangles,
         materials,
         (textures, uv_maps),
-        warnings,
+        (warnings, details),
         None,
     )?;
     out.lights = lights;

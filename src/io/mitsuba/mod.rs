@@ -52,7 +52,9 @@ use roxmltree::{Document, Node, NodeId};
 
 use crate::color::Rgb;
 use crate::io::parse_error;
-use crate::scene::{finish, listed_names, Camera, Material, Scene, SceneTriangle, NO_UV};
+use crate::scene::{
+    finish, listed_all, listed_names_all, Camera, Material, Scene, SceneTriangle, NO_UV,
+};
 use crate::scene::{PointLight, Spot, Sun, Up};
 use crate::{Error, Result};
 
@@ -124,6 +126,8 @@ struct Reader<'a, 'input> {
     /// Elements not read, by tag and type, with their counts.
     unread: BTreeMap<String, usize>,
     warnings: Vec<String>,
+    /// The full lists behind list-type warnings ([`crate::scene::WarningDetail`]).
+    details: Vec<crate::scene::WarningDetail>,
     lights: Vec<PointLight>,
     sun: Option<Sun>,
     sky: Option<Rgb>,
@@ -163,6 +167,7 @@ impl<'a, 'input> Reader<'a, 'input> {
             clamped: Vec::new(),
             unread: BTreeMap::new(),
             warnings: Vec::new(),
+            details: Vec::new(),
             lights: Vec::new(),
             sun: None,
             sky: None,
@@ -721,6 +726,7 @@ impl<'a, 'input> Reader<'a, 'input> {
                 let name = file.file_name().unwrap_or_default().to_string_lossy();
                 self.warnings
                     .extend(scene.warnings.iter().map(|w| format!("{name}: {w}")));
+                self.details.extend(scene.warning_details.iter().cloned());
                 shapes::Mesh {
                     positions: scene.positions,
                     triangles: scene.triangles.iter().map(|t| t.vertices).collect(),
@@ -976,6 +982,7 @@ impl<'a, 'input> Reader<'a, 'input> {
     /// twins of two-sided materials.
     fn finish(self) -> Result<Scene> {
         let mut warnings = self.warnings;
+        let mut details = self.details;
         if !self.unread.is_empty() {
             let named: Vec<String> = self
                 .unread
@@ -984,7 +991,7 @@ impl<'a, 'input> Reader<'a, 'input> {
                 .collect();
             warnings.push(format!(
                 "not read (radiosity is diffuse and takes its own settings): {}",
-                named.join(", ")
+                listed_all("not_read", named, ", ", &mut details)
             ));
         }
         if !self.glass.is_empty() {
@@ -993,7 +1000,7 @@ impl<'a, 'input> Reader<'a, 'input> {
                  light through, straight, and are left out; refraction and the panes' \
                  reflection are not modelled): {}",
                 self.glass.len(),
-                self.glass.join(", ")
+                listed_all("glass_bsdfs", self.glass.clone(), ", ", &mut details)
             ));
         }
         if !self.other.is_empty() {
@@ -1001,7 +1008,7 @@ impl<'a, 'input> Reader<'a, 'input> {
                 "{} BSDF(s) that are not diffuse keep only a diffuse colour (the solver is \
                  diffuse): {}",
                 self.other.len(),
-                self.other.join(", ")
+                listed_all("non_diffuse_bsdfs", self.other.clone(), ", ", &mut details)
             ));
         }
         if !self.textured.is_empty() {
@@ -1009,19 +1016,19 @@ impl<'a, 'input> Reader<'a, 'input> {
                 "{} BSDF(s) with a texture use its mean colour everywhere (per-texel variation \
                  is not read): {}",
                 self.textured.len(),
-                listed_names(&self.textured)
+                listed_names_all("textured_bsdfs", &self.textured, &mut details)
             ));
         }
         if !self.averaged_spectra.is_empty() {
             warnings.push(format!(
                 "spectra given per wavelength are read as grey, their mean value: {}",
-                listed_names(&self.averaged_spectra)
+                listed_names_all("averaged_spectra", &self.averaged_spectra, &mut details)
             ));
         }
         if !self.clamped.is_empty() {
             warnings.push(format!(
                 "reflectance above 1 or below 0 clamped into [0, 1]: {}",
-                listed_names(&self.clamped)
+                listed_names_all("clamped_reflectance", &self.clamped, &mut details)
             ));
         }
         let mut scene = finish(
@@ -1030,7 +1037,7 @@ impl<'a, 'input> Reader<'a, 'input> {
             self.triangles,
             self.materials,
             (Vec::new(), Vec::new()),
-            warnings,
+            (warnings, details),
             None,
         )?;
         scene.lights = self.lights;

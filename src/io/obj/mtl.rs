@@ -10,8 +10,8 @@ use std::path::Path;
 
 use super::parse_number;
 use crate::io::parse_error;
-use crate::scene::listed_names;
-use crate::scene::{Material, Texture};
+use crate::scene::listed_names_all;
+use crate::scene::{Material, Texture, WarningDetail};
 use crate::{Error, Result};
 
 /// What a material of an MTL file has beyond `Kd` and `Ke` that the loader acts on.
@@ -280,7 +280,7 @@ pub(super) fn apply_transmittance(
 pub(super) fn apply_extras(
     materials: &mut [Material],
     extras: &[(std::path::PathBuf, Extras)],
-    warnings: &mut Vec<String>,
+    (warnings, details): (&mut Vec<String>, &mut Vec<WarningDetail>),
 ) -> (Vec<Texture>, Vec<Option<u32>>) {
     let mut read: std::collections::HashMap<std::path::PathBuf, std::result::Result<u32, String>> =
         std::collections::HashMap::new();
@@ -340,7 +340,7 @@ pub(super) fn apply_extras(
              patch of the faces with texture coordinates (vt), Kd × its mean colour elsewhere; \
              the texture's detail finer than a patch is not baked: {}",
             if n == 1 { "" } else { "s" },
-            listed_names(&textured)
+            listed_names_all("textured_materials", &textured, details)
         ));
     }
     if !specular_only.is_empty() {
@@ -352,7 +352,7 @@ pub(super) fn apply_extras(
             if n == 1 { " is" } else { "s are" },
             if n == 1 { "it bakes" } else { "they bake" },
             if n == 1 { "it" } else { "them" },
-            listed_names(&specular_only)
+            listed_names_all("specular_only_materials", &specular_only, details)
         ));
     }
     (textures, texture_of)

@@ -126,6 +126,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
 
     let mut warnings = Vec::new();
+    let mut details = Vec::new();
     let extras = extras.into_inner();
     let textured = |name: &str| {
         extras
@@ -139,7 +140,8 @@ pub fn load(path: &Path) -> Result<Scene> {
         .map(|m| convert_material(m, textured(&m.name), &mut warnings))
         .collect();
     apply_transmittance(&mut materials, &extras, &mut warnings);
-    let (textures, texture_of) = apply_extras(&mut materials, &extras, &mut warnings);
+    let (textures, texture_of) =
+        apply_extras(&mut materials, &extras, (&mut warnings, &mut details));
     // tobj keeps faces in file order and fan-triangulates a face of n vertices into n − 2
     // triangles (corners 0, j + 1, j + 2), so triangle k comes from the k-th (face, j) below
     // (checked by the count).
@@ -216,7 +218,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         triangles,
         materials,
         (textures, uv_maps),
-        warnings,
+        (warnings, details),
         Some(face_lines),
     )?;
     scene.camera = scan.camera;

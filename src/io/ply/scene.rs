@@ -423,7 +423,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         triangles,
         materials,
         (Vec::new(), Vec::new()),
-        Vec::new(),
+        (Vec::new(), Vec::new()),
         header.ascii.then_some(face_lines),
     )?;
     scene.camera = header.camera;
