@@ -886,10 +886,12 @@ mod tests {
             }
             b.build().unwrap()
         };
+        // The winding as built: orientation repair would turn the second floor over.
         let settings = Settings {
             max_edge: Some(0.25),
             refine_rounds: 0,
             gather: Gather::None,
+            orient: crate::scene::orient::Orient::Keep,
             ..Settings::default()
         };
         let r = solve_scene(&build(false), &settings).unwrap().report;

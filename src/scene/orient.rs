@@ -18,11 +18,12 @@
 //!      (its side faces into something's inside). Rays that leave the scene or meet the
 //!      same surface say nothing: a closed room and a solid box look alike from themselves.
 //!
-//!    A surface is turned only when its back is seen and its front hardly at all
-//!    ([`FRONT_SEEN_SHARE`], at least [`FLIP_MIN_VOTES`] votes): the rest of a scene that is
-//!    mostly right pulls its few wrong faces round, a face seen from both sides (a pool's
-//!    surface, a free-standing screen) keeps its winding, and so does a scene with no
-//!    evidence. Blender's "recalculate normals" does step 1 and, for closed
+//!    A surface is turned only when its back is seen ([`FLIP_MIN_VOTES`]) and its front not
+//!    at all: the rest of a scene that is mostly right pulls its few wrong faces round, a
+//!    face seen from both sides (a pool's surface against its pit's walls, a one-sided
+//!    blocker seen by the light above and the floor below) keeps its winding, and so does a
+//!    scene with no evidence. Surfaces that neither reflect nor emit (ρ = 0, Le = 0) are
+//!    never turned: either side of them is the same. Blender's "recalculate normals" does step 1 and, for closed
 //!    shells, turns them outward; step 2 differs because an interior's walls are meant to be
 //!    seen from inside.
 //!
@@ -47,13 +48,8 @@ pub const RAYS: usize = 4;
 /// tests, at most.
 pub const LIGHTS_PER_POINT: usize = 4;
 
-/// A surface is turned only when its front is hardly seen: the evidence that sees its front
-/// is at most this share of what sees its back. Real scenes hold coincident faces (a pool's
-/// sides against its pit's walls) whose rays see fronts and backs at random; a surface whose
-/// front anything sees is left as it is.
-pub const FRONT_SEEN_SHARE: f64 = 0.1;
-
-/// ... and what sees its back is at least this many votes, and at least [`FLIP_MIN_SHARE`] of the votes its points could cast on
+/// A surface is turned only when nothing sees its front (no light in plain sight, no ray
+/// meeting another surface's front) and what sees its back is at least this many votes is at least this many votes, and at least [`FLIP_MIN_SHARE`] of the votes its points could cast on
 /// one side (a small surface's few points must agree more).
 pub const FLIP_MIN_VOTES: i64 = 4;
 
@@ -273,6 +269,13 @@ fn turn_pass(
         .par_iter()
         .enumerate()
         .map(|(s, faces)| {
+            let dark = faces.iter().all(|&t| {
+                let m = &scene.materials[scene.triangles[t].material as usize];
+                m.reflectance.iter().all(|&r| r == 0.0) && !m.is_emitter()
+            });
+            if dark {
+                return false;
+            }
             let mut rng = Rng::new(&[seed, s as u64, pass as u64, 0x0121E17]);
             let [front, back] =
                 side_votes(&vis, corners, surface, faces, lights, lift, scene, &mut rng);
@@ -280,7 +283,7 @@ fn turn_pass(
             let points = POINTS.min(faces.len().max(4)) as i64;
             let possible = points * (RAYS + 2 * LIGHTS_PER_POINT.min(lights.len())) as i64;
             let needed = FLIP_MIN_VOTES.max((FLIP_MIN_SHARE * possible as f64).ceil() as i64);
-            back.seen >= needed && front.seen as f64 <= FRONT_SEEN_SHARE * back.seen as f64
+            back.seen >= needed && front.seen == 0
         })
         .collect()
 }

@@ -846,6 +846,17 @@ mod tests {
     /// must be turned back), a lamp triangle (emissive (1, 0.5, 0.25) × strength 4), a point
     /// light of 683 cd at (0, 2, 0), a spot and a directional light, and a camera.
     fn scene_glb() -> Vec<u8> {
+        scene_glb_with(json!([
+            {"name": "clay", "pbrMetallicRoughness":
+                {"baseColorFactor": [0.8, 0.6, 0.4, 1.0], "metallicFactor": 0.25}},
+            {"name": "lamp", "emissiveFactor": [1.0, 0.5, 0.25],
+             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
+             "pbrMetallicRoughness": {"metallicFactor": 0.0}},
+        ]))
+    }
+
+    /// [`scene_glb`] with its two materials (floor, lamp) replaced by `materials`.
+    fn scene_glb_with(materials: serde_json::Value) -> Vec<u8> {
         let floor: [[f32; 3]; 4] = [[-1., 0., -1.], [1., 0., -1.], [1., 0., 1.], [-1., 0., 1.]];
         let lamp: [[f32; 3]; 3] = [[-0.2, 1., -0.2], [-0.2, 1., 0.2], [0.2, 1., 0.2]];
         let mut bin = Vec::new();
@@ -887,13 +898,7 @@ mod tests {
                 {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]},
                 {"primitives": [{"attributes": {"POSITION": 2}, "indices": 3, "material": 1}]},
             ],
-            "materials": [
-                {"name": "clay", "pbrMetallicRoughness":
-                    {"baseColorFactor": [0.8, 0.6, 0.4, 1.0], "metallicFactor": 0.25}},
-                {"name": "lamp", "emissiveFactor": [1.0, 0.5, 0.25],
-                 "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
-                 "pbrMetallicRoughness": {"metallicFactor": 0.0}},
-            ],
+            "materials": materials,
             "buffers": [{"byteLength": bin.len()}],
             "bufferViews": [
                 {"buffer": 0, "byteOffset": 0, "byteLength": 48},
@@ -911,6 +916,45 @@ mod tests {
             ],
         });
         glb(&doc, bin).unwrap()
+    }
+
+    #[test]
+    fn blended_and_transmissive_materials_let_their_share_through() {
+        // Alpha blending passes 1 − α; KHR_materials_transmission passes τ of the rest:
+        // t = (1 − 0.3) + 0.3 × 0.5 = 0.85. Opaque and masked materials stay opaque; a
+        // fully transmissive one (τ = 1) is left out with its faces.
+        let load = |floor: serde_json::Value| {
+            let dir = crate::test_support::TestDir::new("gltf-glass");
+            let path = dir.path().join("scene.glb");
+            let lamp = json!({"name": "lamp", "emissiveFactor": [1.0, 1.0, 1.0]});
+            std::fs::write(&path, scene_glb_with(json!([floor, lamp]))).unwrap();
+            Scene::load(&path).unwrap()
+        };
+        let s = load(json!({"name": "glass", "alphaMode": "BLEND",
+            "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.2, 0.2, 0.3], "metallicFactor": 0.0},
+            "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.5}}}));
+        assert!(
+            (s.materials[0].transmittance - 0.85).abs() < 1e-6,
+            "{:?}",
+            s.materials[0]
+        );
+        assert!(
+            (s.materials[0].reflectance[0] - 0.2).abs() < 1e-6,
+            "ρ stays the material's"
+        );
+        assert_eq!(s.materials[1].transmittance, 0.0);
+        let s = load(json!({"name": "cutout", "alphaMode": "MASK",
+            "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 0.3], "metallicFactor": 0.0}}));
+        assert_eq!(s.materials[0].transmittance, 0.0);
+        let s = load(
+            json!({"name": "clear", "pbrMetallicRoughness": {"metallicFactor": 0.0},
+            "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}}}),
+        );
+        assert_eq!(s.triangles.len(), 1, "the clear floor is left out");
+        assert!(s
+            .warnings
+            .iter()
+            .any(|w| w.contains("left out") && w.contains("clear")));
     }
 
     #[test]
