@@ -509,6 +509,15 @@ mod tests {
         );
         assert!(!w.contains("specular only"), "{w}");
 
+        // A share outside [0, 1] is an error at its line.
+        let e = load_text(
+            "obj-bad-d",
+            &format!("mtllib m.mtl\n{TRIANGLE}usemtl a\nf 1 2 3\n"),
+            &[("m.mtl", "newmtl a\nKd 0.5\nd 1.5\n")],
+        )
+        .unwrap_err();
+        assert_parse(&e, "m.mtl", 3, &["material 'a': d", "[0, 1]"]);
+
         // Every material clear: an exporter's inverted convention, read as opaque.
         let mtl = "newmtl a\nKd 0.5\nd 0\nnewmtl b\nKd 0.7\nTr 1\n";
         let obj =
