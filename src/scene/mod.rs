@@ -70,11 +70,12 @@ pub struct Material {
     /// [0, 1]; 0 (opaque) for almost every material. A face with t > 0 is a screen with holes
     /// over the share t of its area (MTL `d` = 1 − t or `Tr` = t, glTF alpha blending and
     /// `KHR_materials_transmission`): `reflectance` and `emission` are its material's, over
-    /// the covered share 1 − t; a ray crossing the face carries on with weight t
-    /// ([`crate::visibility::Visibility::with_transmittance`]), and what others gather from
-    /// the face is scaled by 1 − t ([`crate::form_factor::FormFactors::cover`], the
-    /// hierarchy's links). A face with t = 1 adds nothing and is left out when the scene is
-    /// built.
+    /// the covered share 1 − t; a ray crossing the face carries on with chance t (the light
+    /// of the sun, the sky and lamps with weight t,
+    /// [`crate::visibility::Visibility::with_transmittance`]), and what others gather from
+    /// the face is scaled by 1 − t (the form factors' columns, `form_factor::cover_columns`;
+    /// the hierarchy's links). A face with t = 1 adds nothing and is left out when the scene
+    /// is built.
     pub transmittance: f64,
 }
 

@@ -11,7 +11,7 @@
 //!   `$name` without a default is an error naming it);
 //! - shapes `obj` and `ply` (the file relative to the XML's directory), `rectangle` ([−1, 1]²
 //!   at z = 0, front +z), `cube` ([−1, 1]³, fronts outward), `disk` (unit disk at z = 0,
-//!   front +z, [`shapes::DISK_SEGMENTS`] segments) and `sphere` (`center`, `radius`; an
+//!   front +z, `shapes::DISK_SEGMENTS` segments) and `sphere` (`center`, `radius`; an
 //!   icosphere of 5120 triangles, fronts outward), each with its `to_world` (`toWorld` in 0.6)
 //!   and `flip_normals`; a transform that mirrors turns the winding back, so fronts stay on
 //!   the side Mitsuba's normals give;
@@ -25,7 +25,7 @@
 //!   colour (`diffuse_reflectance`, `base_color` or `reflectance`; else ρ = 0.5), each with
 //!   one warning. Colours are `rgb`, `srgb` (decoded), `spectrum` (one value: grey; a
 //!   `wavelength:value` list: its mean value as grey, with a warning), `float`, or a `bitmap`
-//!   texture's mean linear colour ([`crate::io::texture_mean`]; per-texel variation is not
+//!   texture's mean linear colour (`io::texture_mean`; per-texel variation is not
 //!   read, with a warning). A ρ outside [0, 1] is clamped, with a warning;
 //! - emitters: `area` in a shape (its `radiance` is the material's Le, W·sr⁻¹·m⁻²), `point`
 //!   and `spot` (`intensity` W·sr⁻¹; a spot's `cutoff_angle` and `beam_width`, degrees, as the
