@@ -201,7 +201,9 @@ impl Surfaces {
     /// Calls `visit` with the corners of every triangle but those of the patch `ignore` that
     /// may meet the box `[lo, hi]` and the convex region inside `planes`
     /// ([`Visibility::overlapping_convex`]: a superset), until it returns `false`; returns
-    /// `false` if it was stopped.
+    /// `false` if it was stopped. A partly transparent triangle stops it too: it is no
+    /// occluder to clip away whole (the emitter's visible pieces then give way to shadow
+    /// rays, which pass it by its share).
     pub fn overlapping_convex(
         &self,
         lo: DVec3,
@@ -212,7 +214,7 @@ impl Surfaces {
     ) -> bool {
         self.vis
             .overlapping_convex(lo, hi, planes, [self.traced(ignore), NONE], |id| {
-                visit(&self.triangles[id as usize])
+                !self.vis.transmits(id) && visit(&self.triangles[id as usize])
             })
     }
 

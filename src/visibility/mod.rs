@@ -284,6 +284,12 @@ impl Visibility {
         self
     }
 
+    /// True if input triangle `id` lets some light through (transmittance > 0,
+    /// [`Visibility::with_transmittance`]).
+    pub fn transmits(&self, id: u32) -> bool {
+        self.clear.get(id as usize).is_some_and(|&c| c > 0)
+    }
+
     /// True if some triangle lets light through ([`Visibility::with_transmittance`]).
     pub fn has_transmittance(&self) -> bool {
         !self.clear.is_empty()
