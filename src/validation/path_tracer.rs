@@ -232,9 +232,16 @@ impl<'a> Tracer<'a> {
             emitter_pick[e as usize] =
                 emitter_cdf[k] - if k > 0 { emitter_cdf[k - 1] } else { 0.0 };
         }
+        // Partly transparent faces pass a path with chance t (the screen-door model of
+        // `Material::transmittance`).
+        let transmittance: Vec<f64> = scene
+            .triangles
+            .iter()
+            .map(|t| scene.materials[t.material as usize].transmittance)
+            .collect();
         Tracer {
             scene,
-            vis: Visibility::build(&corners),
+            vis: Visibility::build(&corners).with_transmittance(&transmittance),
             corners,
             normal,
             area,
@@ -406,7 +413,11 @@ impl<'a> Tracer<'a> {
         let r2 = d.length_squared();
         // G = cosθx cosθy / (π r²) with cosθ = (n·d)/r; p(y) = p_e / A_e per unit area.
         let g = cx * cy / (std::f64::consts::PI * r2 * r2);
-        let scale = g * self.area[e] / p_e;
+        // A partly transparent emitter sends from its covered share only; a path meets it
+        // (below) with that chance.
+        let cover =
+            1.0 - self.scene.materials[self.scene.triangles[e].material as usize].transmittance;
+        let scale = g * self.area[e] * cover / p_e;
         // Balance heuristic against the cosine-weighted direction sample (solid-angle pdfs).
         let p_light = self.light_pdf(e, x, y);
         let p_dir = cx / (r2.sqrt() * std::f64::consts::PI);
@@ -547,6 +558,44 @@ mod tests {
             assert!(m.std_error[0] < 0.05 * expected, "{m:?}");
             assert_eq!(m.visible_fraction, 1.0);
         }
+    }
+
+    #[test]
+    fn a_pane_passes_its_share_of_the_paths() {
+        // The parallel plates with a pane of t = 0.5 between them, larger than both: every
+        // path from the receiver to the source crosses it, so the receiver's mean is half the
+        // plates' ρ·F·Le (Howell C-11), within 5 standard errors.
+        let mut scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let glass = scene.materials.len() as u32;
+        scene.materials.push(
+            crate::scene::Material::opaque("glass", [0.0; 3], [0.0; 3]).with_transmittance(0.5),
+        );
+        // A 3 × 3 square halfway between the plates (z = 0.5), centred on them.
+        let (lo, hi) = scene.bounds();
+        let c = 0.5 * (lo + hi);
+        let base = scene.positions.len() as u32;
+        for (dx, dy) in [(-1.5, -1.5), (1.5, -1.5), (1.5, 1.5), (-1.5, 1.5)] {
+            scene.positions.push(DVec3::new(c.x + dx, c.y + dy, c.z));
+        }
+        for v in [[0, 1, 2], [0, 2, 3]] {
+            scene.triangles.push(crate::scene::SceneTriangle {
+                vertices: v.map(|k| base + k),
+                material: glass,
+                uv: crate::scene::NO_UV,
+            });
+        }
+        let (labels, count) = surfaces(&scene);
+        let s = Settings {
+            paths_per_surface: 20_000,
+            seed: 1,
+        };
+        let means = surface_means(&scene, &labels, count, &s);
+        let expected = 0.5 * 0.5 * closed_forms::parallel_rectangles(1.0, 1.0, 1.0);
+        let receiver = means[1];
+        assert!(
+            (receiver.mean[0] - expected).abs() < 5.0 * receiver.std_error[0],
+            "{receiver:?} vs {expected}"
+        );
     }
 
     #[test]
