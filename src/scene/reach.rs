@@ -32,7 +32,13 @@ pub fn unlit_emitters(scene: &Scene, seed: u64) -> Vec<String> {
         .iter()
         .map(|t| t.vertices.map(|v| scene.positions[v as usize]))
         .collect();
-    let vis = Visibility::build(&corners);
+    // Panes pass the probes by their share, as they pass the bake's rays.
+    let transmittance: Vec<f64> = scene
+        .triangles
+        .iter()
+        .map(|t| scene.materials[t.material as usize].transmittance)
+        .collect();
+    let vis = Visibility::build(&corners).with_transmittance(&transmittance);
     let mut unlit = Vec::new();
     for m in emitting {
         let tris: Vec<usize> = (0..scene.triangles.len())
