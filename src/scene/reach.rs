@@ -120,6 +120,34 @@ mod tests {
     }
 
     #[test]
+    fn a_lamp_behind_a_pane_lights_what_the_pane_lets_it() {
+        // A large pane between the lamp (facing down) and the floor, its back to the lamp:
+        // opaque, the lamp sees only its back; with t = 0.5 half the probes pass to the floor.
+        let with_pane = |t: f64| {
+            let mut s = floor_and_lamp(true);
+            let m = s.materials.len() as u32;
+            s.materials.push(
+                crate::scene::Material::opaque("pane", [0.5; 3], [0.0; 3]).with_transmittance(t),
+            );
+            let base = s.positions.len() as u32;
+            for (x, y) in [(-1.0, -1.0), (2.0, -1.0), (2.0, 2.0), (-1.0, 2.0)] {
+                s.positions.push(DVec3::new(x, y, 0.5));
+            }
+            // Facing down (toward the floor): clockwise seen from above.
+            for v in [[0, 2, 1], [0, 3, 2]] {
+                s.triangles.push(crate::scene::SceneTriangle {
+                    vertices: v.map(|k| base + k),
+                    material: m,
+                    uv: crate::scene::NO_UV,
+                });
+            }
+            s
+        };
+        assert_eq!(unlit_emitters(&with_pane(0.0), 3), ["lamp"]);
+        assert!(unlit_emitters(&with_pane(0.5), 3).is_empty());
+    }
+
+    #[test]
     fn a_lamp_that_sees_only_backs_lights_nothing() {
         // The floor flipped (facing down): the lamp facing down meets only its back.
         let mut s = floor_and_lamp(true);
