@@ -2,8 +2,6 @@
 //! counter-clockwise fronts, and the `lookat` frame of its transforms. Lengths are in the
 //! shape's own units; [`super`] applies `to_world`.
 
-use std::collections::HashMap;
-
 use glam::{DMat4, DVec3, DVec4};
 
 /// Segments of a disk's rim.
@@ -77,76 +75,11 @@ pub(super) fn disk(segments: usize) -> Mesh {
 /// Mitsuba's `sphere`: a sphere of `radius` around `centre`, as an icosahedron subdivided
 /// `subdivisions` times with its vertices pushed onto the sphere, fronts facing outward.
 pub(super) fn sphere(centre: DVec3, radius: f64, subdivisions: u32) -> Mesh {
-    let g = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut unit: Vec<DVec3> = [
-        (-1.0, g, 0.0),
-        (1.0, g, 0.0),
-        (-1.0, -g, 0.0),
-        (1.0, -g, 0.0),
-        (0.0, -1.0, g),
-        (0.0, 1.0, g),
-        (0.0, -1.0, -g),
-        (0.0, 1.0, -g),
-        (g, 0.0, -1.0),
-        (g, 0.0, 1.0),
-        (-g, 0.0, -1.0),
-        (-g, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
-    .collect();
-    let mut triangles: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    // Outward fronts whatever the table's order: a face whose normal points at the centre
-    // is turned over.
-    for t in &mut triangles {
-        let [a, b, c] = t.map(|v| unit[v as usize]);
-        if (b - a).cross(c - a).dot(a + b + c) < 0.0 {
-            t.swap(1, 2);
-        }
-    }
-    for _ in 0..subdivisions {
-        let mut middle: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut split = |i: u32, j: u32, unit: &mut Vec<DVec3>| {
-            *middle.entry((i.min(j), i.max(j))).or_insert_with(|| {
-                unit.push((unit[i as usize] + unit[j as usize]).normalize());
-                unit.len() as u32 - 1
-            })
-        };
-        let mut finer = Vec::with_capacity(triangles.len() * 4);
-        for [a, b, c] in triangles {
-            let (ab, bc, ca) = (
-                split(a, b, &mut unit),
-                split(b, c, &mut unit),
-                split(c, a, &mut unit),
-            );
-            finer.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        triangles = finer;
-    }
+    // The one icosphere of the scene generators, already wound outward.
+    let (unit, faces) = crate::validation::scenes::icosphere(subdivisions);
     Mesh {
         positions: unit.iter().map(|&p| centre + p * radius).collect(),
-        triangles,
+        triangles: faces.iter().map(|f| f.map(|v| v as u32)).collect(),
     }
 }
 

@@ -41,8 +41,10 @@ pub fn integrating_sphere(
     b.build()
 }
 
-/// Unit icosphere: vertices on the unit sphere, faces counter-clockwise seen from outside.
-fn icosphere(level: u32) -> (Vec<DVec3>, Vec<[usize; 3]>) {
+/// Unit icosphere: vertices on the unit sphere, faces counter-clockwise seen from outside;
+/// an icosahedron whose faces are split in four `level` times, the new vertices pushed onto
+/// the sphere (20·4^level faces).
+pub(crate) fn icosphere(level: u32) -> (Vec<DVec3>, Vec<[usize; 3]>) {
     let t = (1.0 + 5f64.sqrt()) / 2.0;
     let mut v: Vec<DVec3> = [
         (-1.0, t, 0.0),
