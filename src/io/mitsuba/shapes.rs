@@ -76,7 +76,7 @@ pub(super) fn disk(segments: usize) -> Mesh {
 /// `subdivisions` times with its vertices pushed onto the sphere, fronts facing outward.
 pub(super) fn sphere(centre: DVec3, radius: f64, subdivisions: u32) -> Mesh {
     // The one icosphere of the scene generators, already wound outward.
-    let (unit, faces) = crate::validation::scenes::icosphere(subdivisions);
+    let (unit, faces) = crate::geometry::icosphere(subdivisions);
     Mesh {
         positions: unit.iter().map(|&p| centre + p * radius).collect(),
         triangles: faces.iter().map(|f| f.map(|v| v as u32)).collect(),

@@ -22,7 +22,7 @@ pub fn integrating_sphere(
     rho: f64,
     le: [f64; 3],
 ) -> Result<Scene> {
-    let (positions, faces) = icosphere(level);
+    let (positions, faces) = crate::geometry::icosphere(level);
     let mut b = SceneBuilder::new();
     let wall = b.material("wall", [rho; 3], [0.0; 3]);
     let cap = b.material("cap", [rho; 3], le);
@@ -39,70 +39,6 @@ pub fn integrating_sphere(
         b.triangle([ids[f[0]], ids[f[2]], ids[f[1]]], m);
     }
     b.build()
-}
-
-/// Unit icosphere: vertices on the unit sphere, faces counter-clockwise seen from outside;
-/// an icosahedron whose faces are split in four `level` times, the new vertices pushed onto
-/// the sphere (20·4^level faces).
-pub(crate) fn icosphere(level: u32) -> (Vec<DVec3>, Vec<[usize; 3]>) {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut v: Vec<DVec3> = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
-    .collect();
-    let mut f: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..level {
-        let mut mid = std::collections::HashMap::new();
-        let mut midpoint = |a: usize, b: usize, v: &mut Vec<DVec3>| {
-            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                v.push((v[a] + v[b]).normalize());
-                v.len() - 1
-            })
-        };
-        let mut next = Vec::with_capacity(f.len() * 4);
-        for [a, b, c] in f {
-            let ab = midpoint(a, b, &mut v);
-            let bc = midpoint(b, c, &mut v);
-            let ca = midpoint(c, a, &mut v);
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    (v, f)
 }
 
 /// The six faces of the axis-aligned box [lo, hi], each counter-clockwise seen from outside,
@@ -364,7 +300,7 @@ pub fn living_room() -> Result<Scene> {
 
 /// A ball of 320 faces (the icosphere of level 2) at `centre`, fronts facing out.
 fn add_ball(b: &mut SceneBuilder, centre: DVec3, radius: f64, material: u32) {
-    let (positions, faces) = icosphere(2);
+    let (positions, faces) = crate::geometry::icosphere(2);
     let ids: Vec<u32> = positions
         .iter()
         .map(|p| b.vertex(centre + *p * radius))

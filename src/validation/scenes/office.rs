@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 
-use super::{add_box, box_faces, convex, icosphere, oriented_box, rectangle, turned_about_z};
+use super::{add_box, box_faces, convex, oriented_box, rectangle, turned_about_z};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SceneBuilder};
 use crate::Result;
@@ -107,7 +107,7 @@ pub fn office(triangles: usize) -> Result<Scene> {
     add_box(&mut b, v(0.0, 5.6, 0.0), v(0.5, 7.2, 0.75), false, cabinet);
     let end = v(length - 0.5, 5.6, 0.0);
     add_box(&mut b, end, v(length, 7.2, 0.75), false, cabinet);
-    let crown = icosphere(3);
+    let crown = crate::geometry::icosphere(3);
     let spots = [
         (0.8, 0.9),
         (23.2, 0.9),
