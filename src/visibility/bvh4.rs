@@ -195,13 +195,6 @@ impl Ray4 {
             | t_signed.simd_gt(f32x4::splat(t_hi) * det_abs);
         !outside.to_bitmask() & 0xf
     }
-
-    /// True if a triangle of `p` met by the ray within `[t_lo, t_hi]` `blocks`.
-    #[inline(always)]
-    fn blocked(&self, p: &Packet, t_lo: f32, t_hi: f32, blocks: &impl Fn(usize) -> bool) -> bool {
-        let mask = self.hits(p, t_lo, t_hi);
-        mask != 0 && lanes(mask).any(|lane| blocks(p.prim[lane] as usize))
-    }
 }
 
 impl Bvh4 {
@@ -305,15 +298,7 @@ impl Bvh4 {
     /// True if the ray meets a triangle `i` with internal parameter in `[ray.t_lo, ray.t_hi]`
     /// for which `blocks(i)` holds (called only for triangles met).
     pub fn any_hit(&self, ray: &WatertightRay, blocks: impl Fn(usize) -> bool) -> bool {
-        if self.root == EMPTY {
-            return false;
-        }
-        let r4 = Ray4::new(ray);
-        let (t_lo, t_hi) = (f32x4::splat(ray.t_lo), f32x4::splat(ray.t_hi));
-        self.walk(
-            |node| r4.enter(node, t_lo, t_hi).0,
-            |p| r4.blocked(p, ray.t_lo, ray.t_hi, &blocks),
-        )
+        self.each_hit(ray, blocks)
     }
 
     /// Calls `visit(i)` once for every triangle `i` the ray meets with internal parameter in

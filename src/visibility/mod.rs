@@ -564,10 +564,9 @@ impl Visibility {
             return 1.0;
         };
         let mut share = 1.0;
+        // `each_hit` visits only the triangles the ray meets (its exact four-lane test).
         let opaque = self.bvh.each_hit(&ray, |i| {
-            if self.ignored(i, [ignore, ignore])
-                || ray.intersect(&self.tris[i], ray.t_lo, ray.t_hi).is_none()
-            {
+            if self.ignored(i, [ignore, ignore]) {
                 return false;
             }
             share *= self.passing(i);
@@ -835,16 +834,11 @@ fn clear_threshold(t: f64) -> u64 {
 }
 
 /// A hash in [0, 2³²) of a ray (its canonical origin, direction and interval, as `f32`
-/// bits) and an input triangle: SplitMix64's finaliser (Steele, Lea & Flood, "Fast
-/// splittable pseudorandom number generators", OOPSLA 2014) over the words in turn. The same
-/// ray and triangle always give the same value; different rays, unrelated values.
+/// bits) and an input triangle: the sample keys' SplitMix64 mix
+/// ([`crate::sampling::mix64`]) over the words in turn. The same ray and triangle always
+/// give the same value; different rays, unrelated values.
 #[inline]
 fn ray_hash(ray: &WatertightRay, triangle: u32) -> u64 {
-    let mix = |mut z: u64| {
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    };
     let o = ray.origin.to_array().map(f32::to_bits);
     let d = ray.dir.to_array().map(f32::to_bits);
     let words = [
@@ -853,9 +847,7 @@ fn ray_hash(ray: &WatertightRay, triangle: u32) -> u64 {
         u64::from(d[1]) | u64::from(d[2]) << 32,
         u64::from(ray.t_hi.to_bits()) | u64::from(triangle) << 32,
     ];
-    let h = words
-        .iter()
-        .fold(0x9e37_79b9_7f4a_7c15u64, |h, &w| mix(h ^ w));
+    let h = words.iter().fold(0, |h, &w| crate::sampling::mix64(h ^ w));
     h >> 32
 }
 
