@@ -49,7 +49,7 @@ pub const RAYS: usize = 4;
 pub const LIGHTS_PER_POINT: usize = 4;
 
 /// A surface is turned only when nothing sees its front (no light in plain sight, no ray
-/// meeting another surface's front) and what sees its back is at least this many votes is at least this many votes, and at least [`FLIP_MIN_SHARE`] of the votes its points could cast on
+/// meeting another surface's front) and what sees its back is at least this many votes, and at least [`FLIP_MIN_SHARE`] of the votes its points could cast on
 /// one side (a small surface's few points must agree more).
 pub const FLIP_MIN_VOTES: i64 = 4;
 

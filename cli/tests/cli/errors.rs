@@ -150,13 +150,26 @@ fn file_problems_name_the_file() {
         assert!(!err.contains("panicked"));
         assert_eq!(listing(&f.dir), before);
     }
-    // The MTL named by mtllib is missing.
-    let obj = f.write("nomtl.obj", &VALID.replace("m.mtl", "gone.mtl"));
+    // The MTL named by mtllib is there but not text: an error at the mtllib line.
+    std::fs::write(f.dir.join("bad.mtl"), [0xffu8, 0xfe, 0x00]).unwrap();
+    let obj = f.write("badmtl.obj", &VALID.replace("m.mtl", "bad.mtl"));
     f.expect_error(
         &obj,
         &[],
         2,
-        &["nomtl.obj:1:", "gone.mtl", "cannot read material library"],
+        &["badmtl.obj:1:", "bad.mtl", "cannot read material library"],
+    );
+    // The MTL is missing (models are often shared without it): a warning naming it, and
+    // its materials' faces bake with the default material (here: no emitter left, so black,
+    // with that warning too).
+    let obj = f.write("nomtl.obj", &VALID.replace("m.mtl", "gone.mtl"));
+    let out = f.path("nomtl.ply");
+    let o = radiosity(&["bake", &obj, "-o", &out]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("gone.mtl (mtllib at line 1)") && err.contains("'grey'"),
+        "{err}"
     );
     // A material used but defined nowhere.
     let obj = f.write("undef.obj", &VALID.replace("usemtl grey", "usemtl nosuch"));

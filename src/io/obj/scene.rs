@@ -26,8 +26,11 @@
 //!
 //! Decisions: faces before any `usemtl` get [`Scene::default_material`]; a `usemtl` whose
 //! material no earlier `mtllib` defines is an error at that line (`tobj` would silently
-//! leave those faces without a material); a missing MTL file is an error at the `mtllib`
-//! line naming the MTL path; a material without `Kd` gets ρ = 0.5 with a warning.
+//! leave those faces without a material), unless a library before it is missing: a missing
+//! MTL file is a warning naming the `mtllib` line and the MTL path, and the faces of the
+//! materials it would have defined get the default material (models are often shared without
+//! their MTL); an MTL file that is there but cannot be read or parsed is an error. A material
+//! without `Kd` gets ρ = 0.5 with a warning.
 //!
 //! A comment `# camera: EX EY EZ TX TY TZ UX UY UZ FOV` gives the scene its camera
 //! ([`crate::scene::camera`]; eye, target and up in scene units, vertical field of view in degrees).
@@ -68,10 +71,18 @@ pub fn load(path: &Path) -> Result<Scene> {
     let libraries: RefCell<Vec<HashSet<String>>> = RefCell::new(Vec::new());
     let extras: RefCell<Vec<(PathBuf, Extras)>> = RefCell::new(Vec::new());
     let first_error: RefCell<Option<Error>> = RefCell::new(None);
+    let missing: RefCell<Vec<(usize, PathBuf)>> = RefCell::new(Vec::new());
     let loader = |name: &Path| -> tobj::MTLLoadResult {
         let k = libraries.borrow().len();
         let line = scan.mtllib_lines.get(k).copied().unwrap_or(0);
         let mtl = dir.join(name);
+        if !mtl.exists() {
+            // Shared without its library, as models often are: a warning, and the faces of
+            // its materials get the default one (below).
+            libraries.borrow_mut().push(HashSet::new());
+            missing.borrow_mut().push((line, mtl));
+            return Ok((Vec::new(), Default::default()));
+        }
         let result = read_mtl(path, line, &mtl).and_then(|(text, found)| {
             extras
                 .borrow_mut()
@@ -101,13 +112,25 @@ pub fn load(path: &Path) -> Result<Scene> {
     let (models, tobj_materials) = loaded.map_err(|e| tobj_failure(path, e))?;
     let tobj_materials = tobj_materials.map_err(|e| tobj_failure(path, e))?;
 
-    // A `usemtl` must name a material of an `mtllib` that comes before it.
+    // A `usemtl` must name a material of an `mtllib` that comes before it, unless one of
+    // those libraries is missing: then it is one of the missing library's, given the default.
     let libraries = libraries.into_inner();
+    let missing = missing.into_inner();
+    let mut undefined: Vec<String> = Vec::new();
     for u in &scan.usemtl {
         let known = libraries
             .iter()
             .take(u.libraries_before)
             .any(|lib| lib.contains(&u.name));
+        let after_missing = missing.iter().any(|&(line, _)| {
+            scan.mtllib_lines[..u.libraries_before.min(scan.mtllib_lines.len())].contains(&line)
+        });
+        if !known && after_missing {
+            if !undefined.contains(&u.name) {
+                undefined.push(u.name.clone());
+            }
+            continue;
+        }
         if !known {
             let hint = if u.libraries_before == 0 {
                 " (no mtllib before this line)"
@@ -127,6 +150,33 @@ pub fn load(path: &Path) -> Result<Scene> {
 
     let mut warnings = Vec::new();
     let mut details = Vec::new();
+    if !missing.is_empty() {
+        let libraries: Vec<String> = missing
+            .iter()
+            .map(|(line, mtl)| format!("{} (mtllib at line {line})", mtl.display()))
+            .collect();
+        let whose = if undefined.is_empty() {
+            "; no face uses its materials".to_string()
+        } else {
+            format!(
+                "; the faces of its material{} {} get the default material (ρ {}, no emission)",
+                if undefined.len() == 1 { "" } else { "s" },
+                crate::scene::listed_names_all(
+                    "materials_of_missing_libraries",
+                    &undefined,
+                    &mut details
+                ),
+                Scene::default_material().reflectance[0],
+            )
+        };
+        warnings.push(format!(
+            "{}: material librar{} not found: {}{whose}; put the MTL file beside the OBJ for \
+             the file's colours and lights",
+            path.display(),
+            if missing.len() == 1 { "y" } else { "ies" },
+            libraries.join(", "),
+        ));
+    }
     let extras = extras.into_inner();
     let textured = |name: &str| {
         extras
@@ -917,15 +967,27 @@ mod tests {
         let e = load_text("late", &obj, &mtl).unwrap_err();
         assert_parse(&e, "scene.obj", 4, &["grey", "no mtllib before this line"]);
 
-        // A missing library is reported even when another one loaded (tobj drops it).
-        let obj = format!("mtllib m.mtl\nmtllib gone.mtl\n{TRIANGLE}usemtl grey\nf 1 2 3\n");
-        let e = load_text("missing", &obj, &mtl).unwrap_err();
-        assert_parse(
-            &e,
-            "scene.obj",
-            2,
-            &["gone.mtl", "cannot read material library"],
+        // A missing library is a warning naming it and its line, and the faces of materials
+        // only it could define get the default material, even when another library loaded;
+        // the other library's materials are its own.
+        let obj = format!(
+            "mtllib m.mtl\nmtllib gone.mtl\n{TRIANGLE}v 0 0 1\nusemtl lost\nf 1 2 3\n\
+             usemtl grey\nf 1 2 4\n"
         );
+        let s = load_text("missing", &obj, &mtl).unwrap();
+        let w = s.warnings.join("\n");
+        assert!(
+            w.contains("gone.mtl (mtllib at line 2)") && w.contains("'lost'"),
+            "{w}"
+        );
+        let by_name = |t: usize| s.materials[s.triangles[t].material as usize].name.as_str();
+        assert_eq!((by_name(0), by_name(1)), ("default", "grey"));
+        // A library that is there but unreadable is still an error at its line.
+        let dir = TestDir::new("unreadable");
+        dir.write("bad.mtl", [0xff, 0xfe, 0x00]);
+        let e = Scene::load(&dir.write("scene.obj", &format!("mtllib bad.mtl\n{TRIANGLE}")))
+            .unwrap_err();
+        assert_parse(&e, "scene.obj", 1, &["bad.mtl", "cannot read material library"]);
 
         let e = load_text("nomtl", &format!("usemtl\n{TRIANGLE}"), &[]).unwrap_err();
         assert_parse(&e, "scene.obj", 1, &["usemtl without a name"]);
