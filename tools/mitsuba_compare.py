@@ -19,10 +19,11 @@ point by point (BENCHMARKS.md, "A Mitsuba scene against Mitsuba").
 
 Usage:
     python3 tools/mitsuba_compare.py SCENE.xml BAKE.ply --seconds T [--probes N] [--spp S]
-        [--batches B] [--seed K] [--csv PROBES.csv]
+        [--batches B] [--seed K] [--csv PROBES.csv] [--reference-from PROBES.csv]
 BAKE.ply is `radiosity bake SCENE.xml -o BAKE.ply`; T its wall-clock seconds. Needs Mitsuba 3
 from PyPI (`pip install mitsuba`; the scalar_rgb variant, CPU only). The probe file is kept
-with --csv, to score other bakes with the score example.
+with --csv, to score other bakes with the score example, or to run steps 3 and 4 again
+without step 2 (--reference-from).
 """
 import argparse
 import os
@@ -79,6 +80,7 @@ def main():
     parser.add_argument("--batches", type=int, default=8)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--csv", help="keep the probe file here")
+    parser.add_argument("--reference-from", help="read the reference from a probe file --csv kept")
     args = parser.parse_args()
 
     try:
@@ -110,12 +112,18 @@ def main():
         probes.append(((px, py), np.array(si.p, dtype=float), n))
     print(f"mitsuba_compare: {len(probes)} probes ({missed} rays missed the scene, {behind} met a back face)")
 
-    # 2. Reference: each probe's pixel, in independent batches.
+    # 2. Reference: each probe's pixel, in independent batches (or read back).
     start = time.time()
     per_batch = max(1, args.spp // args.batches)
     reference = np.zeros((len(probes), 3))
     std_error = np.zeros(len(probes))
-    for k, ((px, py), _, _) in enumerate(probes):
+    if args.reference_from:
+        rows = np.genfromtxt(args.reference_from, delimiter=",", skip_header=1)
+        if len(rows) != len(probes) or any(int(r[0]) != py * vw + px for r, ((px, py), _, _) in zip(rows, probes)):
+            sys.exit(f"mitsuba_compare: {args.reference_from} holds other probes (scene, --probes or --seed differ)")
+        reference, std_error = rows[:, 7:10], rows[:, 10]
+        per_batch = int(rows[0, 11]) // args.batches
+    for k, ((px, py), _, _) in enumerate(probes if not args.reference_from else []):
         crop = sensor_dict(mi, sensor, vw, vh, per_batch, crop=(px, py))
         batches = np.array(
             [np.array(mi.render(scene, sensor=crop, spp=per_batch, seed=args.seed * 7919 + k * args.batches + b)).reshape(3)
@@ -123,15 +131,18 @@ def main():
         )
         reference[k] = batches.mean(axis=0)
         std_error[k] = luminance(batches).std(ddof=1) / np.sqrt(args.batches)
-    print(f"mitsuba_compare: reference {args.batches} x {per_batch} samples per probe in {time.time() - start:.0f} s")
+    if not args.reference_from:
+        print(f"mitsuba_compare: reference {args.batches} x {per_batch} samples per probe in {time.time() - start:.0f} s")
 
     # 3. Our display at the probes, by the score example.
+    # The probe's virtual pixel stands in the `triangle` column, so a probe file can be
+    # read back (--reference-from) for the same scene, --probes and --seed.
     csv = args.csv or os.path.join(tempfile.mkdtemp(), "probes.csv")
     with open(csv, "w") as f:
         f.write("triangle,x,y,z,nx,ny,nz,r,g,b,std_error,paths\n")
-        for k, ((_, _), p, n) in enumerate(probes):
+        for k, ((px, py), p, n) in enumerate(probes):
             fields = [*p, *n, *reference[k], std_error[k]]
-            f.write(f"{k}," + ",".join(repr(float(x)) for x in fields) + f",{args.batches * per_batch}\n")
+            f.write(f"{py * vw + px}," + ",".join(repr(float(x)) for x in fields) + f",{args.batches * per_batch}\n")
     score = ["cargo", "run", "--release", "-q", "-p", "radiosity-tools", "--example", "score", "--", os.path.abspath(csv), os.path.abspath(args.bake)]
     print(subprocess.run(score, cwd=ROOT, check=True, capture_output=True, text=True).stdout.strip())
     y_ref = luminance(reference)

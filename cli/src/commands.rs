@@ -157,19 +157,22 @@ pub fn info(args: &InfoArgs) -> Result<u8, Failure> {
     let settings = args.solve.settings()?;
     let mut scene = Scene::load(&args.input)?;
     scene.apply_overrides(&overrides)?;
-    // The estimate describes the bake, which makes the back faces itself; with --max-time,
-    // of the settings the bake would fit to it (the method and gather it would take).
+    // The scene as the bake sees it (faces turned, back sides made), and the estimate of
+    // that bake; with --max-time, of the settings the bake would fit to it (the method and
+    // gather it would take).
+    let prepared = pipeline::prepare(&scene, &settings);
+    let scene = &prepared.scene;
+    if let Some(o) = prepared.orientation.as_ref().filter(|o| o.changed()) {
+        radiosity::progress::warning(&format!("{}: {}", args.input.display(), o.summary()));
+    }
     let threads = rayon::current_num_threads();
     let estimate = match settings.max_time {
-        Some(budget) => pipeline::estimate::fit_time(&scene, &settings, threads, budget)?.1,
-        None => pipeline::Estimate::of(&scene, &settings, threads)?,
+        Some(budget) => pipeline::estimate::fit_time(scene, &settings, threads, budget)?.1,
+        None => pipeline::Estimate::of(scene, &settings, threads)?,
     };
     // The lights a bake uses: the options' and the scene file's own (glTF's).
-    let environment = settings.resolved(&scene)?.environment;
-    if settings.two_sided {
-        scene.make_two_sided();
-    }
-    let info = SceneInfo::of(&scene, &environment, estimate)?;
+    let environment = settings.resolved(scene)?.environment;
+    let info = SceneInfo::of(scene, &environment, estimate)?;
     if args.json {
         println!("{}", info.to_json());
     } else {

@@ -195,7 +195,11 @@ impl Estimate {
     ) -> Result<Estimate> {
         settings.validate()?;
         let s = settings.resolved(scene)?;
-        let sides = if s.two_sided { 2 } else { 1 };
+        let sides = if s.two_sided && !scene.is_two_sided() {
+            2
+        } else {
+            1
+        };
         let per_core = 2.0 / threads.max(1) as f64;
         let finer = s.finer(scene);
         let mut e = match s.method {

@@ -88,6 +88,8 @@ pub fn run_with(
     let mut scene = Scene::load(input)?;
     scene.apply_overrides(overrides)?;
     let load_seconds = t.elapsed().as_secs_f64();
+    let prepared = prepare(&scene, settings);
+    let scene = &prepared.scene;
 
     // What it will cost, before any of it is done: refused if it would not fit in memory,
     // announced if it is long.
@@ -97,7 +99,7 @@ pub fn run_with(
     let (mut settings, estimate) = match settings.max_time {
         Some(budget) => {
             let (mut fitted, estimate, chosen) =
-                estimate::fit_time(&scene, settings, threads, budget)?;
+                estimate::fit_time(scene, settings, threads, budget)?;
             if let Some(chosen) = chosen {
                 crate::progress::warning(&format!("{}: {chosen}", input.display()));
             }
@@ -105,7 +107,7 @@ pub fn run_with(
             fitted.display_deadline = Some(t + Duration::from_secs_f64(DISPLAY_SHARE * budget));
             (fitted, estimate)
         }
-        None => (settings.clone(), Estimate::of(&scene, settings, threads)?),
+        None => (settings.clone(), Estimate::of(scene, settings, threads)?),
     };
     let limit = check_estimate(input, &estimate, settings.max_memory)?;
     // The hierarchy's links are what outgrows an estimate: refinement stops, with a warning,
@@ -115,7 +117,7 @@ pub fn run_with(
         settings.hierarchical.max_links = settings.hierarchical.max_links.min(most);
     }
 
-    let mut outcome = solve_scene(&scene, &settings)?;
+    let mut outcome = solve_prepared(&prepared, &settings)?;
 
     let t = Instant::now();
     let exposure = options
@@ -208,13 +210,23 @@ fn check_estimate(
     Ok(limit)
 }
 
-/// patches → BVH → form factors → matrix → solve (→ refine, again) → bake, for a scene in
-/// memory.
-pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
-    settings.validate()?;
-    let settings = &settings.resolved(scene)?;
-    let input_triangles = scene.triangles.len();
-    // Faces wound the wrong way turned round (not for a two-sided bake: both sides stay).
+/// The scene as the bake sees it: with `orient = auto`, its faces turned and the surfaces
+/// seen from both sides given back sides ([`orient::orient`]; not when the scene has twins
+/// already or every face gets them); with `two_sided`, every face a back side. The
+/// estimate ([`Estimate::of`]) and the bake ([`solve_prepared`]) both start from it, so
+/// they count the same faces.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// The scene to bake.
+    pub scene: Scene,
+    /// What `orient = auto` turned and gave back sides; `None` when it did not run.
+    pub orientation: Option<orient::Orientation>,
+    /// Wall-clock seconds taken.
+    pub seconds: f64,
+}
+
+/// [`Prepared`]: `scene` made ready for `settings`' bake.
+pub fn prepare(scene: &Scene, settings: &Settings) -> Prepared {
     let t = Instant::now();
     let oriented = (settings.orient == Orient::Auto
         && !settings.two_sided
@@ -224,25 +236,49 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
             .environment
             .lights
             .iter()
+            .chain(&scene.lights)
             .map(|l| l.position)
             .collect();
         orient::orient(scene, &lights, settings.form_factors.seed)
     });
-    let scene = oriented.as_ref().map_or(scene, |(s, _)| s);
-    let orient_seconds = t.elapsed().as_secs_f64();
-    // Contact lines become edges (before the back sides are made: twins stay identical).
+    let (mut scene, orientation) = match oriented {
+        Some((s, o)) => (s, Some(o)),
+        None => (scene.clone(), None),
+    };
+    if settings.two_sided {
+        scene.make_two_sided();
+    }
+    Prepared {
+        scene,
+        orientation,
+        seconds: t.elapsed().as_secs_f64(),
+    }
+}
+
+/// patches → BVH → form factors → matrix → solve (→ refine, again) → bake, for a scene in
+/// memory: [`prepare`], then [`solve_prepared`].
+pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
+    settings.validate()?;
+    solve_prepared(&prepare(scene, settings), settings)
+}
+
+/// [`solve_scene`] for a scene [`prepare`] made ready for these `settings`.
+pub fn solve_prepared(prepared: &Prepared, settings: &Settings) -> Result<Outcome> {
+    settings.validate()?;
+    let scene = &prepared.scene;
+    let settings = &settings.resolved(scene)?;
+    let input_triangles = scene.triangles.len();
+    // Contact lines become edges (twins are cut as their fronts are: pairs stay pairs).
     let t = Instant::now();
     let split = settings
         .cuts_contacts()
         .then(|| mesh::split_contacts(scene));
     let scene = split.as_ref().map_or(scene, |(s, _)| s);
     let contact_seconds = t.elapsed().as_secs_f64();
-    let two_sided = settings.two_sided.then(|| scene.to_two_sided());
-    let scene = two_sided.as_ref().unwrap_or(scene);
     scene.validate()?;
     let mut report = Report::new(settings);
     report.warnings.extend(scene.warnings.iter().cloned());
-    if let Some((_, o)) = &oriented {
+    if let Some(o) = &prepared.orientation {
         if o.changed() {
             report.warnings.push(o.summary());
         }
@@ -271,7 +307,7 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
     report.stream_warnings();
     report.input_triangles = input_triangles;
     report.contacts = split.as_ref().map(|(_, stats)| stats.clone());
-    report.seconds.patches = orient_seconds + contact_seconds;
+    report.seconds.patches = prepared.seconds + contact_seconds;
 
     if settings.method == Method::Hierarchical {
         return hierarchical_scene(scene, settings, report);

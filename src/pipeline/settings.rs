@@ -221,7 +221,11 @@ impl Settings {
                 Method::Matrix
             } else {
                 let max_edge = s.max_edge.unwrap_or_else(|| mesh::default_max_edge(scene));
-                let sides = if s.two_sided { 2 } else { 1 };
+                let sides = if s.two_sided && !scene.is_two_sided() {
+                    2
+                } else {
+                    1
+                };
                 let area: f64 = (0..scene.triangles.len())
                     .map(|t| scene.triangle_area(t))
                     .sum();

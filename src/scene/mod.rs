@@ -77,6 +77,11 @@ pub struct Material {
     /// the hierarchy's links). A face with t = 1 adds nothing and is left out when the scene
     /// is built.
     pub transmittance: f64,
+    /// True when the file says this material has no back side: a glTF material that is not
+    /// `doubleSided`, a Mitsuba BSDF (one outside `twosided` is one-sided; one inside gives
+    /// every face its twin as it is read). [`orient`] gives faces seen from both sides a
+    /// back side only where the file does not say; `--two-sided` gives every face one.
+    pub one_sided: bool,
 }
 
 impl Material {
@@ -87,7 +92,14 @@ impl Material {
             reflectance,
             emission,
             transmittance: 0.0,
+            one_sided: false,
         }
+    }
+
+    /// This material as the file's one-sided kind or not (see [`Material::one_sided`]).
+    pub fn with_one_sided(mut self, one_sided: bool) -> Material {
+        self.one_sided = one_sided;
+        self
     }
 
     /// This material as a screen that lets the share `t` ∈ [0, 1] of the light through

@@ -27,7 +27,16 @@
 //!    shells, turns them outward; step 2 differs because an interior's walls are meant to be
 //!    seen from inside.
 //!
-//! It does not make faces two-sided, and it reads no materials but emission.
+//! 3. **A back side where both are seen.** A surface whose front and back are both seen
+//!    from the open (each by at least what a turn needs, counting lights and rays that
+//!    travel farther than [`NEAR_SHARE`] of its size: not a panel's back seen by the
+//!    ceiling it is mounted under; its back more than it meets other surfaces' backs) gets
+//!    twins ([`Scene::make_two_sided_where`]): a free-standing screen, a shelf
+//!    of one sheet, a partition between two rooms. Not a surface with an emitting face (a
+//!    lamp's back stays dark, as the ceiling just above it should), nor one whose material
+//!    the file says is one-sided ([`crate::scene::Material::one_sided`]).
+//!
+//! It reads no materials but emission, darkness and `one_sided`.
 
 use std::collections::HashMap;
 
@@ -116,12 +125,18 @@ pub struct Orientation {
     pub conflicts: usize,
     /// The first few turned surfaces, each as "material (face index) × faces".
     pub examples: Vec<String>,
+    /// Surfaces seen from both sides that were given a back side of their own.
+    pub two_sided_surfaces: usize,
+    /// Faces those surfaces hold (each now has a twin: the bake has that many more faces).
+    pub two_sided_faces: usize,
+    /// The first few of those surfaces, each as "material (face index) × faces".
+    pub two_sided_examples: Vec<String>,
 }
 
 impl Orientation {
-    /// True if a face was turned.
+    /// True if a face was turned or given a back side.
     pub fn changed(&self) -> bool {
-        self.made_consistent > 0 || self.faces_turned > 0
+        self.made_consistent > 0 || self.faces_turned > 0 || self.two_sided_faces > 0
     }
 
     /// One line for the warnings: what was turned, with a few examples.
@@ -154,6 +169,24 @@ impl Orientation {
                 self.examples.join(", ")
             ));
         }
+        if self.two_sided_surfaces > 0 {
+            parts.push(format!(
+                "{} surface{} ({} faces) seen from both sides given a back side of {}: {}",
+                self.two_sided_surfaces,
+                if self.two_sided_surfaces == 1 {
+                    ""
+                } else {
+                    "s"
+                },
+                self.two_sided_faces,
+                if self.two_sided_surfaces == 1 {
+                    "its own"
+                } else {
+                    "their own"
+                },
+                self.two_sided_examples.join(", ")
+            ));
+        }
         format!(
             "orientation repaired (--orient auto; --orient keep bakes the winding as given): {}",
             parts.join("; ")
@@ -161,9 +194,10 @@ impl Orientation {
     }
 }
 
-/// The scene with its faces turned as the module documentation says, and what was turned.
-/// `lights` are positions (scene units) of point lights lighting it. Deterministic for a
-/// `seed`. `scene` must satisfy the [`Scene`] invariants and be one-sided (no twins).
+/// The scene with its faces turned and its surfaces seen from both sides given back sides,
+/// as the module documentation says, and what was done. `lights` are positions (scene
+/// units) of point lights lighting it. Deterministic for a `seed`. `scene` must satisfy the
+/// [`Scene`] invariants and be one-sided (no twins; a scene with twins is returned as it is).
 pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation) {
     let n = scene.triangles.len();
     let mut out = scene.clone();
@@ -206,8 +240,9 @@ pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation
     // until none turns (a box read against walls still turned wrong turns back once they
     // are right), at most MAX_PASSES.
     let mut turned = vec![false; count];
-    for pass in 0..MAX_PASSES {
-        let flips = turn_pass(
+    let mut votes = Vec::new();
+    for pass in 0..=MAX_PASSES {
+        votes = vote_pass(
             &out,
             &corners,
             &surface,
@@ -217,7 +252,9 @@ pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation
             seed,
             pass,
         );
-        if !flips.contains(&true) {
+        let flips: Vec<bool> = votes.iter().map(|&v| turns(v)).collect();
+        // The last pass only reads the votes for the back sides below.
+        if !flips.contains(&true) || pass == MAX_PASSES {
             break;
         }
         for (s, faces) in members.iter().enumerate() {
@@ -248,12 +285,42 @@ pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation
                 .push(format!("'{m}' (face {t}) × {}", faces.len()));
         }
     }
+
+    // Step 3: a back side for each surface seen from both sides, unless a face of it emits
+    // (a lamp's back stays dark) or the file says its material is one-sided.
+    let mut two_sided = vec![false; n];
+    for (s, faces) in members.iter().enumerate() {
+        let allowed = faces.iter().all(|&t| {
+            let m = &out.materials[out.triangles[t].material as usize];
+            !m.is_emitter() && !m.one_sided
+        });
+        if !allowed || !both_sides_seen(votes[s]) {
+            continue;
+        }
+        report.two_sided_surfaces += 1;
+        report.two_sided_faces += faces.len();
+        if report.two_sided_examples.len() < 5 {
+            let t = faces[0];
+            let m = &out.materials[out.triangles[t].material as usize].name;
+            report
+                .two_sided_examples
+                .push(format!("'{m}' (face {t}) × {}", faces.len()));
+        }
+        for &t in faces {
+            two_sided[t] = true;
+        }
+    }
+    if report.two_sided_faces > 0 {
+        out.make_two_sided_where(|t, _| two_sided.get(t).copied().unwrap_or(false));
+    }
     (out, report)
 }
 
-/// Which surfaces one pass turns: each by its votes against the scene as it is.
+/// Each surface's votes against the scene as it is, and the votes a side needs to count as
+/// seen ([`FLIP_MIN_VOTES`], [`FLIP_MIN_SHARE`]); `None` for a surface that neither reflects
+/// nor emits.
 #[allow(clippy::too_many_arguments)]
-fn turn_pass(
+fn vote_pass(
     scene: &Scene,
     corners: &[[DVec3; 3]],
     surface: &[u32],
@@ -262,7 +329,7 @@ fn turn_pass(
     lift: f64,
     seed: u64,
     pass: usize,
-) -> Vec<bool> {
+) -> Vec<Option<([Votes; 2], i64)>> {
     use rayon::prelude::*;
     let vis = Visibility::build(corners);
     members
@@ -274,18 +341,30 @@ fn turn_pass(
                 m.reflectance.iter().all(|&r| r == 0.0) && !m.is_emitter()
             });
             if dark {
-                return false;
+                return None;
             }
             let mut rng = Rng::new(&[seed, s as u64, pass as u64, 0x0121E17]);
-            let [front, back] =
-                side_votes(&vis, corners, surface, faces, lights, lift, scene, &mut rng);
+            let votes = side_votes(&vis, corners, surface, faces, lights, lift, scene, &mut rng);
             // Every vote the points could cast on one side: rays, and lights at 2.
             let points = POINTS.min(faces.len().max(4)) as i64;
             let possible = points * (RAYS + 2 * LIGHTS_PER_POINT.min(lights.len())) as i64;
             let needed = FLIP_MIN_VOTES.max((FLIP_MIN_SHARE * possible as f64).ceil() as i64);
-            back.seen >= needed && front.seen == 0
+            Some((votes, needed))
         })
         .collect()
+}
+
+/// True if a surface with these votes is turned: its back seen, its front not at all.
+fn turns(votes: Option<([Votes; 2], i64)>) -> bool {
+    votes.is_some_and(|([front, back], needed)| back.seen >= needed && front.seen == 0)
+}
+
+/// True if a surface with these votes gets a back side: both sides seen from the open
+/// ([`Votes::seen_far`]), the back more than it faces into something's inside.
+fn both_sides_seen(votes: Option<([Votes; 2], i64)>) -> bool {
+    votes.is_some_and(|([front, back], needed)| {
+        front.seen_far >= needed && back.seen_far >= needed && back.seen > back.against
+    })
 }
 
 /// Each face's surface (numbered from 0 in order of their first face), whether it must be
@@ -370,7 +449,16 @@ struct Votes {
     /// Rays from this side that meet the back of another surface: this side faces into
     /// something's inside.
     against: i64,
+    /// Of `seen`, the lights and the rays that travel farther than [`NEAR_SHARE`] of the
+    /// surface's size (the square root of its area) first: what sees this side from the
+    /// open, not through the gap of a panel mounted on a wall.
+    seen_far: i64,
 }
+
+/// Rays that meet another surface's front within this share of the surface's size (the
+/// square root of its area) see it through a gap, as the ceiling sees the back of a panel
+/// mounted just under it: they do not count for giving the surface a back side.
+pub const NEAR_SHARE: f64 = 0.05;
 
 /// Votes for surface `faces`'s front and back: see the module documentation.
 #[allow(clippy::too_many_arguments)]
@@ -389,6 +477,7 @@ fn side_votes(
         return [Votes::default(); 2];
     }
     let own = surface[faces[0]];
+    let near = NEAR_SHARE * total.sqrt();
     let points = POINTS.min(faces.len().max(4));
     let mut votes = [Votes::default(); 2];
     let (mut cum, mut k) = (0.0, 0);
@@ -421,6 +510,7 @@ fn side_votes(
                 let from = x + lift.copysign(d) * n;
                 if !vis.occluded(from, l, [t as u32, NONE]) {
                     votes[usize::from(d < 0.0)].seen += 2;
+                    votes[usize::from(d < 0.0)].seen_far += 2;
                 }
             }
         }
@@ -440,6 +530,9 @@ fn side_votes(
                 let facing = (q - p).cross(r - p).dot(dir);
                 if facing < 0.0 {
                     votes[side].seen += 1;
+                    if hit.t > near {
+                        votes[side].seen_far += 1;
+                    }
                 } else if facing > 0.0 {
                     votes[side].against += 1;
                 }
@@ -557,6 +650,53 @@ mod tests {
             "{report:?}"
         );
         assert!(same(&out, &right));
+    }
+
+    #[test]
+    fn a_sheet_seen_from_both_sides_gets_a_back_side_unless_its_file_says_one_sided() {
+        // A shelf of one sheet across the room at half height, facing up, with a gap to
+        // every wall: the lamp sees its top, the floor and the walls its underside. It alone
+        // gets twins (reversed, same material); the lamp (seen from behind by the ceiling)
+        // never does, nor the walls or the box, whose backs see nothing or only backs.
+        let with_shelf = |one_sided: bool| {
+            let base = room(&[], true);
+            let mut b = SceneBuilder::new();
+            for m in &base.materials {
+                b.material(&m.name, m.reflectance, m.emission);
+            }
+            let shelf = b.material("shelf", [0.5; 3], [0.0; 3]);
+            for t in &base.triangles {
+                let v = t.vertices.map(|v| b.vertex(base.positions[v as usize]));
+                b.triangle(v, t.material);
+            }
+            let p = |x: f64, z: f64| DVec3::new(x, 1.5, z);
+            b.quad([p(0.5, 0.5), p(0.5, 3.5), p(3.5, 3.5), p(3.5, 0.5)], shelf);
+            let mut s = b.build().unwrap();
+            s.materials[shelf as usize].one_sided = one_sided;
+            (s, shelf)
+        };
+        let (s, shelf) = with_shelf(false);
+        let n = s.triangles.len();
+        let (out, report) = orient(&s, &[], 5);
+        assert_eq!(
+            (report.two_sided_surfaces, report.two_sided_faces),
+            (1, 2),
+            "{report:?}"
+        );
+        assert!(report.summary().contains("'shelf'"), "{}", report.summary());
+        assert_eq!(out.triangles.len(), n + 2);
+        out.validate().unwrap();
+        for t in 0..n {
+            let twin = out.twin[t];
+            assert_eq!(
+                twin != crate::scene::NO_TWIN,
+                s.triangles[t].material == shelf,
+                "{t}"
+            );
+        }
+        let (out, report) = orient(&with_shelf(true).0, &[], 5);
+        assert_eq!(report.two_sided_faces, 0, "{report:?}");
+        assert!(out.twin.is_empty() || !out.is_two_sided());
     }
 
     #[test]

@@ -22,10 +22,11 @@ impl Scene {
     /// Makes every face two-sided (`--two-sided`; see the module documentation) and returns
     /// the number of back faces added: [`Scene::make_two_sided_where`] for every material.
     pub fn make_two_sided(&mut self) -> usize {
-        self.make_two_sided_where(|_| true)
+        self.make_two_sided_where(|_, _| true)
     }
 
-    /// Gives each triangle whose material `pick` accepts a back side of its own, and returns
+    /// Gives each triangle `t` that `pick(t, its material)` accepts a back side of its own
+    /// (`t` indexes the triangles as they are before the call), and returns
     /// the number of back faces added. In triangle order, a picked triangle without a twin is
     /// paired with the first unpaired triangle over the same three vertices in the opposite
     /// winding, if the scene has one (a back face modelled in the file: it keeps its own
@@ -37,7 +38,10 @@ impl Scene {
     /// The loader's checks are not run again: twins lie in the same plane facing opposite
     /// ways, which the overlap check already accepts, and every shared edge is now used in
     /// both directions on purpose.
-    pub fn make_two_sided_where(&mut self, mut pick: impl FnMut(&Material) -> bool) -> usize {
+    pub fn make_two_sided_where(
+        &mut self,
+        mut pick: impl FnMut(usize, &Material) -> bool,
+    ) -> usize {
         let n = self.triangles.len();
         if self.twin.is_empty() {
             self.twin = vec![NO_TWIN; n];
@@ -57,7 +61,7 @@ impl Scene {
         let mut added = 0;
         for t in 0..n {
             let tri = self.triangles[t];
-            if self.twin[t] != NO_TWIN || !pick(&self.materials[tri.material as usize]) {
+            if self.twin[t] != NO_TWIN || !pick(t, &self.materials[tri.material as usize]) {
                 continue;
             }
             let (sorted, odd) = key(tri.vertices);

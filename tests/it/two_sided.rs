@@ -51,7 +51,7 @@ fn two_sided_receiver_gets_rho_f_le_in_front_and_nothing_behind() {
     // ρ = 0 at the source nothing comes back, so one bounce is the whole answer.
     let f = closed_forms::parallel_rectangles(1.0, 1.0, 1.0);
     let mut scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
-    assert_eq!(scene.make_two_sided_where(|m| m.name == "receiver"), 2);
+    assert_eq!(scene.make_two_sided_where(|_, m| m.name == "receiver"), 2);
     for estimator in [Estimator::Contour, Estimator::Area, Estimator::Hemisphere] {
         let out = crate::support::run(&scene, &plate_settings(estimator));
         let p = &out.patches;
@@ -117,7 +117,7 @@ fn sandwich(a: f64, b: f64, c: f64) -> Scene {
         rcv,
     );
     let mut scene = builder.build().unwrap();
-    scene.make_two_sided_where(|m| m.name == "source");
+    scene.make_two_sided_where(|_, m| m.name == "source");
     scene
 }
 

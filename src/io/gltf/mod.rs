@@ -13,7 +13,9 @@
 //! (candela ÷ 683 lm/W → W·sr⁻¹, the luminous efficacy Blender's exporter multiplies by) at
 //! their nodes, pointing along the node's −Z; a directional light as the sun (lux ÷ 683 →
 //! W·m⁻², azimuth and elevation for glTF's +Y up); the first perspective camera. Materials
-//! marked `doubleSided` are said to need `--two-sided`. Positions are metres, +Y up.
+//! not marked `doubleSided` are one-sided ([`crate::scene::Material::one_sided`]); the others
+//! get back sides where the scene sees them ([`crate::scene::orient`]), and are named in a
+//! warning. Positions are metres, +Y up.
 //!
 //! What is refused (an [`Error::Input`] naming the file and the item, never a panic, a hang or
 //! a read past an item's data; the checks are the `import` submodule's): an accessor the
@@ -146,8 +148,8 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
     if !double_sided.is_empty() {
         warnings.push(format!(
-            "{} material(s) are double-sided in the file; faces reflect on their front only \
-             unless baked with --two-sided: {}",
+            "{} material(s) are double-sided in the file: their faces get a back side where \
+             the scene sees their back (--orient auto), every face one with --two-sided: {}",
             double_sided.len(),
             listed_names_all("double_sided_materials", &double_sided, &mut details)
         ));
@@ -477,7 +479,8 @@ impl Loader<'_> {
                 reflectance.map(|r| r.clamp(0.0, 1.0)),
                 emission.map(|e| if e.is_finite() { e.max(0.0) } else { 0.0 }),
             )
-            .with_transmittance((1.0 - alpha) + alpha * tau),
+            .with_transmittance((1.0 - alpha) + alpha * tau)
+            .with_one_sided(!m.double_sided()),
         );
         let k = (self.materials.len() - 1) as u32;
         self.material_of[index] = Some(k);

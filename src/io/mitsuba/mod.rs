@@ -808,7 +808,10 @@ impl<'a, 'input> Reader<'a, 'input> {
         } else {
             surface.name.clone()
         };
-        let mut material = Material::opaque(name.clone(), surface.reflectance, emission);
+        // One-sided as Mitsuba's BSDFs are; those under `twosided` get their twins when the
+        // scene is built, so `orient` gives no face of a Mitsuba scene a back side.
+        let mut material =
+            Material::opaque(name.clone(), surface.reflectance, emission).with_one_sided(true);
         if surface.glass {
             material = material.with_transmittance(1.0);
         }
@@ -1046,7 +1049,7 @@ impl<'a, 'input> Reader<'a, 'input> {
         scene.camera = self.camera;
         if !self.two_sided.is_empty() {
             let names: HashSet<String> = self.two_sided.into_iter().collect();
-            scene.make_two_sided_where(|m| names.contains(&m.name));
+            scene.make_two_sided_where(|_, m| names.contains(&m.name));
         }
         Ok(scene)
     }

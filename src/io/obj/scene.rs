@@ -987,7 +987,12 @@ mod tests {
         dir.write("bad.mtl", [0xff, 0xfe, 0x00]);
         let e = Scene::load(&dir.write("scene.obj", &format!("mtllib bad.mtl\n{TRIANGLE}")))
             .unwrap_err();
-        assert_parse(&e, "scene.obj", 1, &["bad.mtl", "cannot read material library"]);
+        assert_parse(
+            &e,
+            "scene.obj",
+            1,
+            &["bad.mtl", "cannot read material library"],
+        );
 
         let e = load_text("nomtl", &format!("usemtl\n{TRIANGLE}"), &[]).unwrap_err();
         assert_parse(&e, "scene.obj", 1, &["usemtl without a name"]);

@@ -22,7 +22,8 @@ use crate::scene::{NO_TWIN, ZERO_AREA_RELATIVE};
 /// it too, so the display stays conforming. The pieces keep their patch's material, normal and
 /// source triangle; corner normals are interpolated in it. Returns the new patches, the patch each
 /// piece came from, and what was done (`segments`: the clipped pieces inserted).
-/// `None` for two-sided patches (twins must stay pairs).
+/// A twin is cut as its front (its lower-numbered partner) is, each piece reversed and
+/// placed right after the front's: pairs stay pairs.
 pub fn split_patches(
     lines: &[Vec<[DVec3; 2]>],
     patches: &Patches,
@@ -39,9 +40,6 @@ pub(super) fn split_patches_binned(
     extent: f64,
     grid_from: usize,
 ) -> Option<(Patches, Vec<u32>, ContactStats)> {
-    if patches.twin.iter().any(|&t| t != NO_TWIN) {
-        return None;
-    }
     let touch = TOUCH * extent;
     let n = patches.len();
     // Each patch's part of its source triangle's segments: of a triangle with many (a floor
@@ -129,7 +127,23 @@ pub(super) fn split_patches_binned(
     let mut parent = Vec::with_capacity(n);
     let mut index: HashMap<[u64; 3], u32> = HashMap::new();
     let min_area = ZERO_AREA_RELATIVE * extent * extent;
+    // A twin is cut as its front is, its pieces reversed right after the front's.
+    let back = |i: usize| patches.twin.get(i).copied().filter(|&j| j != NO_TWIN);
+    let push = |out: &mut Patches, parent: &mut Vec<u32>, i: usize, t: [u32; 3]| {
+        out.push_inside(t, &patches.parent(i));
+        parent.push(i as u32);
+        if let Some(j) = back(i) {
+            out.push_inside([t[0], t[2], t[1]], &patches.parent(j as usize));
+            parent.push(j);
+            let k = out.len() as u32;
+            out.twin[(k - 2) as usize] = k - 1;
+            out.twin[(k - 1) as usize] = k - 2;
+        }
+    };
     for (i, (face, segs)) in cut.iter().enumerate() {
+        if back(i).is_some_and(|j| (j as usize) < i) {
+            continue; // a twin: pushed with its front
+        }
         let v = patches.triangles[i];
         let edge_points = points_on_edges(&on_edge, v);
         let segs: Vec<[DVec3; 2]> = segs.iter().map(|s| s.map(|p| shared(i, face, p))).collect();
@@ -139,8 +153,7 @@ pub(super) fn split_patches_binned(
             face.triangulate(&segs, &edge_points, true)
         };
         let Some(pieces) = pieces else {
-            out.push_inside(v, &patches.parent(i));
-            parent.push(i as u32);
+            push(&mut out, &mut parent, i, v);
             continue;
         };
         stats.faces_split += 1;
@@ -159,8 +172,7 @@ pub(super) fn split_patches_binned(
                 })
             };
             let t = [id(p), id(q), id(r)];
-            out.push_inside(t, &patches.parent(i));
-            parent.push(i as u32);
+            push(&mut out, &mut parent, i, t);
         }
     }
     stats.triangles = out.len();

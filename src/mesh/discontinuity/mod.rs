@@ -39,7 +39,7 @@ use obvhs::bvh2::builder::build_bvh2;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
-use crate::scene::{Scene, SceneTriangle, ZERO_AREA_RELATIVE};
+use crate::scene::{Scene, SceneTriangle, NO_TWIN, ZERO_AREA_RELATIVE};
 use face::Face;
 use near_shadow::silhouettes;
 
@@ -118,8 +118,8 @@ pub struct ContactStats {
 
 /// The contact segments on each scene triangle (see the module documentation; touching,
 /// crossing and mounted faces, not the near shadows), in scene coordinates on the triangle's
-/// plane; `None` when the scene is two-sided (twins must stay pairs of identical faces), has
-/// fewer than two triangles, or has no contact.
+/// plane; `None` when the scene has fewer than two triangles or no contact. In a two-sided
+/// scene a twin has its front's segments (found on the fronts alone: a pair is cut alike).
 pub fn contact_lines(scene: &Scene) -> Option<Vec<Vec<[DVec3; 2]>>> {
     contact_lines_on(scene, &|_| true)
 }
@@ -131,6 +131,27 @@ pub fn contact_lines_on(
     on: &(dyn Fn(usize) -> bool + Sync),
 ) -> Option<Vec<Vec<[DVec3; 2]>>> {
     let (lo, hi) = scene.bounds();
+    if !scene.twin.is_empty() {
+        let fronts: Vec<usize> = (0..scene.triangles.len())
+            .filter(|&t| scene.twin[t] == NO_TWIN || (t as u32) < scene.twin[t])
+            .collect();
+        let mut base = scene.clone();
+        base.triangles = fronts.iter().map(|&t| scene.triangles[t]).collect();
+        base.twin = Vec::new();
+        let faces: Vec<Face> = (0..base.triangles.len())
+            .map(|t| Face::new(&base, t))
+            .collect();
+        let found = lines_on(&base, &faces, (hi - lo).length(), false, &|k| on(fronts[k]))?;
+        let mut lines = vec![Vec::new(); scene.triangles.len()];
+        for (k, segs) in found.into_iter().enumerate() {
+            let t = fronts[k];
+            if scene.twin[t] != NO_TWIN {
+                lines[scene.twin[t] as usize] = segs.clone();
+            }
+            lines[t] = segs;
+        }
+        return Some(lines);
+    }
     let faces: Vec<Face> = (0..scene.triangles.len())
         .map(|t| Face::new(scene, t))
         .collect();
@@ -196,8 +217,45 @@ fn lines_on(
 }
 
 /// The scene with its contact lines as edges (see the module documentation); the same scene
-/// when it has none, or when it is two-sided (twins must stay pairs of identical faces).
+/// when it has none. A two-sided scene's fronts (the faces without a twin, and the first of
+/// each pair) are cut, and each piece of a front with a twin gets a twin of its own (its
+/// corners reversed, the twin's material and texture map), appended after the fronts' pieces
+/// in their order: twins stay pairs of identical faces, and cutting then making every face
+/// two-sided gives the scene that making it two-sided then cutting does.
 pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
+    if scene.twin.is_empty() {
+        let (out, stats, _) = split_one_sided(scene);
+        return (out, stats);
+    }
+    let fronts: Vec<usize> = (0..scene.triangles.len())
+        .filter(|&t| scene.twin[t] == NO_TWIN || (t as u32) < scene.twin[t])
+        .collect();
+    let mut base = scene.clone();
+    base.triangles = fronts.iter().map(|&t| scene.triangles[t]).collect();
+    base.twin = Vec::new();
+    let (mut out, mut stats, source) = split_one_sided(&base);
+    let pieces = out.triangles.len();
+    out.twin = vec![NO_TWIN; pieces];
+    for i in 0..pieces {
+        let back = scene.twin[fronts[source[i] as usize]];
+        if back == NO_TWIN {
+            continue;
+        }
+        let back = scene.triangles[back as usize];
+        let [a, b, c] = out.triangles[i].vertices;
+        out.triangles.push(SceneTriangle {
+            vertices: [a, c, b],
+            ..back
+        });
+        out.twin.push(i as u32);
+        out.twin[i] = (out.triangles.len() - 1) as u32;
+    }
+    stats.triangles = out.triangles.len();
+    (out, stats)
+}
+
+/// [`split_contacts`] for a one-sided scene, with each output triangle's input triangle.
+fn split_one_sided(scene: &Scene) -> (Scene, ContactStats, Vec<u32>) {
     let n = scene.triangles.len();
     let mut stats = ContactStats {
         triangles: n,
@@ -207,7 +265,7 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
     let extent = (hi - lo).length();
     let faces: Vec<Face> = (0..n).map(|t| Face::new(scene, t)).collect();
     let Some(segments) = lines_on(scene, &faces, extent, true, &|_| true) else {
-        return (scene.clone(), stats);
+        return (scene.clone(), stats, (0..n as u32).collect());
     };
 
     // Points where segments end on a face's edge, registered on that edge (by its two vertex
@@ -234,17 +292,20 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
         .map(|(i, p)| (bits(*p), i as u32))
         .collect();
     let mut triangles = Vec::with_capacity(n);
+    let mut source = Vec::with_capacity(n);
     let min_area = ZERO_AREA_RELATIVE * extent * extent;
     for (a, tri) in scene.triangles.iter().enumerate() {
         let v = tri.vertices;
         let edge_points = points_on_edges(&on_edge, v);
         if segments[a].is_empty() && edge_points.is_empty() {
             triangles.push(*tri);
+            source.push(a as u32);
             continue;
         }
         let pieces = faces[a].triangulate(&segments[a], &edge_points, false);
         let Some(pieces) = pieces else {
             triangles.push(*tri); // the triangulation failed: keep the face whole
+            source.push(a as u32);
             continue;
         };
         stats.faces_split += 1;
@@ -263,13 +324,14 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
                 vertices: [id(p), id(q), id(r)],
                 ..*tri
             });
+            source.push(a as u32);
         }
     }
     stats.triangles = triangles.len();
     let mut out = scene.clone();
     out.positions = positions;
     out.triangles = triangles;
-    (out, stats)
+    (out, stats, source)
 }
 
 /// The points registered on the edges of the triangle `v` (by its vertex indices, in

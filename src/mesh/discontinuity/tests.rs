@@ -405,3 +405,41 @@ fn scenes_without_contacts_are_unchanged() {
     let room = b.build().unwrap();
     assert_eq!(split_contacts(&room).1.faces_split, 0);
 }
+
+#[test]
+fn a_two_sided_scene_is_cut_as_its_fronts_are_and_its_twins_follow() {
+    // Cutting then making every face two-sided, and making two-sided then cutting, give the
+    // same scene: the same triangles in the same order, the same pairs. With only the floor
+    // two-sided, its pieces (and only they) come with twins; the contact lines a display cut
+    // would use give each twin its front's segments.
+    let (scene, _) = box_on_floor();
+    let (cut, _) = split_contacts(&scene);
+    let (two_then_cut, stats) = split_contacts(&scene.to_two_sided());
+    let cut_then_two = cut.to_two_sided();
+    two_then_cut.validate().unwrap();
+    assert_eq!(two_then_cut.triangles, cut_then_two.triangles);
+    assert_eq!(two_then_cut.twin, cut_then_two.twin);
+    assert_eq!(stats.triangles, 2 * cut.triangles.len());
+
+    let mut floor_only = scene.clone();
+    assert_eq!(floor_only.make_two_sided_where(|t, _| t < 2), 2);
+    let (out, _) = split_contacts(&floor_only);
+    out.validate().unwrap();
+    let floor_pieces = (0..cut.triangles.len())
+        .filter(|&t| {
+            let [a, b, c] = cut.triangles[t].vertices.map(|v| cut.positions[v as usize]);
+            (b - a).cross(c - a).z > 0.0 && a.z == 0.0 && b.z == 0.0 && c.z == 0.0
+        })
+        .count();
+    assert!(floor_pieces > 2, "the floor is cut: {floor_pieces}");
+    let paired = out.twin.iter().filter(|&&u| u != NO_TWIN).count();
+    assert_eq!(paired, 2 * floor_pieces);
+    let lines = contact_lines(&floor_only).unwrap();
+    for t in 0..floor_only.triangles.len() {
+        let u = floor_only.twin[t];
+        if u != NO_TWIN {
+            assert_eq!(lines[t], lines[u as usize], "{t}");
+        }
+    }
+    assert!(!lines[0].is_empty() || !lines[1].is_empty());
+}
