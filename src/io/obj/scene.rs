@@ -985,7 +985,7 @@ mod tests {
         // A library that is there but unreadable is still an error at its line.
         let dir = TestDir::new("unreadable");
         dir.write("bad.mtl", [0xff, 0xfe, 0x00]);
-        let e = Scene::load(&dir.write("scene.obj", &format!("mtllib bad.mtl\n{TRIANGLE}")))
+        let e = Scene::load(&dir.write("scene.obj", format!("mtllib bad.mtl\n{TRIANGLE}")))
             .unwrap_err();
         assert_parse(
             &e,
