@@ -277,13 +277,7 @@ pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation
         }
         report.surfaces_turned += 1;
         report.faces_turned += faces.len();
-        if report.examples.len() < 5 {
-            let t = faces[0];
-            let m = &out.materials[out.triangles[t].material as usize].name;
-            report
-                .examples
-                .push(format!("'{m}' (face {t}) × {}", faces.len()));
-        }
+        example(&out, faces, &mut report.examples);
     }
 
     // Step 3: a back side for each surface seen from both sides, unless a face of it emits
@@ -299,13 +293,7 @@ pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation
         }
         report.two_sided_surfaces += 1;
         report.two_sided_faces += faces.len();
-        if report.two_sided_examples.len() < 5 {
-            let t = faces[0];
-            let m = &out.materials[out.triangles[t].material as usize].name;
-            report
-                .two_sided_examples
-                .push(format!("'{m}' (face {t}) × {}", faces.len()));
-        }
+        example(&out, faces, &mut report.two_sided_examples);
         for &t in faces {
             two_sided[t] = true;
         }
@@ -314,6 +302,16 @@ pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation
         out.make_two_sided_where(|t, _| two_sided.get(t).copied().unwrap_or(false));
     }
     (out, report)
+}
+
+/// Adds the surface `faces` to `examples` as "material (face index) × faces", unless it
+/// holds 5 already.
+fn example(scene: &Scene, faces: &[usize], examples: &mut Vec<String>) {
+    if examples.len() < 5 {
+        let t = faces[0];
+        let m = &scene.materials[scene.triangles[t].material as usize].name;
+        examples.push(format!("'{m}' (face {t}) × {}", faces.len()));
+    }
 }
 
 /// Each surface's votes against the scene as it is, and the votes a side needs to count as
@@ -547,52 +545,11 @@ mod tests {
     use super::*;
     use crate::scene::SceneBuilder;
 
-    /// A 4 × 3 × 4 room (y up), a ceiling lamp facing down, and a box on the floor facing
-    /// out. `wrong` lists the walls (0 floor, 1 ceiling, 2–5 the sides) wound outward. With
-    /// `gaps` each wall is inset by 1 mm from its edges: no wall shares a corner with another,
-    /// so each is a surface of its own; without, the welded walls are one surface.
+    /// [`crate::validation::scenes::lamp_room`], built.
     fn room(wrong: &[usize], gaps: bool) -> Scene {
-        let mut b = SceneBuilder::new();
-        let wall = b.material("wall", [0.6; 3], [0.0; 3]);
-        let lamp = b.material("lamp", [0.0; 3], [5.0; 3]);
-        let boxm = b.material("box", [0.4; 3], [0.0; 3]);
-        let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-        let (w, h, d) = (4.0, 3.0, 4.0);
-        // Inward-facing walls.
-        let walls = [
-            [p(0., 0., 0.), p(0., 0., d), p(w, 0., d), p(w, 0., 0.)],
-            [p(0., h, 0.), p(w, h, 0.), p(w, h, d), p(0., h, d)],
-            [p(0., 0., 0.), p(w, 0., 0.), p(w, h, 0.), p(0., h, 0.)],
-            [p(0., 0., d), p(0., h, d), p(w, h, d), p(w, 0., d)],
-            [p(0., 0., 0.), p(0., h, 0.), p(0., h, d), p(0., 0., d)],
-            [p(w, 0., 0.), p(w, 0., d), p(w, h, d), p(w, h, 0.)],
-        ];
-        for (i, q) in walls.iter().enumerate() {
-            let centre = (q[0] + q[1] + q[2] + q[3]) / 4.0;
-            let q = if gaps {
-                q.map(|c| c + 1e-3 * (centre - c).normalize())
-            } else {
-                *q
-            };
-            let q = if wrong.contains(&i) {
-                [q[3], q[2], q[1], q[0]]
-            } else {
-                q
-            };
-            b.quad(q, wall);
-        }
-        let y = h - 0.01;
-        b.quad(
-            [
-                p(1.5, y, 1.5),
-                p(2.5, y, 1.5),
-                p(2.5, y, 2.5),
-                p(1.5, y, 2.5),
-            ],
-            lamp,
-        );
-        crate::validation::scenes::add_box(&mut b, p(1.0, 0.0, 1.0), p(1.6, 0.6, 1.6), false, boxm);
-        b.build().unwrap()
+        crate::validation::scenes::lamp_room(wrong, gaps)
+            .build()
+            .unwrap()
     }
 
     fn normal(s: &Scene, t: usize) -> DVec3 {

@@ -252,42 +252,15 @@ fn b_slivers_scene() -> Scene {
     b.build().unwrap()
 }
 
-/// A 4 × 3 × 4 room (y up) of one material with a ceiling lamp facing down and a box on the
-/// floor; `outward` winds every wall the wrong way (facing out of the room).
+/// The lamp room ([`scenes::lamp_room`]); `outward` winds every wall the wrong way.
 fn room_with_lamp(outward: bool) -> Scene {
     room_with_lamp_and(outward, |_| {})
 }
 
 /// [`room_with_lamp`] with more faces added by `more`.
 fn room_with_lamp_and(outward: bool, more: impl FnOnce(&mut SceneBuilder)) -> Scene {
-    let mut b = SceneBuilder::new();
-    let wall = b.material("wall", [0.6; 3], [0.0; 3]);
-    let lamp = b.material("lamp", [0.0; 3], [5.0; 3]);
-    let boxm = b.material("box", [0.4; 3], [0.0; 3]);
-    let p = DVec3::new;
-    let (w, h, d) = (4.0, 3.0, 4.0);
-    let walls = [
-        [p(0., 0., 0.), p(0., 0., d), p(w, 0., d), p(w, 0., 0.)],
-        [p(0., h, 0.), p(w, h, 0.), p(w, h, d), p(0., h, d)],
-        [p(0., 0., 0.), p(w, 0., 0.), p(w, h, 0.), p(0., h, 0.)],
-        [p(0., 0., d), p(0., h, d), p(w, h, d), p(w, 0., d)],
-        [p(0., 0., 0.), p(0., h, 0.), p(0., h, d), p(0., 0., d)],
-        [p(w, 0., 0.), p(w, 0., d), p(w, h, d), p(w, h, 0.)],
-    ];
-    for q in walls {
-        b.quad(if outward { [q[0], q[3], q[2], q[1]] } else { q }, wall);
-    }
-    let y = h - 0.01;
-    b.quad(
-        [
-            p(1.5, y, 1.5),
-            p(2.5, y, 1.5),
-            p(2.5, y, 2.5),
-            p(1.5, y, 2.5),
-        ],
-        lamp,
-    );
-    scenes::add_box(&mut b, p(1.0, 0.0, 1.0), p(1.6, 0.6, 1.6), false, boxm);
+    let wrong: &[usize] = if outward { &[0, 1, 2, 3, 4, 5] } else { &[] };
+    let mut b = scenes::lamp_room(wrong, false);
     more(&mut b);
     b.build().unwrap()
 }

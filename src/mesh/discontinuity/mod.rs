@@ -132,12 +132,7 @@ pub fn contact_lines_on(
 ) -> Option<Vec<Vec<[DVec3; 2]>>> {
     let (lo, hi) = scene.bounds();
     if !scene.twin.is_empty() {
-        let fronts: Vec<usize> = (0..scene.triangles.len())
-            .filter(|&t| scene.twin[t] == NO_TWIN || (t as u32) < scene.twin[t])
-            .collect();
-        let mut base = scene.clone();
-        base.triangles = fronts.iter().map(|&t| scene.triangles[t]).collect();
-        base.twin = Vec::new();
+        let (fronts, base) = fronts(scene);
         let faces: Vec<Face> = (0..base.triangles.len())
             .map(|t| Face::new(&base, t))
             .collect();
@@ -227,12 +222,7 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
         let (out, stats, _) = split_one_sided(scene);
         return (out, stats);
     }
-    let fronts: Vec<usize> = (0..scene.triangles.len())
-        .filter(|&t| scene.twin[t] == NO_TWIN || (t as u32) < scene.twin[t])
-        .collect();
-    let mut base = scene.clone();
-    base.triangles = fronts.iter().map(|&t| scene.triangles[t]).collect();
-    base.twin = Vec::new();
+    let (fronts, base) = fronts(scene);
     let (mut out, mut stats, source) = split_one_sided(&base);
     let pieces = out.triangles.len();
     out.twin = vec![NO_TWIN; pieces];
@@ -252,6 +242,18 @@ pub fn split_contacts(scene: &Scene) -> (Scene, ContactStats) {
     }
     stats.triangles = out.triangles.len();
     (out, stats)
+}
+
+/// A two-sided scene's fronts (the faces without a twin, and the first of each pair), and
+/// the one-sided scene of them alone (their order kept).
+fn fronts(scene: &Scene) -> (Vec<usize>, Scene) {
+    let fronts: Vec<usize> = (0..scene.triangles.len())
+        .filter(|&t| scene.twin[t] == NO_TWIN || (t as u32) < scene.twin[t])
+        .collect();
+    let mut base = scene.clone();
+    base.triangles = fronts.iter().map(|&t| scene.triangles[t]).collect();
+    base.twin = Vec::new();
+    (fronts, base)
 }
 
 /// [`split_contacts`] for a one-sided scene, with each output triangle's input triangle.

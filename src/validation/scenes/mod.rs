@@ -73,6 +73,57 @@ pub fn add_box(b: &mut SceneBuilder, lo: DVec3, hi: DVec3, inward: bool, materia
     }
 }
 
+/// A 4 × 3 × 4 room (y up) for the orientation repair: walls of the material "wall" (ρ 0.6),
+/// a 1 × 1 lamp ("lamp", Le 5) 1 cm under the ceiling facing down, and a 0.6 m box ("box",
+/// ρ 0.4) on the floor facing out, in that order (materials 0, 1, 2). `wrong` lists the
+/// walls (0 floor, 1 ceiling, 2–5 the sides) wound outward. With `gaps` each wall is inset
+/// by 1 mm from its edges: no wall shares a corner with another, so each is a surface of its
+/// own; without, the welded walls are one. A builder, so that tests add faces.
+pub fn lamp_room(wrong: &[usize], gaps: bool) -> SceneBuilder {
+    let mut b = SceneBuilder::new();
+    let wall = b.material("wall", [0.6; 3], [0.0; 3]);
+    let lamp = b.material("lamp", [0.0; 3], [5.0; 3]);
+    let boxm = b.material("box", [0.4; 3], [0.0; 3]);
+    let p = DVec3::new;
+    let (w, h, d) = (4.0, 3.0, 4.0);
+    // Inward-facing walls.
+    let walls = [
+        [p(0., 0., 0.), p(0., 0., d), p(w, 0., d), p(w, 0., 0.)],
+        [p(0., h, 0.), p(w, h, 0.), p(w, h, d), p(0., h, d)],
+        [p(0., 0., 0.), p(w, 0., 0.), p(w, h, 0.), p(0., h, 0.)],
+        [p(0., 0., d), p(0., h, d), p(w, h, d), p(w, 0., d)],
+        [p(0., 0., 0.), p(0., h, 0.), p(0., h, d), p(0., 0., d)],
+        [p(w, 0., 0.), p(w, 0., d), p(w, h, d), p(w, h, 0.)],
+    ];
+    for (i, q) in walls.iter().enumerate() {
+        let centre = (q[0] + q[1] + q[2] + q[3]) / 4.0;
+        let q = if gaps {
+            q.map(|c| c + 1e-3 * (centre - c).normalize())
+        } else {
+            *q
+        };
+        // Reversed about the first corner: the same diagonal, the other way round.
+        let q = if wrong.contains(&i) {
+            [q[0], q[3], q[2], q[1]]
+        } else {
+            q
+        };
+        b.quad(q, wall);
+    }
+    let y = h - 0.01;
+    b.quad(
+        [
+            p(1.5, y, 1.5),
+            p(2.5, y, 1.5),
+            p(2.5, y, 2.5),
+            p(1.5, y, 2.5),
+        ],
+        lamp,
+    );
+    add_box(&mut b, p(1.0, 0.0, 1.0), p(1.6, 0.6, 1.6), false, boxm);
+    b
+}
+
 /// The furnace: a closed, non-convex enclosure — a unit room (seen from inside) holding two
 /// floating boxes (seen from outside), which shadow each other and the walls — with one material of reflectance `rho` and emission `le` everywhere.
 /// Expected: L = Le / (1 − ρ) on every patch ([`crate::validation::closed_forms::furnace_radiance`]).
