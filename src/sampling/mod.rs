@@ -47,6 +47,53 @@ pub fn triangle_barycentrics(u: f64, v: f64) -> [f64; 3] {
     [1.0 - su, su * (1.0 - v), su * v]
 }
 
+/// A point uniform by area in the triangle `corners`, from two draws of `rng` (the unit
+/// square folded onto the triangle along its diagonal).
+pub fn point_in_triangle(corners: [DVec3; 3], rng: &mut Rng) -> DVec3 {
+    let [a, b, c] = corners;
+    let (u, v) = (rng.next_f64(), rng.next_f64());
+    let (u, v) = if u + v > 1.0 {
+        (1.0 - u, 1.0 - v)
+    } else {
+        (u, v)
+    };
+    a + u * (b - a) + v * (c - a)
+}
+
+/// Strata by area over a list of triangles: the p-th of `count` points lies in the triangle
+/// whose share of the running total of the areas holds (p + ξ) / count. Ask for p in
+/// increasing order ([`ByArea::pick`]); each pick draws one number.
+pub struct ByArea<'a> {
+    areas: &'a [f64],
+    total: f64,
+    count: usize,
+    cum: f64,
+    k: usize,
+}
+
+impl<'a> ByArea<'a> {
+    /// Strata for `count` points over triangles of `areas` (≥ 0, not all 0).
+    pub fn new(areas: &'a [f64], count: usize) -> ByArea<'a> {
+        ByArea {
+            areas,
+            total: areas.iter().sum(),
+            count,
+            cum: 0.0,
+            k: 0,
+        }
+    }
+
+    /// The position in `areas` of the triangle of stratum `p`.
+    pub fn pick(&mut self, p: usize, rng: &mut Rng) -> usize {
+        let target = (p as f64 + rng.next_f64()) / self.count as f64 * self.total;
+        while self.k + 1 < self.areas.len() && self.cum + self.areas[self.k] < target {
+            self.cum += self.areas[self.k];
+            self.k += 1;
+        }
+        self.k
+    }
+}
+
 /// The cosine-weighted direction for (s, t) ∈ [0, 1)² about the unit normal `n` with the
 /// tangents `tangent`, `bitangent` (Malley's method: (s, t) mapped uniformly onto the unit
 /// disk by the polar map, then lifted onto the hemisphere, which gives density cosθ/π).

@@ -44,7 +44,7 @@ use glam::DVec3;
 
 use super::Scene;
 use crate::geometry::orthonormal_basis;
-use crate::sampling::{malley, Rng};
+use crate::sampling::{malley, point_in_triangle, ByArea, Rng};
 use crate::visibility::{Visibility, NONE};
 
 /// Sample points per surface (at most; fewer on surfaces of fewer faces), spread by area.
@@ -478,25 +478,15 @@ fn side_votes(
     let near = NEAR_SHARE * total.sqrt();
     let points = POINTS.min(faces.len().max(4));
     let mut votes = [Votes::default(); 2];
-    let (mut cum, mut k) = (0.0, 0);
+    let areas: Vec<f64> = faces.iter().map(|&t| scene.triangle_area(t)).collect();
+    let mut strata = ByArea::new(&areas, points);
     for p in 0..points {
-        let target = (p as f64 + rng.next_f64()) / points as f64 * total;
-        while k + 1 < faces.len() && cum + scene.triangle_area(faces[k]) < target {
-            cum += scene.triangle_area(faces[k]);
-            k += 1;
-        }
-        let t = faces[k];
+        let t = faces[strata.pick(p, rng)];
         let [a, b, c] = corners[t];
         let Some(n) = (b - a).cross(c - a).try_normalize() else {
             continue;
         };
-        let (u, v) = (rng.next_f64(), rng.next_f64());
-        let (u, v) = if u + v > 1.0 {
-            (1.0 - u, 1.0 - v)
-        } else {
-            (u, v)
-        };
-        let x = a + u * (b - a) + v * (c - a);
+        let x = point_in_triangle(corners[t], rng);
         // The light in plain sight.
         if !lights.is_empty() {
             for _ in 0..LIGHTS_PER_POINT.min(lights.len()) {

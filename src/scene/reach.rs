@@ -8,7 +8,7 @@ use glam::DVec3;
 
 use super::Scene;
 use crate::geometry::orthonormal_basis;
-use crate::sampling::{malley, Rng};
+use crate::sampling::{malley, point_in_triangle, ByArea, Rng};
 use crate::visibility::Visibility;
 
 /// Probe rays per emitting material: cosine-weighted from points spread over its triangles
@@ -49,24 +49,14 @@ pub fn unlit_emitters(scene: &Scene, seed: u64) -> Vec<String> {
             continue;
         }
         let mut rng = Rng::new(&[seed, m as u64, 0x11D7]);
-        let (mut cum, mut k) = (0.0, 0);
+        let areas: Vec<f64> = tris.iter().map(|&t| scene.triangle_area(t)).collect();
+        let mut strata = ByArea::new(&areas, PROBES);
         let lights_something = (0..PROBES).any(|p| {
             // Stratified by area: the probe's target share of the total area picks its triangle.
-            let target = (p as f64 + rng.next_f64()) / PROBES as f64 * total;
-            while k + 1 < tris.len() && cum + scene.triangle_area(tris[k]) < target {
-                cum += scene.triangle_area(tris[k]);
-                k += 1;
-            }
-            let t = tris[k];
+            let t = tris[strata.pick(p, &mut rng)];
             let [a, b, c] = corners[t];
             let n = (b - a).cross(c - a).normalize();
-            let (u, v) = (rng.next_f64(), rng.next_f64());
-            let (u, v) = if u + v > 1.0 {
-                (1.0 - u, 1.0 - v)
-            } else {
-                (u, v)
-            };
-            let origin = a + u * (b - a) + v * (c - a);
+            let origin = point_in_triangle(corners[t], &mut rng);
             let (tangent, bitangent) = orthonormal_basis(n);
             let dir = malley(rng.next_f64(), rng.next_f64(), tangent, bitangent, n);
             vis.closest_hit(origin, dir, f64::INFINITY, t as u32)
