@@ -945,24 +945,13 @@ mod tests {
         let w = b.write_options().unwrap();
         assert_eq!((w.ascii, w.exposure), (true, Some(0.5)));
         // Ranges are the library's: its error, named as the flag by crate::failure.
-        let e = bake(&["--samples", "0"])
-            .scene
-            .solve
-            .settings()
-            .unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "invalid value for --samples: must be at least 1"
-        );
-        let e = bake(&["--max-passes", "0"])
-            .scene
-            .solve
-            .settings()
-            .unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "invalid value for --max-passes: must be at least 1"
-        );
+        for flag in ["--samples", "--max-passes"] {
+            let e = bake(&[flag, "0"]).scene.solve.settings().unwrap_err();
+            assert_eq!(
+                e.to_string(),
+                format!("invalid value for {flag}: must be at least 1")
+            );
+        }
     }
 
     /// The option table under the README heading that starts with `heading`: each row's

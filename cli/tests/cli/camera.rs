@@ -325,20 +325,27 @@ fn without_a_camera_the_picture_looks_into_the_open_side_and_says_when_it_shows_
     let o = radiosity(&["generate", "furnace", "-o", &s(&furnace)]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let png = dir.join("furnace.png");
-    let o = radiosity(&[
-        "render",
-        &s(&furnace),
-        "-o",
-        &s(&png),
-        "--size",
-        "32",
-        "--refine",
-        "0",
-        "--gather",
-        "none",
-        "--max-edge",
-        "0.5",
-    ]);
+    // A small, quick render of the furnace room with `extra` options.
+    let render = |extra: &[&str]| {
+        let (furnace, png) = (s(&furnace), s(&png));
+        let mut args = vec![
+            "render",
+            &furnace,
+            "-o",
+            &png,
+            "--size",
+            "32",
+            "--refine",
+            "0",
+            "--gather",
+            "none",
+            "--max-edge",
+            "0.5",
+        ];
+        args.extend_from_slice(extra);
+        radiosity(&args)
+    };
+    let o = render(&[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(!stderr(&o).contains("shows nothing"), "{}", stderr(&o));
     let o = radiosity(&["info", &s(&furnace), "--json"]);
@@ -351,22 +358,7 @@ fn without_a_camera_the_picture_looks_into_the_open_side_and_says_when_it_shows_
         let (lo, hi) = (lo[k].as_f64().unwrap(), hi[k].as_f64().unwrap());
         assert!(eye[k] > lo && eye[k] < hi, "inside the room: eye {eye:?}");
     }
-    let o = radiosity(&[
-        "render",
-        &s(&furnace),
-        "-o",
-        &s(&png),
-        "--size",
-        "32",
-        "--refine",
-        "0",
-        "--gather",
-        "none",
-        "--max-edge",
-        "0.5",
-        "--camera",
-        "0.5,0.5,-5,0.5,0.5,0.5,0,1,0,40",
-    ]);
+    let o = render(&["--camera", "0.5,0.5,-5,0.5,0.5,0.5,0,1,0,40"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("warning: the picture shows nothing"),
