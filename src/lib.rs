@@ -62,6 +62,7 @@
 pub mod bake;
 pub mod choice;
 pub mod color;
+pub mod distributed;
 
 pub mod error;
 pub mod form_factor;

@@ -64,6 +64,7 @@ pub mod near;
 pub mod output;
 pub mod pilot;
 mod push_pull;
+mod ranks;
 mod refine;
 mod sweep;
 pub mod tree;
@@ -73,6 +74,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::Rgb;
+use crate::distributed::{Exchange, Partition};
 use crate::form_factor::{closes, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
 use crate::scene::Environment;
@@ -279,18 +281,33 @@ pub fn solve(
     solver: &solve::Settings,
     seed: u64,
 ) -> Result<Hierarchical> {
+    solve_on(roots, settings, env, solver, seed, ranks::SOLO)
+}
+
+/// [`solve()`] as one rank of `comm` ([`crate::distributed`]): every rank calls it with the
+/// same arguments, and every rank returns the same result, the one [`solve()`] returns (the
+/// counts in its stats are the whole solve's).
+pub fn solve_on(
+    roots: &Patches,
+    settings: &Settings,
+    env: &Environment,
+    solver: &solve::Settings,
+    seed: u64,
+    comm: &dyn Exchange,
+) -> Result<Hierarchical> {
     settings.validate()?;
     solver.validate()?;
     env.validate()?;
     let _progress = crate::progress::stage("hierarchical solve", None);
-    let mut h = Hierarchy::new(roots, settings, env, seed);
+    let mut h = Hierarchy::with_sample(roots, settings, env, seed, None, comm);
     let mut warnings = Vec::new();
     let mut history = Vec::new();
     let emitted = h.emitted_power();
     if emitted > 0.0 && h.tree.root().is_some() {
         h.start();
         let mut passes = 0;
-        let mut previous_links = h.links.len() as f64;
+        // Every decision below is taken on counts over all ranks, so every rank takes it.
+        let mut previous_links = h.link_count() as f64;
         let mut stopped_early = false;
         loop {
             if passes >= settings.max_passes {
@@ -302,31 +319,32 @@ pub fn solve(
                 break;
             }
             // The next pass may grow the links as much as the last one did: stop before it
-            // would pass the limit.
-            let links = h.links.len() as f64;
+            // would pass the limit (a rank's: each rank holds its own links).
+            let all_links = h.link_count();
+            let links = all_links as f64;
             let growth = (links / previous_links.max(1.0)).max(1.0);
-            if links * growth > settings.max_links as f64 {
+            if h.most_links() as f64 * growth > settings.max_links as f64 {
                 stopped_early = true;
                 warnings.push(format!(
                     "hierarchical refinement stopped at {} links, short of what ε asks: the \
                      next pass could pass {} (max_links, from the memory limit); the solution \
                      is coarser than asked. Raise --epsilon or --min-area to bake within this \
                      memory, or allow more with --max-memory",
-                    h.links.len(),
+                    all_links,
                     settings.max_links
                 ));
                 break;
             }
-            if settings
+            let late = settings
                 .deadline
-                .is_some_and(|d| std::time::Instant::now() >= d)
-            {
+                .is_some_and(|d| std::time::Instant::now() >= d);
+            if h.comm.any(late) {
                 stopped_early = true;
                 warnings.push(format!(
                     "hierarchical refinement stopped at {} links after {passes} passes, short \
                      of what ε asks: its share of the time budget (--max-time) was spent; the \
                      solution is coarser than asked",
-                    h.links.len()
+                    all_links
                 ));
                 break;
             }
@@ -335,15 +353,15 @@ pub fn solve(
                 passes += 1;
                 // A pass that changed few links leaves the radiance the oracle reads about
                 // where it was: no sweeps (the final convergence comes after the last pass).
-                if (h.links.len() as f64 - links).abs() >= SWEEP_AFTER_GROWTH * links {
+                let now = h.link_count();
+                if (now as f64 - links).abs() >= SWEEP_AFTER_GROWTH * links {
                     for _ in 0..PASS_SWEEPS {
                         history.push(h.sweep());
                     }
                 }
                 crate::progress::note_status(|| {
                     format!(
-                        "hierarchical pass {passes}: {} links, {} elements",
-                        h.links.len(),
+                        "hierarchical pass {passes}: {now} links, {} elements",
                         h.tree.elements.len()
                     )
                 });
@@ -451,7 +469,8 @@ pub fn solve(
 /// The solver's state: the hierarchies, the links, and the radiance of every node.
 pub struct Hierarchy<'a> {
     pub tree: Tree,
-    /// The links, sorted by receiver; set through `set_links`.
+    /// The links, sorted by receiver; set through `set_links`. In a solve over several ranks,
+    /// the links into this rank's nodes ([`ranks`]).
     pub links: Vec<Link>,
     /// Per node (the elements, then the clusters), where its run of `links` as receiver
     /// starts; `links.len()` last, so node k's run is `first_link[k]..first_link[k + 1]`.
@@ -520,6 +539,10 @@ pub struct Hierarchy<'a> {
     /// A pilot's sample ([`pilot`]): only links whose receiver it holds are refined, and only
     /// its leaves split for their direct light; `None` in a solve.
     sample: Option<pilot::Sample>,
+    /// The ranks the solve runs on ([`crate::distributed`]), and what each owns: `None` for
+    /// one rank.
+    comm: &'a dyn Exchange,
+    partition: Option<Partition>,
     pub stats: Stats,
 }
 
@@ -549,21 +572,24 @@ impl<'a> Hierarchy<'a> {
         env: &Environment,
         seed: u64,
     ) -> Hierarchy<'a> {
-        Hierarchy::with_sample(roots, settings, env, seed, None)
+        Hierarchy::with_sample(roots, settings, env, seed, None, ranks::SOLO)
     }
 
     /// [`Hierarchy::new`] for a pilot ([`pilot`]) that will sample each unit of roots with
     /// probability `p`: the sample is drawn now, inactive (refinement is not restricted until
     /// the pilot activates it), and the roots outside it compute their direct light at one
-    /// point of the rule, not all (their mean is all the pilot reads of it).
+    /// point of the rule, not all (their mean is all the pilot reads of it). `comm`: the ranks
+    /// of the solve ([`ranks`]).
     pub(super) fn with_sample(
         roots: &'a Patches,
         settings: &Settings,
         env: &Environment,
         seed: u64,
         p: Option<f64>,
+        comm: &'a dyn Exchange,
     ) -> Hierarchy<'a> {
         let tree = Tree::new(roots);
+        let partition = (comm.size() > 1).then(|| tree.partition(comm.size()));
         let sample = p.map(|p| pilot::Sample::draw(&tree, p, seed));
         let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
         let vis = Visibility::build(&corners).with_transmittance(&roots.transmittance());
@@ -616,6 +642,8 @@ impl<'a> Hierarchy<'a> {
             epsilon: 0.0,
             min_area: settings.min_area * total_area,
             sample,
+            comm,
+            partition,
             stats: Stats::default(),
         };
         h.convex = convex;
@@ -691,9 +719,10 @@ impl<'a> Hierarchy<'a> {
     /// at most [`CLOSURE_PROBES`] a root).
     pub(super) fn start_with(&mut self, closure_rays: usize, min: usize) {
         let root = self.tree.root().expect("a root");
+        // (Over several ranks, the root's owner holds it.)
         self.set_links(match root.as_cluster() {
-            Some(_) => vec![Link::opening(root, root)],
-            None => Vec::new(),
+            Some(_) if self.owns(root) => vec![Link::opening(root, root)],
+            _ => Vec::new(),
         });
         // Closure, root by root: probe rays from every root (as the matrix estimators do for
         // the whole scene, form_factor::compute); the leaves of a root none of whose rays
@@ -701,11 +730,14 @@ impl<'a> Hierarchy<'a> {
         let n = self.roots.len();
         let probes = (closure_rays / n.max(1)).clamp(min, CLOSURE_PROBES as usize) as u32;
         let (roots, vis, seed) = (self.roots, &self.vis, self.seed);
-        self.closed_roots = (0..n)
+        let closed = (0..n)
             .into_par_iter()
-            .map(|i| closes(roots, vis, i, probes, seed))
+            .map(|i| self.owns_element(i) && closes(roots, vis, i, probes, seed))
             .collect();
-        self.stats.rays_cast += n as u64 * probes as u64;
+        self.closed_roots =
+            self.from_owners(0, closed, |w, &c| w.bytes(&[c as u8]), |r| r.bytes::<1>()[0] != 0);
+        let owned = (0..n).filter(|&i| self.owns_element(i)).count();
+        self.stats.rays_cast += owned as u64 * probes as u64;
         self.stats.closed_roots = self.closed_roots.iter().filter(|&&c| c).count();
         self.stats.closed_scene = self.stats.closed_roots == n;
     }
@@ -721,7 +753,7 @@ impl<'a> Hierarchy<'a> {
         let new: Vec<u16> = (from..tree.elements.len())
             .into_par_iter()
             .map(|e| {
-                if convex {
+                if convex || !self.owns_element(e) {
                     return 0;
                 }
                 let root = tree.elements[e].root as usize;
@@ -735,8 +767,12 @@ impl<'a> Hierarchy<'a> {
             })
             .collect();
         if !convex {
-            self.stats.rays_cast += (new.len() * rule.len()) as u64;
+            let owned = (from..tree.elements.len())
+                .filter(|&e| self.owns_element(e))
+                .count();
+            self.stats.rays_cast += (owned * rule.len()) as u64;
         }
+        let new = self.from_owners(from, new, |w, &m| w.u32(m as u32), |r| r.u32() as u16);
         for mask in new {
             let visible = links::unburied_weights(mask).iter().sum();
             self.buried.push(mask);
@@ -766,6 +802,9 @@ impl<'a> Hierarchy<'a> {
         let new: Vec<direct::Direct> = (from..tree.elements.len())
             .into_par_iter()
             .map(|e| {
+                if !self.owns_element(e) {
+                    return direct::Direct::default();
+                }
                 direct::element_direct(
                     tree,
                     occluders,
@@ -778,6 +817,19 @@ impl<'a> Hierarchy<'a> {
                 )
             })
             .collect();
+        // Each element's direct light from its owner (the rays stay counted where cast).
+        let write = |w: &mut crate::distributed::Writer, d: &direct::Direct| {
+            d.mean.iter().for_each(|&x| w.f64(x));
+            w.f64(d.spread);
+            d.environment.iter().for_each(|&x| w.f64(x));
+        };
+        let read = |r: &mut crate::distributed::Reader| direct::Direct {
+            mean: [r.f64(), r.f64(), r.f64()],
+            spread: r.f64(),
+            environment: [r.f64(), r.f64(), r.f64()],
+            rays: 0,
+        };
+        let new = self.from_owners(from, new, write, read);
         for d in new {
             self.stats.rays_cast += d.rays;
             let e = self.direct.len();
@@ -834,12 +886,15 @@ impl<'a> Hierarchy<'a> {
             .iter()
             .filter(|e| e.first_child == tree::NO_CHILD)
             .count();
-        s.links = self.links.len() as u64;
-        s.cluster_links = self
-            .links
-            .iter()
-            .filter(|l| l.receiver.as_cluster().is_some() || l.source.as_cluster().is_some())
-            .count() as u64;
+        s.links = self.link_count();
+        s.cluster_links = self.comm.sum_u64(
+            self.links
+                .iter()
+                .filter(|l| l.receiver.as_cluster().is_some() || l.source.as_cluster().is_some())
+                .count() as u64,
+        );
+        s.rays_cast = self.comm.sum_u64(s.rays_cast);
+        s.near_corrections = self.comm.sum_u64(s.near_corrections);
         s.bytes_per_link = std::mem::size_of::<Link>();
         s
     }

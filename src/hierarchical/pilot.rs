@@ -220,7 +220,7 @@ pub fn pilot(
     let n = roots.len();
     let p = (sample as f64 / n.max(1) as f64).min(1.0);
     let clock = std::time::Instant::now();
-    let mut h = Hierarchy::with_sample(roots, settings, env, seed, Some(p));
+    let mut h = Hierarchy::with_sample(roots, settings, env, seed, Some(p), super::ranks::SOLO);
     let mut out = Pilot {
         epsilon: settings.epsilon,
         roots: n,

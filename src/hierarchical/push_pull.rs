@@ -243,6 +243,24 @@ impl ClusterGather {
         }
     }
 
+    /// The 21 numbers it holds (uniform, then the axes), for an exchange between ranks.
+    pub(super) fn to_array(&self) -> [f64; 21] {
+        let mut a = [0.0; 21];
+        for (k, rgb) in std::iter::once(&self.uniform).chain(&self.by_axis).enumerate() {
+            a[3 * k..3 * k + 3].copy_from_slice(rgb);
+        }
+        a
+    }
+
+    /// The gather [`ClusterGather::to_array`] gave.
+    pub(super) fn from_array(a: [f64; 21]) -> Self {
+        let rgb = |k: usize| [a[3 * k], a[3 * k + 1], a[3 * k + 2]];
+        ClusterGather {
+            uniform: rgb(0),
+            by_axis: std::array::from_fn(|k| rgb(k + 1)),
+        }
+    }
+
     /// Adds everything `other` holds (a parent's gather, pushed to a child).
     pub(super) fn add_all(&mut self, other: &ClusterGather) {
         self.uniform = add(self.uniform, other.uniform);

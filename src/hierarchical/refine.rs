@@ -42,23 +42,29 @@ impl Hierarchy<'_> {
             })
             .collect();
         let direct_splits = self.direct_splits();
-        if actions.iter().all(|&a| a == Action::Keep) && direct_splits.is_empty() {
+        let changed = actions.iter().any(|&a| a != Action::Keep) || !direct_splits.is_empty();
+        // Over several ranks: whether any rank changed anything ([`super::ranks`]).
+        if !self.comm.any(changed) {
             return false;
         }
-        for e in direct_splits {
-            self.tree.split(e);
-        }
-        // Split the elements that must be split, in link order.
-        for (l, &a) in self.links.iter().zip(&actions) {
-            let node = match a {
-                Action::SplitReceiver => l.receiver,
-                Action::SplitSource => l.source,
-                _ => continue,
-            };
-            if let Some(e) = node.as_element() {
-                if self.tree.elements[e].first_child == tree::NO_CHILD {
-                    self.tree.split(e);
-                }
+        // The elements that must be split: for the direct light, then in link order (over
+        // several ranks, every rank's, in the order one process finds them).
+        let by_link = self
+            .links
+            .iter()
+            .zip(&actions)
+            .filter_map(|(l, &a)| {
+                let node = match a {
+                    Action::SplitReceiver => l.receiver,
+                    Action::SplitSource => l.source,
+                    _ => return None,
+                };
+                node.as_element().map(|e| (l.receiver, l.source, e))
+            })
+            .collect();
+        for e in self.splits_in_order(direct_splits, by_link) {
+            if self.tree.elements[e].first_child == tree::NO_CHILD {
+                self.tree.split(e);
             }
         }
         self.update_new_elements();
@@ -132,6 +138,8 @@ impl Hierarchy<'_> {
         kept.shrink_to_fit();
         drop(actions);
         self.stats.rays_cast += cast.into_inner();
+        // Links into another rank's nodes (below a cluster of several ranks) go to it.
+        let mut new = self.to_receivers(new);
         // The kept links are still in order: sort the new ones and merge (a full sort of all
         // links every pass would be a large share of a fine solve's time).
         new.par_sort_unstable_by_key(link_key);
@@ -191,6 +199,7 @@ impl Hierarchy<'_> {
             .filter(|&e| {
                 let el = &t.elements[e];
                 el.first_child == tree::NO_CHILD
+                    && self.owns_element(e)
                     && 0.25 * el.area >= self.min_area
                     && self.refines(Node::element(e))
                     && self.max_reflectance(Node::element(e)) * self.direct[e].spread * el.area

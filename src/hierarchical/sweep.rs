@@ -101,6 +101,8 @@ impl Hierarchy<'_> {
                 cg.add(&t.clusters[c], d, value(i, l));
             }
         });
+        // Over several ranks, each node's gather from the rank holding its links.
+        self.share_gathers(&mut ge, &mut gc);
         (ge, gc)
     }
 

@@ -46,6 +46,16 @@ impl Node {
         (self.0 & CLUSTER_BIT != 0).then_some((self.0 & !CLUSTER_BIT) as usize)
     }
 
+    /// The node whose [`Node::raw`] is `raw`.
+    pub fn from_raw(raw: u32) -> Node {
+        Node(raw)
+    }
+
+    /// The 32 bits that are the node (what ranks exchange; the order of nodes is theirs).
+    pub fn raw(self) -> u32 {
+        self.0
+    }
+
     /// The raw id (a key for seeding per-link random numbers).
     pub fn id(self) -> u64 {
         self.0 as u64
