@@ -55,6 +55,11 @@ impl dyn Exchange + '_ {
         self.gather_u64(x).iter().sum()
     }
 
+    /// The smallest `x` over the ranks.
+    pub fn min_u64(&self, x: u64) -> u64 {
+        self.gather_u64(x).into_iter().min().unwrap_or(x)
+    }
+
     /// The largest `x` over the ranks.
     pub fn max_u64(&self, x: u64) -> u64 {
         self.gather_u64(x).into_iter().max().unwrap_or(x)

@@ -2,6 +2,7 @@
 //! typo costs nothing), then the work, then what the user is told (warnings, the summary line,
 //! the exit status). Each returns the exit status of a run that completed.
 
+use radiosity::distributed::Exchange;
 use radiosity::pipeline::{self, info::SceneInfo};
 use radiosity::scene::Scene;
 use radiosity::validation::{scenes, verify};
@@ -12,8 +13,9 @@ use crate::args::{
 };
 use crate::failure::{Failure, EXIT_NOT_CONVERGED};
 
-/// `radiosity bake`: load → … → write, then the report and the picture if asked.
-pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
+/// `radiosity bake`: load → … → write, then the report and the picture if asked. As one rank of
+/// several (`comm`), rank 0 alone writes and speaks.
+pub fn bake(args: &BakeArgs, quiet: bool, comm: &dyn Exchange) -> Result<u8, Failure> {
     let settings = args.scene.solve.settings()?;
     let overrides = args.scene.materials.overrides()?;
     let options = args.write_options()?;
@@ -23,7 +25,21 @@ pub fn bake(args: &BakeArgs, quiet: bool) -> Result<u8, Failure> {
     if args.png.is_some() {
         args.scene.view.check(1.0)?;
     }
-    let outcome = pipeline::run_with(&args.input, &args.output, &settings, &options, &overrides)?;
+    let outcome = pipeline::run_on(
+        &args.input,
+        &args.output,
+        &settings,
+        &options,
+        &overrides,
+        comm,
+    )?;
+    if comm.rank() != 0 {
+        return Ok(if outcome.report.converged {
+            0
+        } else {
+            EXIT_NOT_CONVERGED
+        });
+    }
     let report = &outcome.report;
     for w in report.unshown_warnings() {
         eprintln!("warning: {w}");

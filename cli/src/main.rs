@@ -8,10 +8,13 @@ mod args;
 mod commands;
 mod failure;
 mod progress_bars;
+#[cfg(feature = "mpi")]
+mod ranks;
 
 use std::process::ExitCode;
 
 use clap::Parser;
+use radiosity::distributed::{Exchange, Solo};
 
 use args::{Cli, Command};
 use failure::{Failure, EXIT_USAGE};
@@ -25,9 +28,37 @@ fn main() -> ExitCode {
             return ExitCode::from(if e.use_stderr() { EXIT_USAGE } else { 0 });
         }
     };
-    if let Some(n) = cli.threads {
+    // With the `mpi` feature a bake is one rank of the MPI world (`mpirun -n N`; one rank
+    // of one when started alone).
+    #[cfg(feature = "mpi")]
+    let mpi = match &cli.command {
+        Command::Bake(_) => match ranks::Mpi::start() {
+            Ok(mpi) => Some(mpi),
+            Err(e) => {
+                eprintln!("error: cannot start MPI: {e}");
+                return ExitCode::from(1);
+            }
+        },
+        _ => None,
+    };
+    #[cfg(feature = "mpi")]
+    let comm: &dyn Exchange = match &mpi {
+        Some(mpi) => mpi,
+        None => &Solo,
+    };
+    #[cfg(not(feature = "mpi"))]
+    let comm: &dyn Exchange = &Solo;
+    // The ranks on one machine share its cores, unless --threads says otherwise.
+    #[cfg(feature = "mpi")]
+    let shared_cores = (comm.size() > 1).then(|| {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        (cores / ranks::Mpi::local_ranks().max(1)).max(1)
+    });
+    #[cfg(not(feature = "mpi"))]
+    let shared_cores = None;
+    if let Some(n) = cli.threads.or(shared_cores) {
         if n == 0 {
-            return fail(&Failure::usage("--threads", "must be at least 1"));
+            return fail(&Failure::usage("--threads", "must be at least 1"), comm);
         }
         if let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
@@ -37,9 +68,12 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     }
-    progress_bars::install(cli.quiet, cli.verbose);
+    // Only rank 0 speaks (the others' progress and warnings are rank 0's).
+    if comm.rank() == 0 {
+        progress_bars::install(cli.quiet, cli.verbose);
+    }
     let result = match &cli.command {
-        Command::Bake(args) => commands::bake(args, cli.quiet),
+        Command::Bake(args) => commands::bake(args, cli.quiet, comm),
         Command::Verify(args) => commands::verify(args, cli.quiet),
         Command::Generate(args) => commands::generate(args),
         Command::Render(args) => commands::render(args, cli.quiet),
@@ -47,13 +81,26 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(code) => ExitCode::from(code),
-        Err(failure) => fail(&failure),
+        Err(failure) => {
+            let code = fail(&failure, comm);
+            // A rank that fails ends them all: the others would wait for it forever.
+            #[cfg(feature = "mpi")]
+            if let Some(mpi) = mpi.as_ref().filter(|m| m.size() > 1) {
+                mpi.abort(failure.exit_code());
+            }
+            code
+        }
     }
 }
 
-/// Prints `failure` with its causes on stderr and returns its exit status.
-fn fail(failure: &Failure) -> ExitCode {
-    eprintln!("error: {failure}");
+/// Prints `failure` with its causes on stderr (naming the rank in a bake of several) and
+/// returns its exit status.
+fn fail(failure: &Failure, comm: &dyn Exchange) -> ExitCode {
+    let rank = match comm.size() {
+        1 => String::new(),
+        n => format!(" (rank {} of {n})", comm.rank()),
+    };
+    eprintln!("error{rank}: {failure}");
     for cause in failure.causes() {
         eprintln!("  caused by: {cause}");
     }

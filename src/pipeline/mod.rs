@@ -22,6 +22,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use crate::bake::{self, BakedMesh};
+use crate::distributed::{Exchange, Solo};
 use crate::form_factor::{self, cache, FormFactors, Needed, Reuse};
 use crate::gather::{self, Gather};
 use crate::hierarchical;
@@ -72,6 +73,22 @@ pub fn run_with(
     options: &WriteOptions,
     overrides: &[Override],
 ) -> Result<Outcome> {
+    run_on(input, output, settings, options, overrides, &Solo)
+}
+
+/// [`run_with`] as one rank of a bake over several processes ([`crate::distributed`]): every
+/// rank calls it with the same arguments. The hierarchical solve is shared among the ranks
+/// ([`hierarchical::solve_on`]); the rest runs on every rank alike (the matrix method
+/// whole, with a warning), and rank 0 alone writes the output. Every rank returns the
+/// outcome one process would.
+pub fn run_on(
+    input: &Path,
+    output: &Path,
+    settings: &Settings,
+    options: &WriteOptions,
+    overrides: &[Override],
+    comm: &dyn Exchange,
+) -> Result<Outcome> {
     // Check every setting and the output before any work, so a typo costs nothing.
     settings.validate()?;
     options.validate()?;
@@ -117,13 +134,19 @@ pub fn run_with(
         settings.hierarchical.max_links = settings.hierarchical.max_links.min(most);
     }
 
-    let mut outcome = solve_prepared(&prepared, &settings)?;
+    // Every rank's own limit (each may be on a machine of its own): the smallest, so all
+    // ranks stop refining at the same pass.
+    settings.hierarchical.max_links = comm.min_u64(settings.hierarchical.max_links);
+
+    let mut outcome = solve_prepared_on(&prepared, &settings, comm)?;
 
     let t = Instant::now();
     let exposure = options
         .exposure
         .unwrap_or_else(|| outcome.baked.auto_exposure());
-    io::write(output, &outcome.baked, format, exposure)?;
+    if comm.rank() == 0 {
+        io::write(output, &outcome.baked, format, exposure)?;
+    }
     let report = &mut outcome.report;
     report.exposure = exposure;
     report.input = Some(input.display().to_string());
@@ -264,6 +287,15 @@ pub fn solve_scene(scene: &Scene, settings: &Settings) -> Result<Outcome> {
 
 /// [`solve_scene`] for a scene [`prepare`] made ready for these `settings`.
 pub fn solve_prepared(prepared: &Prepared, settings: &Settings) -> Result<Outcome> {
+    solve_prepared_on(prepared, settings, &Solo)
+}
+
+/// [`solve_prepared`] as one rank of `comm` (see [`run_on`]).
+pub fn solve_prepared_on(
+    prepared: &Prepared,
+    settings: &Settings,
+    comm: &dyn Exchange,
+) -> Result<Outcome> {
     settings.validate()?;
     let scene = &prepared.scene;
     let settings = &settings.resolved(scene)?;
@@ -310,7 +342,14 @@ pub fn solve_prepared(prepared: &Prepared, settings: &Settings) -> Result<Outcom
     report.seconds.patches = prepared.seconds + contact_seconds;
 
     if settings.method == Method::Hierarchical {
-        return hierarchical_scene(scene, settings, report);
+        return hierarchical_scene(scene, settings, report, comm);
+    }
+    if comm.size() > 1 {
+        report.warnings.push(format!(
+            "the matrix method runs whole on each of the {} ranks: only the hierarchical \
+             solve is shared among them (--method hierarchical)",
+            comm.size()
+        ));
     }
 
     // Patches.
@@ -380,7 +419,12 @@ pub fn solve_prepared(prepared: &Prepared, settings: &Settings) -> Result<Outcom
 /// patches → hierarchies → links ⇄ solve → leaves → bake: [`solve_scene`] for
 /// `method = hierarchical`. The root patches are the scene's triangles, split to `max_edge`
 /// only when one is given.
-fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) -> Result<Outcome> {
+fn hierarchical_scene(
+    scene: &Scene,
+    settings: &Settings,
+    mut report: Report,
+    comm: &dyn Exchange,
+) -> Result<Outcome> {
     let t = Instant::now();
     report.max_edge = settings.max_edge.unwrap_or_else(|| {
         let (lo, hi) = scene.bounds();
@@ -390,12 +434,13 @@ fn hierarchical_scene(scene: &Scene, settings: &Settings, mut report: Report) ->
     report.seconds.patches += t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let h = hierarchical::solve(
+    let h = hierarchical::solve_on(
         &roots,
         &settings.hierarchical,
         &settings.environment,
         &settings.solver,
         settings.form_factors.seed,
+        comm,
     )?;
     if !lit(scene, settings) {
         report.warn_no_emitters();
