@@ -55,6 +55,39 @@ impl dyn Exchange + '_ {
         self.gather_u64(x).iter().sum()
     }
 
+    /// `f(i)` for every `i` in `0..n`, each rank computing a consecutive share of them (in
+    /// parallel on its threads), then every rank holding all of them: what
+    /// `(0..n).into_par_iter().map(f).collect()` gives one process, value for value, when
+    /// `f(i)` depends on `i` alone (its random numbers keyed by `i`, not by a thread).
+    /// `write` and `read` code one value.
+    pub fn map_shared<T: Send>(
+        &self,
+        n: usize,
+        f: impl Fn(usize) -> T + Sync + Send,
+        write: impl Fn(&T, &mut Writer),
+        read: impl Fn(&mut Reader) -> T,
+    ) -> Vec<T> {
+        use rayon::prelude::*;
+        if self.alone() {
+            return (0..n).into_par_iter().map(f).collect();
+        }
+        let share = |k: usize| n * k / self.size()..n * (k + 1) / self.size();
+        let mut mine: Vec<T> = share(self.rank()).into_par_iter().map(&f).collect();
+        let mut w = Writer::default();
+        mine.iter().for_each(|v| write(v, &mut w));
+        let all = self.all_gather(&w.0);
+        let mut out = Vec::with_capacity(n);
+        for (k, bytes) in all.iter().enumerate() {
+            if k == self.rank() {
+                out.append(&mut mine);
+            } else {
+                let mut r = Reader::new(bytes);
+                out.extend(share(k).map(|_| read(&mut r)));
+            }
+        }
+        out
+    }
+
     /// The smallest `x` over the ranks.
     pub fn min_u64(&self, x: u64) -> u64 {
         self.gather_u64(x).into_iter().min().unwrap_or(x)

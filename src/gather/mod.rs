@@ -38,6 +38,7 @@ use serde::Serialize;
 use crate::bake::Site;
 use crate::choice::Choice;
 use crate::color::Rgb;
+use crate::distributed::{Exchange, Reader, Solo, Writer};
 use crate::light::emitter::GATHER_MAX_SHADOW_RAYS;
 use crate::light::{Emitter, LightTree};
 use crate::mesh::Patches;
@@ -218,6 +219,8 @@ pub struct Gatherer<'a> {
     /// emitters by the sphere within which they are not sampled ([`SAMPLED_SPREAD`]), so a
     /// point finds the ones left to its rays without visiting them all.
     unsampled: Option<cache::Index>,
+    /// The ranks that share the gather's vertices ([`Gatherer::with_comm`]).
+    pub(super) comm: &'a dyn Exchange,
 }
 
 impl<'a> Gatherer<'a> {
@@ -268,7 +271,16 @@ impl<'a> Gatherer<'a> {
             light_tree: LightTree::new(&env.lights),
             cache: false,
             unsampled: None,
+            comm: &Solo,
         }
+    }
+
+    /// The ranks of a bake over several processes ([`crate::distributed`]): each gathers a
+    /// consecutive share of the vertices (and of the display refinement's tests and new
+    /// vertices), and every rank ends with all of them, the values one process finds.
+    pub fn with_comm(mut self, comm: &'a dyn Exchange) -> Self {
+        self.comm = comm;
+        self
     }
 
     /// Whether the gather is `cache` ([`cache`]): in a scene of more than
@@ -352,6 +364,33 @@ impl Gathered {
             indirect_error: 0.0,
             penumbra: false,
             buried: true,
+        }
+    }
+
+    /// Writes it for another rank ([`crate::distributed`]; [`Gathered::read`] reads it).
+    pub fn write(&self, w: &mut Writer) {
+        for rgb in [self.radiance, self.direct, self.indirect] {
+            rgb.iter().for_each(|&x| w.f64(x));
+        }
+        w.u64(self.exact_key);
+        w.f64(self.indirect_error);
+        w.bytes(&[self.penumbra as u8 | (self.buried as u8) << 1]);
+    }
+
+    /// What [`Gathered::write`] wrote.
+    pub fn read(r: &mut Reader) -> Self {
+        let mut rgb = || [r.f64(), r.f64(), r.f64()];
+        let (radiance, direct, indirect) = (rgb(), rgb(), rgb());
+        let (exact_key, indirect_error) = (r.u64(), r.f64());
+        let [flags] = r.bytes();
+        Gathered {
+            radiance,
+            direct,
+            exact_key,
+            indirect,
+            indirect_error,
+            penumbra: flags & 1 != 0,
+            buried: flags & 2 != 0,
         }
     }
 }
@@ -480,10 +519,9 @@ pub fn gather(
         Vec::new()
     };
     let progress = crate::progress::stage("gather", Some(sites.len() as u64));
-    let values = sites
-        .par_iter()
-        .enumerate()
-        .map(|(v, site)| {
+    let gather_at = |v: usize| {
+        let site = &sites[v];
+        {
             progress.advance(1);
             let mut rng = gatherer.vertex_rng(v);
             let Some(spot) = gatherer.spot(site, visible_fraction) else {
@@ -505,8 +543,11 @@ pub fn gather(
                 reflected / area
             });
             gatherer.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect)
-        })
-        .collect();
+        }
+    };
+    let values = gatherer
+        .comm
+        .map_shared(sites.len(), gather_at, Gathered::write, Gathered::read);
     (values, None)
 }
 
@@ -537,18 +578,16 @@ fn cached(
         .collect();
     let (indirect, cache) = gatherer.cached_indirect(&spots, &areas, rays);
     let progress = crate::progress::stage("gather: direct light", Some(spots.len() as u64));
-    let values = spots
-        .par_iter()
-        .zip(indirect)
-        .enumerate()
-        .map(|(v, (spot, reflected))| {
-            progress.advance(1);
-            let (Some(spot), Some(reflected)) = (spot, reflected) else {
-                return Gathered::buried(baked[v]);
-            };
-            gatherer.cached_vertex(spot, reflected, &mut gatherer.vertex_rng(v))
-        })
-        .collect();
+    let at = |v: usize| {
+        progress.advance(1);
+        let (Some(spot), Some(reflected)) = (&spots[v], indirect[v]) else {
+            return Gathered::buried(baked[v]);
+        };
+        gatherer.cached_vertex(spot, reflected, &mut gatherer.vertex_rng(v))
+    };
+    let values = gatherer
+        .comm
+        .map_shared(spots.len(), at, Gathered::write, Gathered::read);
     (values, cache)
 }
 

@@ -54,12 +54,12 @@
 
 use std::collections::{HashMap, HashSet};
 
-use rayon::prelude::*;
 
 use super::local_fit::{self, Midpoint};
 use super::{Cache, Gather, Gathered, Gatherer};
 use crate::bake::{BakedMesh, Site};
 use crate::color::{luminance, Rgb};
+use crate::distributed::{Reader, Writer};
 use crate::light::emitter::{GATHER_MAX_SHADOW_RAYS, MIDPOINT_SHADOW_RAYS};
 use crate::sampling::Rng;
 
@@ -294,9 +294,9 @@ pub fn refine(
         // Each test's deviation, and the radiance it found at the midpoint (its direct
         // light, the ends' mean indirect light; None where the midpoint is buried or its
         // exact emitters are not its ends').
-        let tests: Vec<(f64, Option<Rgb>)> = edges
-            .par_iter()
-            .map(|&(_, e, reference, _)| {
+        let test = |i: usize| {
+            let (_, e, reference, _) = edges[i];
+            {
                 progress.advance(1);
                 let mut found = None;
                 let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
@@ -343,8 +343,21 @@ pub fn refine(
                     direct.max(departure.max(0.0) / reference)
                 });
                 (at_midpoint.max(indirect), found)
-            })
-            .collect();
+            }
+        };
+        // Shared among the ranks of a bake over several processes, as the gather is.
+        let write = |(x, found): &(f64, Option<Rgb>), w: &mut Writer| {
+            w.f64(*x);
+            w.bytes(&[found.is_some() as u8]);
+            found.unwrap_or_default().iter().for_each(|&v| w.f64(v));
+        };
+        let read = |r: &mut Reader| {
+            let (x, [some]) = (r.f64(), r.bytes());
+            let found = [r.f64(), r.f64(), r.f64()];
+            (x, (some != 0).then_some(found))
+        };
+        let tests: Vec<(f64, Option<Rgb>)> =
+            gatherer.comm.map_shared(edges.len(), test, write, read);
         let mut split: Vec<Split> = std::mem::take(&mut deferred);
         for (&(_, edge, _, root), &(deviation, found)) in edges.iter().zip(&tests) {
             if let Some(radiance) = found {
@@ -411,9 +424,9 @@ pub fn refine(
             midpoint.insert(e, d.sites.len() as u32);
             d.sites.push(site);
         }
-        let new_values: Vec<Gathered> = (first..d.sites.len())
-            .into_par_iter()
-            .map(|v| {
+        let new_vertex = |i: usize| {
+            let v = first + i;
+            {
                 progress.advance(1);
                 let site = &d.sites[v];
                 let endpoints = chosen[v - first];
@@ -447,8 +460,14 @@ pub fn refine(
                         }
                     }
                 }
-            })
-            .collect();
+            }
+        };
+        let new_values = gatherer.comm.map_shared(
+            d.sites.len() - first,
+            new_vertex,
+            Gathered::write,
+            Gathered::read,
+        );
         d.values.extend(new_values);
         done.vertices += chosen.len();
         done.levels += 1;

@@ -405,6 +405,7 @@ pub fn solve_prepared_on(
         &form_factors.visible_fraction,
         settings,
         &mut report,
+        comm,
     );
     Ok(Outcome {
         patches,
@@ -477,7 +478,7 @@ fn hierarchical_scene(
     let baked = match display {
         Some((patches, radiance, visible, stats)) => {
             report.display_contacts = Some(stats);
-            bake_stage(scene, &patches, &radiance, &visible, settings, &mut report)
+            bake_stage(scene, &patches, &radiance, &visible, settings, &mut report, comm)
         }
         None => bake_stage(
             scene,
@@ -486,6 +487,7 @@ fn hierarchical_scene(
             &h.visible_fraction,
             settings,
             &mut report,
+            comm,
         ),
     };
     Ok(Outcome {
@@ -553,6 +555,7 @@ fn bake_stage(
     visible_fraction: &[f64],
     settings: &Settings,
     report: &mut Report,
+    comm: &dyn Exchange,
 ) -> BakedMesh {
     let t = Instant::now();
     let display_crease = settings.crease_degrees.min(bake::FACET_DEGREES);
@@ -574,7 +577,8 @@ fn bake_stage(
         )
         // The nudge bound needs the display refinement to follow the light beside a contact.
         .with_contact_edges(report.contacts.is_some() && settings.gather_tolerance > 0.0)
-        .with_cache(mode == Gather::Cache);
+        .with_cache(mode == Gather::Cache)
+        .with_comm(comm);
         // A display refinement vertex of the `cache` gather gathers in full, with the rays a
         // `full` gather of the output would give each vertex.
         let rays = settings.gather_rays.map_or_else(
