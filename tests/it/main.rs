@@ -12,11 +12,13 @@
 //! - `materials`, `two_sided`: overrides and two-sided surfaces through the pipeline;
 //! - `lights`: the lights outside the mesh (sky, sun, lamps), closed forms and shadows, both
 //!   methods;
+//! - `distributed`: a bake over several ranks (threads here) is the one-process bake, bit for bit;
 //! - `layers`: the modules' imports read from src/: no cycle, a ground floor that names no stage;
 //! - `scenes`: the generated benchmark scenes keep their own promises (counts, lights, no
 //!   modelling mistakes).
 
 mod closed_forms;
+mod distributed;
 mod form_factors;
 mod hierarchical;
 mod hostile_geometry;
