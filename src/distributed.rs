@@ -345,7 +345,7 @@ mod tests {
     #[test]
     fn a_partition_gives_consecutive_runs_and_marks_the_clusters_between_them() {
         // Four equal roots under two clusters of two, under a root cluster.
-        let children = vec![
+        let children = [
             vec![Child::Cluster(1), Child::Cluster(2)],
             vec![Child::Root(0), Child::Root(1)],
             vec![Child::Root(2), Child::Root(3)],

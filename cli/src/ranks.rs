@@ -30,8 +30,8 @@ unsafe impl Sync for Mpi {}
 impl Mpi {
     /// Starts MPI (as a single rank when the program was not started by `mpirun`).
     pub fn start() -> Result<Mpi, String> {
-        let (universe, _) = mpi::initialize_with_threading(Threading::Funneled)
-            .ok_or("MPI was started twice")?;
+        let (universe, _) =
+            mpi::initialize_with_threading(Threading::Funneled).ok_or("MPI was started twice")?;
         let world = universe.world();
         Ok(Mpi {
             rank: world.rank() as usize,

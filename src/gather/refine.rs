@@ -54,7 +54,6 @@
 
 use std::collections::{HashMap, HashSet};
 
-
 use super::local_fit::{self, Midpoint};
 use super::{Cache, Gather, Gathered, Gatherer};
 use crate::bake::{BakedMesh, Site};

@@ -330,8 +330,7 @@ pub fn solve_on(
                      next pass could pass {} (max_links, from the memory limit); the solution \
                      is coarser than asked. Raise --epsilon or --min-area to bake within this \
                      memory, or allow more with --max-memory",
-                    all_links,
-                    settings.max_links
+                    all_links, settings.max_links
                 ));
                 break;
             }
@@ -734,8 +733,12 @@ impl<'a> Hierarchy<'a> {
             .into_par_iter()
             .map(|i| self.owns_element(i) && closes(roots, vis, i, probes, seed))
             .collect();
-        self.closed_roots =
-            self.from_owners(0, closed, |w, &c| w.bytes(&[c as u8]), |r| r.bytes::<1>()[0] != 0);
+        self.closed_roots = self.owners_values(
+            0,
+            closed,
+            |w, &c| w.bytes(&[c as u8]),
+            |r| r.bytes::<1>()[0] != 0,
+        );
         let owned = (0..n).filter(|&i| self.owns_element(i)).count();
         self.stats.rays_cast += owned as u64 * probes as u64;
         self.stats.closed_roots = self.closed_roots.iter().filter(|&&c| c).count();
@@ -772,7 +775,7 @@ impl<'a> Hierarchy<'a> {
                 .count();
             self.stats.rays_cast += (owned * rule.len()) as u64;
         }
-        let new = self.from_owners(from, new, |w, &m| w.u32(m as u32), |r| r.u32() as u16);
+        let new = self.owners_values(from, new, |w, &m| w.u32(m as u32), |r| r.u32() as u16);
         for mask in new {
             let visible = links::unburied_weights(mask).iter().sum();
             self.buried.push(mask);
@@ -829,7 +832,7 @@ impl<'a> Hierarchy<'a> {
             environment: [r.f64(), r.f64(), r.f64()],
             rays: 0,
         };
-        let new = self.from_owners(from, new, write, read);
+        let new = self.owners_values(from, new, write, read);
         for d in new {
             self.stats.rays_cast += d.rays;
             let e = self.direct.len();

@@ -246,7 +246,10 @@ impl ClusterGather {
     /// The 21 numbers it holds (uniform, then the axes), for an exchange between ranks.
     pub(super) fn to_array(&self) -> [f64; 21] {
         let mut a = [0.0; 21];
-        for (k, rgb) in std::iter::once(&self.uniform).chain(&self.by_axis).enumerate() {
+        for (k, rgb) in std::iter::once(&self.uniform)
+            .chain(&self.by_axis)
+            .enumerate()
+        {
             a[3 * k..3 * k + 3].copy_from_slice(rgb);
         }
         a

@@ -81,7 +81,7 @@ impl Hierarchy<'_> {
     /// `mine` holds a value for each element from `from` on, right for the elements this rank
     /// owns (anything for the others'): returns every element's right value, each from its
     /// owner. `write` and `read` code one value.
-    pub(super) fn from_owners<T>(
+    pub(super) fn owners_values<T>(
         &self,
         from: usize,
         mut mine: Vec<T>,
@@ -171,7 +171,8 @@ impl Hierarchy<'_> {
         if self.partition.is_none() {
             return new;
         }
-        let (mine, theirs): (Vec<Link>, Vec<Link>) = new.into_iter().partition(|l| self.owns(l.receiver));
+        let (mine, theirs): (Vec<Link>, Vec<Link>) =
+            new.into_iter().partition(|l| self.owns(l.receiver));
         let mut w = Writer::default();
         for l in &theirs {
             w.u32(l.receiver.raw());

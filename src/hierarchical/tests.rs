@@ -971,8 +971,14 @@ fn a_solve_over_several_ranks_is_the_one_process_solve_to_the_bit() {
         ..Settings::default()
     };
     for (roots, what) in [(&room, "room"), (&closed_box(), "furnace")] {
-        let one = solve(roots, &settings, &Default::default(), &solve::Settings::default(), 7)
-            .unwrap();
+        let one = solve(
+            roots,
+            &settings,
+            &Default::default(),
+            &solve::Settings::default(),
+            7,
+        )
+        .unwrap();
         assert!(one.stats.links > 100, "{what}: {} links", one.stats.links);
         for n in [2, 3] {
             for (rank, h) in solve_over_ranks(roots, &settings, n).iter().enumerate() {
@@ -984,9 +990,8 @@ fn a_solve_over_several_ranks_is_the_one_process_solve_to_the_bit() {
                 assert_eq!(h.stats.near_corrections, one.stats.near_corrections, "{at}");
                 assert!(h.patches.positions == one.patches.positions, "{at}");
                 assert!(h.patches.triangles == one.patches.triangles, "{at}");
-                let bits = |r: &[Rgb]| -> Vec<u64> {
-                    r.iter().flatten().map(|x| x.to_bits()).collect()
-                };
+                let bits =
+                    |r: &[Rgb]| -> Vec<u64> { r.iter().flatten().map(|x| x.to_bits()).collect() };
                 let first = bits(&h.radiance)
                     .iter()
                     .zip(bits(&one.radiance))

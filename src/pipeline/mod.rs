@@ -478,7 +478,15 @@ fn hierarchical_scene(
     let baked = match display {
         Some((patches, radiance, visible, stats)) => {
             report.display_contacts = Some(stats);
-            bake_stage(scene, &patches, &radiance, &visible, settings, &mut report, comm)
+            bake_stage(
+                scene,
+                &patches,
+                &radiance,
+                &visible,
+                settings,
+                &mut report,
+                comm,
+            )
         }
         None => bake_stage(
             scene,

@@ -50,7 +50,10 @@ fn a_bake_over_several_ranks_shows_what_one_process_shows_to_the_bit() {
         settings.gather_rays = Some(16);
         settings.gather_tolerance = 0.3;
         let one = pipeline::solve_scene(&scene, &settings).unwrap();
-        assert!(one.report.display_refinement.vertices > 0, "{method:?}: the display was refined");
+        assert!(
+            one.report.display_refinement.vertices > 0,
+            "{method:?}: the display was refined"
+        );
         for n in [2, 3] {
             for (rank, out) in over_ranks(&scene, &settings, n).iter().enumerate() {
                 assert!(
