@@ -205,6 +205,26 @@ pub struct Stats {
     /// ([`direct`]: the scene's emitting triangles, [`direct::merged`]); 0 when links carry
     /// all emission.
     pub direct_emitters: usize,
+    /// Over several ranks ([`crate::distributed`]): the links each rank held at the end, by
+    /// rank (empty in one process).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub links_by_rank: Vec<u64>,
+    /// Over several ranks: the bytes they sent one another in the sweeps' exchanges of
+    /// gathers, all ranks and sweeps together (0 in one process).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub sweep_exchange_bytes: u64,
+    /// Over several ranks: the seconds the slowest rank spent in those exchanges, its wait
+    /// for the others included.
+    #[serde(skip_serializing_if = "is_zero_f64")]
+    pub sweep_exchange_seconds: f64,
+}
+
+fn is_zero(x: &u64) -> bool {
+    *x == 0
+}
+
+fn is_zero_f64(x: &f64) -> bool {
+    *x == 0.0
 }
 
 /// The result of [`solve()`].
@@ -542,6 +562,8 @@ pub struct Hierarchy<'a> {
     /// one rank.
     comm: &'a dyn Exchange,
     partition: Option<Partition>,
+    /// Bytes this rank sent in the sweeps' exchanges, and nanoseconds spent in them.
+    sweep_exchange: [std::sync::atomic::AtomicU64; 2],
     pub stats: Stats,
 }
 
@@ -643,6 +665,7 @@ impl<'a> Hierarchy<'a> {
             sample,
             comm,
             partition,
+            sweep_exchange: Default::default(),
             stats: Stats::default(),
         };
         h.convex = convex;
@@ -898,6 +921,13 @@ impl<'a> Hierarchy<'a> {
         );
         s.rays_cast = self.comm.sum_u64(s.rays_cast);
         s.near_corrections = self.comm.sum_u64(s.near_corrections);
+        if self.partition.is_some() {
+            use std::sync::atomic::Ordering::Relaxed;
+            s.links_by_rank = self.comm.gather_u64(self.links.len() as u64);
+            s.sweep_exchange_bytes = self.comm.sum_u64(self.sweep_exchange[0].load(Relaxed));
+            s.sweep_exchange_seconds =
+                self.comm.max_u64(self.sweep_exchange[1].load(Relaxed)) as f64 * 1e-9;
+        }
         s.bytes_per_link = std::mem::size_of::<Link>();
         s
     }

@@ -210,6 +210,7 @@ impl Hierarchy<'_> {
         if self.partition.is_none() {
             return;
         }
+        let start = std::time::Instant::now();
         let nonzero = |x: &[f64]| x.iter().any(|v| v.to_bits() != 0);
         let mut w = Writer::default();
         let elements: Vec<usize> = (0..ge.len()).filter(|&e| nonzero(&ge[e])).collect();
@@ -240,6 +241,9 @@ impl Hierarchy<'_> {
                 gc[c] = ClusterGather::from_array(std::array::from_fn(|_| r.f64()));
             }
         }
+        use std::sync::atomic::Ordering::Relaxed;
+        self.sweep_exchange[0].fetch_add(w.0.len() as u64, Relaxed);
+        self.sweep_exchange[1].fetch_add(start.elapsed().as_nanos() as u64, Relaxed);
     }
 }
 

@@ -285,6 +285,25 @@ pub fn hierarchical_note(s: &crate::hierarchical::Stats, solution: &Solution) ->
         solution.iterations,
         solution.residual,
         if s.closed_scene { ", closed scene" } else { "" }
+    ) + &ranks_note(s)
+}
+
+/// What the ranks of a solve over several processes held and exchanged (empty for one).
+fn ranks_note(s: &crate::hierarchical::Stats) -> String {
+    if s.links_by_rank.is_empty() {
+        return String::new();
+    }
+    let most = s.links_by_rank.iter().copied().max().unwrap_or(0) as f64;
+    let mean = s.links.max(1) as f64 / s.links_by_rank.len() as f64;
+    format!(
+        "; {} ranks: links by rank {:?} (the most {:.2}× the mean), {:.3e} bytes exchanged in \
+         the sweeps ({:.2e} a sweep), {:.2} s in those exchanges",
+        s.links_by_rank.len(),
+        s.links_by_rank,
+        most / mean,
+        s.sweep_exchange_bytes as f64,
+        s.sweep_exchange_bytes as f64 / s.sweeps.max(1) as f64,
+        s.sweep_exchange_seconds
     )
 }
 
