@@ -50,6 +50,17 @@ impl dyn Exchange + '_ {
             .collect()
     }
 
+    /// Σ `x` over the ranks, added in rank order (the same sum on every rank).
+    pub fn sum_f64(&self, x: f64) -> f64 {
+        if self.alone() {
+            return x;
+        }
+        self.all_gather(&x.to_le_bytes())
+            .iter()
+            .map(|b| Reader::new(b).f64())
+            .sum()
+    }
+
     /// Σ `x` over the ranks.
     pub fn sum_u64(&self, x: u64) -> u64 {
         self.gather_u64(x).iter().sum()
@@ -364,6 +375,29 @@ mod tests {
         // A root of most of the area outweighs the others.
         let heavy = Partition::new(&order, &[10.0, 1.0, 1.0, 1.0], 3, &kids, 2);
         assert_eq!(heavy.root_rank, vec![0, 1, 1, 1]);
+    }
+
+    /// Shared over 3 thread ranks, a map gives every rank what one process computes, in
+    /// order, also with fewer items than ranks and with none.
+    #[test]
+    fn a_shared_map_gives_every_rank_every_value_in_order() {
+        for n in [0, 2, 10] {
+            let group = Threads::group(3);
+            let out: Vec<Vec<u64>> = std::thread::scope(|s| {
+                let handles: Vec<_> = group
+                    .iter()
+                    .map(|t| {
+                        s.spawn(move || {
+                            let e: &dyn Exchange = t;
+                            e.map_shared(n, |i| (i * i) as u64, |v, w| w.u64(*v), |r| r.u64())
+                        })
+                    })
+                    .collect();
+                handles.into_iter().map(|h| h.join().unwrap()).collect()
+            });
+            let expected: Vec<u64> = (0..n as u64).map(|i| i * i).collect();
+            assert!(out.iter().all(|o| *o == expected), "{n} items: {out:?}");
+        }
     }
 
     #[test]

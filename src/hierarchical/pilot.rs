@@ -36,6 +36,7 @@
 
 use serde::Serialize;
 
+use crate::distributed::Exchange;
 use crate::mesh::Patches;
 use crate::sampling::Rng;
 use crate::scene::Environment;
@@ -213,6 +214,28 @@ pub fn pilot(
     seed: u64,
     sample: usize,
 ) -> Result<Pilot> {
+    pilot_on(
+        roots,
+        settings,
+        env,
+        solver,
+        seed,
+        sample,
+        super::ranks::SOLO,
+    )
+}
+
+/// [`pilot`] as one rank of `comm`, shared among the ranks as [`super::solve_on`] shares a
+/// solve; every rank gets the same counts (the links' weights summed in rank order).
+pub fn pilot_on(
+    roots: &Patches,
+    settings: &Settings,
+    env: &Environment,
+    solver: &solve::Settings,
+    seed: u64,
+    sample: usize,
+    comm: &dyn Exchange,
+) -> Result<Pilot> {
     settings.validate()?;
     solver.validate()?;
     env.validate()?;
@@ -220,7 +243,7 @@ pub fn pilot(
     let n = roots.len();
     let p = (sample as f64 / n.max(1) as f64).min(1.0);
     let clock = std::time::Instant::now();
-    let mut h = Hierarchy::with_sample(roots, settings, env, seed, Some(p), super::ranks::SOLO);
+    let mut h = Hierarchy::with_sample(roots, settings, env, seed, Some(p), comm);
     let mut out = Pilot {
         epsilon: settings.epsilon,
         roots: n,
@@ -239,7 +262,7 @@ pub fn pilot(
     let coarse = COARSE_LINKS_PER_ROOT * n as f64;
     let mut passes = 0;
     let mut stable = false;
-    while (h.links.len() as f64) < coarse && passes < settings.max_passes {
+    while (h.link_count() as f64) < coarse && passes < settings.max_passes {
         if !h.refine_pass() {
             stable = true;
             break;
@@ -288,18 +311,19 @@ pub fn pilot(
     // 3. The count.
     let s = h.sample.take().expect("the sample");
     out.sampled = s.roots.iter().filter(|&&b| b).count();
-    out.links = h
+    let links: f64 = h
         .links
         .iter()
         .filter(|l| s.holds(&h.tree, l.receiver))
         .map(|l| 1.0 / s.probability(l.receiver))
         .sum();
+    out.links = comm.sum_f64(links);
     let below_sampled = h.tree.elements[n..]
         .iter()
         .filter(|e| s.roots[e.root as usize])
         .count();
     out.elements = n as f64 + below_sampled as f64 / p;
-    out.direct_rays = s.direct_rays as f64 / p;
+    out.direct_rays = comm.sum_u64(s.direct_rays) as f64 / p;
     out.seconds = clock.elapsed().as_secs_f64();
     Ok(out)
 }

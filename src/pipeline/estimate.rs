@@ -34,6 +34,7 @@
 use serde::Serialize;
 
 use super::{Method, Settings};
+use crate::distributed::{Exchange, Solo};
 use crate::gather::{self, Gather};
 pub use crate::hierarchical::pilot::Pilot;
 use crate::mesh::{self, refine, Patches};
@@ -182,7 +183,19 @@ pub struct Estimate {
 impl Estimate {
     /// The estimate of a bake of `scene` with `settings` on `threads` worker threads.
     pub fn of(scene: &Scene, settings: &Settings, threads: usize) -> Result<Estimate> {
-        Estimate::with_pilot(scene, settings, threads, None)
+        Estimate::of_on(scene, settings, threads, &Solo)
+    }
+
+    /// [`Estimate::of`] as one rank of `comm` ([`crate::distributed`]): every rank calls it
+    /// alike and gets the same estimate; the pilot solve is shared among the ranks as the
+    /// bake's solve is. `threads`: all the ranks' threads.
+    pub fn of_on(
+        scene: &Scene,
+        settings: &Settings,
+        threads: usize,
+        comm: &dyn Exchange,
+    ) -> Result<Estimate> {
+        Estimate::with_pilot(scene, settings, threads, None, comm)
     }
 
     /// [`Estimate::of`] with the links and elements of an earlier `pilot` of the same scene
@@ -192,6 +205,7 @@ impl Estimate {
         settings: &Settings,
         threads: usize,
         reuse: Option<&Pilot>,
+        comm: &dyn Exchange,
     ) -> Result<Estimate> {
         settings.validate()?;
         let s = settings.resolved(scene)?;
@@ -211,7 +225,7 @@ impl Estimate {
                 let pilot = match reuse {
                     Some(p) => Some(*p),
                     None if roots >= PILOT_MIN_ROOTS => {
-                        Some(run_pilot(scene, &s, max_edge, &root_patches)?)
+                        Some(run_pilot(scene, &s, max_edge, &root_patches, comm)?)
                     }
                     None => None,
                 };
@@ -443,7 +457,13 @@ fn gather_direct_cost(scene: &Scene) -> f64 {
 
 /// The pilot of the hierarchical solve of `scene` ([`crate::hierarchical::pilot`]), on the
 /// roots the bake will make (resolved settings `s`, roots cut to `max_edge`).
-fn run_pilot(scene: &Scene, s: &Settings, max_edge: f64, plain: &Patches) -> Result<Pilot> {
+fn run_pilot(
+    scene: &Scene,
+    s: &Settings,
+    max_edge: f64,
+    plain: &Patches,
+    comm: &dyn Exchange,
+) -> Result<Pilot> {
     // The roots as the bake makes them ([`super::solve_scene`]); `plain` (the scene's own,
     // cut to `max_edge`) when neither contacts nor back sides change them.
     let split = s.cuts_contacts().then(|| mesh::split_contacts(scene).0);
@@ -454,13 +474,14 @@ fn run_pilot(scene: &Scene, s: &Settings, max_edge: f64, plain: &Patches) -> Res
         Some(cut) => Some(mesh::subdivide(cut, max_edge, s.crease_degrees)?),
         None => None,
     };
-    crate::hierarchical::pilot::pilot(
+    crate::hierarchical::pilot::pilot_on(
         made.as_ref().unwrap_or(plain),
         &s.hierarchical,
         &s.environment,
         &s.solver,
         s.form_factors.seed,
         PILOT_SAMPLE,
+        comm,
     )
 }
 
@@ -482,7 +503,18 @@ pub fn fit_time(
     threads: usize,
     budget: f64,
 ) -> Result<(Settings, Estimate, Option<String>)> {
-    let first = Estimate::of(scene, settings, threads)?;
+    fit_time_on(scene, settings, threads, budget, &Solo)
+}
+
+/// [`fit_time`] as one rank of `comm` (see [`Estimate::of_on`]).
+pub fn fit_time_on(
+    scene: &Scene,
+    settings: &Settings,
+    threads: usize,
+    budget: f64,
+    comm: &dyn Exchange,
+) -> Result<(Settings, Estimate, Option<String>)> {
+    let first = Estimate::of_on(scene, settings, threads, comm)?;
     if first.seconds <= budget {
         return Ok((settings.clone(), first, None));
     }
@@ -494,7 +526,7 @@ pub fn fit_time(
         while e.seconds > budget && raise < MAX_EPSILON_RAISE {
             raise *= 2.0;
             s.hierarchical.epsilon = settings.hierarchical.epsilon * raise;
-            e = Estimate::with_pilot(scene, &s, threads, first.pilot.as_ref())?;
+            e = Estimate::with_pilot(scene, &s, threads, first.pilot.as_ref(), comm)?;
         }
         if raise > 1.0 {
             changes.push(format!(
@@ -504,22 +536,22 @@ pub fn fit_time(
         }
     } else if s.refine_rounds > 0 {
         s.refine_rounds = 0;
-        e = Estimate::of(scene, &s, threads)?;
+        e = Estimate::of_on(scene, &s, threads, comm)?;
         changes.push("--refine 0".into());
     }
     if e.seconds > budget && e.gather != Gather::None && s.gather_tolerance > 0.0 {
         s.gather_tolerance = 0.0;
-        e = Estimate::with_pilot(scene, &s, threads, e.pilot.as_ref())?;
+        e = Estimate::with_pilot(scene, &s, threads, e.pilot.as_ref(), comm)?;
         changes.push("--gather-tolerance 0".into());
     }
     if e.seconds > budget && matches!(e.gather, Gather::Full | Gather::Cache) {
         s.gather = Gather::Direct;
-        e = Estimate::with_pilot(scene, &s, threads, e.pilot.as_ref())?;
+        e = Estimate::with_pilot(scene, &s, threads, e.pilot.as_ref(), comm)?;
         changes.push("--gather direct".into());
     }
     if e.seconds > budget && e.gather != Gather::None {
         s.gather = Gather::None;
-        e = Estimate::with_pilot(scene, &s, threads, e.pilot.as_ref())?;
+        e = Estimate::with_pilot(scene, &s, threads, e.pilot.as_ref(), comm)?;
         changes.push("--gather none".into());
     }
     let fits = if e.seconds <= budget {

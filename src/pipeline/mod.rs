@@ -112,11 +112,12 @@ pub fn run_on(
     // announced if it is long.
     // A time budget: coarser settings where the estimate says these would take longer, and
     // the refinements stop where their share of it is spent.
-    let threads = rayon::current_num_threads();
+    // Over several ranks, the solve and the gather are shared among all their threads.
+    let threads = rayon::current_num_threads() * comm.size();
     let (mut settings, estimate) = match settings.max_time {
         Some(budget) => {
             let (mut fitted, estimate, chosen) =
-                estimate::fit_time(scene, settings, threads, budget)?;
+                estimate::fit_time_on(scene, settings, threads, budget, comm)?;
             if let Some(chosen) = chosen {
                 crate::progress::warning(&format!("{}: {chosen}", input.display()));
             }
@@ -124,7 +125,12 @@ pub fn run_on(
             fitted.display_deadline = Some(t + Duration::from_secs_f64(DISPLAY_SHARE * budget));
             (fitted, estimate)
         }
-        None => (settings.clone(), Estimate::of(scene, settings, threads)?),
+        // Over several ranks, every rank takes its share of the pilot (and each refuses a
+        // bake that will not fit its own memory).
+        None => (
+            settings.clone(),
+            Estimate::of_on(scene, settings, threads, comm)?,
+        ),
     };
     let limit = check_estimate(input, &estimate, settings.max_memory)?;
     // The hierarchy's links are what outgrows an estimate: refinement stops, with a warning,
