@@ -240,10 +240,11 @@ impl<'a> Reader<'a> {
 
 /// Which rank owns each root patch: the roots in the order a depth-first walk of the
 /// cluster BVH meets them (so nearby roots are consecutive), cut into `ranks` consecutive
-/// runs of about equal weight. A root weighs 1/n + A/ΣA: its count stands for the per-root
-/// work (closure probes, the direct light at its rule points), its area share for the
-/// elements refinement makes of it. Each run is then a few whole subtrees of the BVH, and only
-/// the clusters on the paths between the cuts hold roots of two ranks.
+/// runs of about equal weight. At first ([`Partition::new`]) a root weighs 1/n + A/ΣA: its
+/// count stands for the per-root work (closure probes, the direct light at its rule points),
+/// its area share for the elements refinement makes of it; the solve cuts again by the links
+/// (`hierarchical`'s rebalance, [`Partition::cut`]). Each run is a few whole subtrees of the
+/// BVH, and only the clusters on the paths between the cuts hold roots of two ranks.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Partition {
     /// Per root patch, its rank.
@@ -257,9 +258,10 @@ pub struct Partition {
 pub const MIXED: u32 = u32::MAX;
 
 impl Partition {
-    /// The partition of `order` (every root once, in the walk's order; `area` per root) and
-    /// of the `clusters` clusters whose children `children(c)` gives (as roots or clusters;
-    /// parents numbered before children) among `ranks` ranks.
+    /// The first partition of `order` (every root once, in the walk's order; `area` per root)
+    /// and of the `clusters` clusters whose children `children(c)` gives (as roots or
+    /// clusters; parents numbered before children) among `ranks` ranks: each root weighs
+    /// 1/n + A/ΣA.
     pub fn new(
         order: &[usize],
         area: &[f64],
@@ -269,22 +271,36 @@ impl Partition {
     ) -> Partition {
         let n = area.len();
         let total_area: f64 = area.iter().sum();
-        let weight = |r: usize| {
-            1.0 / n as f64
-                + if total_area > 0.0 {
-                    area[r] / total_area
-                } else {
-                    1.0 / n as f64
-                }
-        };
-        let total: f64 = order.iter().map(|&r| weight(r)).sum();
-        let mut root_rank = vec![0u32; n];
+        let weight: Vec<f64> = (0..n)
+            .map(|r| {
+                1.0 / n as f64
+                    + if total_area > 0.0 {
+                        area[r] / total_area
+                    } else {
+                        1.0 / n as f64
+                    }
+            })
+            .collect();
+        Partition::cut(order, &weight, clusters, children, ranks)
+    }
+
+    /// [`Partition::new`] with each root's weight given (`weight[r]` ≥ 0).
+    pub fn cut(
+        order: &[usize],
+        weight: &[f64],
+        clusters: usize,
+        children: &dyn Fn(usize) -> Vec<Child>,
+        ranks: usize,
+    ) -> Partition {
+        let total: f64 = order.iter().map(|&r| weight[r]).sum();
+        let mut root_rank = vec![0u32; weight.len()];
         let mut before = 0.0;
         for &r in order {
             // The rank whose share of the total the middle of this root falls in.
-            let mid = before + 0.5 * weight(r);
-            root_rank[r] = ((mid / total * ranks as f64) as usize).min(ranks - 1) as u32;
-            before += weight(r);
+            let mid = before + 0.5 * weight[r];
+            let share = if total > 0.0 { mid / total } else { 0.0 };
+            root_rank[r] = ((share * ranks as f64) as usize).min(ranks - 1) as u32;
+            before += weight[r];
         }
         let mut cluster_rank = vec![MIXED; clusters];
         for c in (0..clusters).rev() {

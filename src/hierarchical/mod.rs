@@ -209,6 +209,10 @@ pub struct Stats {
     /// rank (empty in one process).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub links_by_rank: Vec<u64>,
+    /// Over several ranks: how many times the roots were cut among them again by their links
+    /// (the rebalance of `hierarchical::ranks`).
+    #[serde(skip_serializing_if = "is_zero_u32")]
+    pub rebalances: u32,
     /// Over several ranks: the bytes they sent one another in the sweeps' exchanges of
     /// gathers, all ranks and sweeps together (0 in one process).
     #[serde(skip_serializing_if = "is_zero")]
@@ -220,6 +224,10 @@ pub struct Stats {
 }
 
 fn is_zero(x: &u64) -> bool {
+    *x == 0
+}
+
+fn is_zero_u32(x: &u32) -> bool {
     *x == 0
 }
 
@@ -290,6 +298,12 @@ const PASS_SWEEPS: u32 = 2;
 /// a pass for a radiance that hardly moves.
 const SWEEP_AFTER_GROWTH: f64 = 0.01;
 
+/// Over several ranks, the roots are cut among them again by their links
+/// ([`Hierarchy::rebalance`]) once the links reach one a root, and then each time they have
+/// grown this many times since: a few times in a solve (at 10⁶ roots, about 1, 4 and 16
+/// million links), each moving a share of the links once.
+const REBALANCE_GROWTH: u64 = 4;
+
 /// The hierarchical solve of `roots` (patches that are the roots of the element trees).
 /// `solver` gives the stopping rule (tolerance on the relative change per sweep, sweep
 /// limit) and, for `neumann`, the number of bounces of the final solve; `seed` keys every
@@ -328,6 +342,7 @@ pub fn solve_on(
         let mut passes = 0;
         // Every decision below is taken on counts over all ranks, so every rank takes it.
         let mut previous_links = h.link_count() as f64;
+        let mut balanced_at = 0;
         let mut stopped_early = false;
         loop {
             if passes >= settings.max_passes {
@@ -373,6 +388,11 @@ pub fn solve_on(
                 // A pass that changed few links leaves the radiance the oracle reads about
                 // where it was: no sweeps (the final convergence comes after the last pass).
                 let now = h.link_count();
+                // Over several ranks, the roots cut again by their links as these grow.
+                if now >= REBALANCE_GROWTH * balanced_at && now >= roots.len() as u64 {
+                    h.rebalance();
+                    balanced_at = now;
+                }
                 if (now as f64 - links).abs() >= SWEEP_AFTER_GROWTH * links {
                     for _ in 0..PASS_SWEEPS {
                         history.push(h.sweep());
@@ -489,7 +509,7 @@ pub fn solve_on(
 pub struct Hierarchy<'a> {
     pub tree: Tree,
     /// The links, sorted by receiver; set through `set_links`. In a solve over several ranks,
-    /// the links into this rank's nodes ([`ranks`]).
+    /// the links into this rank's nodes (the `ranks` module).
     pub links: Vec<Link>,
     /// Per node (the elements, then the clusters), where its run of `links` as receiver
     /// starts; `links.len()` last, so node k's run is `first_link[k]..first_link[k + 1]`.

@@ -14,11 +14,16 @@
 //! - every sweep: what each node gathered over its links, only the nodes that gathered
 //!   anything. Push-pull then runs on every rank over the whole hierarchy (O(elements),
 //!   cheap beside the O(links) gather), so every rank holds every node's radiance, which is
-//!   what its links read.
+//!   what its links read;
+//! - a few times as the links grow: each root's links, to cut the roots again so that each
+//!   rank holds about as many links (the first cut knows only counts and areas), and the
+//!   links whose receiver changes rank.
 //!
 //! Every decision of the refinement loop is taken on global counts, so all ranks take it
 //! alike; and what a rank computes for a node is what one process computes for it, summed in
 //! the same order: the distributed radiance is the one-process radiance, to the bit.
+
+use rayon::prelude::*;
 
 use super::links::Link;
 use super::push_pull::ClusterGather;
@@ -30,16 +35,26 @@ use crate::distributed::{Child, Exchange, Partition, Reader, Writer};
 impl Tree {
     /// The root patches split among `ranks` ranks along a depth-first walk of the clusters.
     pub fn partition(&self, ranks: usize) -> Partition {
-        let children = |c: usize| -> Vec<Child> {
-            let cl = &self.clusters[c];
-            self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize]
-                .iter()
-                .map(|k| match k.as_element() {
-                    Some(e) => Child::Root(e),
-                    None => Child::Cluster(k.as_cluster().unwrap()),
-                })
-                .collect()
-        };
+        let area: Vec<f64> = self.elements[..self.roots].iter().map(|e| e.area).collect();
+        let children = |c: usize| self.children_of(c);
+        Partition::new(&self.walk(), &area, self.clusters.len(), &children, ranks)
+    }
+
+    /// Cluster `c`'s children.
+    fn children_of(&self, c: usize) -> Vec<Child> {
+        let cl = &self.clusters[c];
+        self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize]
+            .iter()
+            .map(|k| match k.as_element() {
+                Some(e) => Child::Root(e),
+                None => Child::Cluster(k.as_cluster().unwrap()),
+            })
+            .collect()
+    }
+
+    /// The root patches in the order a depth-first walk of the clusters meets them: the
+    /// roots below any cluster are consecutive.
+    fn walk(&self) -> Vec<usize> {
         let mut order = Vec::with_capacity(self.roots);
         if self.clusters.is_empty() {
             order.extend(0..self.roots);
@@ -48,12 +63,11 @@ impl Tree {
             while let Some(node) = stack.pop() {
                 match node {
                     Child::Root(e) => order.push(e),
-                    Child::Cluster(c) => stack.extend(children(c).into_iter().rev()),
+                    Child::Cluster(c) => stack.extend(self.children_of(c).into_iter().rev()),
                 }
             }
         }
-        let area: Vec<f64> = self.elements[..self.roots].iter().map(|e| e.area).collect();
-        Partition::new(&order, &area, self.clusters.len(), &children, ranks)
+        order
     }
 }
 
@@ -171,10 +185,17 @@ impl Hierarchy<'_> {
         if self.partition.is_none() {
             return new;
         }
-        let (mine, theirs): (Vec<Link>, Vec<Link>) =
+        let (mut mine, theirs): (Vec<Link>, Vec<Link>) =
             new.into_iter().partition(|l| self.owns(l.receiver));
+        mine.extend(self.send_links(&theirs));
+        mine
+    }
+
+    /// Sends `theirs` (links whose receiver another rank owns) to their ranks; returns the
+    /// links the other ranks sent this one.
+    fn send_links(&self, theirs: &[Link]) -> Vec<Link> {
         let mut w = Writer::default();
-        for l in &theirs {
+        for l in theirs {
             w.u32(l.receiver.raw());
             w.u32(l.source.raw());
             w.f32(l.f);
@@ -182,7 +203,7 @@ impl Hierarchy<'_> {
             w.bytes(&l.children);
         }
         let all = self.comm.all_gather(&w.0);
-        let mut links = mine;
+        let mut links = Vec::new();
         for (k, bytes) in all.iter().enumerate() {
             if k == self.comm.rank() {
                 continue;
@@ -202,6 +223,86 @@ impl Hierarchy<'_> {
             }
         }
         links
+    }
+
+    /// Cuts the roots among the ranks again, weighing each by the links into it (a link into
+    /// a cluster weighs on every root below it alike), and moves the links whose receiver
+    /// changes rank. The first cut ([`Tree::partition`]) knows only the roots' count and
+    /// area, and the links per root vary several-fold with what a root sees. Every element's
+    /// data is on every rank already, so only links move; the result is unchanged (whichever
+    /// rank holds a node's links, it gathers them in their order).
+    pub(super) fn rebalance(&mut self) {
+        if self.partition.is_none() {
+            return;
+        }
+        self.stats.rebalances += 1;
+        let t = &self.tree;
+        let n = t.roots;
+        let walk = t.walk();
+        let mut position = vec![0usize; n];
+        for (i, &r) in walk.iter().enumerate() {
+            position[r] = i;
+        }
+        // Each cluster's roots are a run of the walk.
+        let mut span = vec![(usize::MAX, 0usize); t.clusters.len()];
+        for c in (0..t.clusters.len()).rev() {
+            let (mut a, mut b) = (usize::MAX, 0);
+            for child in t.children_of(c) {
+                let (x, y) = match child {
+                    Child::Root(r) => (position[r], position[r] + 1),
+                    Child::Cluster(k) => span[k],
+                };
+                (a, b) = (a.min(x), b.max(y));
+            }
+            span[c] = (a, b);
+        }
+        // This rank's links, spread over the walk's positions (a difference array).
+        let mut diff = vec![0.0f64; n + 1];
+        for l in &self.links {
+            let (a, b) = match l.receiver.as_element() {
+                Some(e) => {
+                    let p = position[t.elements[e].root as usize];
+                    (p, p + 1)
+                }
+                None => span[l.receiver.as_cluster().unwrap()],
+            };
+            let x = 1.0 / (b - a) as f64;
+            diff[a] += x;
+            diff[b] -= x;
+        }
+        let mut w = Writer::default();
+        let mut run = 0.0;
+        for d in &diff[..n] {
+            run += d;
+            w.f32(run as f32);
+        }
+        let all = self.comm.all_gather(&w.0);
+        let mut by_position = vec![0.0f64; n];
+        for bytes in &all {
+            let mut r = Reader::new(bytes);
+            by_position.iter_mut().for_each(|x| *x += r.f32() as f64);
+        }
+        // A root with no link yet still costs its direct light and burial rays.
+        let floor = 0.1 * by_position.iter().sum::<f64>() / n.max(1) as f64;
+        let mut weight = vec![0.0; n];
+        for (i, &r) in walk.iter().enumerate() {
+            weight[r] = by_position[i].max(0.0) + floor;
+        }
+        let children = |c: usize| t.children_of(c);
+        let cut = Partition::cut(
+            &walk,
+            &weight,
+            t.clusters.len(),
+            &children,
+            self.comm.size(),
+        );
+        self.partition = Some(cut);
+        let links = std::mem::take(&mut self.links);
+        let (mut mine, theirs): (Vec<Link>, Vec<Link>) =
+            links.into_iter().partition(|l| self.owns(l.receiver));
+        mine.extend(self.send_links(&theirs));
+        mine.par_sort_unstable_by_key(|l| (l.receiver, l.source));
+        self.set_links(mine);
     }
 
     /// Every rank's gathers made whole: each node's gather is its owner's (the only rank

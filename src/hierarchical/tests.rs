@@ -997,6 +997,13 @@ fn a_solve_over_several_ranks_is_the_one_process_solve_to_the_bit() {
                     .zip(bits(&one.radiance))
                     .position(|(a, b)| *a != b);
                 assert_eq!(first, None, "{at}: first radiance that differs");
+                // The roots were cut again by their links as these grew.
+                assert!(h.stats.rebalances > 0, "{at}");
+                assert_eq!(
+                    h.stats.links_by_rank.iter().sum::<u64>(),
+                    h.stats.links,
+                    "{at}"
+                );
                 assert_eq!(h.worst_row, one.worst_row, "{at}");
             }
         }

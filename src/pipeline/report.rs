@@ -296,11 +296,12 @@ fn ranks_note(s: &crate::hierarchical::Stats) -> String {
     let most = s.links_by_rank.iter().copied().max().unwrap_or(0) as f64;
     let mean = s.links.max(1) as f64 / s.links_by_rank.len() as f64;
     format!(
-        "; {} ranks: links by rank {:?} (the most {:.2}× the mean), {:.3e} bytes exchanged in \
-         the sweeps ({:.2e} a sweep), {:.2} s in those exchanges",
+        "; {} ranks: links by rank {:?} (the most {:.2}× the mean, {} rebalances), {:.3e} bytes \
+         exchanged in the sweeps ({:.2e} a sweep), {:.2} s in those exchanges",
         s.links_by_rank.len(),
         s.links_by_rank,
         most / mean,
+        s.rebalances,
         s.sweep_exchange_bytes as f64,
         s.sweep_exchange_bytes as f64 / s.sweeps.max(1) as f64,
         s.sweep_exchange_seconds
