@@ -27,6 +27,7 @@ use rayon::prelude::*;
 
 use super::links::Link;
 use super::push_pull::ClusterGather;
+use super::refine::{link_key, merge_into};
 use super::tree::{Node, Tree};
 use super::Hierarchy;
 use crate::color::Rgb;
@@ -235,6 +236,12 @@ impl Hierarchy<'_> {
         if self.partition.is_none() {
             return;
         }
+        // Nothing to gain where the links are about even already.
+        let held = self.comm.gather_u64(self.links.len() as u64);
+        let mean = held.iter().sum::<u64>() as f64 / held.len() as f64;
+        if held.iter().all(|&k| k as f64 <= EVEN_ENOUGH * mean) {
+            return;
+        }
         self.stats.rebalances += 1;
         let t = &self.tree;
         let n = t.roots;
@@ -298,10 +305,12 @@ impl Hierarchy<'_> {
         );
         self.partition = Some(cut);
         let links = std::mem::take(&mut self.links);
+        // The links kept are still in order: the received ones are sorted and merged in.
         let (mut mine, theirs): (Vec<Link>, Vec<Link>) =
             links.into_iter().partition(|l| self.owns(l.receiver));
-        mine.extend(self.send_links(&theirs));
-        mine.par_sort_unstable_by_key(|l| (l.receiver, l.source));
+        let mut received = self.send_links(&theirs);
+        received.par_sort_unstable_by_key(link_key);
+        merge_into(&mut mine, received);
         self.set_links(mine);
     }
 
@@ -347,6 +356,9 @@ impl Hierarchy<'_> {
         self.sweep_exchange[1].fetch_add(start.elapsed().as_nanos() as u64, Relaxed);
     }
 }
+
+/// A rebalance moves no link while every rank holds at most this many times the mean.
+const EVEN_ENOUGH: f64 = 1.05;
 
 /// The exchange a solve talks through when it is given none: one rank.
 pub(super) const SOLO: &dyn Exchange = &crate::distributed::Solo;

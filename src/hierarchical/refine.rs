@@ -311,13 +311,13 @@ impl GrandchildShares {
 const REFINE_CHUNK: usize = 1 << 18;
 
 /// The order of the links: by receiver, then source (each pair at most once).
-fn link_key(l: &Link) -> (Node, Node) {
+pub(super) fn link_key(l: &Link) -> (Node, Node) {
     (l.receiver, l.source)
 }
 
 /// Merges `b` into `a`, both sorted by [`link_key`], in place: from the back, into the room
 /// `a` reserves at its end, so no third list is made (at 10⁷ links a copy is 240 MB).
-fn merge_into(a: &mut Vec<Link>, b: Vec<Link>) {
+pub(super) fn merge_into(a: &mut Vec<Link>, b: Vec<Link>) {
     let (n, m) = (a.len(), b.len());
     // Exactly the room needed: amortised doubling would leave up to as much again unused
     // (at 6·10⁷ links, 1.4 GB).

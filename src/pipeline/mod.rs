@@ -102,10 +102,13 @@ pub fn run_on(
     io::check_output_dir(output)?;
 
     let t = Instant::now();
-    let mut scene = Scene::load(input)?;
-    scene.apply_overrides(overrides)?;
-    let load_seconds = t.elapsed().as_secs_f64();
-    let prepared = prepare(&scene, settings);
+    // The scene as loaded is dropped once prepared (the bake reads the prepared copy).
+    let (prepared, load_seconds) = {
+        let mut scene = Scene::load(input)?;
+        scene.apply_overrides(overrides)?;
+        let load_seconds = t.elapsed().as_secs_f64();
+        (prepare(&scene, settings), load_seconds)
+    };
     let scene = &prepared.scene;
 
     // What it will cost, before any of it is done: refused if it would not fit in memory,
