@@ -521,29 +521,27 @@ pub fn gather(
     let progress = crate::progress::stage("gather", Some(sites.len() as u64));
     let gather_at = |v: usize| {
         let site = &sites[v];
-        {
-            progress.advance(1);
-            let mut rng = gatherer.vertex_rng(v);
-            let Some(spot) = gatherer.spot(site, visible_fraction) else {
-                return Gathered::buried(baked[v]);
-            };
-            if mode == Gather::Full {
-                return gatherer.full(&spot, rays, &mut rng);
-            }
-            // `direct`: the patches' reflected indirect light, averaged as the bake does.
-            let (direct, penumbra, exact) =
-                gatherer.reflected_direct(&spot, GATHER_MAX_SHADOW_RAYS, &mut rng);
-            let area: f64 = site.patches.iter().map(|&q| p.area[q as usize]).sum();
-            let indirect = std::array::from_fn(|c| {
-                let reflected: f64 = site
-                    .patches
-                    .iter()
-                    .map(|&q| p.area[q as usize] * indirect_part[q as usize][c])
-                    .sum();
-                reflected / area
-            });
-            gatherer.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect)
+        progress.advance(1);
+        let mut rng = gatherer.vertex_rng(v);
+        let Some(spot) = gatherer.spot(site, visible_fraction) else {
+            return Gathered::buried(baked[v]);
+        };
+        if mode == Gather::Full {
+            return gatherer.full(&spot, rays, &mut rng);
         }
+        // `direct`: the patches' reflected indirect light, averaged as the bake does.
+        let (direct, penumbra, exact) =
+            gatherer.reflected_direct(&spot, GATHER_MAX_SHADOW_RAYS, &mut rng);
+        let area: f64 = site.patches.iter().map(|&q| p.area[q as usize]).sum();
+        let indirect = std::array::from_fn(|c| {
+            let reflected: f64 = site
+                .patches
+                .iter()
+                .map(|&q| p.area[q as usize] * indirect_part[q as usize][c])
+                .sum();
+            reflected / area
+        });
+        gatherer.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect)
     };
     let values = gatherer
         .comm

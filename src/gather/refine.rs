@@ -295,54 +295,51 @@ pub fn refine(
         // exact emitters are not its ends').
         let test = |i: usize| {
             let (_, e, reference, _) = edges[i];
-            {
-                progress.advance(1);
-                let mut found = None;
-                let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
-                // The indirect light: endpoints that differ this much (a contact's fall-off).
-                let indirect =
-                    0.5 * (luminance(va.indirect) - luminance(vb.indirect)).abs() / reference;
-                let site = d.midpoint_site(e, &[]);
-                let at_midpoint = gatherer.spot(&site, visible_fraction).map_or(0.0, |spot| {
-                    let mut rng = Rng::new(&[seed, e.0 as u64, e.1 as u64, 0x7E57]);
-                    let (dm, _, exact) =
-                        gatherer.reflected_direct(&spot, MIDPOINT_SHADOW_RAYS, &mut rng);
-                    // Kept where the ends and the midpoint compute the same emitters exactly
-                    // (else the ends' indirect light counts another set of emitters' light).
-                    let key = gatherer.exact_key(&exact);
-                    if va.exact_key == key && vb.exact_key == key {
-                        let le = gatherer.patches.emission[spot.patch as usize];
-                        let ends = mid(va.indirect, vb.indirect);
-                        found = Some(std::array::from_fn(|c| le[c] + dm[c] + ends[c]));
+            progress.advance(1);
+            let mut found = None;
+            let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
+            // The indirect light: endpoints that differ this much (a contact's fall-off).
+            let indirect =
+                0.5 * (luminance(va.indirect) - luminance(vb.indirect)).abs() / reference;
+            let site = d.midpoint_site(e, &[]);
+            let at_midpoint = gatherer.spot(&site, visible_fraction).map_or(0.0, |spot| {
+                let mut rng = Rng::new(&[seed, e.0 as u64, e.1 as u64, 0x7E57]);
+                let (dm, _, exact) =
+                    gatherer.reflected_direct(&spot, MIDPOINT_SHADOW_RAYS, &mut rng);
+                // Kept where the ends and the midpoint compute the same emitters exactly
+                // (else the ends' indirect light counts another set of emitters' light).
+                let key = gatherer.exact_key(&exact);
+                if va.exact_key == key && vb.exact_key == key {
+                    let le = gatherer.patches.emission[spot.patch as usize];
+                    let ends = mid(va.indirect, vb.indirect);
+                    found = Some(std::array::from_fn(|c| le[c] + dm[c] + ends[c]));
+                }
+                let direct =
+                    (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference;
+                if !matches!(mode, Gather::Full | Gather::Cache) {
+                    return direct;
+                }
+                // The indirect light at the midpoint, by a few rays (or the `cache`
+                // gather's records where they serve it): its departure from the ends'
+                // mean beyond SIGNIFICANCE standard errors (a dark middle between bright
+                // ends: above a table leg's top, 5 mm under the table).
+                let (im, error, backs) = match cache.and_then(|c| c.at(spot.x, spot.n)) {
+                    Some(reflected) => {
+                        let g = gatherer.cached_vertex(&spot, reflected, &mut rng);
+                        (g.indirect, 0.0, gatherer.backs(&spot, TEST_RAYS, &mut rng))
                     }
-                    let direct =
-                        (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference;
-                    if !matches!(mode, Gather::Full | Gather::Cache) {
-                        return direct;
-                    }
-                    // The indirect light at the midpoint, by a few rays (or the `cache`
-                    // gather's records where they serve it): its departure from the ends'
-                    // mean beyond SIGNIFICANCE standard errors (a dark middle between bright
-                    // ends: above a table leg's top, 5 mm under the table).
-                    let (im, error, backs) = match cache.and_then(|c| c.at(spot.x, spot.n)) {
-                        Some(reflected) => {
-                            let g = gatherer.cached_vertex(&spot, reflected, &mut rng);
-                            (g.indirect, 0.0, gatherer.backs(&spot, TEST_RAYS, &mut rng))
-                        }
-                        None => gatherer.reflected_indirect(&spot, &exact, TEST_RAYS, &mut rng),
-                    };
-                    if backs > ENCLOSED {
-                        // Walled in by the backs of surfaces: nobody sees it (see ENCLOSED).
-                        found = None;
-                        return 0.0;
-                    }
-                    let departure = (luminance(im) - luminance(mid(va.indirect, vb.indirect)))
-                        .abs()
-                        - SIGNIFICANCE * error;
-                    direct.max(departure.max(0.0) / reference)
-                });
-                (at_midpoint.max(indirect), found)
-            }
+                    None => gatherer.reflected_indirect(&spot, &exact, TEST_RAYS, &mut rng),
+                };
+                if backs > ENCLOSED {
+                    // Walled in by the backs of surfaces: nobody sees it (see ENCLOSED).
+                    found = None;
+                    return 0.0;
+                }
+                let departure = (luminance(im) - luminance(mid(va.indirect, vb.indirect))).abs()
+                    - SIGNIFICANCE * error;
+                direct.max(departure.max(0.0) / reference)
+            });
+            (at_midpoint.max(indirect), found)
         };
         // Shared among the ranks of a bake over several processes, as the gather is.
         let write = |(x, found): &(f64, Option<Rgb>), w: &mut Writer| {
@@ -425,38 +422,36 @@ pub fn refine(
         }
         let new_vertex = |i: usize| {
             let v = first + i;
-            {
-                progress.advance(1);
-                let site = &d.sites[v];
-                let endpoints = chosen[v - first];
-                let (va, vb) = (
-                    &d.values[endpoints.0 as usize],
-                    &d.values[endpoints.1 as usize],
-                );
-                match gatherer.spot(site, visible_fraction) {
-                    None => Gathered::buried(mid(va.radiance, vb.radiance)),
-                    Some(spot) => {
-                        let mut rng = gatherer.vertex_rng(v);
-                        // `full`: the new vertex gathers its own indirect light too. The
-                        // ends' mean would do across a shadow edge, where the indirect light
-                        // is smooth, but not where it bends between them: beside a contact
-                        // or a concave corner (a floor point millimetres from a sofa's side is
-                        // far brighter than its ends' mean) or where the ends count different
-                        // emitters' Le in it (many lights). The budget pays for it: it
-                        // counts each new vertex at the gather's full rays.
-                        let cached = cache.and_then(|c| c.at(spot.x, spot.n));
-                        if let Some(reflected) = cached {
-                            // `cache`: the records' light where they serve the new vertex.
-                            gatherer.cached_vertex(&spot, reflected, &mut rng)
-                        } else if matches!(mode, Gather::Full | Gather::Cache) {
-                            gatherer.full(&spot, rays, &mut rng)
-                        } else {
-                            let (direct, penumbra, exact) =
-                                gatherer.reflected_direct(&spot, GATHER_MAX_SHADOW_RAYS, &mut rng);
-                            let indirect = mid(va.indirect, vb.indirect);
-                            let direct = (direct, penumbra, exact.as_slice());
-                            gatherer.with_emission(spot.patch as usize, direct, indirect)
-                        }
+            progress.advance(1);
+            let site = &d.sites[v];
+            let endpoints = chosen[v - first];
+            let (va, vb) = (
+                &d.values[endpoints.0 as usize],
+                &d.values[endpoints.1 as usize],
+            );
+            match gatherer.spot(site, visible_fraction) {
+                None => Gathered::buried(mid(va.radiance, vb.radiance)),
+                Some(spot) => {
+                    let mut rng = gatherer.vertex_rng(v);
+                    // `full`: the new vertex gathers its own indirect light too. The
+                    // ends' mean would do across a shadow edge, where the indirect light
+                    // is smooth, but not where it bends between them: beside a contact
+                    // or a concave corner (a floor point millimetres from a sofa's side is
+                    // far brighter than its ends' mean) or where the ends count different
+                    // emitters' Le in it (many lights). The budget pays for it: it
+                    // counts each new vertex at the gather's full rays.
+                    let cached = cache.and_then(|c| c.at(spot.x, spot.n));
+                    if let Some(reflected) = cached {
+                        // `cache`: the records' light where they serve the new vertex.
+                        gatherer.cached_vertex(&spot, reflected, &mut rng)
+                    } else if matches!(mode, Gather::Full | Gather::Cache) {
+                        gatherer.full(&spot, rays, &mut rng)
+                    } else {
+                        let (direct, penumbra, exact) =
+                            gatherer.reflected_direct(&spot, GATHER_MAX_SHADOW_RAYS, &mut rng);
+                        let indirect = mid(va.indirect, vb.indirect);
+                        let direct = (direct, penumbra, exact.as_slice());
+                        gatherer.with_emission(spot.patch as usize, direct, indirect)
                     }
                 }
             }

@@ -74,7 +74,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::color::Rgb;
-use crate::distributed::{Exchange, Partition};
+use crate::distributed::{Exchange, Partition, Solo};
 use crate::form_factor::{closes, occluders, CLOSURE_PROBES};
 use crate::mesh::Patches;
 use crate::scene::Environment;
@@ -315,7 +315,7 @@ pub fn solve(
     solver: &solve::Settings,
     seed: u64,
 ) -> Result<Hierarchical> {
-    solve_on(roots, settings, env, solver, seed, ranks::SOLO)
+    solve_on(roots, settings, env, solver, seed, &Solo)
 }
 
 /// [`solve()`] as one rank of `comm` ([`crate::distributed`]): every rank calls it with the
@@ -613,7 +613,7 @@ impl<'a> Hierarchy<'a> {
         env: &Environment,
         seed: u64,
     ) -> Hierarchy<'a> {
-        Hierarchy::with_sample(roots, settings, env, seed, None, ranks::SOLO)
+        Hierarchy::with_sample(roots, settings, env, seed, None, &Solo)
     }
 
     /// [`Hierarchy::new`] for a pilot ([`pilot`]) that will sample each unit of roots with

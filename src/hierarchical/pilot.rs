@@ -36,7 +36,7 @@
 
 use serde::Serialize;
 
-use crate::distributed::Exchange;
+use crate::distributed::{Exchange, Solo};
 use crate::mesh::Patches;
 use crate::sampling::Rng;
 use crate::scene::Environment;
@@ -214,15 +214,7 @@ pub fn pilot(
     seed: u64,
     sample: usize,
 ) -> Result<Pilot> {
-    pilot_on(
-        roots,
-        settings,
-        env,
-        solver,
-        seed,
-        sample,
-        super::ranks::SOLO,
-    )
+    pilot_on(roots, settings, env, solver, seed, sample, &Solo)
 }
 
 /// [`pilot`] as one rank of `comm`, shared among the ranks as [`super::solve_on`] shares a

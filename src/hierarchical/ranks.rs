@@ -31,7 +31,7 @@ use super::refine::{link_key, merge_into};
 use super::tree::{Node, Tree};
 use super::Hierarchy;
 use crate::color::Rgb;
-use crate::distributed::{Child, Exchange, Partition, Reader, Writer};
+use crate::distributed::{Child, Partition, Reader, Writer};
 
 impl Tree {
     /// The root patches split among `ranks` ranks along a depth-first walk of the clusters.
@@ -359,6 +359,3 @@ impl Hierarchy<'_> {
 
 /// A rebalance moves no link while every rank holds at most this many times the mean.
 const EVEN_ENOUGH: f64 = 1.05;
-
-/// The exchange a solve talks through when it is given none: one rank.
-pub(super) const SOLO: &dyn Exchange = &crate::distributed::Solo;
