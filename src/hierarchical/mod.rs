@@ -819,6 +819,11 @@ impl<'a> Hierarchy<'a> {
             self.stats.rays_cast += (owned * rule.len()) as u64;
         }
         let new = self.owners_values(from, new, |w, &m| w.u32(m as u32), |r| r.u32() as u16);
+        // Exactly the room needed, here and for `direct` (growth by doubling could leave as
+        // much again unused).
+        self.buried.reserve_exact(new.len());
+        self.visible.reserve_exact(new.len());
+        self.direct.reserve_exact(new.len());
         for mask in new {
             let visible = links::unburied_weights(mask).iter().sum();
             self.buried.push(mask);

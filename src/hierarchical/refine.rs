@@ -62,7 +62,21 @@ impl Hierarchy<'_> {
                 node.as_element().map(|e| (l.receiver, l.source, e))
             })
             .collect();
-        for e in self.splits_in_order(direct_splits, by_link) {
+        let splits = self.splits_in_order(direct_splits, by_link);
+        // Room for exactly the new elements: growth by doubling would leave up to as much
+        // again unused (at 10⁶ roots, a pass that splits a few thousand elements would
+        // reserve 160 MB more).
+        // (A list may name an element more than once: count each once.)
+        let mut unique = splits.clone();
+        unique.par_sort_unstable();
+        unique.dedup();
+        let count = unique
+            .iter()
+            .filter(|&&e| self.tree.elements[e].first_child == tree::NO_CHILD)
+            .count();
+        drop(unique);
+        self.tree.elements.reserve_exact(4 * count);
+        for e in splits {
             if self.tree.elements[e].first_child == tree::NO_CHILD {
                 self.tree.split(e);
             }
@@ -147,6 +161,9 @@ impl Hierarchy<'_> {
         self.set_links(kept);
         // New elements start at their parent's radiance (so the oracle sees light there).
         let n_old = self.elem_l.len();
+        let n_new = self.tree.elements.len() - n_old;
+        self.elem_l.reserve_exact(n_new);
+        self.elem_max.reserve_exact(n_new);
         for e in n_old..self.tree.elements.len() {
             let p = self.tree.elements[e].parent as usize;
             self.elem_l.push(self.elem_l[p]);
@@ -223,17 +240,14 @@ impl Hierarchy<'_> {
             }
             _ => None,
         };
-        let mut has = vec![0u64; self.links.len().div_ceil(64)];
-        let mut pairs = Vec::new();
-        for (i, l) in self.links.iter().enumerate() {
-            if let Some(pair) = deep(l) {
-                has[i / 64] |= 1 << (i % 64);
-                pairs.push(pair);
-            }
-        }
-        let shares = pairs
-            .par_iter()
-            .map(|&(r, s)| links::grandchild_shares(t, r, s))
+        let has: Vec<u64> = self
+            .links
+            .par_chunks(64)
+            .map(|chunk| {
+                chunk.iter().enumerate().fold(0u64, |word, (b, l)| {
+                    word | ((deep(l).is_some() as u64) << b)
+                })
+            })
             .collect();
         let mut before = Vec::with_capacity(has.len());
         let mut count = 0u32;
@@ -241,6 +255,27 @@ impl Hierarchy<'_> {
             before.push(count);
             count += word.count_ones();
         }
+        // Filled in place, a run of words at a time: a list of the (receiver, source) pairs
+        // beside the shares would add 16 bytes a link with shares to the solve's peak memory
+        // (at 10⁶ triangles, 130 MB).
+        const WORDS: usize = 1024;
+        let mut shares = vec![[0u8; 16]; count as usize];
+        let mut runs = Vec::with_capacity(has.len().div_ceil(WORDS));
+        let mut rest = shares.as_mut_slice();
+        for words in has.chunks(WORDS) {
+            let n: u32 = words.iter().map(|w| w.count_ones()).sum();
+            let (run, tail) = rest.split_at_mut(n as usize);
+            runs.push(run);
+            rest = tail;
+        }
+        runs.into_par_iter()
+            .zip(self.links.par_chunks(64 * WORDS))
+            .for_each(|(run, links)| {
+                let mut out = run.iter_mut();
+                for (r, s) in links.iter().filter_map(deep) {
+                    *out.next().unwrap() = links::grandchild_shares(t, r, s);
+                }
+            });
         self.grandchild_shares = GrandchildShares {
             has,
             before,
