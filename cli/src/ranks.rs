@@ -11,7 +11,7 @@ use mpi::environment::{Threading, Universe};
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use mpi::Count;
-use radiosity::distributed::Exchange;
+use radiosity::distributed::{Exchange, Parts};
 
 /// MPI, started: the world's ranks. Dropping it finalizes MPI.
 pub struct Mpi {
@@ -65,7 +65,7 @@ impl Exchange for Mpi {
         self.size
     }
 
-    fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+    fn all_gather(&self, mine: &[u8]) -> Parts {
         // MPI counts in `int`s: an exchange of 2 GiB or more in all is beyond one call.
         let too_large = || -> ! {
             panic!(
@@ -93,10 +93,12 @@ impl Exchange for Mpi {
             let mut partition = PartitionMut::new(recv, &counts[..], &displs[..]);
             self.world.all_gather_varcount_into(send, &mut partition);
         }
-        counts
+        buf.truncate(total as usize);
+        let ends = displs
             .iter()
-            .zip(&displs)
-            .map(|(&c, &d)| buf[d as usize..(d + c) as usize].to_vec())
-            .collect()
+            .zip(&counts)
+            .map(|(&d, &c)| (d + c) as usize)
+            .collect();
+        Parts::new(buf, ends)
     }
 }

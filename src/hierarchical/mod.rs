@@ -429,8 +429,11 @@ pub fn solve_on(
     // few-ray row sums fall far below 1 (a few in a thousand, under 0.5, in a large hall)
     // would, normalised, inflate that bound over whole clusters: many more links, for the
     // same surfaces' means. A closed scene's are found again: the near corrections change them.
+    // Neither the links nor their row sums change after this: the worst row is found with
+    // them.
+    let mut worst_row = None;
     if h.stats.closed_roots > 0 || h.cap_rows {
-        h.refresh_rows();
+        worst_row = h.refresh_rows();
     }
     let converged = if emitted == 0.0 {
         true
@@ -447,7 +450,7 @@ pub fn solve_on(
     // The links are done with: free them before the output is built, which would otherwise
     // set the peak memory of the largest bakes (10⁶ triangles: about 1 GB of links and
     // shares alive beside a mesh of 2·10⁶ vertices).
-    let worst_row = h.worst_row().map(|(e, sum)| {
+    let worst_row = worst_row.or_else(|| h.worst_row()).map(|(e, sum)| {
         let el = &h.tree.elements[e];
         WorstLeaf {
             sum,

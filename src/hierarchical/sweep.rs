@@ -106,18 +106,28 @@ impl Hierarchy<'_> {
         (ge, gc)
     }
 
-    /// Finds [`Hierarchy::row_sums`] for the current links.
-    pub(super) fn refresh_rows(&mut self) {
-        self.row_sum = self.row_sums();
+    /// Finds every element's effective row sum ([`Hierarchy::effective`]) for the current
+    /// links; returns [`Hierarchy::worst_row`]
+    /// of them, found from the same sums (a second gather of them would cost as much as a
+    /// sweep, and set the peak memory at the end of a large solve).
+    pub(super) fn refresh_rows(&mut self) -> Option<(usize, f64)> {
+        let down = self.pushed_row_sums();
+        let worst = self.worst_of(&down);
+        self.row_sum = self.effective(down);
         self.rows_stale = false;
+        worst
     }
 
-    /// Each element's effective row sum: Σ F over its own links and its ancestors'; 0 (not
-    /// normalised) for the elements of a root that is not closed, unless the rows are capped
-    /// ([`Hierarchy::cap_rows`]) and this one sums to more than 1.
-    pub(super) fn row_sums(&self) -> Vec<f64> {
+    /// Σ F over each element's own links and its ancestors' (the same in every channel).
+    fn pushed_row_sums(&self) -> Vec<Rgb> {
         let (ge, gc) = self.gather(false);
-        let down = self.push_down(ge, gc);
+        self.push_down(ge, gc)
+    }
+
+    /// Each element's effective row sum, from its sum `down`: 0 (not normalised) for the
+    /// elements of a root that is not closed, unless the rows are capped
+    /// ([`Hierarchy::cap_rows`]) and this one sums to more than 1.
+    fn effective(&self, down: Vec<Rgb>) -> Vec<f64> {
         down.iter()
             .zip(&self.tree.elements)
             .map(|(g, el)| {
@@ -131,14 +141,17 @@ impl Hierarchy<'_> {
     }
 
     /// The leaf whose effective row sum (Σ F over its own links and its ancestors', as in
-    /// [`Hierarchy::row_sums`] but before any normalisation, for every root) is the largest:
+    /// [`Hierarchy::effective`] but before any normalisation, for every root) is the largest:
     /// its element index and that sum (ties: the lowest index); `None` without links.
     pub(super) fn worst_row(&self) -> Option<(usize, f64)> {
+        self.worst_of(&self.pushed_row_sums())
+    }
+
+    /// [`Hierarchy::worst_row`] of the sums `down`.
+    fn worst_of(&self, down: &[Rgb]) -> Option<(usize, f64)> {
         if self.links.is_empty() {
             return None;
         }
-        let (ge, gc) = self.gather(false);
-        let down = self.push_down(ge, gc);
         self.tree
             .elements
             .iter()
