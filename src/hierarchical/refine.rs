@@ -62,21 +62,7 @@ impl Hierarchy<'_> {
                 node.as_element().map(|e| (l.receiver, l.source, e))
             })
             .collect();
-        let splits = self.splits_in_order(direct_splits, by_link);
-        // Room for exactly the new elements: growth by doubling would leave up to as much
-        // again unused (at 10⁶ roots, a pass that splits a few thousand elements would
-        // reserve 160 MB more).
-        // (A list may name an element more than once: count each once.)
-        let mut unique = splits.clone();
-        unique.par_sort_unstable();
-        unique.dedup();
-        let count = unique
-            .iter()
-            .filter(|&&e| self.tree.elements[e].first_child == tree::NO_CHILD)
-            .count();
-        drop(unique);
-        self.tree.elements.reserve_exact(4 * count);
-        for e in splits {
+        for e in self.splits_in_order(direct_splits, by_link) {
             if self.tree.elements[e].first_child == tree::NO_CHILD {
                 self.tree.split(e);
             }
