@@ -181,9 +181,9 @@ impl Exchange for Solo {
     }
 }
 
-/// A group of ranks in one process, one per thread ([`Threads::group`]): the collectives
-/// meet at a barrier. For tests and experiments: the solve run over N of these is the solve
-/// over N MPI ranks, without MPI.
+/// A group of ranks in one process, one per thread ([`Threads::group`], [`Threads::run`]):
+/// the collectives meet at a barrier. For tests and experiments: the solve run over N of
+/// these is the solve over N MPI ranks, without MPI.
 pub struct Threads {
     rank: usize,
     shared: Arc<Shared>,
@@ -210,6 +210,20 @@ impl Threads {
                 shared: shared.clone(),
             })
             .collect()
+    }
+
+    /// `f` run by every rank of a new group of `n`, each on its own thread: every rank's
+    /// result, in rank order. A rank's panic is raised again here.
+    pub fn run<T: Send>(n: usize, f: impl Fn(&Threads) -> T + Sync) -> Vec<T> {
+        let group = Threads::group(n);
+        std::thread::scope(|s| {
+            let f = &f;
+            let handles: Vec<_> = group.iter().map(|t| s.spawn(move || f(t))).collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        })
     }
 }
 
@@ -408,23 +422,14 @@ mod tests {
 
     #[test]
     fn a_thread_group_gathers_every_ranks_bytes_in_rank_order_every_time() {
-        let group = Threads::group(3);
-        let out: Vec<Parts> = std::thread::scope(|s| {
-            let handles: Vec<_> = group
-                .iter()
-                .map(|t| {
-                    s.spawn(move || {
-                        // Two collectives in a row: the second must not see the first's bytes.
-                        let _ = t.all_gather(&[t.rank() as u8; 2]);
-                        let e: &dyn Exchange = t;
-                        assert_eq!(e.sum_u64(t.rank() as u64 + 1), 6);
-                        assert!(e.any(t.rank() == 2));
-                        assert!(!e.any(false));
-                        t.all_gather(&vec![7; t.rank()])
-                    })
-                })
-                .collect();
-            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        let out = Threads::run(3, |t| {
+            // Two collectives in a row: the second must not see the first's bytes.
+            let _ = t.all_gather(&[t.rank() as u8; 2]);
+            let e: &dyn Exchange = t;
+            assert_eq!(e.sum_u64(t.rank() as u64 + 1), 6);
+            assert!(e.any(t.rank() == 2));
+            assert!(!e.any(false));
+            t.all_gather(&vec![7; t.rank()])
         });
         for o in out {
             assert_eq!(o.iter().collect::<Vec<_>>(), [&[][..], &[7], &[7, 7]]);
@@ -460,18 +465,9 @@ mod tests {
     #[test]
     fn a_shared_map_gives_every_rank_every_value_in_order() {
         for n in [0, 2, 10] {
-            let group = Threads::group(3);
-            let out: Vec<Vec<u64>> = std::thread::scope(|s| {
-                let handles: Vec<_> = group
-                    .iter()
-                    .map(|t| {
-                        s.spawn(move || {
-                            let e: &dyn Exchange = t;
-                            e.map_shared(n, |i| (i * i) as u64, |v, w| w.u64(*v), |r| r.u64())
-                        })
-                    })
-                    .collect();
-                handles.into_iter().map(|h| h.join().unwrap()).collect()
+            let out = Threads::run(3, |t| {
+                let e: &dyn Exchange = t;
+                e.map_shared(n, |i| (i * i) as u64, |v, w| w.u64(*v), |r| r.u64())
             });
             let expected: Vec<u64> = (0..n as u64).map(|i| i * i).collect();
             assert!(out.iter().all(|o| *o == expected), "{n} items: {out:?}");

@@ -945,19 +945,9 @@ fn a_pilot_counts_the_links_the_solve_makes() {
 /// [`solve_on`] over `n` ranks in one process ([`crate::distributed::Threads`]), every rank's
 /// result.
 fn solve_over_ranks(roots: &Patches, settings: &Settings, n: usize) -> Vec<Hierarchical> {
-    let group = crate::distributed::Threads::group(n);
     let solver = solve::Settings::default();
-    std::thread::scope(|s| {
-        let handles: Vec<_> = group
-            .iter()
-            .map(|comm| {
-                let solver = &solver;
-                s.spawn(move || {
-                    solve_on(roots, settings, &Default::default(), solver, 7, comm).unwrap()
-                })
-            })
-            .collect();
-        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    crate::distributed::Threads::run(n, |comm| {
+        solve_on(roots, settings, &Default::default(), &solver, 7, comm).unwrap()
     })
 }
 

@@ -13,16 +13,8 @@ use radiosity::validation::scenes;
 /// `scene` baked with `settings` over `n` thread ranks: every rank's outcome.
 fn over_ranks(scene: &Scene, settings: &pipeline::Settings, n: usize) -> Vec<Outcome> {
     let prepared = pipeline::prepare(scene, settings);
-    let group = Threads::group(n);
-    std::thread::scope(|s| {
-        let handles: Vec<_> = group
-            .iter()
-            .map(|comm| {
-                let prepared = &prepared;
-                s.spawn(move || pipeline::solve_prepared_on(prepared, settings, comm).unwrap())
-            })
-            .collect();
-        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    Threads::run(n, |comm| {
+        pipeline::solve_prepared_on(&prepared, settings, comm).unwrap()
     })
 }
 
