@@ -211,7 +211,7 @@ pub struct Stats {
     pub links_by_rank: Vec<u64>,
     /// Over several ranks: how many times the roots were cut among them again by their links
     /// (the rebalance of `hierarchical::ranks`).
-    #[serde(skip_serializing_if = "is_zero_u32")]
+    #[serde(skip_serializing_if = "is_zero")]
     pub rebalances: u32,
     /// Over several ranks: the bytes they sent one another in the sweeps' exchanges of
     /// gathers, all ranks and sweeps together (0 in one process).
@@ -219,20 +219,13 @@ pub struct Stats {
     pub sweep_exchange_bytes: u64,
     /// Over several ranks: the seconds the slowest rank spent in those exchanges, its wait
     /// for the others included.
-    #[serde(skip_serializing_if = "is_zero_f64")]
+    #[serde(skip_serializing_if = "is_zero")]
     pub sweep_exchange_seconds: f64,
 }
 
-fn is_zero(x: &u64) -> bool {
-    *x == 0
-}
-
-fn is_zero_u32(x: &u32) -> bool {
-    *x == 0
-}
-
-fn is_zero_f64(x: &f64) -> bool {
-    *x == 0.0
+/// True for a count or a figure that is 0 (left out of the serialized stats).
+fn is_zero<T: Default + PartialEq>(x: &T) -> bool {
+    *x == T::default()
 }
 
 /// The result of [`solve()`].
@@ -822,11 +815,6 @@ impl<'a> Hierarchy<'a> {
             self.stats.rays_cast += (owned * rule.len()) as u64;
         }
         let new = self.owners_values(from, new, |w, &m| w.u32(m as u32), |r| r.u32() as u16);
-        // Exactly the room needed, here and for `direct` (growth by doubling could leave as
-        // much again unused).
-        self.buried.reserve_exact(new.len());
-        self.visible.reserve_exact(new.len());
-        self.direct.reserve_exact(new.len());
         for mask in new {
             let visible = links::unburied_weights(mask).iter().sum();
             self.buried.push(mask);

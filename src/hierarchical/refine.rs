@@ -147,9 +147,6 @@ impl Hierarchy<'_> {
         self.set_links(kept);
         // New elements start at their parent's radiance (so the oracle sees light there).
         let n_old = self.elem_l.len();
-        let n_new = self.tree.elements.len() - n_old;
-        self.elem_l.reserve_exact(n_new);
-        self.elem_max.reserve_exact(n_new);
         for e in n_old..self.tree.elements.len() {
             let p = self.tree.elements[e].parent as usize;
             self.elem_l.push(self.elem_l[p]);

@@ -107,12 +107,13 @@ impl Hierarchy<'_> {
     }
 
     /// Finds every element's effective row sum ([`Hierarchy::effective`]) for the current
-    /// links; returns [`Hierarchy::worst_row`]
-    /// of them, found from the same sums (a second gather of them would cost as much as a
-    /// sweep, and set the peak memory at the end of a large solve).
+    /// links; returns [`Hierarchy::worst_row`], found from the same sums (a second gather of
+    /// them would cost as much as a sweep, and set the peak memory at the end of a large
+    /// solve).
     pub(super) fn refresh_rows(&mut self) -> Option<(usize, f64)> {
+        let any = self.link_count() > 0;
         let down = self.pushed_row_sums();
-        let worst = self.worst_of(&down);
+        let worst = if any { self.worst_of(&down) } else { None };
         self.row_sum = self.effective(down);
         self.rows_stale = false;
         worst
@@ -142,16 +143,17 @@ impl Hierarchy<'_> {
 
     /// The leaf whose effective row sum (Σ F over its own links and its ancestors', as in
     /// [`Hierarchy::effective`] but before any normalisation, for every root) is the largest:
-    /// its element index and that sum (ties: the lowest index); `None` without links.
+    /// its element index and that sum (ties: the lowest index); `None` without links (on any
+    /// rank: every rank returns the same).
     pub(super) fn worst_row(&self) -> Option<(usize, f64)> {
+        if self.link_count() == 0 {
+            return None;
+        }
         self.worst_of(&self.pushed_row_sums())
     }
 
-    /// [`Hierarchy::worst_row`] of the sums `down`.
+    /// [`Hierarchy::worst_row`] of the sums `down` (`None` only without leaves).
     fn worst_of(&self, down: &[Rgb]) -> Option<(usize, f64)> {
-        if self.links.is_empty() {
-            return None;
-        }
         self.tree
             .elements
             .iter()

@@ -1,7 +1,8 @@
 //! The library's layering, read from its own source: which top-level module of `src/` names
 //! which (`crate::x` in code, not in comments or tests). The modules must form no cycle, and
 //! the ground floor (the shared maths and vocabulary: `geometry`, `sampling`, `color`,
-//! `error`, `choice`, `progress`, `distributed`) names no stage. ARCHITECTURE.md draws the same floors.
+//! `error`, `choice`, `progress`, `distributed`) names no stage. ARCHITECTURE.md draws the
+//! same floors.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
