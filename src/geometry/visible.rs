@@ -30,18 +30,27 @@ use super::kernel::point_to_convex_polygon;
 /// Triangles in the pyramid (casting a shadow on the emitter), at most; with more (a point
 /// under a crowded scene), [`visible_form_factor`] gives up and the caller samples visibility
 /// by rays.
-pub const MAX_OCCLUDERS: usize = 64;
+///
+/// The three bounds ([`MAX_OCCLUDERS`], [`MAX_CANDIDATES`], [`MAX_PIECES`]) set where the
+/// exact pieces stop paying. A point that gives up has spent its clipping for nothing and
+/// then casts its rays all the same, so a bound set high costs most where the answer is rays
+/// anyway. In a furnished office (chairs, plants, shelves: `generate office`), about a third
+/// of the calls gave up at twice these bounds, having done three fifths of all the clipping;
+/// at these, its gather takes a fifth less time and its displayed error is the same over three
+/// seeds. Rooms whose views are less crowded (the Cornell box, the living room, the study,
+/// the kitchen, the hall of many lights) show the same picture either way
+/// (BENCHMARKS.md, "Large outputs: the `cache` gather").
+pub const MAX_OCCLUDERS: usize = 32;
 
 /// Triangles overlapping the pyramid's box that are clipped to it, at most (most of them miss
-/// it: the box of a slanted pyramid is far larger); beyond, [`visible_form_factor`] gives up,
-/// so a point's cost stays within a few times its hemisphere rays' in a dense scene. A point's
-/// box holds tens of triangles on average in the benchmark scenes; at this bound almost no
-/// point of the generated hall gives up, at half of it a good share would.
-pub const MAX_CANDIDATES: usize = 512;
+/// it: the box of a slanted pyramid is far larger); beyond, [`visible_form_factor`] gives up
+/// (see [`MAX_OCCLUDERS`]).
+pub const MAX_CANDIDATES: usize = 256;
 
 /// Convex pieces the visible part of an emitter may be cut into, at most, before
-/// [`visible_form_factor`] gives up (the shadows of many small occluders).
-pub const MAX_PIECES: usize = 48;
+/// [`visible_form_factor`] gives up (the shadows of many small occluders; see
+/// [`MAX_OCCLUDERS`]).
+pub const MAX_PIECES: usize = 24;
 
 /// Pieces smaller than this fraction of the emitter's area are dropped: slivers left by the
 /// rounding of shadows that share an edge (two triangles of one occluder's face).
