@@ -321,11 +321,17 @@ impl OrientedRadiance {
     /// The radiance leaving toward unit direction `d`. Where no face turns that way by the
     /// bins, the faces along an axis `d` does not move on (|d_a| ≤ [`GRAZING`], either sign)
     /// meet `d` at grazing angles: the bins round their cosines to 0, but a link's form factor,
-    /// from true cosines at sampled points, counts them, so they send their own radiance. With
-    /// none of those either, nothing faces `d`: 0, not the cluster's mean, which would send the
-    /// light of faces turned away (a box whose top alone emits would light the floor under
-    /// it through the faces of its sides).
-    pub(super) fn toward(&self, d: DVec3) -> Rgb {
+    /// from true cosines at sampled points, counts them, so they send their own radiance.
+    /// With none of those either, every face is turned away from `d` (the direction between
+    /// the two ends' centres), yet a link's form factor may count faces that part of its
+    /// receiver sees, off that centre: they send the radiance of the faces nearest to facing
+    /// `d`, the bin whose direction has the largest component along `d` (ties to the lower
+    /// bin). Not 0, which would lose their light (in the closed furnace hall, the faces
+    /// gathering through such links read up to a few per cent low, where every face must show
+    /// Le/(1 − ρ)), and not the cluster's mean, which would send the light of faces turned
+    /// further away (a box whose top alone emits would light the floor under it through the
+    /// faces of its sides). `None` for a cluster without faces.
+    pub(super) fn toward(&self, d: DVec3) -> Option<Rgb> {
         let (mut w, mut s) = (0.0, [0.0; 3]);
         for a in 0..3 {
             let bin = axis_bin(d, a);
@@ -341,11 +347,15 @@ impl OrientedRadiance {
                 }
             }
         }
-        if w > 1e-300 {
-            s.map(|x| x / w)
-        } else {
-            [0.0; 3]
+        if w <= 1e-300 {
+            // The faces nearest to facing d: bin b < 3 is +b, b ≥ 3 is −(b − 3).
+            let along = |b: usize| if b < 3 { d[b] } else { -d[b - 3] };
+            let nearest = (0..6)
+                .filter(|&b| self.weight[b] > 1e-300)
+                .max_by(|&x, &y| along(x).total_cmp(&along(y)).then(y.cmp(&x)))?;
+            return Some(self.sum[nearest].map(|x| x / self.weight[nearest]));
         }
+        Some(s.map(|x| x / w))
     }
 }
 
