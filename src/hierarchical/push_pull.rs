@@ -330,8 +330,8 @@ impl OrientedRadiance {
     /// gathering through such links read up to a few per cent low, where every face must show
     /// Le/(1 − ρ)), and not the cluster's mean, which would send the light of faces turned
     /// further away (a box whose top alone emits would light the floor under it through the
-    /// faces of its sides). `None` for a cluster without faces.
-    pub(super) fn toward(&self, d: DVec3) -> Option<Rgb> {
+    /// faces of its sides). 0 from a cluster without seen faces.
+    pub(super) fn toward(&self, d: DVec3) -> Rgb {
         let (mut w, mut s) = (0.0, [0.0; 3]);
         for a in 0..3 {
             let bin = axis_bin(d, a);
@@ -352,10 +352,10 @@ impl OrientedRadiance {
             let along = |b: usize| if b < 3 { d[b] } else { -d[b - 3] };
             let nearest = (0..6)
                 .filter(|&b| self.weight[b] > 1e-300)
-                .max_by(|&x, &y| along(x).total_cmp(&along(y)).then(y.cmp(&x)))?;
-            return Some(self.sum[nearest].map(|x| x / self.weight[nearest]));
+                .max_by(|&x, &y| along(x).total_cmp(&along(y)).then(y.cmp(&x)));
+            return nearest.map_or([0.0; 3], |b| self.sum[b].map(|x| x / self.weight[b]));
         }
-        Some(s.map(|x| x / w))
+        s.map(|x| x / w)
     }
 }
 

@@ -211,16 +211,13 @@ impl Hierarchy<'_> {
             }
         }
         // A cluster whose faces look different ways: the faces turned toward the receiver
-        // ([`OrientedRadiance::toward`](super::push_pull::OrientedRadiance::toward)).
+        // (or, where none is, those nearest to it: `OrientedRadiance::toward`).
         if let Some(c) = l.source.as_cluster() {
             let cl = &self.tree.clusters[c];
             if cl.cone_cos < ORIENTED_CONE_COS {
                 let d = self.tree.sphere(l.receiver).0 - cl.centre;
-                if let Some(l) = d
-                    .try_normalize()
-                    .and_then(|d| self.cluster_oriented[c].toward(d))
-                {
-                    return l;
+                if let Some(d) = d.try_normalize() {
+                    return self.cluster_oriented[c].toward(d);
                 }
             }
         }
