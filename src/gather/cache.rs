@@ -28,10 +28,10 @@
 //! the furnace it shows a bias of +0.2 % where the boxes hide parts of the walls.)
 
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::DVec3;
 use rayon::prelude::*;
+use rustc_hash::FxBuildHasher;
 use serde::Serialize;
 
 use super::indirect::Count;
@@ -167,7 +167,7 @@ fn serving(index: &Index, records: &[Record], x: DVec3, n: DVec3, mut f: impl Fn
 /// sphere that contains a point lies in one of the 27 cells around it at the sphere's level.
 pub(super) struct Index {
     top: f64,
-    levels: Vec<HashMap<[i64; 3], Vec<u32>, BuildHasherDefault<CellHasher>>>,
+    levels: Vec<HashMap<[i64; 3], Vec<u32>, FxBuildHasher>>,
 }
 
 impl Index {
@@ -211,37 +211,6 @@ impl Index {
                 }
             }
         }
-    }
-}
-
-/// FxHash's multiply-rotate over the cell's three coordinates: the grid's keys are small
-/// integers, and SipHash would cost more than the lookups it serves.
-#[derive(Default)]
-struct CellHasher(u64);
-
-impl Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    /// Eight bytes a step: the standard library hashes a slice of integers (the key's
-    /// `[i64; 3]`) as its bytes, and a step per byte made the hash cost more than the lookup.
-    fn write(&mut self, bytes: &[u8]) {
-        let mut chunks = bytes.chunks_exact(8);
-        for c in &mut chunks {
-            self.write_u64(u64::from_le_bytes(c.try_into().expect("8 bytes")));
-        }
-        for &b in chunks.remainder() {
-            self.write_u64(u64::from(b));
-        }
-    }
-    fn write_i64(&mut self, i: i64) {
-        self.write_u64(i as u64);
-    }
-    fn write_u64(&mut self, i: u64) {
-        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x517c_c1b7_2722_0a95);
-    }
-    fn write_usize(&mut self, i: usize) {
-        self.write_u64(i as u64);
     }
 }
 
@@ -321,8 +290,7 @@ impl Gatherer<'_> {
                 unserved.clone()
             } else {
                 let size = top / (1u64 << level) as f64;
-                let mut first: HashMap<([i64; 3], u8), usize, BuildHasherDefault<CellHasher>> =
-                    HashMap::default();
+                let mut first: HashMap<([i64; 3], u8), usize, FxBuildHasher> = HashMap::default();
                 for &v in &unserved {
                     let s = spot(v);
                     let cell = (s.x / size).floor().as_i64vec3().to_array();
@@ -438,29 +406,28 @@ impl Gatherer<'_> {
 
 #[cfg(test)]
 mod tests {
-    use std::hash::{BuildHasher, BuildHasherDefault};
+    use std::hash::BuildHasher;
 
-    use super::CellHasher;
+    use rustc_hash::FxBuildHasher;
 
-    /// The grid's keys hash whole: every cell of a block around the origin (negative
+    /// The grid's keys hash apart: every cell of a block around the origin (negative
     /// coordinates too) and each of the six normal buckets gets its own hash, and a key is
-    /// not its permutation's.
+    /// not its permutation's (SipHash would cost more than the lookups it serves; a hash
+    /// this cheap must still tell the keys apart).
     #[test]
     fn cell_keys_hash_apart() {
-        let build = BuildHasherDefault::<CellHasher>::default();
         let mut seen = std::collections::HashSet::new();
         for i in -6..6i64 {
             for j in -6..6i64 {
                 for k in -6..6i64 {
                     for b in 0..6u8 {
-                        assert!(
-                            seen.insert(build.hash_one(([i, j, k], b))),
-                            "{i} {j} {k} {b}"
-                        );
+                        let h = FxBuildHasher.hash_one(([i, j, k], b));
+                        assert!(seen.insert(h), "{i} {j} {k} {b}");
                     }
                 }
             }
         }
-        assert_ne!(build.hash_one([1i64, 2, 3]), build.hash_one([3i64, 2, 1]));
+        let h = |c: [i64; 3]| FxBuildHasher.hash_one(c);
+        assert_ne!(h([1, 2, 3]), h([3, 2, 1]));
     }
 }
