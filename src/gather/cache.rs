@@ -167,6 +167,8 @@ fn serving(index: &Index, records: &[Record], x: DVec3, n: DVec3, mut f: impl Fn
 /// sphere that contains a point lies in one of the 27 cells around it at the sphere's level.
 pub(super) struct Index {
     top: f64,
+    /// Cell → the spheres in it, one map per level. Hashed by FxHash: the keys are small
+    /// integers, and SipHash would cost more than the 27 lookups a point makes per level.
     levels: Vec<HashMap<[i64; 3], Vec<u32>, FxBuildHasher>>,
 }
 
@@ -410,10 +412,9 @@ mod tests {
 
     use rustc_hash::FxBuildHasher;
 
-    /// The grid's keys hash apart: every cell of a block around the origin (negative
-    /// coordinates too) and each of the six normal buckets gets its own hash, and a key is
-    /// not its permutation's (SipHash would cost more than the lookups it serves; a hash
-    /// this cheap must still tell the keys apart).
+    /// The grid's cheap hash still tells its keys apart: every cell of a block around the
+    /// origin (negative coordinates too) and each of the six normal buckets gets its own
+    /// hash, and a key is not its permutation's.
     #[test]
     fn cell_keys_hash_apart() {
         let mut seen = std::collections::HashSet::new();
