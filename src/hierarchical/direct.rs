@@ -34,20 +34,38 @@ use glam::DVec3;
 use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
-use crate::light::emitter::{ELEMENT_FEW_SHADOW_RAYS, ELEMENT_SHADOW_RAYS};
+use crate::light::emitter::{
+    ELEMENT_FEW_SHADOW_RAYS, ELEMENT_MANY_SHADOW_RAYS, ELEMENT_SHADOW_RAYS,
+};
 use crate::light::{Emitter, Receiver, Share, SKY_RAYS};
 use crate::mesh::Patches;
 use crate::sampling::Rng;
 use crate::scene::Environment;
 use crate::visibility::Visibility;
 
-/// The elements compute the direct light of every emitter when the emitters (the scene's
-/// emitting triangles, [`merged`]) × max(roots, [`DIRECT_ROOTS_FLOOR`]) is at most this;
-/// otherwise the links carry all emission (a scene with many lights: every element would trace
-/// rays to every light). The Cornell box (2 emitting triangles, at any `--max-edge` up to 10⁶
-/// roots), the integrating sphere (88 emitters of 1,280 roots) and the generated hall at 10⁴
-/// triangles (82 of 10,786) qualify; the hall at 4·10⁴ triangles (328) and more does not.
+/// The elements compute the direct light of every emitter with the full shadow rays
+/// ([`ELEMENT_SHADOW_RAYS`], [`ELEMENT_FEW_SHADOW_RAYS`]) when the emitters (the scene's
+/// emitting triangles, [`merged`]) × max(roots, [`DIRECT_ROOTS_FLOOR`]) is at most this. The
+/// Cornell box (2 emitting triangles, at any `--max-edge` up to 10⁶ roots), the integrating
+/// sphere (88 emitters of 1,280 roots) and the generated hall at 10⁴ triangles (82 of
+/// 10,786) qualify. Past it, [`DIRECT_BUDGET_MANY`].
 pub const DIRECT_BUDGET: usize = 2_000_000;
+
+/// Past [`DIRECT_BUDGET`], the elements still compute every emitter's direct light, with
+/// [`ELEMENT_MANY_SHADOW_RAYS`] per rule point and emitter, while the emitters × max(roots,
+/// [`DIRECT_ROOTS_FLOOR`]) is at most this: the same bound on shadow rays as within
+/// [`DIRECT_BUDGET`] at [`ELEMENT_SHADOW_RAYS`] each. Otherwise the links carry all emission
+/// (a scene with many lights: every element would trace rays to every light). A furnished
+/// interior of 10⁵ triangles under a dozen ceiling panels (40 emitting triangles, 4·10⁶)
+/// qualifies; the generated hall at 4·10⁴ triangles (328 emitters) and more, and LibreQuake's
+/// levels of hundreds of emitting faces, do not.
+///
+/// Why it pays: carried by links, the panels' light is smeared over each link's receiver,
+/// and the floor under a desk reads as lit as the floor beside it; the second bounce then
+/// brightens the desk's underside and the floor under it again (the gather reads these
+/// patches). Computed at the elements, the desk's shadow is in the solution.
+pub const DIRECT_BUDGET_MANY: usize =
+    DIRECT_BUDGET * ELEMENT_SHADOW_RAYS / ELEMENT_MANY_SHADOW_RAYS;
 
 /// See [`DIRECT_BUDGET`]: a scene of few roots still refines into many elements.
 pub const DIRECT_ROOTS_FLOOR: usize = 10_000;
@@ -74,6 +92,9 @@ pub struct RootEmitter {
     /// The scene triangle as an emitter (one root patch's triangle where the patches could
     /// not be told to tile one triangle exactly, [`merged`]).
     pub emitter: Emitter,
+    /// Shadow rays per rule point of an element, at most: [`ELEMENT_SHADOW_RAYS`], or
+    /// [`ELEMENT_MANY_SHADOW_RAYS`] in a scene of many emitters ([`chosen`]).
+    pub most_rays: usize,
 }
 
 impl RootEmitter {
@@ -82,6 +103,7 @@ impl RootEmitter {
         RootEmitter {
             roots: vec![r as u32],
             emitter: Emitter::new(roots.corners(r), roots.normal[r], roots.sent_emission(r)),
+            most_rays: ELEMENT_SHADOW_RAYS,
         }
     }
 }
@@ -109,6 +131,7 @@ pub fn merged(roots: &Patches, emitting: &[usize]) -> Vec<RootEmitter> {
                 out.push(RootEmitter {
                     roots: group.iter().map(|&r| r as u32).collect(),
                     emitter: Emitter::new(corners, roots.normal[r], roots.sent_emission(r)),
+                    most_rays: ELEMENT_SHADOW_RAYS,
                 });
             }
             None => out.extend(group.iter().map(|&r| RootEmitter::of(roots, r))),
@@ -163,18 +186,22 @@ fn tiled_triangle(roots: &Patches, group: &[usize]) -> Option<[DVec3; 3]> {
 }
 
 /// The emitting roots whose direct light the elements compute ([`DIRECT_BUDGET`],
-/// [`MAX_EMITTING_AREA`]): all of them, or none; as the scene's emitting triangles
-/// ([`merged`]).
+/// [`DIRECT_BUDGET_MANY`], [`MAX_EMITTING_AREA`]): all of them, or none; as the scene's
+/// emitting triangles ([`merged`]), each with the shadow rays it gets.
 pub fn chosen(roots: &Patches) -> Vec<RootEmitter> {
     let emitting: Vec<usize> = (0..roots.len())
         .filter(|&r| roots.emission[r].iter().any(|&x| x > 0.0) && roots.area[r] > 0.0)
         .collect();
     let emitting_area: f64 = emitting.iter().map(|&r| roots.area[r]).sum();
-    let emitters = merged(roots, &emitting);
-    if emitters.len() * roots.len().max(DIRECT_ROOTS_FLOOR) > DIRECT_BUDGET
-        || emitting_area > MAX_EMITTING_AREA * roots.total_area()
-    {
+    let mut emitters = merged(roots, &emitting);
+    let cost = emitters.len() * roots.len().max(DIRECT_ROOTS_FLOOR);
+    if cost > DIRECT_BUDGET_MANY || emitting_area > MAX_EMITTING_AREA * roots.total_area() {
         return Vec::new();
+    }
+    if cost > DIRECT_BUDGET {
+        for e in &mut emitters {
+            e.most_rays = ELEMENT_MANY_SHADOW_RAYS;
+        }
     }
     emitters
 }
@@ -250,7 +277,7 @@ pub fn element_direct(
             };
             let v = if shadows {
                 let mut share = Share::default();
-                let rays = em.element_shadow_rays(x, n);
+                let rays = em.element_shadow_rays(x, n).min(e_root.most_rays);
                 // The segment meets the emitter's plane only at its end, where no triangle
                 // blocks ([`Visibility::occluded`]): the emitter's own patches need no ignoring.
                 let ignore = [root, crate::visibility::NONE];

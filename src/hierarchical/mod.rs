@@ -205,6 +205,9 @@ pub struct Stats {
     /// ([`direct`]: the scene's emitting triangles, [`direct::merged`]); 0 when links carry
     /// all emission.
     pub direct_emitters: usize,
+    /// Shadow rays per rule point and emitter of that direct light, at most
+    /// ([`direct::DIRECT_BUDGET_MANY`]); 0 when links carry all emission.
+    pub direct_shadow_rays: usize,
     /// Over several ranks ([`crate::distributed`]): the links each rank held at the end, by
     /// rank (empty in one process).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -689,6 +692,7 @@ impl<'a> Hierarchy<'a> {
             h.exact[*r as usize] = true;
         }
         h.stats.direct_emitters = h.emitters.len();
+        h.stats.direct_shadow_rays = h.emitters.iter().map(|e| e.most_rays).max().unwrap_or(0);
         h.update_new_elements();
         h.epsilon = settings.epsilon * h.emitted_power();
         h.stats.epsilon_absolute = h.epsilon;

@@ -1006,3 +1006,136 @@ fn a_solve_over_several_ranks_is_the_one_process_solve_to_the_bit() {
         assert!(rebalanced || what == "furnace", "{what}: no rebalance");
     }
 }
+
+/// A square light 1 above a floor, cut into `n` × `n` quads of its own (2n² scene triangles,
+/// each an emitter: [`direct::merged`]), the floor 40 × 40 so that the light is a small share
+/// of the area ([`direct::MAX_EMITTING_AREA`]).
+fn a_floor_under_a_light_of_many_triangles(n: usize) -> Patches {
+    let mut b = SceneBuilder::new();
+    let light = b.material("light", [0.0; 3], [1.0; 3]);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    let side = 1.0 / n as f64;
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (-0.5 + i as f64 * side, -0.5 + j as f64 * side);
+            b.quad(
+                [
+                    DVec3::new(x, y, 1.0),
+                    DVec3::new(x, y + side, 1.0),
+                    DVec3::new(x + side, y + side, 1.0),
+                    DVec3::new(x + side, y, 1.0),
+                ],
+                light,
+            );
+        }
+    }
+    b.quad(
+        [
+            DVec3::new(-20.0, -20.0, 0.0),
+            DVec3::new(20.0, -20.0, 0.0),
+            DVec3::new(20.0, 20.0, 0.0),
+            DVec3::new(-20.0, 20.0, 0.0),
+        ],
+        grey,
+    );
+    mesh::subdivide(&b.build().unwrap(), 100.0, 30.0).unwrap()
+}
+
+/// Which emitters' direct light the elements compute, and with how many shadow rays
+/// ([`direct::chosen`]), follows the emitters × max(roots, [`direct::DIRECT_ROOTS_FLOOR`]):
+/// under [`direct::DIRECT_BUDGET`] (50 emitters × the floor of 10⁴ roots) the full rays;
+/// past it up to [`direct::DIRECT_BUDGET_MANY`] (450 emitters) [`ELEMENT_MANY_SHADOW_RAYS`];
+/// past that (1,250) none, the links carrying all emission.
+#[test]
+fn many_emitters_get_fewer_shadow_rays_then_none() {
+    use crate::light::emitter::{ELEMENT_MANY_SHADOW_RAYS, ELEMENT_SHADOW_RAYS};
+    for (n, want) in [
+        (5, Some(ELEMENT_SHADOW_RAYS)),
+        (15, Some(ELEMENT_MANY_SHADOW_RAYS)),
+        (25, None),
+    ] {
+        let roots = a_floor_under_a_light_of_many_triangles(n);
+        assert!(roots.len() < direct::DIRECT_ROOTS_FLOOR);
+        let chosen = direct::chosen(&roots);
+        match want {
+            Some(rays) => {
+                assert_eq!(chosen.len(), 2 * n * n, "{n} × {n}: one emitter a triangle");
+                assert!(chosen.iter().all(|e| e.most_rays == rays), "{n} × {n}");
+            }
+            None => assert!(chosen.is_empty(), "{n} × {n}: the links carry it"),
+        }
+    }
+}
+
+/// With [`ELEMENT_MANY_SHADOW_RAYS`] a point's direct light is noisy but unbiased: under a
+/// square light (side 1, height 1) whose left half an opaque square at height 0.5 hides, the
+/// tiny triangle's mean over 200 seeds is Le times two Howell B-3 corners (the right half's
+/// form factor). Each estimate is 14 rays' ratio estimate (2 at each of 7 rule points,
+/// stratified over each of the light's two triangles), of a visible share 1/2: its standard
+/// deviation is at most √(0.25/14) ≈ 0.13 of the mean, 0.01 over 200 seeds, so the 3 %
+/// tolerance is three of those; the estimates themselves must vary (they are not exact).
+#[test]
+fn few_shadow_rays_keep_an_elements_direct_light_unbiased() {
+    use crate::light::emitter::ELEMENT_MANY_SHADOW_RAYS;
+    let mut b = SceneBuilder::new();
+    let light = b.material("light", [0.0; 3], [1.0; 3]);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    let z = |x0: f64, x1: f64, y0: f64, y1: f64, z: f64| {
+        [
+            DVec3::new(x0, y0, z),
+            DVec3::new(x0, y1, z),
+            DVec3::new(x1, y1, z),
+            DVec3::new(x1, y0, z),
+        ]
+    };
+    b.quad(z(-0.5, 0.5, -0.5, 0.5, 1.0), light); // faces down
+    b.quad(z(-0.25, 0.0, -0.25, 0.25, 0.5), grey); // the blocker: the light's left half
+    let s = 1e-4;
+    let v = [
+        DVec3::new(-s, -s, 0.0),
+        DVec3::new(s, -s, 0.0),
+        DVec3::new(0.0, s, 0.0),
+    ]
+    .map(|p| b.vertex(p));
+    b.triangle(v, grey);
+    let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
+    let emitters: Vec<direct::RootEmitter> = (0..roots.len())
+        .filter(|&r| roots.emission[r][0] > 0.0)
+        .map(|r| direct::RootEmitter {
+            most_rays: ELEMENT_MANY_SHADOW_RAYS,
+            ..direct::RootEmitter::of(&roots, r)
+        })
+        .collect();
+    let tree = Tree::new(&roots);
+    let receiver = (0..roots.len())
+        .find(|&r| roots.area[r] < 1e-6)
+        .expect("the tiny triangle is a root");
+    let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
+    let vis = Visibility::build(&corners);
+    let dark = crate::scene::Environment::default();
+    let outside = direct::Outside {
+        env: &dark,
+        vis: &vis,
+        lift: 0.0,
+    };
+    let estimates: Vec<f64> = (0..200)
+        .map(|seed| {
+            let d =
+                direct::element_direct(&tree, &vis, true, &emitters, outside, receiver, 0, seed);
+            d.mean[0]
+        })
+        .collect();
+    let mean = estimates.iter().sum::<f64>() / estimates.len() as f64;
+    let want =
+        2.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
+    assert!(
+        (mean / want - 1.0).abs() < 0.03,
+        "mean {mean} against {want}"
+    );
+    let (lo, hi) = estimates
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        });
+    assert!(hi > lo, "the estimates do not vary: {lo}");
+}

@@ -63,6 +63,14 @@ pub const ELEMENT_SHADOW_RAYS: usize = 10;
 /// saw ([`Emitter::element_shadow_rays`]).
 pub const ELEMENT_FEW_SHADOW_RAYS: usize = 4;
 
+/// Shadow rays per rule point of a hierarchical element and emitter, at most, in a scene of
+/// many emitters ([`crate::hierarchical::direct::DIRECT_BUDGET_MANY`]). Stratified over the
+/// emitter, the visible share's ratio estimate is unbiased at any count; with two rays a
+/// point's light is noisy only in a penumbra, and an element averages its rule points. On the
+/// generated office of 10⁵ triangles two rays display as little error as four or ten
+/// (BENCHMARKS.md "Large outputs: the `cache` gather") for a quarter of their rays.
+pub const ELEMENT_MANY_SHADOW_RAYS: usize = 2;
+
 /// See [`ELEMENT_FEW_SHADOW_RAYS`].
 pub const EVEN_KERNEL: f64 = 1.25;
 
