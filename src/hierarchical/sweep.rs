@@ -7,7 +7,7 @@
 
 use rayon::prelude::*;
 
-use super::links::Link;
+use super::links::{self, Link};
 use super::push_pull::{add, ClusterGather};
 use super::tree::{self, Node};
 use super::{Hierarchy, ORIENTED_CONE_COS};
@@ -173,11 +173,15 @@ impl Hierarchy<'_> {
     ///
     /// Once the links are final, the same two levels down: each split child's four children
     /// weighted by the link's shares through each
-    /// ([`links::grandchild_shares`](super::links::grandchild_shares)). A dim face next to a bright
+    /// ([`links::grandchild_shares`]). A dim face next to a bright
     /// floor sees the part of the floor beside it best, which is where the floor's radiance changes
     /// most (its shadow, its corner with the face). On the Cornell box the worst surface is such a
     /// face: the second level takes out most of what the first leaves, and weighting the source's
     /// leaves however deep adds little more.
+    ///
+    /// A cluster source: its parts two levels down ([`Tree::parts`](super::tree::Tree::parts)),
+    /// each sending toward the receiver as a cluster or face does, weighted by the link's form
+    /// factors to each (`links::part_form_factors`).
     pub fn link_radiance(&self, i: usize, l: &Link) -> Rgb {
         if let Some(e) = l.source.as_element() {
             let first = self.tree.elements[e].first_child as usize;
@@ -210,18 +214,35 @@ impl Hierarchy<'_> {
                 }
             }
         }
-        // A cluster whose faces look different ways: the faces turned toward the receiver
-        // (or, where none is, those nearest to it: `OrientedRadiance::toward`).
-        if let Some(c) = l.source.as_cluster() {
+        if let Some(c) = l.source.as_cluster().filter(|_| l.children != [0; 4]) {
+            let (mut sum, mut total) = ([0.0; 3], 0.0);
+            for (k, part) in self.tree.parts(c).enumerate() {
+                let share = links::part_share(l.children, k);
+                if share > 0 {
+                    let w = share as f64;
+                    total += w;
+                    sum = add(sum, self.radiance_toward(part, l.receiver).map(|x| w * x));
+                }
+            }
+            return sum.map(|x| x / total);
+        }
+        self.radiance_toward(l.source, l.receiver)
+    }
+
+    /// The radiance `source` sends toward `receiver`, W·sr⁻¹·m⁻²: a cluster whose faces look
+    /// different ways sends that of the faces turned toward the receiver (or, where none is,
+    /// those nearest to it: `OrientedRadiance::toward`); any other node its mean.
+    fn radiance_toward(&self, source: Node, receiver: Node) -> Rgb {
+        if let Some(c) = source.as_cluster() {
             let cl = &self.tree.clusters[c];
             if cl.cone_cos < ORIENTED_CONE_COS {
-                let d = self.tree.sphere(l.receiver).0 - cl.centre;
+                let d = self.tree.sphere(receiver).0 - cl.centre;
                 if let Some(d) = d.try_normalize() {
                     return self.cluster_oriented[c].toward(d);
                 }
             }
         }
-        self.radiance(l.source)
+        self.radiance(source)
     }
 
     /// Σ w·v·L / Σ w·v over (element, share w) parts, v each element's visible fraction;

@@ -1139,3 +1139,129 @@ fn few_shadow_rays_keep_an_elements_direct_light_unbiased() {
         });
     assert!(hi > lo, "the estimates do not vary: {lo}");
 }
+
+/// A cluster source's parts are weighed by their form factors from the receiver
+/// ([`links::part_form_factors`]): for a small receiver 0.6 above one end of a 4 × 2 floor cut
+/// into 0.5 m squares and facing it, every cluster of floor patches, each part's share of
+/// the weights against its exact share (the contour integral over each of its patches,
+/// nothing in between), over the clusters a link could read (the receiver outside their
+/// bounding sphere). Each part is taken as a point at its centre: for a part of radius r at
+/// distance d the kernel's mean over it differs from its centre value by a term of order
+/// (r/d)² (the Taylor expansion's second order; the first integrates to nothing about the
+/// centre), and a share is a ratio of two such sums, so each share is checked to twice the
+/// cluster's largest (r/d)² relative, plus 1 %. The shares must also vary, the nearest
+/// part's by more than twice the farthest's, or the test would not tell the weights from
+/// the area-weighted mean they replace.
+#[test]
+fn cluster_parts_are_weighed_by_their_form_factors() {
+    let mut b = SceneBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    for i in 0..8 {
+        for j in 0..4 {
+            let (x, y) = (0.5 * i as f64, 0.5 * j as f64);
+            b.quad(
+                [
+                    DVec3::new(x, y, 0.0),
+                    DVec3::new(x + 0.5, y, 0.0),
+                    DVec3::new(x + 0.5, y + 0.5, 0.0),
+                    DVec3::new(x, y + 0.5, 0.0),
+                ],
+                grey,
+            );
+        }
+    }
+    let s = 0.01;
+    let v = [
+        DVec3::new(0.5 - s, 1.0 - s, 0.6),
+        DVec3::new(0.5, 1.0 + s, 0.6),
+        DVec3::new(0.5 + s, 1.0 - s, 0.6),
+    ]
+    .map(|p| b.vertex(p)); // clockwise seen from above: faces the floor
+    b.triangle(v, grey);
+    let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
+    let tree = Tree::new(&roots);
+    let receiver = (0..roots.len())
+        .find(|&r| roots.centroid[r].z > 0.5)
+        .unwrap();
+    let xs: Vec<(usize, [f64; 3])> = links::receiver_rule()
+        .iter()
+        .map(|&(b, _)| (receiver, b))
+        .collect();
+    let (buried, visible) = (vec![0u16; roots.len()], vec![1.0; roots.len()]);
+    let burial = links::Burial {
+        buried: &buried,
+        visible: &visible,
+    };
+    // The floor patches under a node.
+    fn patches_under(tree: &Tree, node: Node, out: &mut Vec<usize>) {
+        match node.as_element() {
+            Some(e) => out.push(e),
+            None => {
+                for &k in tree.kids(node.as_cluster().unwrap()) {
+                    patches_under(tree, k, out);
+                }
+            }
+        }
+    }
+    let exact = |node: Node| -> f64 {
+        let mut under = Vec::new();
+        patches_under(&tree, node, &mut under);
+        under
+            .iter()
+            .map(|&e| {
+                xs.iter()
+                    .map(|&(r, b)| {
+                        crate::geometry::kernel::point_to_polygon(
+                            tree.point(r, b),
+                            tree.surface_normal(r, b),
+                            &tree.corners(e),
+                        )
+                    })
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    let mut checked = 0;
+    for c in 0..tree.clusters.len() {
+        let mut under = Vec::new();
+        patches_under(&tree, Node::cluster(c), &mut under);
+        // A cluster whose bounding sphere holds the receiver is always opened (the ends'
+        // spheres overlap): no link reads its parts.
+        let (centre, radius) = tree.sphere(Node::cluster(c));
+        if under.contains(&receiver)
+            || tree.parts(c).count() < 4
+            || centre.distance(roots.centroid[receiver]) < radius
+        {
+            continue;
+        }
+        let w = links::part_form_factors(&tree, c, &xs, [1.0; tree::MAX_PARTS], burial);
+        let want: Vec<f64> = tree.parts(c).map(exact).collect();
+        let (total_w, total_want) = (w.iter().sum::<f64>(), want.iter().sum::<f64>());
+        // The receiver's distance to each part's centre over its radius.
+        let x = roots.centroid[receiver];
+        let ratio = tree
+            .parts(c)
+            .map(|p| {
+                let (centre, r) = tree.sphere(p);
+                (r / centre.distance(x)).powi(2)
+            })
+            .fold(0.0, f64::max);
+        for (k, want) in want.iter().enumerate() {
+            let (got, want) = (w[k] / total_w, want / total_want);
+            assert!(
+                (got / want - 1.0).abs() <= 2.0 * ratio + 0.01,
+                "cluster {c}, part {k}: share {got} against {want} ((r/d)² up to {ratio})"
+            );
+        }
+        let (lo, hi) = want.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        });
+        if hi > 2.0 * lo {
+            checked += 1;
+        }
+    }
+    assert!(
+        checked > 0,
+        "no cluster of floor patches whose parts differ"
+    );
+}

@@ -16,6 +16,30 @@ pub const NO_CHILD: u32 = u32::MAX;
 /// (all pairs of its root patches) costs little; large enough to halve the cluster count.
 pub const LEAF_SIZE: usize = 4;
 
+/// A point [`Tree::sample`] drew on a node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// The element it lies on (a root element when the node is a cluster).
+    pub element: usize,
+    /// Its barycentric coordinates on that element's corners.
+    pub at: [f64; 3],
+    /// Which part of the node it lies in: on an element, the quarter [`Tree::split`] makes
+    /// ([`quarter_of`]); in a cluster, an index among [`Tree::parts`].
+    pub part: u8,
+}
+
+/// At most this many [`Tree::parts`] of a cluster: a leaf cluster's at most [`LEAF_SIZE`]
+/// root elements, or an inner cluster's two children's children (2 each for inner clusters,
+/// at most [`LEAF_SIZE`] for leaves).
+pub const MAX_PARTS: usize = 2 * LEAF_SIZE;
+
+/// The child of an element that [`Tree::split`] makes holding the point with barycentrics
+/// `b` (on the corners a, b, c): 0, 1 or 2 at the corner whose coordinate is at least ½, 3
+/// for the middle triangle.
+pub fn quarter_of(b: [f64; 3]) -> u8 {
+    (0..3).find(|&k| b[k] >= 0.5).unwrap_or(3) as u8
+}
+
 /// A node of either hierarchy: an element (index into [`Tree::elements`]) or a cluster (index
 /// into [`Tree::clusters`], tagged by the top bit). Elements sort before clusters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -317,6 +341,31 @@ impl Tree {
         }
     }
 
+    /// Cluster `c`'s children.
+    pub fn kids(&self, c: usize) -> &[Node] {
+        let cl = &self.clusters[c];
+        &self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize]
+    }
+
+    /// Cluster `c` two levels down, at most [`MAX_PARTS`] nodes: each child element, and
+    /// each child cluster's children, in order. What a cluster source's link weighs
+    /// ([`super::Link::children`]).
+    pub fn parts(&self, c: usize) -> impl Iterator<Item = Node> + '_ {
+        self.kids(c)
+            .iter()
+            .flat_map(move |k| match k.as_cluster() {
+                Some(j) => self.kids(j),
+                None => std::slice::from_ref(k),
+            })
+            .copied()
+    }
+
+    /// How many of a cluster's [`Tree::parts`] child `k` gives.
+    fn parts_in(&self, k: Node) -> usize {
+        k.as_cluster()
+            .map_or(1, |j| self.clusters[j].count as usize)
+    }
+
     /// Area of a node, scene units squared.
     pub fn area(&self, node: Node) -> f64 {
         match node.as_element() {
@@ -400,38 +449,55 @@ impl Tree {
         m
     }
 
-    /// `n` stratified random points on node `node` with the element each lies on: on an
-    /// element, stratified over its area; in a cluster, each point on a root patch chosen with
-    /// probability ∝ area (descending the BVH), then uniform on it.
-    pub fn sample(&self, node: Node, n: usize, rng: &mut Rng, out: &mut Vec<(usize, [f64; 3])>) {
+    /// `n` stratified random points on node `node`, each with the element it lies on and
+    /// which of `node`'s parts it lies in ([`Sample::part`]): on an element, stratified over
+    /// its area; in a cluster, each point on a root patch chosen with probability ∝ area
+    /// (descending the BVH), then uniform on it.
+    pub fn sample(&self, node: Node, n: usize, rng: &mut Rng, out: &mut Vec<Sample>) {
         out.clear();
         if let Some(e) = node.as_element() {
             let mut bs = Vec::with_capacity(n);
             stratified_triangle_barycentrics(n, rng, &mut bs);
-            out.extend(bs.into_iter().map(|b| (e, b)));
+            out.extend(bs.into_iter().map(|b| Sample {
+                element: e,
+                at: b,
+                part: quarter_of(b),
+            }));
             return;
         }
         let mut b = Vec::with_capacity(1);
         for _ in 0..n {
             let mut at = node;
+            let (mut part, mut depth) = (0, 0);
             while let Some(c) = at.as_cluster() {
-                let cl = &self.clusters[c];
-                let kids =
-                    &self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize];
-                let mut u = rng.next_f64() * cl.area;
-                at = *kids.last().unwrap();
-                for &k in kids {
+                let kids = self.kids(c);
+                let mut u = rng.next_f64() * self.clusters[c].area;
+                let mut pick = kids.len() - 1;
+                for (i, &k) in kids.iter().enumerate() {
                     let a = self.area(k);
                     if u < a {
-                        at = k;
+                        pick = i;
                         break;
                     }
                     u -= a;
                 }
+                // The parts before this one: a child element is one, a child cluster one
+                // for each of its children.
+                match depth {
+                    0 => part = kids[..pick].iter().map(|&k| self.parts_in(k)).sum(),
+                    1 => part += pick,
+                    _ => {}
+                }
+                depth += 1;
+                at = kids[pick];
             }
             b.clear();
             stratified_triangle_barycentrics(1, rng, &mut b);
-            out.push((at.as_element().unwrap(), b[0]));
+            out.push(Sample {
+                element: at.as_element().unwrap(),
+                at: b[0],
+                part: part as u8,
+            });
         }
     }
 
