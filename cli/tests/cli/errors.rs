@@ -4,12 +4,12 @@
 //! are not errors are counted warnings with exit 0; ρ near and at 1 in a closed scene.
 //! Fixtures are small strings written to a temporary directory per test.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use radiosity::io::ply;
 use radiosity::validation::scenes;
 
-use crate::support::{cornell, radiosity, stderr, temp_dir};
+use crate::support::{cornell, radiosity, stderr, temp_dir, Scratch};
 
 /// An emitting material and a grey one (m.mtl of the valid fixtures).
 const MTL: &str = "newmtl light\nKd 0.5 0.5 0.5\nKe 1 1 1\nnewmtl grey\nKd 0.5 0.5 0.5\n";
@@ -35,7 +35,7 @@ fn listing(dir: &Path) -> Vec<String> {
 /// One test directory holding m.mtl, a precious pre-existing output `keep.ply` and the
 /// fixtures each case writes.
 struct Fixture {
-    dir: PathBuf,
+    dir: Scratch,
 }
 
 impl Fixture {

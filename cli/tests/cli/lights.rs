@@ -1,7 +1,7 @@
 //! `--sky`, `--sky-model`, `--sun` and `--up` from the command line: a scene without emitters
 //! lit from outside, what `info` says of them, and bad values.
 
-use crate::support::{radiosity, stderr, temp_dir};
+use crate::support::{radiosity, stderr, temp_dir, Scratch};
 
 /// A floor (z up) and a wall along its north edge, no emitter: lit only from outside.
 const COURT: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 1 1\nv 1 1 1\n\
@@ -9,7 +9,7 @@ const COURT: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 1 1\n
 const MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\n";
 
 /// [`COURT`] and its MTL written into a new temporary folder: the folder and the OBJ's path.
-fn court(name: &str) -> (std::path::PathBuf, String) {
+fn court(name: &str) -> (Scratch, String) {
     let dir = temp_dir(name);
     std::fs::write(dir.join("m.mtl"), MTL).unwrap();
     let input = dir.join("court.obj");
