@@ -19,8 +19,9 @@
 //!    elements at a fixed ε (HSA91 §5).
 //! 3. **Solve** ([`Hierarchy::sweep`]): a Jacobi sweep gathers, at every node, Σ F·L over its
 //!    links (from the previous sweep's radiance, in parallel; a split element source gives
-//!    its children's radiance weighted by how much of F reaches each, a cluster source the
-//!    radiance of its faces turned toward the receiver, [`Hierarchy::link_radiance`]),
+//!    its children's radiance weighted by how much of F reaches each, a cluster source its
+//!    parts' radiance weighted by their form factors to the receiver, each part sending that
+//!    of its faces turned toward the receiver, [`Hierarchy::link_radiance`]),
 //!    then *push-pull*: what a node
 //!    gathered is pushed down to every leaf below it (irradiance is intensive: the same on
 //!    every part; a cluster whose faces look different ways gives each face its cosine's

@@ -5,8 +5,10 @@
 //! display's. Two seeds apart, the difference is the gather's own noise (its RMS over √2 is
 //! one gather's). `cargo run --release -p radiosity-tools --example gather_at_probes --
 //! PROBES.csv SCENE [RAYS] [SEED]` (defaults 4096 rays, seed 1; the scene's own lights, the
-//! bake's default settings). With `GATHER_DUMP=FILE`, each probe's reference, gathered
-//! luminance, its direct and indirect parts at both seeds go to FILE as CSV.
+//! bake's default settings, or `MAX_EDGE=X` and `METHOD=matrix|hierarchical` for the bake's
+//! `--max-edge` and `--method`: the two methods' solutions compared at the same probes).
+//! With `GATHER_DUMP=FILE`, each probe's reference, gathered luminance, its direct and
+//! indirect parts at both seeds go to FILE as CSV.
 
 use std::path::Path;
 
@@ -34,6 +36,23 @@ fn main() -> Result<()> {
     let probes = pointwise::read_csv(Path::new(probes))?;
     let scene = Scene::load(Path::new(scene))?;
     let mut settings = Settings::default();
+    if let Some(x) = std::env::var_os("MAX_EDGE") {
+        let x = x.to_string_lossy();
+        let edge: f64 = x
+            .parse()
+            .ok()
+            .filter(|e: &f64| e.is_finite() && *e > 0.0)
+            .with_context(|| format!("MAX_EDGE={x}: not a positive length"))?;
+        settings.max_edge = Some(edge);
+    }
+    if let Some(m) = std::env::var_os("METHOD") {
+        settings.method = match m.to_string_lossy().as_ref() {
+            "matrix" => Method::Matrix,
+            "hierarchical" => Method::Hierarchical,
+            "auto" => Method::Auto,
+            other => anyhow::bail!("METHOD={other}: not matrix, hierarchical or auto"),
+        };
+    }
     // The gatherer reads the scene the solve's patches came from: where the matrix method
     // splits the contact lines into the scene (the default), split them here and solve that.
     let scene = if settings.resolved(&scene)?.method == Method::Matrix {
