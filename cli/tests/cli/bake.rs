@@ -61,7 +61,6 @@ fn bake_cornell_to_ply_and_obj_and_read_back() {
     assert_eq!(q.positions.len(), p.positions.len());
     // Same automatic exposure ⇒ the same 8-bit colours in both formats.
     assert_eq!(q.colours, p.colours);
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -105,7 +104,6 @@ fn output_is_identical_for_one_and_two_threads() {
             "{solver}"
         );
     }
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -201,7 +199,6 @@ fn bad_input_is_a_clear_error_and_loses_nothing() {
             "{args:?} touched the output"
         );
     }
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -211,7 +208,6 @@ fn non_convergence_exits_non_zero_with_a_warning() {
     let o = bake(&out, &["--max-iterations", "1", "--tolerance", "1e-12"]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(stderr(&o).contains("not converged"));
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -269,7 +265,6 @@ fn generated_sphere_bakes_to_the_closed_form() {
     }
     let err = error_sum / wall_area;
     assert!(err < 3e-3, "mean per-face relative error {err:.3e}");
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -339,5 +334,4 @@ fn form_factor_cache_serves_relighting_and_survives_corruption() {
         std::fs::read(dir.join("e.ply")).unwrap()
     );
     assert!(std::fs::read(&file).unwrap().len() > bytes.len());
-    let _ = std::fs::remove_dir_all(dir);
 }

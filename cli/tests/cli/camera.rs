@@ -104,7 +104,6 @@ fn scene_files_carry_their_camera() {
     assert_eq!(Scene::load(&path).unwrap().camera, Some(expect));
     std::fs::write(&path, ply_with("comment made by hand")).unwrap();
     assert_eq!(Scene::load(&path).unwrap().camera, None);
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -166,7 +165,6 @@ fn malformed_camera_lines_are_errors_with_file_and_line() {
             assert!(!png.exists());
         }
     }
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -238,7 +236,6 @@ fn baked_files_carry_the_camera() {
         assert_eq!(back.unwrap().camera, None, "{name}");
         assert!(!String::from_utf8_lossy(&std::fs::read(&path).unwrap()).contains("camera"));
     }
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -288,7 +285,6 @@ fn the_cornell_box_renders_from_its_published_camera_by_itself() {
         framed.vfov_degrees
     );
     assert_ne!(render(&input, "f.png", Some(&framed_text)), by_itself);
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -377,5 +373,4 @@ fn without_a_camera_the_picture_looks_into_the_open_side_and_says_when_it_shows_
         "q",
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let _ = std::fs::remove_dir_all(dir);
 }

@@ -97,12 +97,6 @@ impl Fixture {
     }
 }
 
-impl Drop for Fixture {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
-    }
-}
-
 #[test]
 fn file_problems_name_the_file() {
     let f = Fixture::new("robust-files");

@@ -71,7 +71,6 @@ fn info_prints_counts_materials_power_and_patches_as_text_and_json() {
     let o = radiosity(&["info", missing.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("nope.obj"), "{}", stderr(&o));
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -151,7 +150,6 @@ fn info_estimates_the_bake_its_options_describe_and_bake_refuses_what_would_not_
         assert_eq!(o.status.code(), Some(2), "{bad}");
         assert!(stderr(&o).contains("--max-memory"), "{}", stderr(&o));
     }
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 /// `info` names the method and the final gather the bake of the same scene with the same

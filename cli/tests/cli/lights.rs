@@ -91,7 +91,6 @@ fn a_scene_without_emitters_is_lit_by_the_sky_and_the_sun() {
         );
         assert!(!std::path::Path::new(out).exists());
     }
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -132,7 +131,6 @@ fn a_gltf_scene_brings_its_lights_and_bakes_to_glb() {
         (brightest - exact).abs() < 1e-4 * exact,
         "{brightest} vs {exact}"
     );
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]

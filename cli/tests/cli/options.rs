@@ -85,7 +85,6 @@ fn cli_overrides_apply_and_unknown_materials_are_usage_errors() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("'nosuch'"), "{}", stderr(&o));
     assert!(!png.exists());
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -116,7 +115,6 @@ fn progress_is_hidden_off_a_terminal_and_verbose_adds_detail() {
     assert!(!verbose.contains('\u{1b}'), "{verbose}");
     let quiet = run(&["-q"]);
     assert!(quiet.is_empty(), "{quiet}");
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 /// `--method hierarchical` through the binary: a bake with its own summary and report, the

@@ -83,5 +83,4 @@ fn ply_scenes_bake_render_and_describe() {
         stderr(&o)
     );
     assert!(!stderr(&o).contains("panicked"));
-    let _ = std::fs::remove_dir_all(dir);
 }

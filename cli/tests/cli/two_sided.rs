@@ -53,7 +53,6 @@ fn two_sided_bake_writes_both_sides_deterministically() {
     );
     let q = radiosity::io::obj::read(&obj).unwrap();
     assert_eq!(q.faces, two.faces);
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -128,5 +127,4 @@ fn two_sided_render_of_a_baked_ply_is_refused_and_info_describes_both_sides() {
     assert!((power - expected).abs() < 1e-3 * expected, "{power}");
     let o = radiosity(&["info", &input]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("sides:        one"));
-    let _ = std::fs::remove_dir_all(dir);
 }
