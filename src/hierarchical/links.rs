@@ -508,17 +508,15 @@ fn cluster_pair_estimate(
     let mut through = [0.0f64; MAX_PARTS];
     let mut unoccluded = [0.0f64; MAX_PARTS];
     let source_is_element = source.as_element().is_some();
-    for (&(er, br), y) in xs.iter().zip(&ys) {
+    // The receiving points and their normals, for the samples and the parts alike.
+    let at: Vec<(DVec3, DVec3)> = xs
+        .iter()
+        .map(|&(er, br)| (tree.point(er, br), tree.surface_normal(er, br)))
+        .collect();
+    for ((&(er, _), &(x, nx)), y) in xs.iter().zip(&at).zip(&ys) {
         let es = y.element;
-        let x = tree.point(er, br);
         let y_at = tree.point(es, y.at);
-        let g =
-            a_s * point_to_point(
-                x,
-                tree.surface_normal(er, br),
-                y_at,
-                tree.elements[es].normal,
-            ) / rays as f64;
+        let g = a_s * point_to_point(x, nx, y_at, tree.elements[es].normal) / rays as f64;
         if g == 0.0 {
             continue;
         }
@@ -545,13 +543,14 @@ fn cluster_pair_estimate(
                     0.0
                 }
             });
-            in_nibbles(part_form_factors(tree, c, &xs, seen, burial))
+            in_nibbles(part_form_factors(tree, c, &at, seen, burial))
         }
     };
     Some(sums)
 }
 
-/// The form factor from the receiving points `xs` to each part of cluster `c`
+/// The form factor from the receiving points `xs` (positions and unit normals) to each part
+/// of cluster `c`
 /// ([`Tree::parts`], in order), up to a common factor: Σ_x cos θ_x · A⊥_k / r², each part as
 /// a point at its centre (an element's centroid, a cluster's box centre) of seen area A⊥_k
 /// projected toward x (an element's visible area times its cosine, a cluster's seen area by
@@ -568,24 +567,20 @@ fn cluster_pair_estimate(
 pub(super) fn part_form_factors(
     tree: &Tree,
     c: usize,
-    xs: &[(usize, [f64; 3])],
+    xs: &[(DVec3, DVec3)],
     seen: [f64; MAX_PARTS],
     burial: Burial,
 ) -> [f64; MAX_PARTS] {
     let mut w = [0.0; MAX_PARTS];
     for (k, part) in tree.parts(c).enumerate() {
-        let at = match part.as_element() {
-            Some(e) => tree.elements[e].centroid,
-            None => tree.clusters[part.as_cluster().unwrap()].centre,
-        };
+        let at = tree.sphere(part).0;
         let mut kernel = 0.0;
-        for &(er, br) in xs {
-            let x = tree.point(er, br);
+        for &(x, nx) in xs {
             let d = at - x;
             let Some(dir) = d.try_normalize() else {
                 continue;
             };
-            let cos_x = tree.surface_normal(er, br).dot(dir).max(0.0);
+            let cos_x = nx.dot(dir).max(0.0);
             // The part's seen area projected toward x, along −dir.
             let a = match part.as_element() {
                 Some(e) => {

@@ -5,6 +5,7 @@
 //! node gathered. Sweeps repeat until the relative change per sweep is below the tolerance
 //! ([`Hierarchy::converge`]).
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use super::links::{self, Link};
@@ -214,6 +215,7 @@ impl Hierarchy<'_> {
                 }
             }
         }
+        let receiver = self.tree.sphere(l.receiver).0;
         if let Some(c) = l.source.as_cluster().filter(|_| l.children != [0; 4]) {
             let (mut sum, mut total) = ([0.0; 3], 0.0);
             for (k, part) in self.tree.parts(c).enumerate() {
@@ -221,22 +223,23 @@ impl Hierarchy<'_> {
                 if share > 0 {
                     let w = share as f64;
                     total += w;
-                    sum = add(sum, self.radiance_toward(part, l.receiver).map(|x| w * x));
+                    sum = add(sum, self.radiance_toward(part, receiver).map(|x| w * x));
                 }
             }
             return sum.map(|x| x / total);
         }
-        self.radiance_toward(l.source, l.receiver)
+        self.radiance_toward(l.source, receiver)
     }
 
-    /// The radiance `source` sends toward `receiver`, W·sr⁻¹·m⁻²: a cluster whose faces look
-    /// different ways sends that of the faces turned toward the receiver (or, where none is,
-    /// those nearest to it: `OrientedRadiance::toward`); any other node its mean.
-    fn radiance_toward(&self, source: Node, receiver: Node) -> Rgb {
+    /// The radiance `source` sends toward the point `receiver` (a receiving node's centre),
+    /// W·sr⁻¹·m⁻²: a cluster whose faces look different ways sends that of the faces turned
+    /// toward it (or, where none is, those nearest to it: `OrientedRadiance::toward`); any
+    /// other node its mean.
+    fn radiance_toward(&self, source: Node, receiver: DVec3) -> Rgb {
         if let Some(c) = source.as_cluster() {
             let cl = &self.tree.clusters[c];
             if cl.cone_cos < ORIENTED_CONE_COS {
-                let d = self.tree.sphere(receiver).0 - cl.centre;
+                let d = receiver - cl.centre;
                 if let Some(d) = d.try_normalize() {
                     return self.cluster_oriented[c].toward(d);
                 }

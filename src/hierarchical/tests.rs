@@ -609,11 +609,13 @@ fn under_a_square_light(blocked: bool, max_edge: f64) -> Patches {
     mesh::subdivide(&b.build().unwrap(), max_edge, 30.0).unwrap()
 }
 
-/// The direct light [`direct::element_direct`] gives the tiny triangle of
-/// [`under_a_square_light`] from `emitters`, nothing outside the mesh.
+/// The direct light [`direct::element_direct`] gives the tiny triangle (area below 1e-6) of
+/// `roots`, as [`under_a_square_light`] makes it, from `emitters` with random numbers keyed
+/// by `seed`, nothing outside the mesh.
 fn direct_at_the_tiny_triangle(
     roots: &Patches,
     emitters: &[direct::RootEmitter],
+    seed: u64,
 ) -> direct::Direct {
     let tree = Tree::new(roots);
     let receiver = (0..roots.len())
@@ -627,7 +629,7 @@ fn direct_at_the_tiny_triangle(
         vis: &vis,
         lift: 0.0,
     };
-    direct::element_direct(&tree, &vis, true, emitters, outside, receiver, 0, 1)
+    direct::element_direct(&tree, &vis, true, emitters, outside, receiver, 0, seed)
 }
 
 /// The direct light an element computes for itself ([`direct::element_direct`]) is Le times
@@ -645,7 +647,7 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
             .map(|r| direct::RootEmitter::of(&roots, r))
             .collect();
         assert_eq!(emitters.len(), 2);
-        let d = direct_at_the_tiny_triangle(&roots, &emitters);
+        let d = direct_at_the_tiny_triangle(&roots, &emitters, 1);
         let want = if blocked { 0.0 } else { 2.0 * f };
         for c in d.mean {
             assert!(
@@ -697,7 +699,7 @@ fn a_light_cut_into_patches_shines_as_its_triangles() {
 
     let f =
         4.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
-    let d = direct_at_the_tiny_triangle(&roots, &emitters);
+    let d = direct_at_the_tiny_triangle(&roots, &emitters, 1);
     for c in d.mean {
         assert!((c - 2.0 * f).abs() <= 1e-6 * 2.0 * f, "{c} vs {}", 2.0 * f);
     }
@@ -1106,24 +1108,8 @@ fn few_shadow_rays_keep_an_elements_direct_light_unbiased() {
             ..direct::RootEmitter::of(&roots, r)
         })
         .collect();
-    let tree = Tree::new(&roots);
-    let receiver = (0..roots.len())
-        .find(|&r| roots.area[r] < 1e-6)
-        .expect("the tiny triangle is a root");
-    let corners: Vec<[DVec3; 3]> = (0..roots.len()).map(|i| roots.corners(i)).collect();
-    let vis = Visibility::build(&corners);
-    let dark = crate::scene::Environment::default();
-    let outside = direct::Outside {
-        env: &dark,
-        vis: &vis,
-        lift: 0.0,
-    };
     let estimates: Vec<f64> = (0..200)
-        .map(|seed| {
-            let d =
-                direct::element_direct(&tree, &vis, true, &emitters, outside, receiver, 0, seed);
-            d.mean[0]
-        })
+        .map(|seed| direct_at_the_tiny_triangle(&roots, &emitters, seed).mean[0])
         .collect();
     let mean = estimates.iter().sum::<f64>() / estimates.len() as f64;
     let want =
@@ -1183,9 +1169,9 @@ fn cluster_parts_are_weighed_by_their_form_factors() {
     let receiver = (0..roots.len())
         .find(|&r| roots.centroid[r].z > 0.5)
         .unwrap();
-    let xs: Vec<(usize, [f64; 3])> = links::receiver_rule()
+    let xs: Vec<(DVec3, DVec3)> = links::receiver_rule()
         .iter()
-        .map(|&(b, _)| (receiver, b))
+        .map(|&(b, _)| (tree.point(receiver, b), tree.surface_normal(receiver, b)))
         .collect();
     let (buried, visible) = (vec![0u16; roots.len()], vec![1.0; roots.len()]);
     let burial = links::Burial {
@@ -1210,12 +1196,8 @@ fn cluster_parts_are_weighed_by_their_form_factors() {
             .iter()
             .map(|&e| {
                 xs.iter()
-                    .map(|&(r, b)| {
-                        crate::geometry::kernel::point_to_polygon(
-                            tree.point(r, b),
-                            tree.surface_normal(r, b),
-                            &tree.corners(e),
-                        )
+                    .map(|&(x, n)| {
+                        crate::geometry::kernel::point_to_polygon(x, n, &tree.corners(e))
                     })
                     .sum::<f64>()
             })
