@@ -101,10 +101,7 @@ impl Sample {
     /// Each unit of `tree` with probability `p` (keyed by `seed`).
     pub(super) fn draw(tree: &tree::Tree, p: f64, seed: u64) -> Sample {
         let n = tree.clusters.len();
-        let children = |c: usize| {
-            let cl = &tree.clusters[c];
-            &tree.cluster_children[cl.first as usize..(cl.first + cl.count) as usize]
-        };
+        let children = |c: usize| tree.kids(c);
         // Roots below each cluster (clusters are stored parents first: from the back).
         let mut below = vec![0u32; n];
         for c in (0..n).rev() {

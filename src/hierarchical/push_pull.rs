@@ -141,8 +141,7 @@ impl Hierarchy<'_> {
         let mut cluster_visible = vec![0.0; t.clusters.len()];
         let mut cmax = vec![0.0f64; t.clusters.len()];
         for c in (0..t.clusters.len()).rev() {
-            let k = &t.clusters[c];
-            let kids = &t.cluster_children[k.first as usize..(k.first + k.count) as usize];
+            let kids = t.kids(c);
             cmax[c] = kids
                 .iter()
                 .map(|&child| match child.as_element() {

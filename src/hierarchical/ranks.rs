@@ -43,8 +43,7 @@ impl Tree {
 
     /// Cluster `c`'s children.
     fn children_of(&self, c: usize) -> Vec<Child> {
-        let cl = &self.clusters[c];
-        self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize]
+        self.kids(c)
             .iter()
             .map(|k| match k.as_element() {
                 Some(e) => Child::Root(e),

@@ -215,8 +215,13 @@ impl Hierarchy<'_> {
                 }
             }
         }
+        // Only a cluster source reads where its receiver is (an element link's lookup of its
+        // receiver, on every sweep, would be a memory access for nothing).
+        let Some(c) = l.source.as_cluster() else {
+            return self.radiance(l.source);
+        };
         let receiver = self.tree.sphere(l.receiver).0;
-        if let Some(c) = l.source.as_cluster().filter(|_| l.children != [0; 4]) {
+        if l.children != [0; 4] {
             let (mut sum, mut total) = ([0.0; 3], 0.0);
             for (k, part) in self.tree.parts(c).enumerate() {
                 let share = links::part_share(l.children, k);

@@ -285,9 +285,8 @@ impl Tree {
     /// root `i` (children after parents in storage, so bottom-up).
     pub fn set_seen(&mut self, visible: &[f64]) {
         for c in (0..self.clusters.len()).rev() {
-            let cl = &self.clusters[c];
             let (mut area, mut facing) = (0.0, [0.0; 6]);
-            for &k in &self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize] {
+            for &k in self.kids(c) {
                 let (a, f) = match k.as_element() {
                     Some(e) => {
                         let a = self.elements[e].area * visible[e];
@@ -333,10 +332,7 @@ impl Tree {
                     (f..f + 4).map(|k| Node::element(k as usize)).collect()
                 }
             }
-            (_, Some(c)) => {
-                let cl = &self.clusters[c];
-                self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize].to_vec()
-            }
+            (_, Some(c)) => self.kids(c).to_vec(),
             _ => unreachable!("a node is an element or a cluster"),
         }
     }
@@ -527,10 +523,8 @@ impl Tree {
         for _ in 0..n {
             let mut at = Node::cluster(c);
             while let Some(c) = at.as_cluster() {
-                let cl = &self.clusters[c];
-                let kids =
-                    &self.cluster_children[cl.first as usize..(cl.first + cl.count) as usize];
-                let mut u = rng.next_f64() * cl.seen_area;
+                let kids = self.kids(c);
+                let mut u = rng.next_f64() * self.clusters[c].seen_area;
                 at = *kids.iter().rev().find(|&&k| seen_area(k) > 0.0).unwrap();
                 for &k in kids {
                     let a = seen_area(k);
