@@ -67,6 +67,7 @@ pub mod pilot;
 mod push_pull;
 mod ranks;
 mod refine;
+pub mod regather;
 mod sweep;
 pub mod tree;
 
@@ -116,6 +117,10 @@ pub struct Settings {
     /// solve converges on the links it has (the time budget of a bake, `--max-time`).
     #[serde(skip)]
     pub deadline: Option<std::time::Instant>,
+    /// The least rays a leaf of the leaves' final gather ([`regather`]; more while the
+    /// leaves are few), in 0..=4096: once the links have converged, each leaf's reflected
+    /// light is traced again from its own points. 0 leaves the links' answer.
+    pub regather_rays: u32,
 }
 
 impl Default for Settings {
@@ -128,6 +133,7 @@ impl Default for Settings {
             max_links: 100_000_000,
             direct: true,
             deadline: None,
+            regather_rays: 32,
         }
     }
 }
@@ -149,6 +155,12 @@ impl Settings {
             return Err(Error::setting(
                 "hierarchical.rays",
                 format!("{} is not in 1..=1024", self.rays),
+            ));
+        }
+        if self.regather_rays > 4096 {
+            return Err(Error::setting(
+                "hierarchical.regather_rays",
+                format!("{} is not in 0..=4096", self.regather_rays),
             ));
         }
         if self.max_passes == 0 {
@@ -209,6 +221,10 @@ pub struct Stats {
     /// Shadow rays per rule point and emitter of that direct light, at most
     /// ([`direct::DIRECT_BUDGET_MANY`]); 0 when links carry all emission.
     pub direct_shadow_rays: usize,
+    /// Rays of the leaves' final gather ([`regather`]), all its steps; 0 when it did not run.
+    pub regather_rays: u64,
+    /// Seconds of the leaves' final gather.
+    pub regather_seconds: f64,
     /// Over several ranks ([`crate::distributed`]): the links each rank held at the end, by
     /// rank (empty in one process).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -444,6 +460,17 @@ pub fn solve_on(
     } else {
         h.converge(solver, &mut history)
     };
+    // The leaves' final gather ([`regather`]); not after `bounces` sweeps, whose answer is
+    // the Neumann sum of exactly that many.
+    if emitted > 0.0 && solver.method != solve::Method::Neumann {
+        let t = std::time::Instant::now();
+        for _ in 0..regather::STEPS {
+            let rays = h.regather(settings.regather_rays as usize);
+            h.stats.regather_rays += rays;
+            h.stats.rays_cast += rays;
+        }
+        h.stats.regather_seconds = t.elapsed().as_secs_f64();
+    }
     // The links are done with: free them before the output is built, which would otherwise
     // set the peak memory of the largest bakes (10⁶ triangles: about 1 GB of links and
     // shares alive beside a mesh of 2·10⁶ vertices).
@@ -942,6 +969,7 @@ impl<'a> Hierarchy<'a> {
         );
         s.rays_cast = self.comm.sum_u64(s.rays_cast);
         s.near_corrections = self.comm.sum_u64(s.near_corrections);
+        s.regather_rays = self.comm.sum_u64(s.regather_rays);
         if self.partition.is_some() {
             use std::sync::atomic::Ordering::Relaxed;
             s.links_by_rank = self.comm.gather_u64(self.links.len() as u64);

@@ -67,6 +67,10 @@ const PILOTED_BYTES_PER_GATHERED_VERTEX: f64 = 1600.0;
 /// took 0.4–0.8× the earlier fit's seconds there).
 const PILOTED_SECONDS_PER_LINK: f64 = 2.3e-6;
 const PILOTED_SECONDS_PER_DIRECT_RAY: f64 = 0.053e-6;
+/// The same per ray of the leaves' final gather ([`crate::hierarchical::regather`]): a
+/// closest hit and the leaf it lands in (the generated office of 10⁵ triangles: 0.5–0.6 µs a
+/// ray on a machine that took 1.9× the other constants' seconds; scaled to theirs).
+const PILOTED_SECONDS_PER_REGATHER_RAY: f64 = 0.3e-6;
 
 /// Patches whose facing pairs are counted to estimate F's fill (every patch when fewer).
 pub const FILL_SAMPLES: usize = 256;
@@ -244,13 +248,21 @@ impl Estimate {
                         let (links, grown) = (p.links * k, (p.elements - roots as f64) * k);
                         let direct_rays =
                             p.direct_rays * (roots as f64 + grown) / p.elements.max(1.0);
+                        let leaves = roots + (0.75 * grown) as usize;
+                        let regather_rays = (crate::hierarchical::regather::STEPS
+                            * leaves
+                            * crate::hierarchical::regather::rays_per_leaf(
+                                leaves,
+                                s.hierarchical.regather_rays as usize,
+                            )) as f64;
                         (
-                            roots + (0.75 * grown) as usize,
+                            leaves,
                             PILOTED_BASE_BYTES
                                 + PILOTED_BYTES_PER_ELEMENT * (roots as f64 + grown)
                                 + (PILOTED_BYTES_PER_LINK * links).max(gathered_bytes),
                             PILOTED_SECONDS_PER_LINK * links
-                                + PILOTED_SECONDS_PER_DIRECT_RAY * direct_rays,
+                                + PILOTED_SECONDS_PER_DIRECT_RAY * direct_rays
+                                + PILOTED_SECONDS_PER_REGATHER_RAY * regather_rays,
                         )
                     }
                     None => {
