@@ -460,17 +460,6 @@ pub fn solve_on(
     } else {
         h.converge(solver, &mut history)
     };
-    // The leaves' final gather ([`regather`]); not after `bounces` sweeps, whose answer is
-    // the Neumann sum of exactly that many.
-    if emitted > 0.0 && solver.method != solve::Method::Neumann {
-        let t = std::time::Instant::now();
-        for _ in 0..regather::STEPS {
-            let rays = h.regather(settings.regather_rays as usize);
-            h.stats.regather_rays += rays;
-            h.stats.rays_cast += rays;
-        }
-        h.stats.regather_seconds = t.elapsed().as_secs_f64();
-    }
     // The links are done with: free them before the output is built, which would otherwise
     // set the peak memory of the largest bakes (10⁶ triangles: about 1 GB of links and
     // shares alive beside a mesh of 2·10⁶ vertices).
@@ -485,6 +474,19 @@ pub fn solve_on(
     });
     let mut stats = h.finish_stats();
     h.free_links();
+    // The leaves' final gather ([`regather`]), which reads no link (so they are freed before
+    // it); not after `bounces` sweeps, whose answer is the Neumann sum of exactly that many.
+    if emitted > 0.0 && solver.method != solve::Method::Neumann {
+        let t = std::time::Instant::now();
+        let mut rays = 0;
+        for _ in 0..regather::STEPS {
+            rays += h.regather(settings.regather_rays as usize);
+        }
+        let rays = h.comm.sum_u64(rays);
+        stats.regather_rays = rays;
+        stats.rays_cast += rays;
+        stats.regather_seconds = t.elapsed().as_secs_f64();
+    }
     let output::Leaves {
         patches,
         radiance,
@@ -969,7 +971,6 @@ impl<'a> Hierarchy<'a> {
         );
         s.rays_cast = self.comm.sum_u64(s.rays_cast);
         s.near_corrections = self.comm.sum_u64(s.near_corrections);
-        s.regather_rays = self.comm.sum_u64(s.regather_rays);
         if self.partition.is_some() {
             use std::sync::atomic::Ordering::Relaxed;
             s.links_by_rank = self.comm.gather_u64(self.links.len() as u64);
