@@ -175,21 +175,12 @@ impl Hierarchy<'_> {
     }
 }
 
-/// The barycentric coordinates of `p` (on or near the plane of `c`) in triangle `c`, clamped
-/// into the triangle.
+/// The barycentric coordinates of `p` (on or near the plane of `c`) in triangle `c`
+/// ([`crate::mesh::barycentric`]), clamped into the triangle: a hit rounded just past an edge.
 fn barycentrics(c: [DVec3; 3], p: DVec3) -> [f64; 3] {
-    let (e1, e2, d) = (c[1] - c[0], c[2] - c[0], p - c[0]);
-    let (a, b, cc) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let (p1, p2) = (d.dot(e1), d.dot(e2));
-    let det = a * cc - b * b;
-    if det <= 0.0 {
-        return [1.0 / 3.0; 3];
-    }
-    let u = ((cc * p1 - b * p2) / det).max(0.0);
-    let v = ((a * p2 - b * p1) / det).max(0.0);
-    let w = (1.0 - u - v).max(0.0);
-    let s = u + v + w;
-    [w / s, u / s, v / s]
+    let b = crate::mesh::barycentric(p, c).map(|x| x.max(0.0));
+    let s: f64 = b.iter().sum();
+    b.map(|x| x / s)
 }
 
 impl Tree {

@@ -1301,33 +1301,9 @@ fn a_point_is_found_in_the_leaf_that_holds_it() {
 /// or points, would show there).
 #[test]
 fn the_leaves_final_gather_sums_what_each_leaf_sees() {
-    let mut b = SceneBuilder::new();
-    let white = b.material("white", [0.7, 0.5, 0.3], [0.0; 3]);
-    let p = DVec3::new;
-    b.quad(
-        [p(0., 0., 0.), p(2., 0., 0.), p(2., 1., 0.), p(0., 1., 0.)],
-        white,
-    );
-    b.quad(
-        [p(0., 0., 0.), p(0., 1., 0.), p(0., 1., 1.), p(0., 0., 1.)],
-        white,
-    );
-    b.quad(
-        [p(2., 0., 0.), p(2., 0., 1.), p(2., 1., 1.), p(2., 1., 0.)],
-        white,
-    );
-    let roots = mesh::subdivide(&b.build().unwrap(), 0.25, 30.0).unwrap();
-    let env = Environment {
-        sky: [1.0; 3],
-        sky_model: crate::scene::SkyModel::Uniform,
-        sun: Some(crate::scene::Sun {
-            azimuth_degrees: 90.0,
-            elevation_degrees: 35.0,
-            irradiance: [30.0; 3],
-        }),
-        up: crate::scene::Up::Z,
-        lights: Vec::new(),
-    };
+    let scene = scenes::courtyard([0.7, 0.5, 0.3]).unwrap();
+    let roots = mesh::subdivide(&scene, 0.25, 30.0).unwrap();
+    let env = scenes::courtyard_light();
     let settings = Settings {
         epsilon: 1e-3,
         ..Settings::default()

@@ -5,8 +5,9 @@
 use glam::DVec3;
 use radiosity::gather::Gather;
 use radiosity::pipeline::{self, Method, Outcome};
-use radiosity::scene::{Environment, PointLight, SkyModel, Spot, Sun};
+use radiosity::scene::{Environment, PointLight, Spot, Sun};
 use radiosity::scene::{Scene, SceneBuilder, Up};
+use radiosity::validation::scenes;
 
 use crate::support::{assert_rel, run};
 
@@ -77,33 +78,8 @@ fn sky_and_sun_light_bounces_and_both_methods_agree() {
     // a uniform sky and a low sun. The walls see the floor and each other, so their light is
     // more than their direct light; the two methods agree on each surface's mean (their
     // discretisations differ: 3 % is a few times the gap measured on the Cornell box).
-    let mut b = SceneBuilder::new();
-    let white = b.material("white", [0.7; 3], [0.0; 3]);
-    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-    b.quad(
-        [p(0., 0., 0.), p(2., 0., 0.), p(2., 1., 0.), p(0., 1., 0.)],
-        white,
-    );
-    b.quad(
-        [p(0., 0., 0.), p(0., 1., 0.), p(0., 1., 1.), p(0., 0., 1.)],
-        white,
-    );
-    b.quad(
-        [p(2., 0., 0.), p(2., 0., 1.), p(2., 1., 1.), p(2., 1., 0.)],
-        white,
-    );
-    let scene = b.build().unwrap();
-    let env = Environment {
-        sky: [1.0; 3],
-        sky_model: SkyModel::Uniform,
-        sun: Some(Sun {
-            azimuth_degrees: 90.0,
-            elevation_degrees: 35.0,
-            irradiance: [30.0; 3],
-        }),
-        up: Up::Z,
-        lights: Vec::new(),
-    };
+    let scene = scenes::courtyard([0.7; 3]).unwrap();
+    let env = scenes::courtyard_light();
     let mean_by_wall = |out: &Outcome| {
         let p = &out.patches;
         let mut sums = [(0.0, 0.0); 3];

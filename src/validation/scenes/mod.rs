@@ -150,6 +150,44 @@ pub fn furnace_room(rho: f64, le: f64) -> Result<Scene> {
     b.build()
 }
 
+/// A courtyard open above and at both ends: a 2 × 1 floor (z = 0, facing up) and two 1 m
+/// walls facing each other across it (x = 0 and x = 2), all of reflectance `rho`
+/// ("white"). Lit by [`courtyard_light`], the walls see the floor and each other.
+pub fn courtyard(rho: [f64; 3]) -> Result<Scene> {
+    let mut b = SceneBuilder::new();
+    let white = b.material("white", rho, [0.0; 3]);
+    let p = DVec3::new;
+    b.quad(
+        [p(0., 0., 0.), p(2., 0., 0.), p(2., 1., 0.), p(0., 1., 0.)],
+        white,
+    );
+    b.quad(
+        [p(0., 0., 0.), p(0., 1., 0.), p(0., 1., 1.), p(0., 0., 1.)],
+        white,
+    );
+    b.quad(
+        [p(2., 0., 0.), p(2., 0., 1.), p(2., 1., 1.), p(2., 1., 0.)],
+        white,
+    );
+    b.build()
+}
+
+/// A uniform sky of radiance 1 and a low sun (azimuth 90°, elevation 35°, 30 W·m⁻²), z up:
+/// the [`courtyard`]'s light, one wall in the sun and the other in shade.
+pub fn courtyard_light() -> crate::scene::Environment {
+    crate::scene::Environment {
+        sky: [1.0; 3],
+        sky_model: crate::scene::SkyModel::Uniform,
+        sun: Some(crate::scene::Sun {
+            azimuth_degrees: 90.0,
+            elevation_degrees: 35.0,
+            irradiance: [30.0; 3],
+        }),
+        up: crate::scene::Up::Z,
+        lights: Vec::new(),
+    }
+}
+
 /// Two identical parallel, directly opposed rectangles a × b at distance c (Howell C-11):
 /// "source" at z = 0 facing +z, "receiver" at z = c facing −z. The receiver has reflectance
 /// `rho`, the source emits `le`.
