@@ -246,11 +246,26 @@ impl Gatherer<'_> {
     /// module documentation).
     pub(super) fn cached_vertex(&self, spot: &Spot, reflected: Rgb, rng: &mut Rng) -> Gathered {
         let (direct, penumbra, exact) = self.reflected_direct(spot, GATHER_MAX_SHADOW_RAYS, rng);
-        let emitted = self.uncounted_emission(spot, &exact, EMISSION_RAYS, rng);
-
-        let rho = self.patches.reflectance[spot.patch as usize];
-        let indirect = std::array::from_fn(|c| rho[c] * (reflected[c] + emitted[c]));
+        let indirect = self.cached_reflected(spot, reflected, &exact, EMISSION_RAYS, rng);
         self.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect)
+    }
+
+    /// The indirect part of [`Gatherer::cached_vertex`] at `spot`, whose direct term computes
+    /// the emitters `exact` exactly: ρ·(reflected + the Le its hemisphere brings from the
+    /// emitters that term leaves out, by `rays` rays). For a caller that has the direct term
+    /// already (a display-refinement test), so that the point's direct light, the costly part,
+    /// is not computed twice.
+    pub(super) fn cached_reflected(
+        &self,
+        spot: &Spot,
+        reflected: Rgb,
+        exact: &[u32],
+        rays: usize,
+        rng: &mut Rng,
+    ) -> Rgb {
+        let emitted = self.uncounted_emission(spot, exact, rays, rng);
+        let rho = self.patches.reflectance[spot.patch as usize];
+        std::array::from_fn(|c| rho[c] * (reflected[c] + emitted[c]))
     }
 
     /// The reflected light arriving at each gathered point (`spots[v]`, `None` where buried;

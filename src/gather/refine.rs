@@ -31,7 +31,7 @@
 //! The work is bounded: at most `budget` new vertices in all (the edges with the largest
 //! deviation × √length first, at most half the remaining budget per level, the rest waiting for
 //! the next),
-//! and at most [`TESTS_PER_NEW_VERTEX`] × the budget midpoint tests in all (the edges whose
+//! and at most [`tests_per_new_vertex`] × the budget midpoint tests in all (the edges whose
 //! endpoints differ most, or lie in a penumbra, first, again × √length), each of at most
 //! [`MIDPOINT_SHADOW_RAYS`] shadow rays per emitter and [`TEST_RAYS`] hemisphere rays. Every
 //! choice is ordered by the edges' vertex indices, so a fixed seed gives the same mesh for any
@@ -86,7 +86,7 @@ pub fn budget(rays: usize, direct: usize) -> usize {
 /// The `cache` gather's cost is not its hemisphere rays but the direct light it computes
 /// exactly at every vertex (an emitter's visible pieces against its occluders, many on a
 /// furnished scene), and the refinement computes the same at each new vertex and at each of its
-/// [`TESTS_PER_NEW_VERTEX`] midpoint tests. Bounding the new vertices by a share of the
+/// [`CACHE_TESTS_PER_NEW_VERTEX`] midpoint tests. Bounding the new vertices by a share of the
 /// output bounds the refinement's direct-light evaluations by the gather's own, on any scene,
 /// whatever one costs: [`budget`] alone, which prices the direct light by a fixed
 /// [`super::EXACT_EMITTER_COST`], let the refinement of a furnished office of 10⁵ triangles
@@ -100,13 +100,12 @@ pub fn budget_for(mode: Gather, rays: usize, direct: usize, vertices: usize) -> 
 }
 
 /// New vertices of the `cache` gather's display refinement per output vertex, at most
-/// ([`budget_for`]): 1 / (1 + [`TESTS_PER_NEW_VERTEX`]), so that the new vertices and
+/// ([`budget_for`]): 1 / (1 + [`CACHE_TESTS_PER_NEW_VERTEX`]), so that the new vertices and
 /// their tests evaluate the direct light as many times as the gather did at the output's
-/// vertices. On the generated office this share removes most of what the refinement can,
-/// the rest costing several times more; on the generated hall, whose many small lights cast
-/// shadows the output does not follow, it leaves most of them unresolved (BENCHMARKS.md
-/// "Large outputs: the `cache` gather").
-pub const CACHE_REFINE_SHARE: f64 = 1.0 / (1 + TESTS_PER_NEW_VERTEX) as f64;
+/// vertices. On the generated hall, whose many small lights cast shadows the output does not
+/// follow, it leaves most of them unresolved (BENCHMARKS.md "Large outputs: the `cache`
+/// gather").
+pub const CACHE_REFINE_SHARE: f64 = 1.0 / (1 + CACHE_TESTS_PER_NEW_VERTEX) as f64;
 
 /// Rounds of testing new triangles' edges, at most: each halves the edges it splits.
 pub const MAX_LEVELS: usize = 8;
@@ -137,8 +136,37 @@ pub const SIGNIFICANCE: f64 = 2.0;
 /// misses a share of them and leaves contact vertices dark.
 pub const ENCLOSED: f64 = 0.5;
 
-/// Midpoint tests, in all, per vertex the budget allows.
+/// Midpoint tests, in all, per vertex the budget allows, after a `full` or `direct` gather.
+/// There a new vertex costs its hemisphere (64 to 1,024 rays) and a test only its direct light
+/// and [`TEST_RAYS`], so tests are cheap next to vertices and many of them choose the edges
+/// to split well.
 pub const TESTS_PER_NEW_VERTEX: usize = 4;
+
+/// Midpoint tests, in all, per vertex the budget allows, after the `cache` gather. There a
+/// test costs about what a new vertex does (the direct light at a point, the records serving
+/// the indirect light of both), so each test not spent buys a vertex. With 4, most tests were
+/// spent on edges that could not be split: on the generated office three in four of the first
+/// level's tests found their edge over τ, three times the vertices the level could add. At
+/// the same refinement seconds, 2 tests a vertex (a third of the output's vertices added, not
+/// a fifth) display 4.8 % RMS against 5.2 %, and 1 no better than 2 (BENCHMARKS.md "Large
+/// outputs: the `cache` gather").
+pub const CACHE_TESTS_PER_NEW_VERTEX: usize = 2;
+
+/// Midpoint tests, in all, per vertex the budget allows after a `mode` gather:
+/// [`CACHE_TESTS_PER_NEW_VERTEX`] for `cache`, else [`TESTS_PER_NEW_VERTEX`].
+pub fn tests_per_new_vertex(mode: Gather) -> usize {
+    match mode {
+        Gather::Cache => CACHE_TESTS_PER_NEW_VERTEX,
+        _ => TESTS_PER_NEW_VERTEX,
+    }
+}
+
+/// Rays of a midpoint test for the Le of the emitters its direct term leaves to the
+/// hemisphere (`cache` only; a vertex casts [`super::cache::EMISSION_RAYS`]). The test asks
+/// whether the midpoint departs from its ends' mean by τ, not its value: 64 stratified rays
+/// leave that share a noise of about 5e-3 of the light (the furnace's per-vertex figure at
+/// 64 rays, [`super::cache::EMISSION_RAYS`]), a quarter of the default τ.
+pub const TEST_EMISSION_RAYS: usize = 64;
 
 /// What the refinement did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
@@ -235,7 +263,8 @@ pub fn refine(
     // Edges tested and kept whole, and edges over τ waiting for budget: not tested again.
     let mut kept: HashSet<Edge> = HashSet::new();
     let mut deferred: Vec<Split> = Vec::new();
-    let mut tests_left = TESTS_PER_NEW_VERTEX * budget;
+    let tests_per_vertex = tests_per_new_vertex(mode);
+    let mut tests_left = tests_per_vertex * budget;
     let mut candidates: Vec<usize> = (0..d.mesh.faces.len()).collect();
     let mut next_mesh_vertex = d.sites.iter().map(|s| s.mesh_vertex + 1).max().unwrap_or(0);
     // What the tests found at the midpoints, for the final fit of the values (those of the
@@ -286,7 +315,7 @@ pub fn refine(
         // The most promising edges first, as many as the budget pays tests for.
         edges.sort_unstable_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
         let allowed = remaining.div_ceil(2);
-        edges.truncate(tests_left.min(TESTS_PER_NEW_VERTEX * allowed));
+        edges.truncate(tests_left.min(tests_per_vertex * allowed));
         tests_left -= edges.len();
         done.tests += edges.len();
         let seed = gatherer.seed();
@@ -325,8 +354,15 @@ pub fn refine(
                 // ends: above a table leg's top, 5 mm under the table).
                 let (im, error, backs) = match cache.and_then(|c| c.at(spot.x, spot.n)) {
                     Some(reflected) => {
-                        let g = gatherer.cached_vertex(&spot, reflected, &mut rng);
-                        (g.indirect, 0.0, gatherer.backs(&spot, TEST_RAYS, &mut rng))
+                        // Its direct light is `dm` above: only the indirect part is read.
+                        let im = gatherer.cached_reflected(
+                            &spot,
+                            reflected,
+                            &exact,
+                            TEST_EMISSION_RAYS,
+                            &mut rng,
+                        );
+                        (im, 0.0, gatherer.backs(&spot, TEST_RAYS, &mut rng))
                     }
                     None => gatherer.reflected_indirect(&spot, &exact, TEST_RAYS, &mut rng),
                 };

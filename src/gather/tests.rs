@@ -726,14 +726,14 @@ fn a_plate_over_a_floor_casts_its_contact_shadow_through_the_gather() {
     }
 }
 
-/// The `cache` gather's display refinement adds at most [`refine::CACHE_REFINE_SHARE`] of
-/// the output's vertices (each new vertex and its midpoint tests compute the direct light
-/// exactly, which is what the gather costs), and it does add vertices where shadows cross
-/// the output: the Cornell box's blocks cast them on a coarse mesh, so the budget, not τ,
-/// ends it.
+/// The `cache` gather's display refinement adds at most [`refine::CACHE_REFINE_SHARE`] (a
+/// third) of the output's vertices and tests at most [`refine::CACHE_TESTS_PER_NEW_VERTEX`]
+/// midpoints for each (each new vertex and each test compute the direct light exactly, which
+/// is what the gather costs at a vertex), and it does add vertices where shadows cross the
+/// output: the Cornell box's blocks cast them on a coarse mesh, so the budget, not τ, ends it.
 #[test]
 fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
-    assert_eq!(refine::budget_for(Gather::Cache, 64, 32, 100_000), 20_000);
+    assert_eq!(refine::budget_for(Gather::Cache, 64, 32, 100_000), 33_333);
     assert_eq!(
         refine::budget_for(Gather::Cache, 1024, 0, 10_000_000),
         refine::budget(1024, 0)
@@ -753,5 +753,11 @@ fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
     assert!(
         added as f64 <= refine::CACHE_REFINE_SHARE * before as f64,
         "{added} vertices added to {before}"
+    );
+    let tests = out.report.display_refinement.tests;
+    let most = (refine::CACHE_REFINE_SHARE * before as f64) as usize;
+    assert!(
+        tests <= refine::CACHE_TESTS_PER_NEW_VERTEX * most,
+        "{tests} midpoint tests for at most {most} new vertices"
     );
 }
