@@ -27,6 +27,10 @@
 //!   grows with the roots alone, and with ε as ε^-0.4 (fitted to the generated halls: within
 //!   about ±50 % there, but several times low on detailed interiors, so a bake is warned of
 //!   when [`HIERARCHICAL_MEMORY_SPREAD`] times it would not fit).
+//! - **This machine**: the constants are seconds of the benchmark machine; every modelled
+//!   second is scaled by [`super::speed::factor`], a fixed workload's time now over its time
+//!   there, so a slower or busier machine gets a longer estimate (the pilot's seconds are
+//!   measured, not scaled).
 //! - **The final gather**: its time grows with the output vertices (counted on the roots cut
 //!   along the contact lines, as the bake cuts them; on a sample of the triangles beyond
 //!   [`DISPLAY_SAMPLE`]), its rays, and the lights outside the mesh.
@@ -177,6 +181,10 @@ pub struct Estimate {
     pub gather_seconds: f64,
     /// Worker threads the estimate is for.
     pub threads: usize,
+    /// This machine's speed now against the one the constants were fitted on
+    /// ([`super::speed::factor`]; > 1 slower): the modelled seconds are scaled by it (the
+    /// pilot's are measured).
+    pub speed: f64,
     /// Hierarchical, on scenes of [`PILOT_MIN_ROOTS`] roots or more: what the pilot solve
     /// measured ([`crate::hierarchical::pilot`]), from which the memory and the solve's time
     /// are estimated (absent from JSON without one).
@@ -218,7 +226,10 @@ impl Estimate {
         } else {
             1
         };
-        let per_core = 2.0 / threads.max(1) as f64;
+        // The model's seconds are the benchmark machine's on 2 cores: scaled to `threads`,
+        // and to this machine's speed now, the same on every rank (the slowest's).
+        let speed = f64::from_bits(comm.max_u64(super::speed::factor().to_bits()));
+        let per_core = speed * 2.0 / threads.max(1) as f64;
         let finer = s.finer(scene);
         let mut e = match s.method {
             Method::Hierarchical => {
@@ -289,6 +300,7 @@ impl Estimate {
                     memory_bytes: memory,
                     seconds: solve * per_core + pilot.as_ref().map_or(0.0, |p| p.seconds),
                     threads,
+                    speed,
                     gather_seconds: 0.0,
                     pilot,
                 }
@@ -334,6 +346,7 @@ impl Estimate {
                     memory_bytes: BASE_BYTES + bytes * entries,
                     seconds: secs * entries * per_core,
                     threads,
+                    speed,
                     gather_seconds: 0.0,
                     pilot: None,
                 }
@@ -737,6 +750,17 @@ mod tests {
         let e0 = Estimate::of(&scene, &plain, 2).unwrap();
         assert_eq!(e0.max_patches, e0.patches);
         assert!(e0.memory_bytes < e.memory_bytes);
+        // The model's seconds (no pilot, no gather) are the fitted machine's on 2 cores times
+        // this machine's speed, the same for every estimate of a process.
+        let bare = Settings {
+            gather: Gather::None,
+            ..plain.clone()
+        };
+        let b0 = Estimate::of(&scene, &bare, 2).unwrap();
+        assert_eq!(b0.speed, super::super::speed::factor());
+        assert_eq!(b0.gather_seconds, 0.0);
+        let fitted = SECONDS_PER_ENTRY * b0.max_entries.unwrap();
+        assert!((b0.seconds - fitted * b0.speed).abs() <= 1e-9 * b0.seconds);
         // The hierarchy: a smaller ε, more leaves, memory and time.
         let h = |epsilon| Settings {
             method: Method::Hierarchical,

@@ -220,11 +220,13 @@ impl SceneInfo {
         };
         let _ = writeln!(
             s,
-            "estimate:     {} peak memory, {} on {} thread{} (of it the gather, {}: {}; {})",
+            "estimate:     {} peak memory, {} on {} thread{} at {:.2}× the reference machine's \
+             time (of it the gather, {}: {}; {})",
             super::estimate::bytes(e.memory_bytes),
             super::estimate::duration(e.seconds),
             e.threads,
             if e.threads == 1 { "" } else { "s" },
+            e.speed,
             e.gather,
             super::estimate::duration(e.gather_seconds),
             match (e.method, &e.pilot) {

@@ -13,6 +13,7 @@ pub mod estimate;
 pub mod info;
 pub mod report;
 pub mod settings;
+pub mod speed;
 
 pub use estimate::Estimate;
 pub use report::{Report, Seconds};

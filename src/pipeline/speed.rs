@@ -1,0 +1,120 @@
+//! How fast this machine runs the bake's inner loops now, against the machine state the
+//! estimate's constants were fitted in ([`super::estimate`]): a fixed workload, timed once per
+//! process, whose time over [`REFERENCE_SECONDS`] scales every modelled second of the
+//! estimate. The same 2-core benchmark machine has run the same bakes twice as fast on one
+//! day as on another (a faster or slower host, neighbours on its cores), and constants fitted
+//! on one day read that far off on the other; a yardstick measured where and when the bake
+//! runs follows the machine, and the constants are left to describe the scene.
+//!
+//! The workload is what dominates a large bake's time: closest-hit rays (the final gather's
+//! hemispheres, the leaves' regather), any-hit shadow segments (the elements' direct light,
+//! the links' visibility) and contour form factors, in the generated office
+//! ([`crate::validation::scenes::office`] at its smallest, 17,268 triangles of furniture and
+//! walls, so the rays meet what a furnished scene's do). Each round runs it on every worker
+//! thread at once, as the bake keeps them all busy; the median of [`ROUNDS`] rounds counts,
+//! so a moment's interruption does not read as a slow machine. About a quarter of a second.
+//! The machine's speed drifts by about ±15 % from one second to the next, and the factor
+//! carries that.
+
+use std::sync::OnceLock;
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::geometry::kernel::point_to_polygon;
+use crate::sampling::Rng;
+use crate::visibility::{Visibility, NONE};
+
+/// The median round of the workload ([`measure`]) where the estimate's constants hold,
+/// seconds: its median on the benchmark machine (both threads busy) divided by how many
+/// times the constants' seconds the generated office of 10⁵ triangles and the hall of 10⁴
+/// baked in at the same time (BENCHMARKS.md "Large scenes: the estimate against the bake").
+pub const REFERENCE_SECONDS: f64 = 0.0123;
+
+/// Rounds of the workload; the median is kept.
+pub const ROUNDS: usize = 9;
+
+/// Rays and segments of a round (each also one contour form factor).
+const RAYS: usize = 20_000;
+
+/// The factor is kept within [1 / `CLAMP`, `CLAMP`]: beyond, the workload itself went wrong
+/// (a debugger, a machine stopped for seconds), not the machine's speed.
+const CLAMP: f64 = 10.0;
+
+/// This machine's time for the bake's inner loops over the reference's ([`REFERENCE_SECONDS`]),
+/// measured on the first call of the process and kept: > 1 on a slower machine.
+pub fn factor() -> f64 {
+    static FACTOR: OnceLock<f64> = OnceLock::new();
+    *FACTOR.get_or_init(|| (measure() / REFERENCE_SECONDS).clamp(1.0 / CLAMP, CLAMP))
+}
+
+/// The median of [`ROUNDS`] rounds of the workload, seconds.
+pub fn measure() -> f64 {
+    let Ok(scene) = crate::validation::scenes::office(0) else {
+        return REFERENCE_SECONDS; // cannot happen: the generator takes any size
+    };
+    let triangles: Vec<[DVec3; 3]> = scene
+        .triangles
+        .iter()
+        .map(|t| t.vertices.map(|v| scene.positions[v as usize]))
+        .collect();
+    let vis = Visibility::build(&triangles);
+    let (lo, hi) = scene.bounds();
+    let mut times: Vec<f64> = (0..ROUNDS)
+        .map(|round| {
+            // Every worker thread runs a round at once, as the bake keeps them all busy (two
+            // threads on one core's siblings each run slower than one alone).
+            let t = Instant::now();
+            let sum: f64 = (0..rayon::current_num_threads())
+                .into_par_iter()
+                .map(|k| workload(&vis, &triangles, lo, hi, (round * 64 + k) as u64))
+                .sum();
+            std::hint::black_box(sum);
+            t.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[ROUNDS / 2]
+}
+
+/// One round: [`RAYS`] closest-hit rays from points of the box (`lo`, `hi`) in uniform
+/// directions, as many shadow segments between two such points, and a contour form factor from
+/// each point to a triangle; returns a sum of what was found, so nothing is optimised away.
+fn workload(vis: &Visibility, triangles: &[[DVec3; 3]], lo: DVec3, hi: DVec3, round: u64) -> f64 {
+    let mut rng = Rng::new(&[0x5BEED, round]);
+    let point =
+        |rng: &mut Rng| lo + (hi - lo) * DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64());
+    let mut sum = 0.0;
+    for _ in 0..RAYS {
+        let x = point(&mut rng);
+        let z = 2.0 * rng.next_f64() - 1.0;
+        let phi = std::f64::consts::TAU * rng.next_f64();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let dir = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+        if let Some(hit) = vis.closest_hit(x, dir, f64::INFINITY, NONE) {
+            sum += hit.t;
+        }
+        let y = point(&mut rng);
+        sum += f64::from(u8::from(vis.occluded(x, y, [NONE, NONE])));
+        let t = &triangles[rng.below(triangles.len())];
+        sum += point_to_polygon(x, dir, t);
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The factor is measured once a process and kept (two estimates in one process agree),
+    /// and lies within its clamp.
+    #[test]
+    fn the_factor_is_measured_once_and_kept() {
+        let a = factor();
+        assert!((1.0 / CLAMP..=CLAMP).contains(&a), "{a}");
+        assert_eq!(a, factor());
+        let m = measure();
+        assert!(m > 0.0);
+    }
+}
