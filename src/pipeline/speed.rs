@@ -46,11 +46,38 @@ const RAYS: usize = 20_000;
 /// (a debugger, a machine stopped for seconds), not the machine's speed.
 const CLAMP: f64 = 10.0;
 
+/// The environment variable that fixes the factor instead of measuring it: a positive number
+/// (1 gives the reference machine's estimate, the same on every machine: reproducible
+/// `info` output).
+pub const SPEED_VARIABLE: &str = "RADIOSITY_SPEED";
+
 /// This machine's time for the bake's inner loops over the reference's ([`REFERENCE_SECONDS`]),
-/// measured on the first call of the process and kept: > 1 on a slower machine.
+/// measured on the first call of the process and kept: > 1 on a slower machine. Given by
+/// [`SPEED_VARIABLE`] where that is set (one that is not a positive number is warned of and
+/// measured instead).
 pub fn factor() -> f64 {
     static FACTOR: OnceLock<f64> = OnceLock::new();
-    *FACTOR.get_or_init(|| (measure() / REFERENCE_SECONDS).clamp(1.0 / CLAMP, CLAMP))
+    *FACTOR.get_or_init(|| {
+        if let Some(text) = std::env::var_os(SPEED_VARIABLE) {
+            let text = text.to_string_lossy();
+            if let Some(x) = given(&text) {
+                return x;
+            }
+            crate::progress::warning(&format!(
+                "{SPEED_VARIABLE}={text}: not a positive number; the machine's speed is \
+                 measured instead"
+            ));
+        }
+        (measure() / REFERENCE_SECONDS).clamp(1.0 / CLAMP, CLAMP)
+    })
+}
+
+/// The factor [`SPEED_VARIABLE`]'s `text` gives: a finite positive number, else `None`.
+fn given(text: &str) -> Option<f64> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|x| x.is_finite() && *x > 0.0)
 }
 
 /// The median of [`ROUNDS`] rounds of the workload, seconds.
@@ -160,7 +187,8 @@ mod tests {
     use super::*;
 
     /// The factor is measured once a process and kept (two estimates in one process agree),
-    /// and lies within its clamp.
+    /// and lies within its clamp; the workload's room is as documented; the environment's
+    /// factor is taken only where it is a positive number.
     #[test]
     fn the_factor_is_measured_once_and_kept() {
         let a = factor();
@@ -169,6 +197,11 @@ mod tests {
         let m = measure();
         assert!(m > 0.0);
         let (triangles, lo, hi) = furnished_room();
+        // The environment's factor: a positive number, nothing else.
+        assert_eq!(given(" 1.5 "), Some(1.5));
+        for bad in ["0", "-2", "inf", "NaN", "fast", ""] {
+            assert_eq!(given(bad), None, "{bad}");
+        }
         assert_eq!(triangles.len(), 24 * 14 * 4 + 12 * BOXES);
         assert!(triangles
             .iter()

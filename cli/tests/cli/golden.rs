@@ -60,7 +60,9 @@ fn run_case(root: &Path, name: &str, commands: &str) -> Vec<String> {
     let mut outputs = Vec::new();
     for (k, command) in commands.split(" ; ").enumerate() {
         let args = words(&command.replace("{out}", &out.display().to_string()));
+        // The estimate `info` prints at the reference machine's speed, not this one's.
         let o = Command::new(env!("CARGO_BIN_EXE_radiosity"))
+            .env("RADIOSITY_SPEED", "1")
             .args(&args)
             .current_dir(root)
             .output()
