@@ -131,6 +131,13 @@ const GATHER_SECONDS_PER_DIRECT: f64 = 1.2e-6;
 /// 1.7e-4), both of cost 48 (`tools/bench_large.sh`).
 const GATHER_CACHE_SECONDS_PER_VERTEX: f64 = 0.43e-4;
 const GATHER_CACHE_SECONDS_PER_DIRECT: f64 = 3.9e-6;
+/// The records' hemisphere rays in the bakes the two constants above were fitted to; the
+/// records' rays past these ([`gather::cache::RAY_BUDGET`] is a fixed total, spent whenever
+/// there are more than a few thousand records) cost [`GATHER_CACHE_SECONDS_PER_RECORD_RAY`]
+/// each on 2 cores: the office's bake with 8·10⁶ record rays against 4·10⁶ (`farm-bench -n 2
+/// --vs`), 6.6 s longer at 2.24× the reference machine's time.
+const FITTED_RECORD_RAYS: f64 = 4.0e6;
+const GATHER_CACHE_SECONDS_PER_RECORD_RAY: f64 = 0.74e-6;
 /// The share of [`GATHER_CACHE_SECONDS_PER_VERTEX`] left without the display refinement: the
 /// refinement's new vertices and tests evaluate the direct light about as many times as the
 /// gather did ([`gather::refine::CACHE_REFINE_SHARE`]).
@@ -367,7 +374,9 @@ impl Estimate {
                 };
                 let per_vertex = GATHER_CACHE_SECONDS_PER_VERTEX
                     + GATHER_CACHE_SECONDS_PER_DIRECT * gather_direct_cost(scene);
-                e.seconds += per_vertex * share * vertices as f64 * per_core;
+                let records = (gather::cache::RAY_BUDGET as f64 - FITTED_RECORD_RAYS)
+                    * GATHER_CACHE_SECONDS_PER_RECORD_RAY;
+                e.seconds += (per_vertex * share * vertices as f64 + records) * per_core;
             } else {
                 // In hemisphere rays: at each vertex its rays, the rays beside edges
                 // ([`gather::EDGE_RAYS`]) and its direct light; then the display refinement's
