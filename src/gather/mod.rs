@@ -478,9 +478,10 @@ impl Gatherer<'_> {
 
 /// Recomputes the radiance of the output vertices `sites` (from [`crate::bake::bake_sites`])
 /// by the final gather `mode`, with `rays` hemisphere rays for `full` (per record for
-/// `cache`, where `None` shares out [`cache::RAY_BUDGET`]). `baked[v]` is the bake's value at vertex v (kept for buried vertices; for
-/// `direct`, the bake of the indirect part is recomputed here). Returns what was found at
-/// each vertex, and for `cache` the records (for the display refinement).
+/// `cache`, where `None` shares out [`cache::RAY_BUDGET`]). `baked[v]` is the bake's value at
+/// vertex v (kept for buried vertices; for `direct`, the bake of the indirect part is recomputed
+/// here). Returns what was found at each vertex, and for `cache` the records (for the display
+/// refinement).
 pub fn gather(
     gatherer: &Gatherer,
     sites: &[Site],

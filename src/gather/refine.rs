@@ -23,10 +23,11 @@
 //! the backs of surfaces is walled in where nobody sees it ([`ENCLOSED`]: the floor under a
 //! partition of two wall faces), and its edge is left alone.
 //!
-//! A split edge gets a new output vertex at its midpoint with its own final gather, and the triangles around it are split conformingly (one, two or three
-//! split edges give two, three or four triangles; a split edge is split in every triangle that
-//! has it, on both sides of a crease), so no T-junction appears. New triangles' edges are
-//! tested again, up to [`MAX_LEVELS`] times and down to [`MIN_EDGE`] of the scene's extent.
+//! A split edge gets a new output vertex at its midpoint with its own final gather, and the
+//! triangles around it are split conformingly (one, two or three split edges give two, three or
+//! four triangles; a split edge is split in every triangle that has it, on both sides of a crease),
+//! so no T-junction appears. New triangles' edges are tested again, up to [`MAX_LEVELS`] times and
+//! down to [`MIN_EDGE`] of the scene's extent.
 //!
 //! The work is bounded: at most `budget` new vertices in all (the edges with the largest
 //! deviation × √length first, at most half the remaining budget per level, the rest waiting for
@@ -145,12 +146,12 @@ pub const TESTS_PER_NEW_VERTEX: usize = 4;
 /// Midpoint tests, in all, per vertex the budget allows, after the `cache` gather. There a
 /// test costs about what a new vertex does (both compute the direct light exactly at a point,
 /// and read their indirect light from the records where these serve them; on the generated
-/// office 0.18 against 0.25 ms a point), so each test not spent buys a vertex. With 4, most tests were
-/// spent on edges that could not be split: on the generated office three in four of the first
-/// level's tests found their edge over τ, three times the vertices the level could add. At
-/// the same refinement seconds, 2 tests a vertex (a third of the output's vertices added, not
-/// a fifth) display 4.8 % RMS against 5.2 %, and 1 no better than 2 (BENCHMARKS.md "Large
-/// outputs: the `cache` gather").
+/// office 0.18 against 0.25 ms a point), so each test not spent buys a vertex. With 4, most tests
+/// were spent on edges that could not be split: on the generated office three in four of the first
+/// level's tests found their edge over τ, three times the vertices the level could add. At the same
+/// refinement seconds, 2 tests a vertex (a third of the output's vertices added, not a fifth)
+/// display 4.8 % RMS against 5.2 %, and 1 no better than 2 (BENCHMARKS.md "Large outputs: the
+/// `cache` gather").
 pub const CACHE_TESTS_PER_NEW_VERTEX: usize = 2;
 
 /// Midpoint tests, in all, per vertex the budget allows after a `mode` gather:

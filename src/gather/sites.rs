@@ -127,8 +127,8 @@ impl Gatherer<'_> {
     }
 
     /// True when the first surface along `n` from `x` is seen from behind: `x` is buried
-    /// ([`crate::visibility::Visibility::buried`]'s test, along the vertex's own normal rather than one
-    /// patch's: on a curved surface the two differ).
+    /// ([`crate::visibility::Visibility::buried`]'s test, along the vertex's own normal rather than
+    /// one patch's: on a curved surface the two differ).
     ///
     /// The ray starts [`LIFT`] above `x`, as the shadow and hemisphere rays do. From `x`
     /// itself, a vertex shared by several patches of a face that is not aligned with the axes

@@ -37,9 +37,9 @@ use super::kernel::point_to_convex_polygon;
 /// anyway. In a furnished office (chairs, plants, shelves: `generate office`), about a third
 /// of the calls gave up at twice these bounds, having done three fifths of all the clipping;
 /// at these, its whole bake takes about 7 % less time and its displayed error is the same
-/// over three seeds. Rooms whose views are less crowded (the Cornell box, the living room, the study,
-/// the kitchen, the hall of many lights) show the same picture either way
-/// (BENCHMARKS.md, "Large outputs: the `cache` gather").
+/// over three seeds. Rooms whose views are less crowded (the Cornell box, the living room, the
+/// study, the kitchen, the hall of many lights) show the same picture either way (BENCHMARKS.md,
+/// "Large outputs: the `cache` gather").
 pub const MAX_OCCLUDERS: usize = 32;
 
 /// Triangles overlapping the pyramid's box that are clipped to it, at most (most of them miss

@@ -4,8 +4,9 @@
 
 /// A triangle's corners sorted, with the parity of the sort: a triangle and its reverse over
 /// the same corners (twins) have the same sorted corners and opposite parity, since a reversed
-/// triangle is an odd permutation of the original's corners. Used on vertex indices by [`crate::scene`] and
-/// on corner bits by [`crate::visibility`], so the two recognise twins by one rule.
+/// triangle is an odd permutation of the original's corners. Used on vertex indices by
+/// [`crate::scene`] and on corner bits by [`crate::visibility`], so the two recognise twins by one
+/// rule.
 pub fn winding_key<T: PartialOrd + Copy>(corners: [T; 3]) -> ([T; 3], bool) {
     let mut c = corners;
     let mut odd = false;

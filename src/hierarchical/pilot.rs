@@ -200,8 +200,8 @@ pub struct Pilot {
     pub seconds: f64,
 }
 
-/// The pilot of [`solve()`](super::solve()) on `roots` with the same arguments, sampling about `sample`
-/// roots (all of them when the scene has no more); see the module documentation. A scene
+/// The pilot of [`solve()`](super::solve()) on `roots` with the same arguments, sampling about
+/// `sample` roots (all of them when the scene has no more); see the module documentation. A scene
 /// without light makes no links.
 pub fn pilot(
     roots: &Patches,

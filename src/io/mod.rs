@@ -1,11 +1,11 @@
 //! Files in and out: scene files read into a [`Scene`] ([`Scene::load`]: OBJ + MTL through
-//! [`obj`], PLY through [`ply`], glTF through [`gltf`], Mitsuba XML through [`mitsuba`]), baked meshes written for MeshLab ([`write()`]: PLY or OBJ by
-//! the output's extension, see [`Format`]) and read back ([`ReadBack`], for tests, `render` and
-//! later tools), procedural scenes saved as OBJ + MTL ([`obj::save`]), and the atomic
-//! replacement every writer goes through ([`atomic`]). Each format keeps its reader and its
-//! writer together: [`ply`] (one header layer shared by the scene reader and the read-back)
-//! and [`obj`] (one writer for scenes and baked meshes). It does not bake radiance into
-//! vertices ([`crate::bake`]) or draw pictures ([`crate::render`]).
+//! [`obj`], PLY through [`ply`], glTF through [`gltf`], Mitsuba XML through [`mitsuba`]), baked
+//! meshes written for MeshLab ([`write()`]: PLY or OBJ by the output's extension, see [`Format`])
+//! and read back ([`ReadBack`], for tests, `render` and later tools), procedural scenes saved as
+//! OBJ + MTL ([`obj::save`]), and the atomic replacement every writer goes through ([`atomic`]).
+//! Each format keeps its reader and its writer together: [`ply`] (one header layer shared by the
+//! scene reader and the read-back) and [`obj`] (one writer for scenes and baked meshes). It does
+//! not bake radiance into vertices ([`crate::bake`]) or draw pictures ([`crate::render`]).
 
 pub mod atomic;
 pub mod gltf;

@@ -99,12 +99,12 @@ impl Environment {
     }
 
     /// [`Environment::sharp_direct`] with one shadow ray for all the point lights together
-    /// and one to the sun: unbiased, and noisy alone. For the many points of a gather that are averaged (a near
-    /// hit's reflected light), where a level's hundred lamps would otherwise cost a hundred
-    /// rays at every one. Up to [`EXACT_LIGHTS`] + [`SAMPLED_LIGHTS`] lights, the light is
-    /// drawn in proportion to what it would bring unoccluded, all weighed; beyond that, by the
-    /// light tree `tree` (built over this environment's lights), in O(log n) instead of
-    /// weighing every lamp at every point.
+    /// and one to the sun: unbiased, and noisy alone. For the many points of a gather that are
+    /// averaged (a near hit's reflected light), where a level's hundred lamps would otherwise cost
+    /// a hundred rays at every one. Up to [`EXACT_LIGHTS`] + [`SAMPLED_LIGHTS`] lights, the light
+    /// is drawn in proportion to what it would bring unoccluded, all weighed; beyond that, by the
+    /// light tree `tree` (built over this environment's lights), in O(log n) instead of weighing
+    /// every lamp at every point.
     pub fn sharp_direct_sampled(&self, tree: &LightTree, at: &Receiver, rng: &mut Rng) -> Rgb {
         if self.lights.len() <= EXACT_LIGHTS + SAMPLED_LIGHTS {
             return self.sharp_direct_with(at, (0, 1), 1, rng);
@@ -218,9 +218,9 @@ impl Environment {
 
     /// The sun's part of [`Environment::direct`]: E_sun cos θ V̄ / π, V̄ the mean share that
     /// passes ([`Visibility::transmittance`]: 0 or 1, or the product of the panes'
-    /// transmittances on the way) over `rays` shadow rays to points of the disc stratified over its solid angle ([`SUN_RAYS`] at a point that is
-    /// shown; one, unbiased and noisy alone, at a near hit's point, of which a gather averages
-    /// many).
+    /// transmittances on the way) over `rays` shadow rays to points of the disc stratified over its
+    /// solid angle ([`SUN_RAYS`] at a point that is shown; one, unbiased and noisy alone, at a near
+    /// hit's point, of which a gather averages many).
     pub fn sun_direct(&self, at: &Receiver, rays: usize, rng: &mut Rng) -> Rgb {
         let (Some(sun), Some(s)) = (self.sun, self.sun_direction()) else {
             return [0.0; 3];
@@ -318,8 +318,8 @@ impl Environment {
 /// D per patch (radiance units, before ρ): [`Environment::direct`] at the 7 points of each
 /// patch's Gauss rule ([`gauss_rule`], degree 5), with [`SKY_RAYS`] sky rays each, averaged by
 /// the rule's weights over the points that are not buried under contact geometry
-/// ([`Visibility::buried`]: the floor under a block sees no sky, and its patch's visible part should
-/// not be darkened by it). Rays are traced against every patch. Deterministic: each patch's
+/// ([`Visibility::buried`]: the floor under a block sees no sky, and its patch's visible part
+/// should not be darkened by it). Rays are traced against every patch. Deterministic: each patch's
 /// rays are keyed by (`seed`, patch). All zeros when the environment is dark.
 pub fn patch_light(patches: &Patches, env: &Environment, seed: u64) -> Vec<Rgb> {
     use rayon::prelude::*;

@@ -22,11 +22,11 @@
 //!   elements' direct light, and the peak memory in the elements plus the larger of the
 //!   links (the solve) and the gathered vertices (the gather, after the links are freed)
 //!   (constants fitted to the benchmark's bakes; within 2× of the bake on each of them,
-//!   BENCHMARKS.md "Large scenes: the estimate against the bake"). A pilot estimates, it does not bound: the memory guard
-//!   ([`links_within`]) is what holds a bake to its memory. On smaller scenes the estimate
-//!   grows with the roots alone, and with ε as ε^-0.4 (fitted to the generated halls: within
-//!   about ±50 % there, but several times low on detailed interiors, so a bake is warned of
-//!   when [`HIERARCHICAL_MEMORY_SPREAD`] times it would not fit).
+//!   BENCHMARKS.md "Large scenes: the estimate against the bake"). A pilot estimates, it does not
+//!   bound: the memory guard ([`links_within`]) is what holds a bake to its memory. On smaller
+//!   scenes the estimate grows with the roots alone, and with ε as ε^-0.4 (fitted to the generated
+//!   halls: within about ±50 % there, but several times low on detailed interiors, so a bake is
+//!   warned of when [`HIERARCHICAL_MEMORY_SPREAD`] times it would not fit).
 //! - **This machine**: the constants are seconds of the benchmark machine; every modelled
 //!   second is scaled by [`super::speed::factor`], a fixed workload's time now over its time
 //!   there, so a slower or busier machine gets a longer estimate (the pilot's seconds are
@@ -524,13 +524,14 @@ pub const MAX_EPSILON_RAISE: f64 = 16.0;
 
 /// Settings a bake of `scene` with `settings` on `threads` threads is estimated to finish
 /// within `budget` seconds with, their estimate, and what was changed, in a sentence (`None`
-/// when nothing had to be). The coarsenings are tried in order of what they cost the picture least, each
-/// on top of the last, until the estimate fits: ε doubled (hierarchical; the solve's links
-/// and elements, at most [`MAX_EPSILON_RAISE`]×), or no refinement rounds (matrix); then no
-/// display refinement (`--gather-tolerance 0`); then `--gather direct` (the indirect light
-/// from the solution); then `--gather none` (the solution's own patches). If none fits, the
-/// cheapest is taken and the sentence says the estimate is still over. The estimate is only an estimate: the bake's refinements also stop where
-/// their share of the budget is spent ([`super::SOLVE_SHARE`], [`super::DISPLAY_SHARE`]).
+/// when nothing had to be). The coarsenings are tried in order of what they cost the picture least,
+/// each on top of the last, until the estimate fits: ε doubled (hierarchical; the solve's links and
+/// elements, at most [`MAX_EPSILON_RAISE`]×), or no refinement rounds (matrix); then no display
+/// refinement (`--gather-tolerance 0`); then `--gather direct` (the indirect light from the
+/// solution); then `--gather none` (the solution's own patches). If none fits, the cheapest is
+/// taken and the sentence says the estimate is still over. The estimate is only an estimate: the
+/// bake's refinements also stop where their share of the budget is spent ([`super::SOLVE_SHARE`],
+/// [`super::DISPLAY_SHARE`]).
 pub fn fit_time(
     scene: &Scene,
     settings: &Settings,

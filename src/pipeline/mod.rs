@@ -564,8 +564,8 @@ fn display_contacts(
 }
 
 /// Bake: patch radiance → the output mesh's vertices (→ final gather at them, unless
-/// `gather = none`), with the scene's camera and the environment's sky (for pictures); fills the report's vertex count and bake and
-/// gather seconds.
+/// `gather = none`), with the scene's camera and the environment's sky (for pictures); fills the
+/// report's vertex count and bake and gather seconds.
 fn bake_stage(
     scene: &Scene,
     patches: &Patches,

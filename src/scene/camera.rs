@@ -207,8 +207,9 @@ impl Camera {
     /// The five views of the bounding box [lo, hi] for the `up` axis: looking horizontally at
     /// its centre from each side in turn (first along [`Up::forward`], then turning 90° at a
     /// time), then looking straight down from above (what a flat ground plane is seen from,
-    /// when no level view sees it), with the Cornell box's published lens ([`cornell_vfov_degrees`]), far
-    /// enough back that the box's near face fills the picture's height or width.
+    /// when no level view sees it), with the Cornell box's published lens
+    /// ([`cornell_vfov_degrees`]), far enough back that the box's near face fills the picture's
+    /// height or width.
     pub fn framings(lo: DVec3, hi: DVec3, up: Up) -> [Camera; 5] {
         let vfov_degrees = cornell_vfov_degrees();
         let centre = 0.5 * (lo + hi);

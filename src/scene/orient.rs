@@ -23,9 +23,9 @@
 //!    face seen from both sides (a pool's surface against its pit's walls, a one-sided
 //!    blocker seen by the light above and the floor below) keeps its winding, and so does a
 //!    scene with no evidence. Surfaces that neither reflect nor emit (ρ = 0, Le = 0) are
-//!    never turned: either side of them is the same. Blender's "recalculate normals" does step 1 and, for closed
-//!    shells, turns them outward; step 2 differs because an interior's walls are meant to be
-//!    seen from inside.
+//!    never turned: either side of them is the same. Blender's "recalculate normals" does step 1
+//!    and, for closed shells, turns them outward; step 2 differs because an interior's walls are
+//!    meant to be seen from inside.
 //!
 //! 3. **A back side where both are seen.** A surface whose front and back are both seen
 //!    from the open (each by at least what a turn needs, counting lights and rays that
@@ -58,8 +58,9 @@ pub const RAYS: usize = 4;
 pub const LIGHTS_PER_POINT: usize = 4;
 
 /// A surface is turned only when nothing sees its front (no light in plain sight, no ray
-/// meeting another surface's front) and what sees its back is at least this many votes, and at least [`FLIP_MIN_SHARE`] of the votes its points could cast on
-/// one side (a small surface's few points must agree more).
+/// meeting another surface's front) and what sees its back is at least this many votes, and at
+/// least [`FLIP_MIN_SHARE`] of the votes its points could cast on one side (a small surface's few
+/// points must agree more).
 pub const FLIP_MIN_VOTES: i64 = 4;
 
 /// See [`FLIP_MIN_VOTES`].

@@ -1,7 +1,7 @@
 //! `radiosity verify`: the built-in analytic suite. Each case builds a scene with a known answer
-//! ([`crate::validation::scenes`]), runs the same pipeline as a bake, and compares with the closed form
-//! ([`crate::validation::closed_forms`]). This module owns the cases and their tolerances; each tolerance
-//! says why that much error is expected at that resolution.
+//! ([`crate::validation::scenes`]), runs the same pipeline as a bake, and compares with the closed
+//! form ([`crate::validation::closed_forms`]). This module owns the cases and their tolerances;
+//! each tolerance says why that much error is expected at that resolution.
 
 use std::time::Instant;
 

@@ -14,10 +14,10 @@
 //! operations in the same order (ray-space transform, edge functions, the sign rules, the scaled
 //! distance), so every lane decides exactly as the scalar test; a lane whose edge function is
 //! exactly zero (the ray through an edge or a corner, or in the triangle's plane) has its edge
-//! functions recomputed in `f64` as the scalar test does. The box test is the slab test in `f32` on boxes padded by
-//! [`super::BOX_PAD`], which is far larger than its rounding, so a box is never missed by a ray
-//! that meets a triangle inside it: the traversal visits a superset of what it must, and the
-//! answers are those of testing every triangle (the brute-force oracle of the tests).
+//! functions recomputed in `f64` as the scalar test does. The box test is the slab test in `f32` on
+//! boxes padded by [`super::BOX_PAD`], which is far larger than its rounding, so a box is never
+//! missed by a ray that meets a triangle inside it: the traversal visits a superset of what it
+//! must, and the answers are those of testing every triangle (the brute-force oracle of the tests).
 //!
 //! Nothing is allocated per query: the traversal stack is a fixed array on the call stack,
 //! sized by the tree's depth at build time (a heap stack only for trees deeper than

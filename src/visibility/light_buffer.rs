@@ -25,8 +25,9 @@
 //! A buffer holds one bit per triangle and cell, so it serves triangle sets of at most
 //! [`MAX_TRIANGLES`] (the form factors' occluders are the scene triangles off the convex hull:
 //! 22 in the Cornell box); beyond that every query tries the last occluder and then traverses
-//! the BVH as [`Visibility::occluded_points`] does. Its memory is reused between origins (no allocation per
-//! origin or per segment). Measured in BENCHMARKS.md ("Visibility: rays against Embree").
+//! the BVH as [`Visibility::occluded_points`] does. Its memory is reused between origins (no
+//! allocation per origin or per segment). Measured in BENCHMARKS.md ("Visibility: rays against
+//! Embree").
 
 use glam::DVec3;
 

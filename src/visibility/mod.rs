@@ -35,8 +35,9 @@
 //! # Twins: the two sides of one surface
 //! A triangle and its reverse over the same three corners (bitwise the same canonical
 //! coordinates, opposite winding) are *twins*: the front and the back of one two-sided surface
-//! (what `--two-sided` makes of every face, and what a two-sided bake writes). [`Visibility::build`]
-//! pairs them itself, so callers need no extra input, and traces each pair as one triangle:
+//! (what `--two-sided` makes of every face, and what a two-sided bake writes).
+//! [`Visibility::build`] pairs them itself, so callers need no extra input, and traces each pair as
+//! one triangle:
 //! - [`Visibility::occluded`] ignores the twins of the triangles in `ignore` as well (a point on
 //!   one side lies on the other side too);
 //! - [`Visibility::closest_hit`] ignores the twin of `ignore` and reports, of a pair, the
@@ -514,7 +515,8 @@ impl Visibility {
     /// start next to a concave corner pass through the adjacent wall (a leak of ~1e-3 of the
     /// rays from corner patches in hemisphere shooting). Both sides of triangles are hit. The
     /// hit is the least `(t, triangle index)` over all triangles met, `t` as the watertight test
-    /// computes it, whatever the traversal order (ties go to the lowest index). Returns `None` for a zero or non-finite `dir`.
+    /// computes it, whatever the traversal order (ties go to the lowest index). Returns `None` for
+    /// a zero or non-finite `dir`.
     pub fn closest_hit(&self, origin: DVec3, dir: DVec3, t_max: f64, ignore: u32) -> Option<Hit> {
         let (ray, m) = self.direction_ray(origin, dir, t_max)?;
         let mut best: Option<(f32, u32, f32, f32)> = None;

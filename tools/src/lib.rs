@@ -420,7 +420,8 @@ pub fn surface_means(scene: &Scene, out: &Outcome) -> Vec<[f64; 3]> {
 }
 
 /// The path-traced per-surface visible means of the Cornell box
-/// (docs/bench/cornell_reference.csv, made by `cargo bench -p radiosity-tools --bench scale -- reference`).
+/// (docs/bench/cornell_reference.csv, made by `cargo bench -p radiosity-tools --bench scale --
+/// reference`).
 pub fn cornell_reference() -> Option<Vec<[f64; 3]>> {
     path_tracer::read_reference(&root().join("docs/bench/cornell_reference.csv")).ok()
 }

@@ -36,9 +36,9 @@ pub fn component_to_u8(c: f64) -> u8 {
 }
 
 /// Writes `mesh` as OBJ to `w` with colours sRGB(radiance · `exposure`): a comment header
-/// (units, exposure, the scene's camera as `# camera: …` when it has one, counts), `v x y z r g b` per vertex (positions as `f32` in Rust's
-/// shortest round-trip plain decimal form), then `f a b c` per face with 1-based indices.
-/// Expects a validated mesh.
+/// (units, exposure, the scene's camera as `# camera: …` when it has one, counts), `v x y z r g b`
+/// per vertex (positions as `f32` in Rust's shortest round-trip plain decimal form), then `f a b c`
+/// per face with 1-based indices. Expects a validated mesh.
 pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64) -> io::Result<()> {
     let mut comments = vec![
         "radiosity: baked radiance as vertex colours".to_string(),

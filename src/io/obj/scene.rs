@@ -33,8 +33,8 @@
 //! without `Kd` gets ρ = 0.5 with a warning.
 //!
 //! A comment `# camera: EX EY EZ TX TY TZ UX UY UZ FOV` gives the scene its camera
-//! ([`crate::scene::camera`]; eye, target and up in scene units, vertical field of view in degrees).
-//! A malformed one, or a second one, is an error at its line; other comments are ignored.
+//! ([`crate::scene::camera`]; eye, target and up in scene units, vertical field of view in
+//! degrees). A malformed one, or a second one, is an error at its line; other comments are ignored.
 
 use std::cell::RefCell;
 use std::collections::HashSet;

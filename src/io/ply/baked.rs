@@ -4,10 +4,10 @@
 //! keep); per face: `list uchar int vertex_indices` and `float radiance_r/g/b`. The header
 //! records the exposure in a comment, and the scene's camera (`comment camera: EX EY EZ TX TY
 //! TZ UX UY UZ FOV`, see [`crate::scene::camera`]) when it has one, and the bake's sky
-//! (`comment sky: R G B MODEL UP`, [`crate::scene::Sky`]) when it had one, for pictures. This file owns the byte
-//! layout only; atomic file replacement is in [`crate::io::atomic`], the colour pipeline in
-//! [`crate::color`], the header's syntax in [`super::header`]. The reader accepts our layout
-//! (any comments) and nothing else; any other PLY is a scene ([`super::load`]).
+//! (`comment sky: R G B MODEL UP`, [`crate::scene::Sky`]) when it had one, for pictures. This file
+//! owns the byte layout only; atomic file replacement is in [`crate::io::atomic`], the colour
+//! pipeline in [`crate::color`], the header's syntax in [`super::header`]. The reader accepts our
+//! layout (any comments) and nothing else; any other PLY is a scene ([`super::load`]).
 
 use std::io::{self, Write};
 use std::path::Path;

@@ -125,8 +125,9 @@ pub fn lamp_room(wrong: &[usize], gaps: bool) -> SceneBuilder {
 }
 
 /// The furnace: a closed, non-convex enclosure — a unit room (seen from inside) holding two
-/// floating boxes (seen from outside), which shadow each other and the walls — with one material of reflectance `rho` and emission `le` everywhere.
-/// Expected: L = Le / (1 − ρ) on every patch ([`crate::validation::closed_forms::furnace_radiance`]).
+/// floating boxes (seen from outside), which shadow each other and the walls — with one material of
+/// reflectance `rho` and emission `le` everywhere. Expected: L = Le / (1 − ρ) on every patch
+/// ([`crate::validation::closed_forms::furnace_radiance`]).
 pub fn furnace_room(rho: f64, le: f64) -> Result<Scene> {
     let mut b = SceneBuilder::new();
     let m = b.material("furnace", [rho; 3], [le; 3]);

@@ -1,9 +1,10 @@
-//! The run-time-vs-error harness: `cargo bench -p radiosity-tools --bench accuracy -- [--quick] [--out DIR]`.
+//! The run-time-vs-error harness: `cargo bench -p radiosity-tools --bench accuracy -- [--quick]
+//! [--out DIR]`.
 //!
-//! Sweeps the analytic scenes of [`radiosity::validation::scenes`] and the Cornell box over resolution,
-//! estimator and sample count, measures each run's error the way `radiosity verify` does
-//! (against [`radiosity::validation::closed_forms`], or a finer run for the Cornell box), and writes to DIR
-//! (default `target/bench`):
+//! Sweeps the analytic scenes of [`radiosity::validation::scenes`] and the Cornell box over
+//! resolution, estimator and sample count, measures each run's error the way `radiosity verify`
+//! does (against [`radiosity::validation::closed_forms`], or a finer run for the Cornell box), and
+//! writes to DIR (default `target/bench`):
 //!
 //! - `runs.csv`: one row per (run, error kind), with patches, rays and seconds per stage;
 //! - `residuals.csv`: the solver study (Jacobi and Gauss–Seidel on the furnace, ρ up to 0.99),

@@ -1,6 +1,6 @@
-//! The speed-and-scale harness: `cargo bench -p radiosity-tools --bench scale -- [SECTION…] [--quick]
-//! [--out DIR]`, sections `skips`, `solvers`, `scale`, `rays`, `matvec`, `reference` (all but
-//! `reference` when none is named). Writes to DIR (default `target/scale`):
+//! The speed-and-scale harness: `cargo bench -p radiosity-tools --bench scale -- [SECTION…]
+//! [--quick] [--out DIR]`, sections `skips`, `solvers`, `scale`, `rays`, `matvec`, `reference` (all
+//! but `reference` when none is named). Writes to DIR (default `target/scale`):
 //!
 //! - `skips.csv` / `skips.md`: every skip of the pipeline, the same work with and without it in
 //!   one run (seconds, the counter that shows it in `--report`, and whether the answer is the
@@ -19,7 +19,8 @@
 //! - `matvec.md`: bytes per second of the F·L product against this machine's copy bandwidth
 //!   measured in the same run;
 //! - `reference`: `docs/bench/cornell_reference.csv`, the per-surface mean radiance of the
-//!   Cornell box by path tracing ([`radiosity::validation::path_tracer`]; 16M paths per surface, a few minutes).
+//!   Cornell box by path tracing ([`radiosity::validation::path_tracer`]; 16M paths per surface, a
+//!   few minutes).
 //!
 //! Everything is timed on the machine it runs on; the date and machine head every file.
 

@@ -1,4 +1,5 @@
-//! The `matvec` section: the bandwidth of one product with F against the machine's memory bandwidth.
+//! The `matvec` section: the bandwidth of one product with F against the machine's memory
+//! bandwidth.
 
 use super::*;
 

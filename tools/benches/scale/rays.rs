@@ -1,4 +1,5 @@
-//! The `rays` section: visibility rays per second on the form-factor workload, and the same segments for Embree (tools/embree_rays.py).
+//! The `rays` section: visibility rays per second on the form-factor workload, and the same
+//! segments for Embree (tools/embree_rays.py).
 
 use super::*;
 

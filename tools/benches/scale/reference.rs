@@ -1,4 +1,5 @@
-//! The `reference` section: the path-traced per-surface reference of the Cornell box (docs/bench/cornell_reference.csv).
+//! The `reference` section: the path-traced per-surface reference of the Cornell box
+//! (docs/bench/cornell_reference.csv).
 
 use super::*;
 

@@ -1,4 +1,5 @@
-//! The `scale` section: the Cornell box at growing patch counts, each run in a child process of this harness (`--child SPEC`) so that its peak memory is its own.
+//! The `scale` section: the Cornell box at growing patch counts, each run in a child process of
+//! this harness (`--child SPEC`) so that its peak memory is its own.
 
 use super::*;
 

@@ -1,4 +1,5 @@
-//! The `skips` section: what each shortcut saves (its work with the shortcut on and off, and that the answer does not change).
+//! The `skips` section: what each shortcut saves (its work with the shortcut on and off, and that
+//! the answer does not change).
 
 use super::*;
 
