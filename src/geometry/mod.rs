@@ -4,8 +4,9 @@
 //! exact point-to-polygon form factor by Lambert's contour integral, [`kernel`]), clipping of
 //! convex polygons to a half-space ([`clip`]), the visible part of a polygon seen from a point
 //! past occluding triangles and its exact form factor ([`visible`]), the winding key that
-//! recognises a triangle's reverse ([`winding`]), and the unit icosphere the scene
-//! generators and the Mitsuba reader's spheres share ([`icosphere`]).
+//! recognises a triangle's reverse ([`winding`]), the unit icosphere the scene generators and
+//! the Mitsuba reader's spheres share ([`icosphere`]), and the faces of an axis-aligned box
+//! the generators and the speed workload share ([`box_faces`]).
 //!
 //! It imports no other module of the crate; [`crate::sampling`] (random numbers, quadrature and
 //! sampling rules) stands beside it on the ground floor. Neither imports a stage, and the
@@ -87,4 +88,25 @@ pub fn icosphere(level: u32) -> (Vec<DVec3>, Vec<[usize; 3]>) {
         f = next;
     }
     (v, f)
+}
+
+/// The six faces of the axis-aligned box [lo, hi], each counter-clockwise seen from outside,
+/// in the order −x, +x, −y, +y, −z, +z.
+pub fn box_faces(lo: DVec3, hi: DVec3) -> [[DVec3; 4]; 6] {
+    let c = |x: bool, y: bool, z: bool| {
+        DVec3::new(
+            if x { hi.x } else { lo.x },
+            if y { hi.y } else { lo.y },
+            if z { hi.z } else { lo.z },
+        )
+    };
+    let (f, t) = (false, true);
+    [
+        [c(f, f, f), c(f, f, t), c(f, t, t), c(f, t, f)],
+        [c(t, f, f), c(t, t, f), c(t, t, t), c(t, f, t)],
+        [c(f, f, f), c(t, f, f), c(t, f, t), c(f, f, t)],
+        [c(f, t, f), c(f, t, t), c(t, t, t), c(t, t, f)],
+        [c(f, f, f), c(f, t, f), c(t, t, f), c(t, f, f)],
+        [c(f, f, t), c(t, f, t), c(t, t, t), c(f, t, t)],
+    ]
 }

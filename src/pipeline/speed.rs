@@ -22,7 +22,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::geometry::kernel::point_to_polygon;
+use crate::geometry::{box_faces, kernel::point_to_polygon};
 use crate::sampling::Rng;
 use crate::visibility::{Visibility, NONE};
 
@@ -107,40 +107,19 @@ pub fn measure() -> f64 {
 fn furnished_room() -> (Vec<[DVec3; 3]>, DVec3, DVec3) {
     let (lo, hi) = (DVec3::ZERO, DVec3::new(24.0, 14.0, 3.0));
     let mut triangles = Vec::new();
-    // A box's 12 triangles, `a` its lower corner and `b` its upper.
-    let cuboid = |a: DVec3, b: DVec3, out: &mut Vec<[DVec3; 3]>| {
-        let c = |i: usize| {
-            DVec3::new(
-                if i & 1 == 0 { a.x } else { b.x },
-                if i & 2 == 0 { a.y } else { b.y },
-                if i & 4 == 0 { a.z } else { b.z },
-            )
-        };
-        for [p, q, r, t] in [
-            [0, 1, 3, 2],
-            [4, 6, 7, 5],
-            [0, 4, 5, 1],
-            [2, 3, 7, 6],
-            [0, 2, 6, 4],
-            [1, 5, 7, 3],
-        ] {
-            out.push([c(p), c(q), c(r)]);
-            out.push([c(p), c(r), c(t)]);
-        }
-    };
-    // The floor and the ceiling, 1 m cells of two triangles.
+    // A quad as its two triangles, as the scene builder splits one.
+    let mut quad = |[a, b, c, d]: [DVec3; 4]| triangles.extend([[a, b, c], [a, c, d]]);
+    // The floor and the ceiling, 1 m cells.
     for i in 0..24 {
         for j in 0..14 {
             let (x, y) = (i as f64, j as f64);
             for z in [0.0, 3.0] {
-                let q = [
+                quad([
                     DVec3::new(x, y, z),
                     DVec3::new(x + 1.0, y, z),
                     DVec3::new(x + 1.0, y + 1.0, z),
                     DVec3::new(x, y + 1.0, z),
-                ];
-                triangles.push([q[0], q[1], q[2]]);
-                triangles.push([q[0], q[2], q[3]]);
+                ]);
             }
         }
     }
@@ -152,7 +131,7 @@ fn furnished_room() -> (Vec<[DVec3; 3]>, DVec3, DVec3) {
             rng.next_f64() * (hi.y - size.y),
             rng.next_f64() * (1.5 - size.z).max(0.0),
         );
-        cuboid(at, at + size, &mut triangles);
+        box_faces(at, at + size).into_iter().for_each(&mut quad);
     }
     (triangles, lo, hi)
 }

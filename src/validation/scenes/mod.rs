@@ -5,6 +5,7 @@
 
 use glam::DVec3;
 
+pub use crate::geometry::box_faces;
 use crate::scene::{Scene, SceneBuilder};
 use crate::Result;
 
@@ -39,27 +40,6 @@ pub fn integrating_sphere(
         b.triangle([ids[f[0]], ids[f[2]], ids[f[1]]], m);
     }
     b.build()
-}
-
-/// The six faces of the axis-aligned box [lo, hi], each counter-clockwise seen from outside,
-/// in the order −x, +x, −y, +y, −z, +z.
-pub fn box_faces(lo: DVec3, hi: DVec3) -> [[DVec3; 4]; 6] {
-    let c = |x: bool, y: bool, z: bool| {
-        DVec3::new(
-            if x { hi.x } else { lo.x },
-            if y { hi.y } else { lo.y },
-            if z { hi.z } else { lo.z },
-        )
-    };
-    let (f, t) = (false, true);
-    [
-        [c(f, f, f), c(f, f, t), c(f, t, t), c(f, t, f)],
-        [c(t, f, f), c(t, t, f), c(t, t, t), c(t, f, t)],
-        [c(f, f, f), c(t, f, f), c(t, f, t), c(f, f, t)],
-        [c(f, t, f), c(f, t, t), c(t, t, t), c(t, t, f)],
-        [c(f, f, f), c(f, t, f), c(t, t, f), c(t, f, f)],
-        [c(f, f, t), c(t, f, t), c(t, t, t), c(f, t, t)],
-    ]
 }
 
 /// Add an axis-aligned box [lo, hi] made of six quads, fronts facing inward (`inward`) or
