@@ -343,7 +343,8 @@ impl Display {
 
     /// What the display shows at each probe: the face found by a short ray from just in front
     /// of the probe (a millionth of the mesh's extent) back along its normal, hitting a face
-    /// from its front. `None` where no face of the display covers the probe.
+    /// from its front (past a back side over the same positions). `None` where no face of the
+    /// display covers the probe.
     pub fn at(&self, probes: &[Probe]) -> Vec<Option<Shown>> {
         let corners: Vec<[DVec3; 3]> = self
             .faces
@@ -360,12 +361,20 @@ impl Display {
             .par_iter()
             .map(|p| {
                 let origin = p.position + delta * p.normal;
-                let hit = vis.closest_hit(origin, -p.normal, 2.0 * delta, NONE)?;
-                let f = hit.triangle as usize;
-                let [a, b, c] = corners[f];
-                if (b - a).cross(c - a).dot(p.normal) <= 0.0 {
-                    return None;
+                let faces_probe = |f: u32| {
+                    let [a, b, c] = corners[f as usize];
+                    (b - a).cross(c - a).dot(p.normal) > 0.0
+                };
+                let mut hit = vis.closest_hit(origin, -p.normal, 2.0 * delta, NONE)?;
+                if !faces_probe(hit.triangle) {
+                    // A back side of its own (`--two-sided`, `--orient auto`) lies over the
+                    // same positions as its front, as near: the front is the other one.
+                    hit = vis.closest_hit(origin, -p.normal, 2.0 * delta, hit.triangle)?;
+                    if !faces_probe(hit.triangle) {
+                        return None;
+                    }
                 }
+                let f = hit.triangle as usize;
                 let [va, vb, vc] = self.faces[f].map(|v| self.vertex_radiance[v as usize]);
                 let w = [1.0 - hit.u - hit.v, hit.u, hit.v];
                 Some(Shown {
@@ -558,6 +567,50 @@ mod tests {
                     "{s:?} vs {want:?}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn a_back_side_over_the_same_positions_does_not_hide_the_front() {
+        // Each face gets a back side over the same positions, reversed and cut at its centroid
+        // into three (a bake's back sides, `--orient auto` or `--two-sided`, are refined apart
+        // from their fronts), showing another value: both lie at the probe, the ray meets
+        // either first, and each probe, sampled on a front, must show the front's value
+        // (before, the probes whose ray met the back first showed nothing).
+        let scene = scenes::perpendicular_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let probes = sample_points(&scene, 300, 7).unwrap();
+        let (front, back) = ([0.25; 3], [4.0; 3]);
+        let fronts = display_of(&scene, |_| front);
+        // The backs first: where two hits tie, the lower index wins.
+        let mut display = Display {
+            positions: fronts.positions.clone(),
+            faces: Vec::new(),
+            vertex_radiance: vec![back; fronts.positions.len()],
+            face_radiance: Vec::new(),
+        };
+        for f in &fronts.faces {
+            let c = display.positions.len() as u32;
+            let centroid = f
+                .iter()
+                .map(|&v| fronts.positions[v as usize])
+                .sum::<DVec3>()
+                / 3.0;
+            display.positions.push(centroid);
+            display.vertex_radiance.push(back);
+            for k in 0..3 {
+                display.faces.push([f[(k + 1) % 3], f[k], c]);
+                display.face_radiance.push(back);
+            }
+        }
+        let m = display.positions.len() as u32;
+        display.positions.extend(&fronts.positions);
+        display.vertex_radiance.extend(&fronts.vertex_radiance);
+        display
+            .faces
+            .extend(fronts.faces.iter().map(|f| f.map(|v| v + m)));
+        display.face_radiance.extend(&fronts.face_radiance);
+        for s in display.at(&probes) {
+            assert_eq!(s.map(|s| s.interpolated), Some(front));
         }
     }
 
