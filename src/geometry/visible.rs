@@ -431,6 +431,48 @@ mod tests {
     }
 
     #[test]
+    fn walls_on_a_grid_agree_with_shadow_rays() {
+        // Axis-aligned walls (two triangles each) with corners on a grid of eighths, some
+        // standing on the receiving point's plane, others hanging across the pyramid, seen
+        // from points on the same grid: as in architecture, a clipped corner often lands
+        // exactly on the next clipping plane, and the clipped polygon repeats it (random
+        // coordinates almost never do). The same oracle and tolerance as for random occluders
+        // below; a shadow's edge of no length let light through by up to all of F.
+        let mut rng = Rng::new(&[23]);
+        let eighth = |rng: &mut Rng, lo: i32, hi: i32| {
+            (lo + (rng.next_f64() * (hi - lo + 1) as f64) as i32) as f64 / 8.0
+        };
+        let mut checked = 0;
+        for case in 0..32 {
+            let x = DVec3::new(eighth(&mut rng, -3, 3), eighth(&mut rng, -3, 3), 0.0);
+            let mut occluders: Vec<[DVec3; 3]> = Vec::new();
+            for _ in 0..1 + case % 3 {
+                let (lo, hi) = (eighth(&mut rng, 0, 4), eighth(&mut rng, 2, 7));
+                let (u, v) = (eighth(&mut rng, -8, 0), eighth(&mut rng, 0, 8));
+                let at = eighth(&mut rng, -6, 6);
+                let corner = |s: f64, z: f64| match case % 2 {
+                    0 => DVec3::new(at, s, z),
+                    _ => DVec3::new(s, at, z),
+                };
+                let (a, b, c, d) = (corner(u, lo), corner(v, lo), corner(v, hi), corner(u, hi));
+                occluders.push([a, b, c]);
+                occluders.push([a, c, d]);
+            }
+            for e in square() {
+                let f = point_to_polygon(x, DVec3::Z, &e);
+                let got = exact(x, DVec3::Z, &e, &occluders).unwrap();
+                let want = by_rays(x, DVec3::Z, &e, &occluders, 400);
+                assert!(
+                    (got - want).abs() <= 1e-3 * f,
+                    "case {case}: exact {got} against rays {want} (F {f})"
+                );
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 64);
+    }
+
+    #[test]
     fn random_occluders_agree_with_shadow_rays() {
         // Random small triangles between random points and the emitter: the exact visible
         // form factor against a 400 × 400 jittered grid of kernel-weighted shadow rays. The
