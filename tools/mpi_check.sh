@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # A bake over MPI ranks against the same bake in one process (README, "A bake over several
 # machines"): `mpirun -n 2` and `-n 3` must write the very bytes one process writes, on the
-# Cornell box (hierarchical, and the default matrix bake with its gather) and on the closed
-# furnace; and a run that goes wrong must end with a non-zero status and write nothing:
-# a setting that is wrong, an input that is missing, a rank killed in the middle of the bake.
+# Cornell box (hierarchical, the default matrix bake with its gather, and the `cache`
+# gather) and on the closed furnace; and a run that goes wrong must end with a non-zero
+# status and write nothing: a setting that is wrong, an input that is missing, a rank killed
+# in the middle of the bake.
 #
 # Usage: bash tools/mpi_check.sh
 # Needs an MPI and libclang (Debian: libopenmpi-dev openmpi-bin libclang-dev).
@@ -34,6 +35,8 @@ same_bytes() {
 }
 same_bytes cornell-hierarchical meshes/cornell_box.obj --method hierarchical
 same_bytes cornell-default meshes/cornell_box.obj
+# The `cache` gather: its display refinement's tests share their direct light with the vertices.
+same_bytes cornell-cache meshes/cornell_box.obj --gather cache
 same_bytes furnace-hierarchical meshes/furnace.obj --method hierarchical
 
 # A run that fails must leave what is on disk as it was.

@@ -250,7 +250,20 @@ impl Gatherer<'_> {
     /// (radiance units, before ρ: from the records): Le + ρ·(D + E + reflected) (see the
     /// module documentation).
     pub(super) fn cached_vertex(&self, spot: &Spot, reflected: Rgb, rng: &mut Rng) -> Gathered {
-        let (direct, penumbra, exact) = self.reflected_direct(spot, GATHER_MAX_SHADOW_RAYS, rng);
+        let direct = self.reflected_direct(spot, GATHER_MAX_SHADOW_RAYS, rng);
+        self.cached_vertex_lit(spot, reflected, direct, rng)
+    }
+
+    /// [`Gatherer::cached_vertex`] with its reflected direct light `direct` already computed
+    /// at `spot` by [`Gatherer::reflected_direct`] (by the display refinement's test at the
+    /// midpoint that then becomes the vertex, with that test's shadow rays).
+    pub(super) fn cached_vertex_lit(
+        &self,
+        spot: &Spot,
+        reflected: Rgb,
+        (direct, penumbra, exact): (Rgb, bool, Vec<u32>),
+        rng: &mut Rng,
+    ) -> Gathered {
         let indirect = self.cached_reflected(spot, reflected, &exact, EMISSION_RAYS, rng);
         self.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect)
     }

@@ -399,7 +399,20 @@ impl Gatherer<'_> {
     /// The `full` gather at `spot`: emission, reflected direct light and reflected indirect
     /// light by `rays` hemisphere rays.
     pub(crate) fn full(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> Gathered {
-        let (direct, penumbra, exact) = self.reflected_direct(spot, GATHER_MAX_SHADOW_RAYS, rng);
+        let direct = self.reflected_direct(spot, GATHER_MAX_SHADOW_RAYS, rng);
+        self.full_lit(spot, rays, direct, rng)
+    }
+
+    /// [`Gatherer::full`] with its reflected direct light `direct` already computed at `spot`
+    /// by [`Gatherer::reflected_direct`] (by the display refinement's test at the midpoint
+    /// that then becomes the vertex, with that test's shadow rays).
+    pub(super) fn full_lit(
+        &self,
+        spot: &Spot,
+        rays: usize,
+        (direct, penumbra, exact): (Rgb, bool, Vec<u32>),
+        rng: &mut Rng,
+    ) -> Gathered {
         let (indirect, error, _) = self.reflected_indirect(spot, &exact, rays, rng);
         let mut g = self.with_emission(spot.patch as usize, (direct, penumbra, &exact), indirect);
         g.indirect_error = error;

@@ -23,11 +23,12 @@
 //! the backs of surfaces is walled in where nobody sees it ([`ENCLOSED`]: the floor under a
 //! partition of two wall faces), and its edge is left alone.
 //!
-//! A split edge gets a new output vertex at its midpoint with its own final gather, and the
-//! triangles around it are split conformingly (one, two or three split edges give two, three or
-//! four triangles; a split edge is split in every triangle that has it, on both sides of a crease),
-//! so no T-junction appears. New triangles' edges are tested again, up to [`MAX_LEVELS`] times and
-//! down to [`MIN_EDGE`] of the scene's extent.
+//! A split edge gets a new output vertex at its midpoint with its own final gather (after the
+//! `cache` gather: the direct light its test found there, the point's costly part, and its own
+//! indirect light), and the triangles around it are split conformingly (one, two or three split
+//! edges give two, three or four triangles; a split edge is split in every triangle that has
+//! it, on both sides of a crease), so no T-junction appears. New triangles' edges are tested
+//! again, up to [`MAX_LEVELS`] times and down to [`MIN_EDGE`] of the scene's extent.
 //!
 //! The work is bounded: at most `budget` new vertices in all (the edges with the largest
 //! deviation × √length first, at most half the remaining budget per level, the rest waiting for
@@ -101,12 +102,13 @@ pub fn budget_for(mode: Gather, rays: usize, direct: usize, vertices: usize) -> 
 }
 
 /// New vertices of the `cache` gather's display refinement per output vertex, at most
-/// ([`budget_for`]): 1 / (1 + [`CACHE_TESTS_PER_NEW_VERTEX`]), so that the new vertices and
-/// their tests evaluate the direct light as many times as the gather did at the output's
-/// vertices. On the generated hall, whose many small lights cast shadows the output does not
-/// follow, it leaves most of them unresolved (BENCHMARKS.md "Large outputs: the `cache`
-/// gather").
-pub const CACHE_REFINE_SHARE: f64 = 1.0 / (1 + CACHE_TESTS_PER_NEW_VERTEX) as f64;
+/// ([`budget_for`]): 1 / [`CACHE_TESTS_PER_NEW_VERTEX`], so that the tests evaluate the
+/// direct light as many times as the gather did at the output's vertices. A new vertex takes
+/// the direct light its edge's test found at the same point, so the vertices add only their
+/// indirect light (the records', or a hemisphere where no record serves them). On the
+/// generated hall, whose many small lights cast shadows the output does not follow, it leaves
+/// most of them unresolved (BENCHMARKS.md "Large outputs: the `cache` gather").
+pub const CACHE_REFINE_SHARE: f64 = 1.0 / CACHE_TESTS_PER_NEW_VERTEX as f64;
 
 /// Rounds of testing new triangles' edges, at most: each halves the edges it splits.
 pub const MAX_LEVELS: usize = 8;
@@ -143,15 +145,14 @@ pub const ENCLOSED: f64 = 0.5;
 /// to split well.
 pub const TESTS_PER_NEW_VERTEX: usize = 4;
 
-/// Midpoint tests, in all, per vertex the budget allows, after the `cache` gather. There a
-/// test costs about what a new vertex does (both compute the direct light exactly at a point,
-/// and read their indirect light from the records where these serve them; on the generated
-/// office 0.18 against 0.25 ms a point), so each test not spent buys a vertex. With 4, most tests
-/// were spent on edges that could not be split: on the generated office three in four of the first
-/// level's tests found their edge over τ, three times the vertices the level could add. At the same
-/// refinement seconds, 2 tests a vertex (a third of the output's vertices added, not a fifth)
-/// display 4.8 % RMS against 5.2 %, and 1 no better than 2 (BENCHMARKS.md "Large outputs: the
-/// `cache` gather").
+/// Midpoint tests, in all, per vertex the budget allows, after the `cache` gather. There the
+/// direct light, computed exactly at a point, is most of what a test or a vertex costs, so
+/// each test not spent buys about a vertex. With 4, most tests were spent on edges that could
+/// not be split: on the generated office three in four of the first level's tests found their
+/// edge over τ, three times the vertices the level could add. At the same refinement seconds,
+/// 2 tests a vertex (when a vertex still computed its own direct light: a third of the
+/// output's vertices added, not a fifth) display 4.8 % RMS against 5.2 %, and 1 no better than
+/// 2 (BENCHMARKS.md "Large outputs: the `cache` gather").
 pub const CACHE_TESTS_PER_NEW_VERTEX: usize = 2;
 
 /// Midpoint tests, in all, per vertex the budget allows after a `mode` gather:
@@ -272,6 +273,9 @@ pub fn refine(
     // What the tests found at the midpoints, for the final fit of the values (those of the
     // edges split are dropped at the end: their midpoints became vertices).
     let mut midpoints: Vec<Midpoint> = Vec::new();
+    // The direct light the `cache` gather's tests found at the midpoints of the edges to
+    // split: their new vertices take it.
+    let mut lit_at: HashMap<Edge, Lit> = HashMap::new();
     // Progress in points evaluated, out of the most the budget allows (tests and new
     // vertices); a refinement that stops early ends its stage there.
     let progress = crate::progress::stage("display refinement", Some((tests_left + budget) as u64));
@@ -328,6 +332,7 @@ pub fn refine(
             let (_, e, reference, _) = edges[i];
             progress.advance(1);
             let mut found = None;
+            let mut lit = None;
             let (va, vb) = (&d.values[e.0 as usize], &d.values[e.1 as usize]);
             // The indirect light: endpoints that differ this much (a contact's fall-off).
             let indirect =
@@ -335,7 +340,7 @@ pub fn refine(
             let site = d.midpoint_site(e, &[]);
             let at_midpoint = gatherer.spot(&site, visible_fraction).map_or(0.0, |spot| {
                 let mut rng = Rng::new(&[seed, e.0 as u64, e.1 as u64, 0x7E57]);
-                let (dm, _, exact) =
+                let (dm, penumbra, exact) =
                     gatherer.reflected_direct(&spot, MIDPOINT_SHADOW_RAYS, &mut rng);
                 // Kept where the ends and the midpoint compute the same emitters exactly
                 // (else the ends' indirect light counts another set of emitters' light).
@@ -349,6 +354,16 @@ pub fn refine(
                     (luminance(dm) - luminance(mid(va.direct, vb.direct))).abs() / reference;
                 if !matches!(mode, Gather::Full | Gather::Cache) {
                     return direct;
+                }
+                if mode == Gather::Cache {
+                    lit = Some(Lit {
+                        x: spot.x,
+                        n: spot.n,
+                        patch: spot.patch,
+                        direct: dm,
+                        penumbra,
+                        exact: exact.clone(),
+                    });
                 }
                 // The indirect light at the midpoint, by a few rays (or the `cache`
                 // gather's records where they serve it): its departure from the ends'
@@ -371,29 +386,31 @@ pub fn refine(
                 if backs > ENCLOSED {
                     // Walled in by the backs of surfaces: nobody sees it (see ENCLOSED).
                     found = None;
+                    lit = None;
                     return 0.0;
                 }
                 let departure = (luminance(im) - luminance(mid(va.indirect, vb.indirect))).abs()
                     - SIGNIFICANCE * error;
                 direct.max(departure.max(0.0) / reference)
             });
-            (at_midpoint.max(indirect), found)
+            (at_midpoint.max(indirect), found, lit)
         };
         // Shared among the ranks of a bake over several processes, as the gather is.
-        let write = |(x, found): &(f64, Option<Rgb>), w: &mut Writer| {
+        let write = |(x, found, lit): &(f64, Option<Rgb>, Option<Lit>), w: &mut Writer| {
             w.f64(*x);
             w.bytes(&[found.is_some() as u8]);
             found.unwrap_or_default().iter().for_each(|&v| w.f64(v));
+            Lit::write(lit.as_ref(), w);
         };
         let read = |r: &mut Reader| {
             let (x, [some]) = (r.f64(), r.bytes());
             let found = [r.f64(), r.f64(), r.f64()];
-            (x, (some != 0).then_some(found))
+            (x, (some != 0).then_some(found), Lit::read(r))
         };
-        let tests: Vec<(f64, Option<Rgb>)> =
+        let tests: Vec<(f64, Option<Rgb>, Option<Lit>)> =
             gatherer.comm.map_shared(edges.len(), test, write, read);
         let mut split: Vec<Split> = std::mem::take(&mut deferred);
-        for (&(_, edge, _, root), &(deviation, found)) in edges.iter().zip(&tests) {
+        for (&(_, edge, _, root), (deviation, found, lit)) in edges.iter().zip(tests) {
             if let Some(radiance) = found {
                 midpoints.push(Midpoint {
                     ends: [edge.0, edge.1],
@@ -405,6 +422,9 @@ pub fn refine(
                     priority: deviation * root,
                     edge,
                 });
+                if let Some(lit) = lit {
+                    lit_at.insert(edge, lit);
+                }
             } else {
                 kept.insert(edge);
             }
@@ -478,12 +498,25 @@ pub fn refine(
                     // far brighter than its ends' mean) or where the ends count different
                     // emitters' Le in it (many lights). The budget pays for it: it
                     // counts each new vertex at the gather's full rays.
+                    // `cache`: the direct light its test found at the same point.
+                    let tested = lit_at
+                        .get(&endpoints)
+                        .filter(|l| l.x == spot.x && l.n == spot.n && l.patch == spot.patch)
+                        .map(|l| (l.direct, l.penumbra, l.exact.clone()));
                     let cached = cache.and_then(|c| c.at(spot.x, spot.n));
                     if let Some(reflected) = cached {
                         // `cache`: the records' light where they serve the new vertex.
-                        gatherer.cached_vertex(&spot, reflected, &mut rng)
+                        match tested {
+                            Some(direct) => {
+                                gatherer.cached_vertex_lit(&spot, reflected, direct, &mut rng)
+                            }
+                            None => gatherer.cached_vertex(&spot, reflected, &mut rng),
+                        }
                     } else if matches!(mode, Gather::Full | Gather::Cache) {
-                        gatherer.full(&spot, rays, &mut rng)
+                        match tested {
+                            Some(direct) => gatherer.full_lit(&spot, rays, direct, &mut rng),
+                            None => gatherer.full(&spot, rays, &mut rng),
+                        }
                     } else {
                         let (direct, penumbra, exact) =
                             gatherer.reflected_direct(&spot, GATHER_MAX_SHADOW_RAYS, &mut rng);
@@ -524,6 +557,62 @@ struct Split {
     /// Its test's deviation (relative) × √(its length) (see [`refine`]'s documentation).
     priority: f64,
     edge: Edge,
+}
+
+/// The reflected direct light a `cache` test computed at an edge's midpoint
+/// ([`Gatherer::reflected_direct`] at `x`, `n` on `patch`): the vertex that splitting the edge
+/// puts at the same point takes it instead of computing it again. Its emitters past the exact
+/// visible pieces got at most [`MIDPOINT_SHADOW_RAYS`] shadow rays in a penumbra, not a
+/// vertex's [`GATHER_MAX_SHADOW_RAYS`]: on the generated office the same displayed error,
+/// at two thirds of the refinement's seconds (BENCHMARKS.md "Large outputs: the `cache`
+/// gather").
+#[derive(Debug, Clone)]
+struct Lit {
+    x: glam::DVec3,
+    n: glam::DVec3,
+    patch: u32,
+    direct: Rgb,
+    penumbra: bool,
+    exact: Vec<u32>,
+}
+
+impl Lit {
+    /// Writes `lit` (or its absence) for another rank ([`Lit::read`] reads it).
+    fn write(lit: Option<&Lit>, w: &mut Writer) {
+        w.bytes(&[lit.is_some() as u8]);
+        if let Some(l) = lit {
+            l.x.to_array()
+                .iter()
+                .chain(&l.n.to_array())
+                .chain(&l.direct)
+                .for_each(|&v| w.f64(v));
+            w.u32(l.patch);
+            w.bytes(&[l.penumbra as u8]);
+            w.u32(l.exact.len() as u32);
+            l.exact.iter().for_each(|&k| w.u32(k));
+        }
+    }
+
+    fn read(r: &mut Reader) -> Option<Lit> {
+        let [some] = r.bytes();
+        if some == 0 {
+            return None;
+        }
+        let mut v = || glam::DVec3::new(r.f64(), r.f64(), r.f64());
+        let (x, n) = (v(), v());
+        let direct = [r.f64(), r.f64(), r.f64()];
+        let patch = r.u32();
+        let [penumbra] = r.bytes();
+        let exact = (0..r.u32()).map(|_| r.u32()).collect();
+        Some(Lit {
+            x,
+            n,
+            patch,
+            direct,
+            penumbra: penumbra != 0,
+            exact,
+        })
+    }
 }
 
 fn mid(a: Rgb, b: Rgb) -> Rgb {
@@ -835,6 +924,71 @@ mod tests {
             "RMS {before} → {after}"
         );
         fine.baked.validate().unwrap();
+    }
+
+    #[test]
+    fn the_cache_gathers_refinement_follows_the_penumbra_with_its_tests_light() {
+        // The same penumbra under the `cache` gather, whose new vertices take the direct
+        // light their edge's test found at the same point: were a vertex given another
+        // point's light, or none, the display would show it across the vertex's star. The
+        // budget is half the output's vertices (a finer patch mesh, so that it covers the
+        // penumbra). Nothing here is reflected twice (the source and the blocker reflect
+        // nothing), so the whole answer is the exact direct light.
+        let scene = half_shadow();
+        let cached = |tolerance: f64| {
+            let settings = Settings {
+                refine_rounds: 0,
+                max_edge: Some(0.08),
+                gather: crate::gather::Gather::Cache,
+                gather_tolerance: tolerance,
+                ..Settings::default()
+            };
+            pipeline::solve_scene(&scene, &settings).unwrap()
+        };
+        let (coarse, fine) = (cached(0.0), cached(super::DEFAULT_TOLERANCE));
+        let (before, after) = (displayed_rms(&coarse), displayed_rms(&fine));
+        let added = fine.report.display_refinement.vertices;
+        assert!(added > 0);
+        assert!(
+            added as f64 <= super::CACHE_REFINE_SHARE * coarse.baked.positions.len() as f64,
+            "{added} vertices added to {}",
+            coarse.baked.positions.len()
+        );
+        // Measured 4.6 % → 0.14 % (905 vertices added to 8,355); with the new vertices given
+        // 0.8 × their test's direct light, 7.3 %. The emitter is computed exactly (its visible
+        // pieces, no shadow-ray noise), so what remains is interpolation within τ where the
+        // light bends: 1 % bounds it with room for another seed.
+        assert!(
+            after < 0.01 && after < 0.5 * before,
+            "RMS {before} → {after}"
+        );
+        fine.baked.validate().unwrap();
+    }
+
+    #[test]
+    fn a_tests_direct_light_reads_back_as_written_for_another_rank() {
+        // Over several processes the tests are shared out and their findings exchanged: the
+        // vertex a rank adds must take, bit for bit, the light another rank's test found.
+        use crate::distributed::{Reader, Writer};
+        let lit = super::Lit {
+            x: DVec3::new(0.1, -2.5e-7, 3.0),
+            n: DVec3::new(0.0, 0.6, -0.8),
+            patch: 4_000_000_001,
+            direct: [1.0 / 3.0, 0.0, f64::MIN_POSITIVE],
+            penumbra: true,
+            exact: vec![0, 7, 65_535],
+        };
+        let mut w = Writer::default();
+        super::Lit::write(None, &mut w);
+        super::Lit::write(Some(&lit), &mut w);
+        super::Lit::write(None, &mut w);
+        let mut r = Reader::new(&w.0);
+        assert!(super::Lit::read(&mut r).is_none());
+        let back = super::Lit::read(&mut r).expect("written");
+        assert!(super::Lit::read(&mut r).is_none());
+        assert_eq!((back.x, back.n, back.patch), (lit.x, lit.n, lit.patch));
+        assert_eq!(back.direct.map(f64::to_bits), lit.direct.map(f64::to_bits));
+        assert_eq!((back.penumbra, &back.exact), (lit.penumbra, &lit.exact));
     }
 
     #[test]
