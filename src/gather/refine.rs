@@ -491,6 +491,15 @@ pub fn refine(
                 None => Gathered::buried(mid(va.radiance, vb.radiance)),
                 Some(spot) => {
                     let mut rng = gatherer.vertex_rng(v);
+                    // The direct light: the one its test found at the same point (`cache`),
+                    // else its own.
+                    let direct = lit_at
+                        .get(&endpoints)
+                        .filter(|l| l.x == spot.x && l.n == spot.n && l.patch == spot.patch)
+                        .map(|l| (l.direct, l.penumbra, l.exact.clone()))
+                        .unwrap_or_else(|| {
+                            gatherer.reflected_direct(&spot, GATHER_MAX_SHADOW_RAYS, &mut rng)
+                        });
                     // `full`: the new vertex gathers its own indirect light too. The
                     // ends' mean would do across a shadow edge, where the indirect light
                     // is smooth, but not where it bends between them: beside a contact
@@ -498,28 +507,14 @@ pub fn refine(
                     // far brighter than its ends' mean) or where the ends count different
                     // emitters' Le in it (many lights). The budget pays for it: it
                     // counts each new vertex at the gather's full rays.
-                    // `cache`: the direct light its test found at the same point.
-                    let tested = lit_at
-                        .get(&endpoints)
-                        .filter(|l| l.x == spot.x && l.n == spot.n && l.patch == spot.patch)
-                        .map(|l| (l.direct, l.penumbra, l.exact.clone()));
                     let cached = cache.and_then(|c| c.at(spot.x, spot.n));
                     if let Some(reflected) = cached {
                         // `cache`: the records' light where they serve the new vertex.
-                        match tested {
-                            Some(direct) => {
-                                gatherer.cached_vertex_lit(&spot, reflected, direct, &mut rng)
-                            }
-                            None => gatherer.cached_vertex(&spot, reflected, &mut rng),
-                        }
+                        gatherer.cached_vertex_lit(&spot, reflected, direct, &mut rng)
                     } else if matches!(mode, Gather::Full | Gather::Cache) {
-                        match tested {
-                            Some(direct) => gatherer.full_lit(&spot, rays, direct, &mut rng),
-                            None => gatherer.full(&spot, rays, &mut rng),
-                        }
+                        gatherer.full_lit(&spot, rays, direct, &mut rng)
                     } else {
-                        let (direct, penumbra, exact) =
-                            gatherer.reflected_direct(&spot, GATHER_MAX_SHADOW_RAYS, &mut rng);
+                        let (direct, penumbra, exact) = direct;
                         let indirect = mid(va.indirect, vb.indirect);
                         let direct = (direct, penumbra, exact.as_slice());
                         gatherer.with_emission(spot.patch as usize, direct, indirect)
