@@ -26,8 +26,10 @@
 //! number of rays per point, [`ELEMENT_SHADOW_RAYS`] or [`ELEMENT_FEW_SHADOW_RAYS`] where the
 //! kernel is nearly even over the emitter, not adapted to what the first rays see (stopping
 //! when a few rays agree would take points in a thin penumbra for lit more often than not: a
-//! bias). The element's direct light is the rule's weighted mean of D over its unburied
-//! points.
+//! bias). In a scene of many emitters ([`ShadowRays::Shared`]) a point's
+//! [`ELEMENT_SHARED_SHADOW_RAYS`] are drawn over the emitters in proportion to Le·F instead,
+//! so that the rays follow the light and not the count of lights. The element's direct light
+//! is the rule's weighted mean of D over its unburied points.
 
 use glam::DVec3;
 
@@ -35,7 +37,7 @@ use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
 use crate::light::emitter::{
-    ELEMENT_FEW_SHADOW_RAYS, ELEMENT_MANY_SHADOW_RAYS, ELEMENT_SHADOW_RAYS,
+    ELEMENT_FEW_SHADOW_RAYS, ELEMENT_SHADOW_RAYS, ELEMENT_SHARED_SHADOW_RAYS,
 };
 use crate::light::{Emitter, Receiver, Share, SKY_RAYS};
 use crate::mesh::Patches;
@@ -43,19 +45,22 @@ use crate::sampling::Rng;
 use crate::scene::Environment;
 use crate::visibility::Visibility;
 
-/// The elements compute the direct light of every emitter with the full shadow rays
-/// ([`ELEMENT_SHADOW_RAYS`], [`ELEMENT_FEW_SHADOW_RAYS`]) when the emitters (the scene's
-/// emitting triangles, [`merged`]) × max(roots, [`DIRECT_ROOTS_FLOOR`]) is at most this. The
+/// The elements compute the direct light of every emitter with shadow rays of its own
+/// ([`ELEMENT_SHADOW_RAYS`], [`ELEMENT_FEW_SHADOW_RAYS`]: [`ShadowRays::Own`]) when the
+/// emitters (the scene's emitting triangles, [`merged`]) × max(roots, [`DIRECT_ROOTS_FLOOR`])
+/// is at most this. The
 /// Cornell box (2 emitting triangles, at any `--max-edge` up to 10⁶ roots), the integrating
 /// sphere (88 emitters of 1,280 roots) and the generated hall at 10⁴ triangles (82 of
 /// 10,786) qualify. Past it, [`DIRECT_BUDGET_MANY`].
 pub const DIRECT_BUDGET: usize = 2_000_000;
 
 /// Past [`DIRECT_BUDGET`], the elements still compute every emitter's direct light, with
-/// [`ELEMENT_MANY_SHADOW_RAYS`] per rule point and emitter, while the emitters × max(roots,
-/// [`DIRECT_ROOTS_FLOOR`]) is at most this: the same bound on shadow rays as within
-/// [`DIRECT_BUDGET`] at [`ELEMENT_SHADOW_RAYS`] each. Otherwise the links carry all emission
-/// (a scene with many lights: every element would trace rays to every light). A furnished
+/// [`ELEMENT_SHARED_SHADOW_RAYS`] per rule point shared among the emitters
+/// ([`ShadowRays::Shared`]), while the emitters × max(roots, [`DIRECT_ROOTS_FLOOR`]) is at most
+/// this (the bound it had when each point cast 2 rays to every emitter: each point still
+/// weighs every emitter by its exact form factor, work that grows as emitters × elements).
+/// Otherwise the links carry all emission (a scene with many lights: every element would
+/// weigh every light). A furnished
 /// interior of 10⁵ triangles under a dozen ceiling panels (40 emitting triangles, 4·10⁶)
 /// qualifies; the generated hall at 4·10⁴ triangles (328 emitters) and more, and LibreQuake's
 /// levels of hundreds of emitting faces, do not.
@@ -64,8 +69,7 @@ pub const DIRECT_BUDGET: usize = 2_000_000;
 /// and the floor under a desk reads as lit as the floor beside it; the second bounce then
 /// brightens the desk's underside and the floor under it again (the gather reads these
 /// patches). Computed at the elements, the desk's shadow is in the solution.
-pub const DIRECT_BUDGET_MANY: usize =
-    DIRECT_BUDGET * ELEMENT_SHADOW_RAYS / ELEMENT_MANY_SHADOW_RAYS;
+pub const DIRECT_BUDGET_MANY: usize = DIRECT_BUDGET * ELEMENT_SHADOW_RAYS / 2;
 
 /// See [`DIRECT_BUDGET`]: a scene of few roots still refines into many elements.
 pub const DIRECT_ROOTS_FLOOR: usize = 10_000;
@@ -92,9 +96,20 @@ pub struct RootEmitter {
     /// The scene triangle as an emitter (one root patch's triangle where the patches could
     /// not be told to tile one triangle exactly, [`merged`]).
     pub emitter: Emitter,
-    /// Shadow rays per rule point of an element, at most: [`ELEMENT_SHADOW_RAYS`], or
-    /// [`ELEMENT_MANY_SHADOW_RAYS`] in a scene of many emitters ([`chosen`]).
-    pub most_rays: usize,
+    /// How an element's rule point casts its shadow rays to it: its own, or a share of
+    /// those drawn over all emitters in a scene of many ([`chosen`]).
+    pub rays: ShadowRays,
+}
+
+/// The shadow rays of an element's rule point to an emitter ([`element_direct`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowRays {
+    /// Rays of its own: [`ELEMENT_SHADOW_RAYS`], or [`ELEMENT_FEW_SHADOW_RAYS`] where the
+    /// kernel is nearly even over it ([`Emitter::element_shadow_rays`]).
+    Own,
+    /// A share of the point's [`ELEMENT_SHARED_SHADOW_RAYS`], drawn over every emitter so
+    /// marked in proportion to Le·F.
+    Shared,
 }
 
 impl RootEmitter {
@@ -103,7 +118,7 @@ impl RootEmitter {
         RootEmitter {
             roots: vec![r as u32],
             emitter: Emitter::new(roots.corners(r), roots.normal[r], roots.sent_emission(r)),
-            most_rays: ELEMENT_SHADOW_RAYS,
+            rays: ShadowRays::Own,
         }
     }
 }
@@ -131,7 +146,7 @@ pub fn merged(roots: &Patches, emitting: &[usize]) -> Vec<RootEmitter> {
                 out.push(RootEmitter {
                     roots: group.iter().map(|&r| r as u32).collect(),
                     emitter: Emitter::new(corners, roots.normal[r], roots.sent_emission(r)),
-                    most_rays: ELEMENT_SHADOW_RAYS,
+                    rays: ShadowRays::Own,
                 });
             }
             None => out.extend(group.iter().map(|&r| RootEmitter::of(roots, r))),
@@ -187,7 +202,7 @@ fn tiled_triangle(roots: &Patches, group: &[usize]) -> Option<[DVec3; 3]> {
 
 /// The emitting roots whose direct light the elements compute ([`DIRECT_BUDGET`],
 /// [`DIRECT_BUDGET_MANY`], [`MAX_EMITTING_AREA`]): all of them, or none; as the scene's
-/// emitting triangles ([`merged`]), each with the shadow rays it gets.
+/// emitting triangles ([`merged`]), each with the way it gets its shadow rays.
 pub fn chosen(roots: &Patches) -> Vec<RootEmitter> {
     let emitting: Vec<usize> = (0..roots.len())
         .filter(|&r| roots.emission[r].iter().any(|&x| x > 0.0) && roots.area[r] > 0.0)
@@ -200,7 +215,7 @@ pub fn chosen(roots: &Patches) -> Vec<RootEmitter> {
     }
     if cost > DIRECT_BUDGET {
         for e in &mut emitters {
-            e.most_rays = ELEMENT_MANY_SHADOW_RAYS;
+            e.rays = ShadowRays::Shared;
         }
     }
     emitters
@@ -262,10 +277,46 @@ pub fn element_direct(
         std::array::from_fn(|k| (tree.point(e, rule[k].0), tree.surface_normal(e, rule[k].0)));
     let mut rng = Rng::new(&[seed, e as u64, 0xD1_EC7]);
     let mut values = [[0.0; 3]; RECEIVER_POINTS];
-    let mut targets = Vec::with_capacity(ELEMENT_SHADOW_RAYS.max(ELEMENT_FEW_SHADOW_RAYS));
+    let most = [
+        ELEMENT_SHADOW_RAYS,
+        ELEMENT_FEW_SHADOW_RAYS,
+        ELEMENT_SHARED_SHADOW_RAYS,
+    ];
+    let mut targets = Vec::with_capacity(most.into_iter().max().unwrap_or(0));
+    let own = |em: &RootEmitter| em.roots.binary_search(&root).is_err();
+    // The segment meets the emitter's plane only at its end, where no triangle blocks
+    // ([`Visibility::occluded`]): the emitter's own patches need no ignoring.
+    let ignore = [root, crate::visibility::NONE];
+    if shadows {
+        let shared: Vec<&RootEmitter> = emitters
+            .iter()
+            .filter(|em| em.rays == ShadowRays::Shared && own(em))
+            .collect();
+        let mut drawn = Drawn::default();
+        for (k, &(x, n)) in points.iter().enumerate() {
+            if weights[k] == 0.0 || shared.is_empty() {
+                continue;
+            }
+            drawn.draw(&shared, x, n, &mut rng);
+            for &(i, f, count, p) in &drawn.picks {
+                let em = &shared[i].emitter;
+                let mut share = Share::default();
+                let occluded = |y| occluders.occluded(x, y, ignore);
+                out.rays +=
+                    em.cast_shadow_rays(x, n, count, &mut rng, &mut targets, &mut share, occluded);
+                // n_e / (N p_e): its expectation is 1, and over the emitters these weights
+                // make the unoccluded sum exact (Σ Le_max F_e n_e / (N p_e) = Σ Le_max F).
+                let weight = count as f64 / (ELEMENT_SHARED_SHADOW_RAYS as f64 * p);
+                let v = share.visible().unwrap_or(1.0);
+                for (value, le) in values[k].iter_mut().zip(em.le) {
+                    *value += le * f * v * weight;
+                }
+            }
+        }
+    }
     for e_root in emitters
         .iter()
-        .filter(|em| em.roots.binary_search(&root).is_err())
+        .filter(|em| own(em) && (em.rays == ShadowRays::Own || !shadows))
     {
         let em = &e_root.emitter;
         for (k, &(x, n)) in points.iter().enumerate() {
@@ -277,10 +328,7 @@ pub fn element_direct(
             };
             let v = if shadows {
                 let mut share = Share::default();
-                let rays = em.element_shadow_rays(x, n).min(e_root.most_rays);
-                // The segment meets the emitter's plane only at its end, where no triangle
-                // blocks ([`Visibility::occluded`]): the emitter's own patches need no ignoring.
-                let ignore = [root, crate::visibility::NONE];
+                let rays = em.element_shadow_rays(x, n);
                 let occluded = |y| occluders.occluded(x, y, ignore);
                 out.rays +=
                     em.cast_shadow_rays(x, n, rays, &mut rng, &mut targets, &mut share, occluded);
@@ -333,4 +381,60 @@ pub fn element_direct(
     }
     out.spread = hi - lo;
     out
+}
+
+/// The draw of a rule point's [`ELEMENT_SHARED_SHADOW_RAYS`] over the emitters
+/// ([`ShadowRays::Shared`]): systematic sampling (one uniform offset, the rays at even steps
+/// of the cumulative weights Le_max · F; Kitagawa 1996), so an emitter of probability p gets
+/// ⌊N p⌋ or ⌈N p⌉ rays, and at least one ray in the point's N goes to every emitter with
+/// p ≥ 1/N.
+#[derive(Default)]
+struct Drawn {
+    /// Cumulative weights of the emitters that send light to the point.
+    cdf: Vec<f64>,
+    /// Those emitters: their index and form factor.
+    keys: Vec<(usize, f64)>,
+    /// Each drawn emitter: its index, F, its rays and its probability.
+    picks: Vec<(usize, f64, usize, f64)>,
+}
+
+impl Drawn {
+    fn draw(&mut self, emitters: &[&RootEmitter], x: DVec3, n: DVec3, rng: &mut Rng) {
+        self.cdf.clear();
+        self.keys.clear();
+        self.picks.clear();
+        let mut total = 0.0;
+        for (i, e) in emitters.iter().enumerate() {
+            let Some(f) = e.emitter.form_factor(x, n) else {
+                continue;
+            };
+            let w = f * e.emitter.le.iter().copied().fold(0.0, f64::max);
+            if w > 0.0 {
+                total += w;
+                self.cdf.push(total);
+                self.keys.push((i, f));
+            }
+        }
+        if self.keys.is_empty() {
+            return;
+        }
+        let n_rays = ELEMENT_SHARED_SHADOW_RAYS;
+        let offset = rng.next_f64();
+        let mut last = usize::MAX;
+        for j in 0..n_rays {
+            let u = (j as f64 + offset) / n_rays as f64 * total;
+            let at = self
+                .cdf
+                .partition_point(|&c| c <= u)
+                .min(self.cdf.len() - 1);
+            if at == last {
+                self.picks.last_mut().expect("drawn before").2 += 1;
+                continue;
+            }
+            last = at;
+            let below = if at == 0 { 0.0 } else { self.cdf[at - 1] };
+            let (i, f) = self.keys[at];
+            self.picks.push((i, f, 1, (self.cdf[at] - below) / total));
+        }
+    }
 }

@@ -218,9 +218,13 @@ pub struct Stats {
     /// ([`direct`]: the scene's emitting triangles, [`direct::merged`]); 0 when links carry
     /// all emission.
     pub direct_emitters: usize,
-    /// Shadow rays per rule point and emitter of that direct light, at most
-    /// ([`direct::DIRECT_BUDGET_MANY`]); 0 when links carry all emission.
+    /// Shadow rays per rule point of that direct light: per emitter, at most
+    /// ([`direct::ShadowRays::Own`]), or shared among all the emitters past
+    /// [`direct::DIRECT_BUDGET`] ([`direct::ShadowRays::Shared`], `direct_rays_shared`); 0 when
+    /// links carry all emission.
     pub direct_shadow_rays: usize,
+    /// Whether the `direct_shadow_rays` of a rule point are shared among the emitters.
+    pub direct_rays_shared: bool,
     /// Rays of the leaves' final gather ([`regather`]), all its steps; 0 when it did not run.
     pub regather_rays: u64,
     /// Seconds of the leaves' final gather.
@@ -722,7 +726,13 @@ impl<'a> Hierarchy<'a> {
             h.exact[*r as usize] = true;
         }
         h.stats.direct_emitters = h.emitters.len();
-        h.stats.direct_shadow_rays = h.emitters.iter().map(|e| e.most_rays).max().unwrap_or(0);
+        h.stats.direct_rays_shared =
+            h.emitters.first().map(|e| e.rays) == Some(direct::ShadowRays::Shared);
+        h.stats.direct_shadow_rays = match h.emitters.first().map(|e| e.rays) {
+            None => 0,
+            Some(direct::ShadowRays::Own) => crate::light::emitter::ELEMENT_SHADOW_RAYS,
+            Some(direct::ShadowRays::Shared) => crate::light::emitter::ELEMENT_SHARED_SHADOW_RAYS,
+        };
         h.update_new_elements();
         h.epsilon = settings.epsilon * h.emitted_power();
         h.stats.epsilon_absolute = h.epsilon;

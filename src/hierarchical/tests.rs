@@ -636,15 +636,23 @@ fn direct_at_the_tiny_triangle(
 /// the exact point-to-polygon form factor: under the centre of a unit square at height 1,
 /// four Howell B-3 corners (the element is 1e-4 across, so its rule points see the same F
 /// to 1e-8; tolerance 1e-6). Behind an opaque square, every shadow ray is blocked: exactly 0.
+/// Both hold with rays of each emitter's own and with rays shared among the emitters (drawn
+/// in proportion to their light, the weights n_e / (N p_e) sum the unoccluded light exactly).
 #[test]
 fn direct_light_at_an_element_is_exact_and_shadowed() {
     let f =
         4.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
-    for blocked in [false, true] {
+    for (blocked, rays) in [false, true]
+        .into_iter()
+        .flat_map(|b| [direct::ShadowRays::Own, direct::ShadowRays::Shared].map(|r| (b, r)))
+    {
         let roots = under_a_square_light(blocked, 10.0);
         let emitters: Vec<direct::RootEmitter> = (0..roots.len())
             .filter(|&r| roots.emission[r][0] > 0.0)
-            .map(|r| direct::RootEmitter::of(&roots, r))
+            .map(|r| direct::RootEmitter {
+                rays,
+                ..direct::RootEmitter::of(&roots, r)
+            })
             .collect();
         assert_eq!(emitters.len(), 2);
         let d = direct_at_the_tiny_triangle(&roots, &emitters, 1);
@@ -652,7 +660,7 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
         for c in d.mean {
             assert!(
                 (c - want).abs() <= 1e-6 * want,
-                "blocked {blocked}: {c} vs {want}"
+                "blocked {blocked}, {rays:?}: {c} vs {want}"
             );
         }
         assert!(
@@ -661,6 +669,61 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
             d.spread
         );
         assert!(d.rays > 0, "shadow rays were cast");
+    }
+}
+
+/// Shared shadow rays weigh what each drawn emitter sends by n_e / (N p_e), p_e ∝ Le·F: a
+/// point off the centre of a light of 18 triangles of two brightnesses (each its own emitter,
+/// of unequal F there), with nothing in between, gets Σ Le F exactly (to rounding, 1e-9), as
+/// rays of each emitter's own give it; with the weights n_e / N (no p) or 1 it would be off by
+/// tens of per cent. The rays drawn are the point's 16 at each of its 7 rule points.
+#[test]
+fn shared_shadow_rays_sum_an_unoccluded_lights_triangles_exactly() {
+    let mut b = SceneBuilder::new();
+    let bright = b.material("bright", [0.0; 3], [3.0; 3]);
+    let dim = b.material("dim", [0.0; 3], [1.0; 3]);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    let side = 1.0 / 3.0;
+    for i in 0..3 {
+        for j in 0..3 {
+            let (x, y) = (-0.5 + i as f64 * side, -0.5 + j as f64 * side);
+            b.quad(
+                [
+                    DVec3::new(x, y, 1.0),
+                    DVec3::new(x, y + side, 1.0),
+                    DVec3::new(x + side, y + side, 1.0),
+                    DVec3::new(x + side, y, 1.0),
+                ],
+                if (i + j) % 2 == 0 { bright } else { dim },
+            );
+        }
+    }
+    let (s, at) = (1e-4, DVec3::new(0.35, -0.2, 0.0));
+    let v = [
+        DVec3::new(-s, -s, 0.0),
+        DVec3::new(s, -s, 0.0),
+        DVec3::new(0.0, s, 0.0),
+    ]
+    .map(|p| b.vertex(p + at));
+    b.triangle(v, grey);
+    let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
+    let with = |rays| -> Vec<direct::RootEmitter> {
+        (0..roots.len())
+            .filter(|&r| roots.emission[r][0] > 0.0)
+            .map(|r| direct::RootEmitter {
+                rays,
+                ..direct::RootEmitter::of(&roots, r)
+            })
+            .collect()
+    };
+    let own = direct_at_the_tiny_triangle(&roots, &with(direct::ShadowRays::Own), 1);
+    assert_eq!(with(direct::ShadowRays::Own).len(), 18);
+    for seed in 0..5 {
+        let shared = direct_at_the_tiny_triangle(&roots, &with(direct::ShadowRays::Shared), seed);
+        assert!(shared.rays > 0);
+        for (a, b) in shared.mean.iter().zip(own.mean) {
+            assert!((a / b - 1.0).abs() < 1e-9, "seed {seed}: {a} against {b}");
+        }
     }
 }
 
@@ -1043,42 +1106,39 @@ fn a_floor_under_a_light_of_many_triangles(n: usize) -> Patches {
     mesh::subdivide(&b.build().unwrap(), 100.0, 30.0).unwrap()
 }
 
-/// Which emitters' direct light the elements compute, and with how many shadow rays
+/// Which emitters' direct light the elements compute, and how they cast its shadow rays
 /// ([`direct::chosen`]), follows the emitters × max(roots, [`direct::DIRECT_ROOTS_FLOOR`]):
-/// under [`direct::DIRECT_BUDGET`] (50 emitters × the floor of 10⁴ roots) the full rays;
-/// past it up to [`direct::DIRECT_BUDGET_MANY`] (450 emitters) [`ELEMENT_MANY_SHADOW_RAYS`];
-/// past that (1,250) none, the links carrying all emission.
+/// under [`direct::DIRECT_BUDGET`] (50 emitters × the floor of 10⁴ roots) rays of their own;
+/// past it up to [`direct::DIRECT_BUDGET_MANY`] (450 emitters) rays shared among them; past
+/// that (1,250) none, the links carrying all emission.
 #[test]
-fn many_emitters_get_fewer_shadow_rays_then_none() {
-    use crate::light::emitter::{ELEMENT_MANY_SHADOW_RAYS, ELEMENT_SHADOW_RAYS};
-    for (n, want) in [
-        (5, Some(ELEMENT_SHADOW_RAYS)),
-        (15, Some(ELEMENT_MANY_SHADOW_RAYS)),
-        (25, None),
-    ] {
+fn many_emitters_share_their_shadow_rays_then_get_none() {
+    use direct::ShadowRays::{Own, Shared};
+    for (n, want) in [(5, Some(Own)), (15, Some(Shared)), (25, None)] {
         let roots = a_floor_under_a_light_of_many_triangles(n);
         assert!(roots.len() < direct::DIRECT_ROOTS_FLOOR);
         let chosen = direct::chosen(&roots);
         match want {
             Some(rays) => {
                 assert_eq!(chosen.len(), 2 * n * n, "{n} × {n}: one emitter a triangle");
-                assert!(chosen.iter().all(|e| e.most_rays == rays), "{n} × {n}");
+                assert!(chosen.iter().all(|e| e.rays == rays), "{n} × {n}");
             }
             None => assert!(chosen.is_empty(), "{n} × {n}: the links carry it"),
         }
     }
 }
 
-/// With [`ELEMENT_MANY_SHADOW_RAYS`] a point's direct light is noisy but unbiased: under a
-/// square light (side 1, height 1) whose left half an opaque square at height 0.5 hides, the
-/// tiny triangle's mean over 200 seeds is Le times two Howell B-3 corners (the right half's
-/// form factor). Each estimate is 14 rays' ratio estimate (2 at each of 7 rule points,
-/// stratified over each of the light's two triangles), of a visible share 1/2: its standard
-/// deviation is at most √(0.25/14) ≈ 0.13 of the mean, 0.01 over 200 seeds, so the 3 %
-/// tolerance is three of those; the estimates themselves must vary (they are not exact).
+/// With shared shadow rays ([`direct::ShadowRays::Shared`]) a point's direct light is noisy
+/// but unbiased: under a square light (side 1, height 1) whose left half an opaque square at
+/// height 0.5 hides, the tiny triangle's mean over 200 seeds is Le times two Howell B-3
+/// corners (the right half's form factor). Each estimate is 7 × 16 = 112 rays (16 at each of
+/// 7 rule points, drawn over the light's two triangles), of a visible share 1/2: its
+/// standard deviation is at most √(0.25/112) / 0.5 ≈ 0.095 of the mean (the rule points
+/// are 1e-4 apart, so their rays count as one point's), 0.0067 over 200 seeds, so the 3 %
+/// tolerance is four and a half of those; the estimates themselves must vary (they are not
+/// exact).
 #[test]
-fn few_shadow_rays_keep_an_elements_direct_light_unbiased() {
-    use crate::light::emitter::ELEMENT_MANY_SHADOW_RAYS;
+fn shared_shadow_rays_keep_an_elements_direct_light_unbiased() {
     let mut b = SceneBuilder::new();
     let light = b.material("light", [0.0; 3], [1.0; 3]);
     let grey = b.material("grey", [0.5; 3], [0.0; 3]);
@@ -1104,7 +1164,7 @@ fn few_shadow_rays_keep_an_elements_direct_light_unbiased() {
     let emitters: Vec<direct::RootEmitter> = (0..roots.len())
         .filter(|&r| roots.emission[r][0] > 0.0)
         .map(|r| direct::RootEmitter {
-            most_rays: ELEMENT_MANY_SHADOW_RAYS,
+            rays: direct::ShadowRays::Shared,
             ..direct::RootEmitter::of(&roots, r)
         })
         .collect();
