@@ -683,21 +683,11 @@ fn shared_shadow_rays_sum_an_unoccluded_lights_triangles_exactly() {
     let bright = b.material("bright", [0.0; 3], [3.0; 3]);
     let dim = b.material("dim", [0.0; 3], [1.0; 3]);
     let grey = b.material("grey", [0.5; 3], [0.0; 3]);
-    let side = 1.0 / 3.0;
-    for i in 0..3 {
-        for j in 0..3 {
-            let (x, y) = (-0.5 + i as f64 * side, -0.5 + j as f64 * side);
-            b.quad(
-                [
-                    DVec3::new(x, y, 1.0),
-                    DVec3::new(x, y + side, 1.0),
-                    DVec3::new(x + side, y + side, 1.0),
-                    DVec3::new(x + side, y, 1.0),
-                ],
-                if (i + j) % 2 == 0 { bright } else { dim },
-            );
-        }
-    }
+    a_light_of_quads(
+        &mut b,
+        3,
+        |i, j| if (i + j) % 2 == 0 { bright } else { dim },
+    );
     let (s, at) = (1e-4, DVec3::new(0.35, -0.2, 0.0));
     let v = [
         DVec3::new(-s, -s, 0.0),
@@ -1072,13 +1062,9 @@ fn a_solve_over_several_ranks_is_the_one_process_solve_to_the_bit() {
     }
 }
 
-/// A square light 1 above a floor, cut into `n` × `n` quads of its own (2n² scene triangles,
-/// each an emitter: [`direct::merged`]), the floor 40 × 40 so that the light is a small share
-/// of the area ([`direct::MAX_EMITTING_AREA`]).
-fn a_floor_under_a_light_of_many_triangles(n: usize) -> Patches {
-    let mut b = SceneBuilder::new();
-    let light = b.material("light", [0.0; 3], [1.0; 3]);
-    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+/// The unit square centred over the origin at height 1, facing down, cut into `n` × `n`
+/// quads, quad (i, j) of `material(i, j)`.
+fn a_light_of_quads(b: &mut SceneBuilder, n: usize, material: impl Fn(usize, usize) -> u32) {
     let side = 1.0 / n as f64;
     for i in 0..n {
         for j in 0..n {
@@ -1090,10 +1076,20 @@ fn a_floor_under_a_light_of_many_triangles(n: usize) -> Patches {
                     DVec3::new(x + side, y + side, 1.0),
                     DVec3::new(x + side, y, 1.0),
                 ],
-                light,
+                material(i, j),
             );
         }
     }
+}
+
+/// A square light 1 above a floor, cut into `n` × `n` quads of its own (2n² scene triangles,
+/// each an emitter: [`direct::merged`]), the floor 40 × 40 so that the light is a small share
+/// of the area ([`direct::MAX_EMITTING_AREA`]).
+fn a_floor_under_a_light_of_many_triangles(n: usize) -> Patches {
+    let mut b = SceneBuilder::new();
+    let light = b.material("light", [0.0; 3], [1.0; 3]);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    a_light_of_quads(&mut b, n, |_, _| light);
     b.quad(
         [
             DVec3::new(-20.0, -20.0, 0.0),
