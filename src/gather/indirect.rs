@@ -440,14 +440,27 @@ impl Gatherer<'_> {
         backs as f64 / count as f64
     }
 
-    /// The harmonic mean distance of `rays` stratified cosine-weighted rays' hits from `spot`
-    /// (∞ where all leave the scene; backs count): Ward's R ([`super::cache`]), unshaded.
+    /// The harmonic mean distance of the hits of `rays` stratified cosine-weighted rays from
+    /// `spot` (backs count), over the rays that hit: ∞ where none does. Ward's R
+    /// ([`super::cache`]), unshaded. The rays that leave the scene are left out, not counted
+    /// as infinitely far: Ward's split sphere bounds the light's change by the distance of
+    /// what is seen, and under an open sky a plate a quarter of a metre up changes the light
+    /// as fast as a closed ceiling there would, while the rays through to the sky would
+    /// stretch R by the share they take (the test
+    /// `cache_records_beside_a_plate_serve_only_where_its_light_is_theirs`).
     pub(super) fn harmonic_distance(&self, spot: &Spot, rays: usize, rng: &mut Rng) -> f64 {
-        let mut inverse = 0.0;
-        let count = self.first_hits(spot, rays, rng, |_, hit| {
-            inverse += hit.map_or(0.0, |hit| 1.0 / hit.t);
+        let (mut inverse, mut hits) = (0.0, 0usize);
+        self.first_hits(spot, rays, rng, |_, hit| {
+            if let Some(hit) = hit {
+                inverse += 1.0 / hit.t;
+                hits += 1;
+            }
         });
-        count as f64 / inverse
+        if hits == 0 {
+            f64::INFINITY
+        } else {
+            hits as f64 / inverse
+        }
     }
 }
 

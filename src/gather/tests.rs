@@ -762,3 +762,67 @@ fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
         "{tests} midpoint tests for at most {most} new vertices"
     );
 }
+
+/// The `cache` gather's records beside a plate over a floor under a uniform sky, where the
+/// exact answer at every floor point is ρ·(1 − F), F the plate's form factor (contour
+/// integral): a record on the open floor measures a large R, and serving points a few
+/// decimetres off would give them the open floor's light under the plate's edge, unless
+/// records by the plate bound its R (neighbour clamping).
+#[test]
+fn cache_records_beside_a_plate_serve_only_where_its_light_is_theirs() {
+    let (rho, h) = (0.5, 0.25);
+    let mut b = SceneBuilder::new();
+    let floor = b.material("floor", [rho; 3], [0.0; 3]);
+    let plate = b.material("plate", [0.0; 3], [0.0; 3]);
+    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    for (x0, y0) in [(-4.0, -4.0), (0.0, -4.0), (-4.0, 0.0), (0.0, 0.0)] {
+        let (x1, y1) = (x0 + 4.0, y0 + 4.0);
+        b.quad(
+            [
+                p(x0, y0, 0.0),
+                p(x1, y0, 0.0),
+                p(x1, y1, 0.0),
+                p(x0, y1, 0.0),
+            ],
+            floor,
+        );
+    }
+    let corners = [
+        p(-0.5, -0.5, h),
+        p(-0.5, 0.5, h),
+        p(0.5, 0.5, h),
+        p(0.5, -0.5, h),
+    ];
+    b.quad(corners, plate);
+    let scene = b.build().unwrap();
+    let mut s = Settings {
+        gather_tolerance: 0.0,
+        gather_rays: Some(4096),
+        max_edge: Some(0.1),
+        ..gathered(Gather::Cache)
+    };
+    s.environment.sky = [1.0; 3];
+    s.environment.up = crate::scene::Up::Z;
+    let out = pipeline::solve_scene(&scene, &s).unwrap();
+    let baked = &out.baked;
+    let (mut worst, mut sq, mut n) = (0.0f64, 0.0, 0);
+    for (q, l) in baked.positions.iter().zip(&baked.vertex_radiance) {
+        let x = DVec3::from(*q);
+        if x.z != 0.0 || x.x.abs().max(x.y.abs()) > 1.5 {
+            continue;
+        }
+        let f = point_to_polygon(x, DVec3::Z, &corners);
+        let expected = rho * (1.0 - f);
+        let e = l[0] / expected - 1.0;
+        worst = worst.max(e.abs());
+        sq += e * e;
+        n += 1;
+    }
+    let rms = (sq / n as f64).sqrt();
+    // Measured: 5.8 % at worst (a vertex by the plate's outline, where the light falls by a
+    // third within a record's reach) and 0.43 % RMS over the 2,401 vertices. With the rays
+    // that leave the scene counted in R as infinitely far (Ward's R as first written), 28 %
+    // and 3.4 %; without the neighbours' clamp, 112 % and 5.8 %; without both, 58 % and
+    // 6.2 %. The records' 4,096 rays leave ~0.1 % of noise.
+    assert!(worst < 0.1 && rms < 0.01, "worst {worst}, rms {rms}");
+}
