@@ -145,6 +145,22 @@ fn square(x0: f64, y0: f64, side: f64, z: f64, up: bool) -> [DVec3; 4] {
     }
 }
 
+/// A floor of reflectance `rho`, four squares of side `half` meeting at the origin (so an
+/// output vertex lies under the plate's centre), and a black unit square plate facing down
+/// (counter-clockwise seen from below) at height `h` over the origin. Returns the scene and
+/// the plate's corners.
+fn plate_over_floor(rho: f64, h: f64, half: f64) -> (Scene, [DVec3; 4]) {
+    let mut b = SceneBuilder::new();
+    let floor = b.material("floor", [rho; 3], [0.0; 3]);
+    let plate = b.material("plate", [0.0; 3], [0.0; 3]);
+    for (x0, y0) in [(-half, -half), (0.0, -half), (-half, 0.0), (0.0, 0.0)] {
+        b.quad(square(x0, y0, half, 0.0, true), floor);
+    }
+    let corners = square(-0.5, -0.5, 1.0, h, false);
+    b.quad(corners, plate);
+    (b.build().unwrap(), corners)
+}
+
 /// A receiver plane z = 0 facing +z under an m × m grid (m even) of emitting squares in the
 /// plane z = 1 (x, y in [0, 1]; 2m² triangles), each square its own grey Le (1 … m²), and
 /// optionally a blocker in the plane z = 1/2 over x < 1/2 whose shadow edge, seen from
@@ -661,34 +677,7 @@ fn gather_is_the_same_for_any_thread_count() {
 #[test]
 fn a_plate_over_a_floor_casts_its_contact_shadow_through_the_gather() {
     let (rho, h) = (0.5, 0.25);
-    let mut b = SceneBuilder::new();
-    let floor = b.material("floor", [rho; 3], [0.0; 3]);
-    let plate = b.material("plate", [0.0; 3], [0.0; 3]);
-    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-    // Four floor quads meeting at the origin, so an output vertex lies under the centre.
-    for (x0, y0) in [(-10.0, -10.0), (0.0, -10.0), (-10.0, 0.0), (0.0, 0.0)] {
-        let (x1, y1) = (x0 + 10.0, y0 + 10.0);
-        b.quad(
-            [
-                p(x0, y0, 0.0),
-                p(x1, y0, 0.0),
-                p(x1, y1, 0.0),
-                p(x0, y1, 0.0),
-            ],
-            floor,
-        );
-    }
-    // The plate faces down (counter-clockwise seen from below).
-    b.quad(
-        [
-            p(-0.5, -0.5, h),
-            p(-0.5, 0.5, h),
-            p(0.5, 0.5, h),
-            p(0.5, -0.5, h),
-        ],
-        plate,
-    );
-    let scene = b.build().unwrap();
+    let (scene, _) = plate_over_floor(rho, h, 10.0);
     let f = 4.0 * closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, h);
     let expected = rho * (1.0 - f);
     let shown = |gather: Gather, method: Method| {
@@ -771,30 +760,7 @@ fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
 #[test]
 fn cache_records_beside_a_plate_serve_only_where_its_light_is_theirs() {
     let (rho, h) = (0.5, 0.25);
-    let mut b = SceneBuilder::new();
-    let floor = b.material("floor", [rho; 3], [0.0; 3]);
-    let plate = b.material("plate", [0.0; 3], [0.0; 3]);
-    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-    for (x0, y0) in [(-4.0, -4.0), (0.0, -4.0), (-4.0, 0.0), (0.0, 0.0)] {
-        let (x1, y1) = (x0 + 4.0, y0 + 4.0);
-        b.quad(
-            [
-                p(x0, y0, 0.0),
-                p(x1, y0, 0.0),
-                p(x1, y1, 0.0),
-                p(x0, y1, 0.0),
-            ],
-            floor,
-        );
-    }
-    let corners = [
-        p(-0.5, -0.5, h),
-        p(-0.5, 0.5, h),
-        p(0.5, 0.5, h),
-        p(0.5, -0.5, h),
-    ];
-    b.quad(corners, plate);
-    let scene = b.build().unwrap();
+    let (scene, corners) = plate_over_floor(rho, h, 4.0);
     let mut s = Settings {
         gather_tolerance: 0.0,
         gather_rays: Some(4096),
