@@ -2,8 +2,9 @@
 //! emitting triangles, plus the sun's and the point lights' ([`crate::light::outside`]).
 //!
 //! - The emitters computed exactly at a point ([`Gatherer::exact_emitters`]: all of them, or
-//!   the [`MAX_EXACT_EMITTERS`] with the largest bound there) get their visible pieces
-//!   ([`crate::geometry::visible`]): F·V̄ exactly, shadows included. Where those would be too
+//!   the [`MAX_EXACT_EMITTERS`] with the largest bound there, the two triangles of a convex
+//!   quadrilateral counting as one) get their visible pieces ([`crate::geometry::visible`]):
+//!   F·V̄ exactly, shadows included, a quadrilateral's as one polygon's. Where those would be too
 //!   many (a crowded view), V̄ is estimated by kernel-weighted shadow rays
 //!   ([`crate::light::Emitter::cast_shadow_rays`]), adaptive: [`GATHER_SHADOW_RAYS`] per
 //!   emitter, and when any emitter's rays disagree (the point is in a penumbra) up to
@@ -14,6 +15,7 @@
 //!
 //! Unoccluded, the direct term is exact to rounding.
 
+use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use glam::DVec3;
@@ -27,6 +29,7 @@ use crate::geometry::visible;
 use crate::light::emitter::{GATHER_MAX_SHADOW_RAYS, GATHER_SHADOW_RAYS};
 use crate::light::{Emitter, Receiver, Share};
 use crate::sampling::{gauss_rule, kernel_samples, Rng};
+use crate::scene::Scene;
 use crate::visibility::Point;
 
 /// What an exact emitter's visible pieces cost a gathering point, in hemisphere rays (each of
@@ -41,9 +44,10 @@ pub const EXACT_EMITTER_COST: usize = 2;
 /// wholly hidden or wholly seen: it does not put its point in a penumbra.
 const VISIBLE_TIE: f64 = 1e-9;
 
-/// Emitters whose direct light is computed exactly at a point, at most: with more in the
-/// scene, the ones with the largest bound on their contribution (Le · A / (π d²), d the
-/// distance to the emitter's centre less its radius); the others' light is estimated by
+/// Emitters whose direct light is computed exactly at a point, at most, the two halves of a
+/// quadrilateral counting as one (`pair_emitters`): with more in the scene, the ones with
+/// the largest bound on their contribution (Le · A / (π d²), d the distance to the emitter's
+/// centre less its radius); the others' light is estimated by
 /// [`OTHER_LIGHT_SAMPLES`] shadow rays to emitters drawn in proportion to their unoccluded
 /// contribution (those small as seen from the point, [`SAMPLED_SPREAD`]) or by the hemisphere
 /// rays (the large near ones).
@@ -109,10 +113,13 @@ impl Gatherer<'_> {
             .0
     }
 
-    /// The emitters whose light is computed exactly at `x`: all of them, or the
-    /// [`MAX_EXACT_EMITTERS`] with the largest bound (ties to the lower index), sorted.
+    /// The emitters whose light is computed exactly at `x`, sorted: all of them, or the
+    /// [`MAX_EXACT_EMITTERS`] with the largest bound (ties to the lower index), each with its
+    /// partner if it has one (`pair_emitters`: the two halves of a quadrilateral count as
+    /// one, and their visible pieces are computed as one polygon's, for little more than a
+    /// triangle's cost).
     pub fn exact_emitters(&self, x: DVec3) -> Vec<u32> {
-        if self.emitters.len() <= MAX_EXACT_EMITTERS {
+        if self.groups <= MAX_EXACT_EMITTERS {
             return (0..self.emitters.len() as u32).collect();
         }
         let mut bounds: Vec<(f64, u32)> = self
@@ -125,8 +132,24 @@ impl Gatherer<'_> {
             })
             .collect();
         let by_bound = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
-        bounds.select_nth_unstable_by(MAX_EXACT_EMITTERS - 1, by_bound);
-        let mut chosen: Vec<u32> = bounds[..MAX_EXACT_EMITTERS].iter().map(|b| b.1).collect();
+        // The first MAX_EXACT_EMITTERS groups by bound lie among the first twice as many
+        // emitters (each group takes at least one of them).
+        let top = (2 * MAX_EXACT_EMITTERS).min(bounds.len());
+        bounds.select_nth_unstable_by(top - 1, by_bound);
+        bounds[..top].sort_unstable_by(by_bound);
+        let mut chosen: Vec<u32> = Vec::with_capacity(top);
+        let mut groups = 0;
+        for &(_, k) in &bounds[..top] {
+            if groups == MAX_EXACT_EMITTERS {
+                break;
+            }
+            if chosen.contains(&k) {
+                continue;
+            }
+            chosen.push(k);
+            chosen.extend(self.partner[k as usize].map(|(j, _)| j));
+            groups += 1;
+        }
         chosen.sort_unstable();
         chosen
     }
@@ -168,16 +191,27 @@ impl Gatherer<'_> {
         // hit's point): the visible pieces of the emitter ([`visible`]). An emitter done so
         // has a share known exactly and is passed over by the rays; the rest get rays.
         if first > 1 {
-            for (k, f, share) in seen.iter_mut() {
-                let e = &self.emitters[*k];
-                let (lo, hi) = e
-                    .corners
+            for i in 0..seen.len() {
+                let (k, f, _) = seen[i];
+                let e = &self.emitters[k];
+                // A pair of halves of one quadrilateral, both seen: its visible pieces once,
+                // by the lower-numbered half (the emitters' shares are the quadrilateral's).
+                let pair = self.partner[k].and_then(|(j, quad)| {
+                    let at = seen.iter().position(|s| s.0 == j as usize)?;
+                    Some((at, quad))
+                });
+                let corners: &[DVec3] = match &pair {
+                    Some((at, _)) if seen[*at].0 < k => continue,
+                    Some((_, quad)) => quad,
+                    None => &e.corners,
+                };
+                let (lo, hi) = corners
                     .iter()
                     .fold((x, x), |(lo, hi), &c| (lo.min(c), hi.max(c)));
                 let fv = visible::visible_form_factor(
                     x,
                     n,
-                    &e.corners,
+                    corners,
                     e.normal,
                     self.lift,
                     |pyramid, visit| {
@@ -186,8 +220,11 @@ impl Gatherer<'_> {
                     },
                 );
                 if let Some(fv) = fv {
-                    let v = (fv / *f).clamp(0.0, 1.0);
-                    (share.seen, share.all) = (v, 1.0);
+                    let all = f + pair.map_or(0.0, |(at, _)| seen[at].1);
+                    let v = (fv / all).clamp(0.0, 1.0);
+                    for at in std::iter::once(i).chain(pair.map(|(at, _)| at)) {
+                        (seen[at].2.seen, seen[at].2.all) = (v, 1.0);
+                    }
                     penumbra |= v > VISIBLE_TIE && v < 1.0 - VISIBLE_TIE;
                 }
             }
@@ -434,6 +471,78 @@ impl Gatherer<'_> {
     pub fn direct_cost_per_point(&self) -> usize {
         emitters_cost(self.emitters.len()) + self.env.sharp_rays()
     }
+}
+
+/// Pairs the emitting triangles that make a convex quadrilateral (a lamp's panel, a window,
+/// each two triangles): two of one material that share an edge (the same two scene vertices,
+/// run in opposite directions, so their fronts agree), with the same front normal (to 1e-9),
+/// whose union is strictly convex. In index order, each unpaired triangle pairs with the
+/// lowest-numbered such triangle still unpaired, so the pairs are the same on every run.
+/// `triangles[k]` is emitter k's scene triangle. Returns, per emitter, its partner and the
+/// quadrilateral's corners, counter-clockwise seen from its front: its visible pieces are
+/// then one polygon's, the pair one of [`MAX_EXACT_EMITTERS`] at a point.
+pub(super) fn pair_emitters(
+    scene: &Scene,
+    triangles: &[usize],
+    emitters: &[Emitter],
+) -> Vec<Option<(u32, [DVec3; 4])>> {
+    let vertices = |k: usize| scene.triangles[triangles[k]].vertices;
+    let mut by_edge: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for k in 0..triangles.len() {
+        let v = vertices(k);
+        for i in 0..3 {
+            by_edge
+                .entry((v[i], v[(i + 1) % 3]))
+                .or_default()
+                .push(k as u32);
+        }
+    }
+    let mut partner: Vec<Option<(u32, [DVec3; 4])>> = vec![None; emitters.len()];
+    for k in 0..triangles.len() {
+        if partner[k].is_some() {
+            continue;
+        }
+        let v = vertices(k);
+        let material = scene.triangles[triangles[k]].material;
+        let mut best: Option<(u32, [DVec3; 4])> = None;
+        for i in 0..3 {
+            let (a, b, c) = (v[i], v[(i + 1) % 3], v[(i + 2) % 3]);
+            for &j in by_edge.get(&(b, a)).into_iter().flatten() {
+                let ju = j as usize;
+                if ju == k
+                    || partner[ju].is_some()
+                    || best.is_some_and(|(bj, _)| bj < j)
+                    || scene.triangles[triangles[ju]].material != material
+                    || emitters[ju].normal.dot(emitters[k].normal) < 1.0 - 1e-9
+                {
+                    continue;
+                }
+                let Some(&d) = vertices(ju).iter().find(|&&w| w != a && w != b) else {
+                    continue;
+                };
+                let quad = [a, d, b, c].map(|w| scene.positions[w as usize]);
+                if strictly_convex(&quad, emitters[k].normal) {
+                    best = Some((j, quad));
+                }
+            }
+        }
+        if let Some((j, quad)) = best {
+            partner[k] = Some((j, quad));
+            partner[j as usize] = Some((k as u32, quad));
+        }
+    }
+    partner
+}
+
+/// Whether the planar polygon `p` turns left at every corner, seen from the side of `normal`
+/// (by more than rounding: a corner on a straight line is not one).
+fn strictly_convex(p: &[DVec3], normal: DVec3) -> bool {
+    let count = p.len();
+    (0..count).all(|i| {
+        let (a, b, c) = (p[i], p[(i + 1) % count], p[(i + 2) % count]);
+        let (u, w) = (b - a, c - b);
+        u.cross(w).dot(normal) > 1e-9 * u.length() * w.length()
+    })
 }
 
 /// What `emitters` emitters in the mesh cost a gathering point's direct light, in hemisphere

@@ -244,16 +244,16 @@ fn a_point_gather_finds_its_patch_and_the_exact_direct_light() {
 
 #[test]
 fn partly_hidden_other_lights_get_more_rays() {
-    // Seen from (1/2, 1/2, 0) the blocker hides half of the 4 × 4 grid: the exact emitters'
+    // Seen from (1/2, 1/2, 0) the blocker hides half of the 6 × 6 grid: the exact emitters'
     // shares are exact (no noise), and the others' sixteen pilot rays disagree at almost
     // every call, so the estimate gets OTHER_LIGHT_MAX_SAMPLES fresh rays, four times
     // OTHER_LIGHT_SAMPLES. Its variance falls at least as much as the rays' ratio (about
-    // twentyfold here: drawn systematically ∝ Le·F, 64 rays meet every one of the 24
-    // others several times, sixteen leave some out at each call). Bound: half; 400 calls
+    // twentyfold: drawn systematically ∝ Le·F, 64 rays meet each of the 28 other squares
+    // (56 triangles) about once, sixteen leave most out at each call). Bound: half; 400 calls
     // each give a variance to about ±10 %, so no gain at all (ratio 1, as with a pilot
     // that never adds rays) fails, and the gain measured cannot fall to it by chance.
     // Where nothing is hidden the test above shows the same estimate exact.
-    let (scene, patches, _) = emitter_grid(true, 4);
+    let (scene, patches, _) = emitter_grid(true, 6);
     let radiance = vec![[0.0; 3]; patches.len()];
     let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
     let x = DVec3::new(0.5, 0.5, 0.0);
@@ -306,7 +306,7 @@ fn many_partly_hidden_emitters_are_estimated_without_bias() {
     // from the calls themselves), a chance of failure below 1e-4 per case. With a 12 × 12
     // grid (288 triangles, more than MAX_WEIGHED_EMITTERS) the rays draw emitters by their
     // power alone: noisier, even unoccluded, and unbiased all the same.
-    for (blocked, m) in [(true, 4), (true, 12), (false, 12)] {
+    for (blocked, m) in [(true, 6), (true, 12), (false, 12)] {
         let (scene, patches, exact) = emitter_grid(blocked, m);
         assert_eq!(scene.triangles.len() > MAX_WEIGHED_EMITTERS + 2, m == 12);
         let radiance = vec![[0.0; 3]; patches.len()];
@@ -791,4 +791,60 @@ fn cache_records_beside_a_plate_serve_only_where_its_light_is_theirs() {
     // and 3.4 %; without the neighbours' clamp, 112 % and 5.8 %; without both, 58 % and
     // 6.2 %. The records' 4,096 rays leave ~0.1 % of noise.
     assert!(worst < 0.1 && rms < 0.01, "worst {worst}, rms {rms}");
+}
+
+#[test]
+fn the_halves_of_a_quadrilateral_light_are_computed_as_one() {
+    // Sixteen square lights of two triangles each: every triangle pairs with the other half
+    // of its square, so a point's MAX_EXACT_EMITTERS exact emitters are eight whole squares.
+    let (scene, patches, _) = emitter_grid(false, 4);
+    let radiance = vec![[0.0; 3]; patches.len()];
+    let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
+    assert_eq!((g.emitters.len(), g.groups), (32, 16));
+    for (k, p) in g.partner.iter().enumerate() {
+        let (j, quad) = p.expect("every half has its partner");
+        assert_eq!(g.partner[j as usize].map(|p| p.0), Some(k as u32));
+        let (a, b) = (&g.emitters[k], &g.emitters[j as usize]);
+        assert_eq!(a.le, b.le, "halves of one light");
+        let area = |c: &[DVec3]| {
+            (1..c.len() - 1)
+                .map(|i| 0.5 * (c[i] - c[0]).cross(c[i + 1] - c[0]).length())
+                .sum::<f64>()
+        };
+        let halves = area(&a.corners) + area(&b.corners);
+        assert!(
+            (area(&quad) - halves).abs() < 1e-12,
+            "the quadrilateral is their union"
+        );
+    }
+    let exact = g.exact_emitters(DVec3::new(0.5, 0.5, 0.0));
+    assert_eq!(exact.len(), 2 * MAX_EXACT_EMITTERS);
+    assert!(exact
+        .iter()
+        .all(|&k| exact.contains(&g.partner[k as usize].unwrap().0)));
+
+    // Not paired: a dart (two triangles on a shared edge whose union is not convex), two
+    // halves of one square of different materials, and two that share an edge at a crease.
+    let mut b = SceneBuilder::new();
+    let lamp = b.material("lamp", [0.0; 3], [1.0; 3]);
+    let other = b.material("other", [0.0; 3], [2.0; 3]);
+    let v = |b: &mut SceneBuilder, x: f64, y: f64, z: f64| b.vertex(DVec3::new(x, y, z));
+    let [p, q, r, s] =
+        [(0.0, 0.0), (1.0, 0.0), (0.2, 0.2), (0.0, 1.0)].map(|(x, y)| v(&mut b, x, y, 1.0));
+    b.triangle([p, q, r], lamp);
+    b.triangle([p, r, s], lamp);
+    let [p, q, r, s] =
+        [(2.0, 0.0), (3.0, 0.0), (3.0, 1.0), (2.0, 1.0)].map(|(x, y)| v(&mut b, x, y, 1.0));
+    b.triangle([p, q, r], lamp);
+    b.triangle([p, r, s], other);
+    let [p, q] = [(4.0, 0.0), (5.0, 0.0)].map(|(x, y)| v(&mut b, x, y, 1.0));
+    let (r, s) = (v(&mut b, 5.0, 1.0, 1.0), v(&mut b, 4.0, 1.0, 1.5));
+    b.triangle([p, q, r], lamp);
+    b.triangle([p, r, s], lamp);
+    let scene = b.build().unwrap();
+    let patches = crate::mesh::subdivide(&scene, 10.0, 0.0).unwrap();
+    let radiance = vec![[0.0; 3]; patches.len()];
+    let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
+    assert!(g.partner.iter().all(Option::is_none));
+    assert_eq!(g.groups, 6);
 }

@@ -1,9 +1,9 @@
-//! The exact direct light of a triangular emitter at a point, shadows included: the part of
-//! the emitter the point sees, as convex polygons, and its form factor by Lambert's contour
+//! The exact direct light of a triangular or convex quadrilateral emitter at a point, shadows
+//! included: the part of the emitter the point sees, as convex polygons, and its form factor by Lambert's contour
 //! integral, in place of a visible fraction estimated by shadow rays.
 //!
 //! Every occluding triangle between the point x and the emitter E is clipped to the pyramid
-//! with apex x over E (the three planes through x and E's edges, E's plane, and x's horizon),
+//! with apex x over E (the planes through x and E's edges, E's plane, and x's horizon),
 //! and what is left is projected from x onto E's plane: the shadow it casts on E as x sees it.
 //! E less the union of these convex shadows is a set of convex pieces (each shadow subtracted
 //! edge by edge, as Sutherland–Hodgman clipping), and the unoccluded form factor of those
@@ -56,8 +56,8 @@ pub const MAX_PIECES: usize = 24;
 /// rounding of shadows that share an edge (two triangles of one occluder's face).
 const SLIVER: f64 = 1e-12;
 
-/// The form factor from the point `x` (unit normal `n`) to the part of the triangle `e`
-/// (unit front normal `e_normal`, x in front of it) not hidden by the triangles `occluders`
+/// The form factor from the point `x` (unit normal `n`) to the part of the emitter `e`, a
+/// triangle or a planar convex quadrilateral (unit front normal `e_normal`, x in front of it), not hidden by the triangles `occluders`
 /// offers: `Some(F·V̄)`, dimensionless in [0, F(x → e)], or `None` when more than
 /// [`MAX_CANDIDATES`] triangles are offered, more than [`MAX_OCCLUDERS`] of them reach into
 /// the pyramid, or the visible part needs more than [`MAX_PIECES`] pieces.
@@ -71,25 +71,26 @@ const SLIVER: f64 = 1e-12;
 pub fn visible_form_factor(
     x: DVec3,
     n: DVec3,
-    e: &[DVec3; 3],
+    e: &[DVec3],
     e_normal: DVec3,
     margin: f64,
     occluders: impl FnOnce(&[(DVec3, DVec3)], &mut dyn FnMut(&[DVec3; 3]) -> bool) -> bool,
 ) -> Option<f64> {
+    debug_assert!((3..=4).contains(&e.len()), "a triangle or a quadrilateral");
     let dx = e_normal.dot(x - e[0]);
     if dx <= 2.0 * margin {
         return Some(crate::geometry::point_to_polygon(x, n, e));
     }
-    // The pyramid: keep m·(p − x) ≥ 0 for each side plane (through x and an edge of e).
-    let sides: [DVec3; 3] = std::array::from_fn(|k| {
-        let (a, b, c) = (e[k], e[(k + 1) % 3], e[(k + 2) % 3]);
+    // The pyramid: keep m·(p − x) ≥ 0 for each side plane (through x and an edge of e; e is
+    // convex, so every other corner lies on its inner side).
+    let count = e.len();
+    let mut sides = [DVec3::ZERO; 4];
+    for (k, side) in sides.iter_mut().enumerate().take(count) {
+        let (a, b, c) = (e[k], e[(k + 1) % count], e[(k + 2) % count]);
         let m = (a - x).cross(b - x);
-        if m.dot(c - x) < 0.0 {
-            -m
-        } else {
-            m
-        }
-    });
+        *side = if m.dot(c - x) < 0.0 { -m } else { m };
+    }
+    let sides = &sides[..count];
     // Coordinates in e's plane.
     let u = (e[1] - e[0]).normalize();
     let v = e_normal.cross(u);
@@ -106,16 +107,14 @@ pub fn visible_form_factor(
     let mut too_complex = false;
     let mut cast = 0;
     // The pyramid as half-spaces (normal, point on the plane), for the caller's query to cull
-    // with: its three sides, x's horizon and e's front. Looser than the clips below (no
+    // with: its sides, x's horizon and e's front. Looser than the clips below (no
     // margins), so nothing they keep is culled.
-    let pyramid = [
-        (sides[0], x),
-        (sides[1], x),
-        (sides[2], x),
-        (n, x),
-        (e_normal, e[0]),
-    ];
-    let finished = occluders(&pyramid, &mut |t: &[DVec3; 3]| {
+    let mut pyramid = [(n, x); 6];
+    for (plane, &m) in pyramid.iter_mut().zip(sides) {
+        *plane = (m, x);
+    }
+    pyramid[count + 1] = (e_normal, e[0]);
+    let finished = occluders(&pyramid[..count + 2], &mut |t: &[DVec3; 3]| {
         tried += 1;
         if tried > MAX_CANDIDATES {
             too_complex = true;
@@ -124,7 +123,7 @@ pub fn visible_form_factor(
         // The part of t inside the pyramid, clear of x and of e's plane.
         a.clear();
         a.extend_from_slice(t);
-        for m in &sides {
+        for m in sides {
             clip_polygon(&a, |p| m.dot(p - x), &mut b);
             std::mem::swap(&mut a, &mut b);
         }
@@ -470,6 +469,50 @@ mod tests {
             }
         }
         assert_eq!(checked, 64);
+    }
+
+    #[test]
+    fn a_quadrilateral_sees_what_its_two_triangles_see() {
+        // The unit square as one convex quadrilateral against the sum of its two triangles,
+        // each already checked against shadow rays (below), under random occluders: the same
+        // visible pieces cut along the diagonal or not, so equal to rounding.
+        let [t0, t1] = square();
+        let quad = [t0[0], t1[1], t0[1], t0[2]];
+        let mut rng = Rng::new(&[23]);
+        let mut hidden = 0;
+        for case in 0..32 {
+            let x = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.0);
+            let occluders: Vec<[DVec3; 3]> = (0..1 + case % 4)
+                .map(|_| {
+                    let c = DVec3::new(
+                        rng.next_f64() - 0.5,
+                        rng.next_f64() - 0.5,
+                        0.2 + 0.6 * rng.next_f64(),
+                    );
+                    std::array::from_fn(|_| {
+                        c + 0.5 * DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.0)
+                    })
+                })
+                .collect();
+            let whole = visible_form_factor(x, DVec3::Z, &quad, DOWN, MARGIN, |_, visit| {
+                occluders.iter().all(visit)
+            })
+            .unwrap();
+            let parts: f64 = [t0, t1]
+                .iter()
+                .map(|t| exact(x, DVec3::Z, t, &occluders).unwrap())
+                .sum();
+            let f = point_to_polygon(x, DVec3::Z, &quad);
+            assert!(
+                (whole - parts).abs() <= 1e-9 * f,
+                "case {case}: the quadrilateral {whole} against its triangles {parts}"
+            );
+            hidden += (whole < 0.999 * f) as usize;
+        }
+        assert!(
+            hidden >= 24,
+            "only {hidden} of the cases were partly hidden"
+        );
     }
 
     #[test]
