@@ -28,7 +28,7 @@ use crate::geometry::kernel::point_to_polygon;
 use crate::geometry::visible;
 use crate::light::emitter::{GATHER_MAX_SHADOW_RAYS, GATHER_SHADOW_RAYS};
 use crate::light::{Emitter, Receiver, Share};
-use crate::sampling::{gauss_rule, kernel_samples, Rng};
+use crate::sampling::{gauss_rule, kernel_samples, systematic, Rng};
 use crate::scene::Scene;
 use crate::visibility::Point;
 
@@ -365,15 +365,11 @@ impl Gatherer<'_> {
         };
         let mut sum = [0.0; 3];
         let mut seen = Seen::default();
-        let Some(&total) = cdf.last() else {
+        if cdf.last().is_none() {
             return (sum, seen);
-        };
-        let offset = rng.next_f64();
-        for j in 0..count {
-            let u = (j as f64 + offset) / count as f64 * total;
-            let at = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+        }
+        for (at, p) in systematic(cdf, count, rng.next_f64()) {
             let k = keys.map_or(at, |keys| keys[at]);
-            let p = (cdf[at] - if at == 0 { 0.0 } else { cdf[at - 1] }) / total;
             let e = &self.emitters[k];
             if !is_other(k, e) {
                 continue;

@@ -41,7 +41,7 @@ use crate::light::emitter::{
 };
 use crate::light::{Emitter, Receiver, Share, SKY_RAYS};
 use crate::mesh::Patches;
-use crate::sampling::Rng;
+use crate::sampling::{systematic, Rng};
 use crate::scene::Environment;
 use crate::visibility::Visibility;
 
@@ -384,10 +384,9 @@ pub fn element_direct(
 }
 
 /// The draw of a rule point's [`ELEMENT_SHARED_SHADOW_RAYS`] over the emitters
-/// ([`ShadowRays::Shared`]): systematic sampling (one uniform offset, the rays at even steps
-/// of the cumulative weights Le_max · F; Kitagawa 1996), so an emitter of probability p gets
-/// ⌊N p⌋ or ⌈N p⌉ rays, and at least one ray in the point's N goes to every emitter with
-/// p ≥ 1/N.
+/// ([`ShadowRays::Shared`]): systematic sampling over the weights Le_max · F
+/// ([`systematic`]), so an emitter of probability p gets ⌊N p⌋ or ⌈N p⌉ rays, and at least
+/// one ray in the point's N goes to every emitter with p ≥ 1/N.
 #[derive(Default)]
 struct Drawn {
     /// Cumulative weights of the emitters that send light to the point.
@@ -418,23 +417,15 @@ impl Drawn {
         if self.keys.is_empty() {
             return;
         }
-        let n_rays = ELEMENT_SHARED_SHADOW_RAYS;
-        let offset = rng.next_f64();
         let mut last = usize::MAX;
-        for j in 0..n_rays {
-            let u = (j as f64 + offset) / n_rays as f64 * total;
-            let at = self
-                .cdf
-                .partition_point(|&c| c <= u)
-                .min(self.cdf.len() - 1);
+        for (at, p) in systematic(&self.cdf, ELEMENT_SHARED_SHADOW_RAYS, rng.next_f64()) {
             if at == last {
                 self.picks.last_mut().expect("drawn before").2 += 1;
                 continue;
             }
             last = at;
-            let below = if at == 0 { 0.0 } else { self.cdf[at - 1] };
             let (i, f) = self.keys[at];
-            self.picks.push((i, f, 1, (self.cdf[at] - below) / total));
+            self.picks.push((i, f, 1, p));
         }
     }
 }

@@ -2,8 +2,9 @@
 //! counter-based random generator keyed by (seed, patch, …) ([`rng`]), so every sample
 //! depends only on its key and never on thread scheduling; quadrature rules on the triangle
 //! ([`quadrature`]); and the sampling rules (this file): stratified points on triangles,
-//! cosine-weighted directions (Malley), points of a triangle by solid angle (Arvo), and the
-//! kernel-weighted points of an emitter above a receiver's horizon.
+//! cosine-weighted directions (Malley), points of a triangle by solid angle (Arvo), the
+//! kernel-weighted points of an emitter above a receiver's horizon, and systematic draws over
+//! weights (many-light sampling).
 
 use glam::DVec3;
 
@@ -284,8 +285,48 @@ pub fn kernel_samples(
     }
 }
 
+/// Systematic sampling (Kitagawa, "Monte Carlo filter and smoother for non-Gaussian nonlinear
+/// state space models", 1996): `n` draws at the even steps (j + `offset`) / n, j = 0 … n − 1,
+/// of the cumulative weights `cdf` (non-decreasing, its last value the total, > 0; `offset`
+/// uniform in [0, 1)). Yields each draw's position in `cdf` and that position's probability
+/// (its weight over the total), in order: a position of probability p is drawn ⌊n p⌋ or
+/// ⌈n p⌉ times, its draws in a row, and every position with p ≥ 1/n at least once.
+pub fn systematic(cdf: &[f64], n: usize, offset: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
+    let total = cdf.last().copied().unwrap_or(0.0);
+    (0..if total > 0.0 { n } else { 0 }).map(move |j| {
+        let u = (j as f64 + offset) / n as f64 * total;
+        let at = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+        let below = if at == 0 { 0.0 } else { cdf[at - 1] };
+        (at, (cdf[at] - below) / total)
+    })
+}
+
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn systematic_draws_give_each_weight_its_share_of_the_draws() {
+        // Weights 1, 0, 2.5, 0.5, 4 (probabilities 0.125, 0, 0.3125, 0.0625, 0.5) and 16
+        // draws: each position is drawn ⌊16 p⌋ or ⌈16 p⌉ times, in order, never one of
+        // weight 0, for any offset.
+        let cdf = [1.0, 1.0, 3.5, 4.0, 8.0];
+        let p: [f64; 5] = [0.125, 0.0, 0.3125, 0.0625, 0.5];
+        for offset in [0.0, 0.3, 0.999] {
+            let draws: Vec<(usize, f64)> = systematic(&cdf, 16, offset).collect();
+            assert_eq!(draws.len(), 16);
+            assert!(draws.windows(2).all(|w| w[0].0 <= w[1].0), "in order");
+            for (at, &pk) in p.iter().enumerate() {
+                let count = draws.iter().filter(|d| d.0 == at).count() as f64;
+                assert!(
+                    count == (16.0 * pk).floor() || count == (16.0 * pk).ceil(),
+                    "offset {offset}: position {at} drawn {count} times for p {pk}"
+                );
+                assert!(draws.iter().filter(|d| d.0 == at).all(|d| d.1 == pk));
+            }
+        }
+        assert_eq!(systematic(&[], 4, 0.5).count(), 0);
+        assert_eq!(systematic(&[0.0, 0.0], 4, 0.5).count(), 0);
+    }
     use super::*;
     use glam::DVec3;
 
