@@ -29,7 +29,6 @@ use crate::geometry::visible;
 use crate::light::emitter::{GATHER_MAX_SHADOW_RAYS, GATHER_SHADOW_RAYS};
 use crate::light::{Emitter, Receiver, Share};
 use crate::sampling::{gauss_rule, kernel_samples, systematic, Rng};
-use crate::scene::Scene;
 use crate::visibility::Point;
 
 /// What an exact emitter's visible pieces cost a gathering point, in hemisphere rays (each of
@@ -470,54 +469,51 @@ impl Gatherer<'_> {
 }
 
 /// Pairs the emitting triangles that make a convex quadrilateral (a lamp's panel, a window,
-/// each two triangles): two of one material that share an edge (the same two scene vertices,
-/// run in opposite directions, so their fronts agree), with the same front normal (to 1e-9),
-/// whose union is strictly convex. In index order, each unpaired triangle pairs with the
-/// lowest-numbered such triangle still unpaired, so the pairs are the same on every run.
-/// `triangles[k]` is emitter k's scene triangle. Returns, per emitter, its partner and the
+/// each two triangles): two of the same Le that share an edge (the same two corners, equal to
+/// the bit, run in opposite directions, so their fronts agree; whether or not the file shares
+/// the vertices), with the same front normal (to 1e-9), whose union is strictly convex. In
+/// index order, each unpaired triangle pairs with the lowest-numbered such triangle still
+/// unpaired, so the pairs are the same on every run. Returns, per emitter, its partner and the
 /// quadrilateral's corners, counter-clockwise seen from its front: its visible pieces are
 /// then one polygon's, the pair one of [`MAX_EXACT_EMITTERS`] at a point.
-pub(super) fn pair_emitters(
-    scene: &Scene,
-    triangles: &[usize],
-    emitters: &[Emitter],
-) -> Vec<Option<(u32, [DVec3; 4])>> {
-    let vertices = |k: usize| scene.triangles[triangles[k]].vertices;
-    let mut by_edge: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for k in 0..triangles.len() {
-        let v = vertices(k);
+pub(super) fn pair_emitters(emitters: &[Emitter]) -> Vec<Option<(u32, [DVec3; 4])>> {
+    type Key = [u64; 3];
+    let key = |p: DVec3| p.to_array().map(f64::to_bits);
+    let mut by_edge: HashMap<(Key, Key), Vec<u32>> = HashMap::new();
+    for (k, e) in emitters.iter().enumerate() {
+        let c = e.corners;
         for i in 0..3 {
             by_edge
-                .entry((v[i], v[(i + 1) % 3]))
+                .entry((key(c[i]), key(c[(i + 1) % 3])))
                 .or_default()
                 .push(k as u32);
         }
     }
     let mut partner: Vec<Option<(u32, [DVec3; 4])>> = vec![None; emitters.len()];
-    for k in 0..triangles.len() {
+    for (k, e) in emitters.iter().enumerate() {
         if partner[k].is_some() {
             continue;
         }
-        let v = vertices(k);
-        let material = scene.triangles[triangles[k]].material;
+        let v = e.corners;
         let mut best: Option<(u32, [DVec3; 4])> = None;
         for i in 0..3 {
             let (a, b, c) = (v[i], v[(i + 1) % 3], v[(i + 2) % 3]);
-            for &j in by_edge.get(&(b, a)).into_iter().flatten() {
-                let ju = j as usize;
-                if ju == k
-                    || partner[ju].is_some()
+            for &j in by_edge.get(&(key(b), key(a))).into_iter().flatten() {
+                let other = &emitters[j as usize];
+                if j as usize == k
+                    || partner[j as usize].is_some()
                     || best.is_some_and(|(bj, _)| bj < j)
-                    || scene.triangles[triangles[ju]].material != material
-                    || emitters[ju].normal.dot(emitters[k].normal) < 1.0 - 1e-9
+                    || other.le != e.le
+                    || other.normal.dot(e.normal) < 1.0 - 1e-9
                 {
                     continue;
                 }
-                let Some(&d) = vertices(ju).iter().find(|&&w| w != a && w != b) else {
+                let far = |&w: &DVec3| key(w) != key(a) && key(w) != key(b);
+                let Some(&d) = other.corners.iter().find(|w| far(w)) else {
                     continue;
                 };
-                let quad = [a, d, b, c].map(|w| scene.positions[w as usize]);
-                if strictly_convex(&quad, emitters[k].normal) {
+                let quad = [a, d, b, c];
+                if strictly_convex(&quad, e.normal) {
                     best = Some((j, quad));
                 }
             }

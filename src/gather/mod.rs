@@ -193,8 +193,8 @@ pub struct Gatherer<'a> {
     power_cdf: Vec<f64>,
     /// Index into `emitters` of each scene triangle, or [`NONE`].
     emitter_of: Vec<u32>,
-    /// Each emitter's partner, if any: the other half of a convex quadrilateral of one
-    /// material (a lamp's panel, a window), and that quadrilateral's corners, counter-clockwise
+    /// Each emitter's partner, if any: the other half of a convex quadrilateral of the same
+    /// Le (a lamp's panel, a window), and that quadrilateral's corners, counter-clockwise
     /// seen from its front ([`pair_emitters`]). The direct term computes the pair's visible
     /// pieces as one ([`Gatherer::exact_emitters`]).
     partner: Vec<Option<(u32, [DVec3; 4])>>,
@@ -243,7 +243,6 @@ impl<'a> Gatherer<'a> {
         // The emitting triangles, and each scene triangle's index among them.
         let mut emitters = Vec::new();
         let mut emitter_of = vec![NONE; scene.triangles.len()];
-        let mut triangles = Vec::new();
         for (t, tri) in scene.triangles.iter().enumerate() {
             let m = &scene.materials[tri.material as usize];
             let corners = tri.vertices.map(|v| scene.positions[v as usize]);
@@ -252,7 +251,6 @@ impl<'a> Gatherer<'a> {
                 continue;
             }
             emitter_of[t] = emitters.len() as u32;
-            triangles.push(t);
             // A partly transparent emitter sends from its covered share only.
             let sent = m.emission.map(|e| e * (1.0 - m.transmittance));
             emitters.push(Emitter::new(corners, normal.normalize(), sent));
@@ -265,7 +263,7 @@ impl<'a> Gatherer<'a> {
                 Some(*sum)
             })
             .collect();
-        let partner = direct::pair_emitters(scene, &triangles, &emitters);
+        let partner = direct::pair_emitters(&emitters);
         let groups = emitters.len() - partner.iter().flatten().count() / 2;
         Gatherer {
             emitters,

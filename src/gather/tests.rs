@@ -824,7 +824,8 @@ fn the_halves_of_a_quadrilateral_light_are_computed_as_one() {
         .all(|&k| exact.contains(&g.partner[k as usize].unwrap().0)));
 
     // Not paired: a dart (two triangles on a shared edge whose union is not convex), two
-    // halves of one square of different materials, and two that share an edge at a crease.
+    // halves of one square of different Le, and two that share an edge at a crease. Paired:
+    // a square whose halves have vertices of their own at the same points.
     let mut b = SceneBuilder::new();
     let lamp = b.material("lamp", [0.0; 3], [1.0; 3]);
     let other = b.material("other", [0.0; 3], [2.0; 3]);
@@ -841,10 +842,24 @@ fn the_halves_of_a_quadrilateral_light_are_computed_as_one() {
     let (r, s) = (v(&mut b, 5.0, 1.0, 1.0), v(&mut b, 4.0, 1.0, 1.5));
     b.triangle([p, q, r], lamp);
     b.triangle([p, r, s], lamp);
+    let corners = [
+        (6.0, 0.0),
+        (7.0, 0.0),
+        (7.0, 1.0),
+        (6.0, 0.0),
+        (7.0, 1.0),
+        (6.0, 1.0),
+    ];
+    let [p, q, r, p2, r2, s] = corners.map(|(x, y)| v(&mut b, x, y, 1.0));
+    b.triangle([p, q, r], lamp);
+    b.triangle([p2, r2, s], lamp);
     let scene = b.build().unwrap();
     let patches = crate::mesh::subdivide(&scene, 10.0, 0.0).unwrap();
     let radiance = vec![[0.0; 3]; patches.len()];
     let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
-    assert!(g.partner.iter().all(Option::is_none));
-    assert_eq!(g.groups, 6);
+    let paired: Vec<Option<u32>> = g.partner.iter().map(|p| p.map(|p| p.0)).collect();
+    let mut expected = vec![None; 8];
+    (expected[6], expected[7]) = (Some(7), Some(6));
+    assert_eq!(paired, expected);
+    assert_eq!(g.groups, 7);
 }
