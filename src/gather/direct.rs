@@ -4,8 +4,8 @@
 //! - The emitters computed exactly at a point ([`Gatherer::exact_emitters`]: all of them, or
 //!   the [`MAX_EXACT_EMITTERS`] with the largest bound there, the two triangles of a convex
 //!   quadrilateral counting as one) get their visible pieces ([`crate::geometry::visible`]):
-//!   F·V̄ exactly, shadows included, a quadrilateral's as one polygon's. Where those would be too
-//!   many (a crowded view), V̄ is estimated by kernel-weighted shadow rays
+//!   F·V̄ exactly, shadows included, a quadrilateral's as one polygon's. Where those would be
+//!   too many (a crowded view), V̄ is estimated by kernel-weighted shadow rays
 //!   ([`crate::light::Emitter::cast_shadow_rays`]), adaptive: [`GATHER_SHADOW_RAYS`] per
 //!   emitter, and when any emitter's rays disagree (the point is in a penumbra) up to
 //!   [`GATHER_MAX_SHADOW_RAYS`] for every emitter.
@@ -364,7 +364,7 @@ impl Gatherer<'_> {
         };
         let mut sum = [0.0; 3];
         let mut seen = Seen::default();
-        if cdf.last().is_none() {
+        if cdf.is_empty() {
             return (sum, seen);
         }
         for (at, p) in systematic(cdf, count, rng.next_f64()) {

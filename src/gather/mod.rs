@@ -195,7 +195,7 @@ pub struct Gatherer<'a> {
     emitter_of: Vec<u32>,
     /// Each emitter's partner, if any: the other half of a convex quadrilateral of the same
     /// Le (a lamp's panel, a window), and that quadrilateral's corners, counter-clockwise
-    /// seen from its front ([`pair_emitters`]). The direct term computes the pair's visible
+    /// seen from its front ([`direct::pair_emitters`]). The direct term computes the pair's visible
     /// pieces as one ([`Gatherer::exact_emitters`]).
     partner: Vec<Option<(u32, [DVec3; 4])>>,
     /// Emitters counted with a partner as one.

@@ -1,6 +1,6 @@
 //! The exact direct light of a triangular or convex quadrilateral emitter at a point, shadows
-//! included: the part of the emitter the point sees, as convex polygons, and its form factor by Lambert's contour
-//! integral, in place of a visible fraction estimated by shadow rays.
+//! included: the part of the emitter the point sees, as convex polygons, and its form factor
+//! by Lambert's contour integral, in place of a visible fraction estimated by shadow rays.
 //!
 //! Every occluding triangle between the point x and the emitter E is clipped to the pyramid
 //! with apex x over E (the planes through x and E's edges, E's plane, and x's horizon),
@@ -57,10 +57,11 @@ pub const MAX_PIECES: usize = 24;
 const SLIVER: f64 = 1e-12;
 
 /// The form factor from the point `x` (unit normal `n`) to the part of the emitter `e`, a
-/// triangle or a planar convex quadrilateral (unit front normal `e_normal`, x in front of it), not hidden by the triangles `occluders`
-/// offers: `Some(F·V̄)`, dimensionless in [0, F(x → e)], or `None` when more than
-/// [`MAX_CANDIDATES`] triangles are offered, more than [`MAX_OCCLUDERS`] of them reach into
-/// the pyramid, or the visible part needs more than [`MAX_PIECES`] pieces.
+/// triangle or a planar convex quadrilateral (unit front normal `e_normal`, x in front of
+/// it), not hidden by the triangles `occluders` offers: `Some(F·V̄)`, dimensionless in
+/// [0, F(x → e)], or `None` when more than [`MAX_CANDIDATES`] triangles are offered, more
+/// than [`MAX_OCCLUDERS`] of them reach into the pyramid, or the visible part needs more than
+/// [`MAX_PIECES`] pieces.
 ///
 /// `occluders` calls its argument with every triangle that may lie between x and e (scene
 /// units; a superset is fine: triangles outside the pyramid are clipped away), until it returns
@@ -109,6 +110,7 @@ pub fn visible_form_factor(
     // The pyramid as half-spaces (normal, point on the plane), for the caller's query to cull
     // with: its sides, x's horizon and e's front. Looser than the clips below (no
     // margins), so nothing they keep is culled.
+    // The sides first, then x's horizon (the array's fill) and e's front.
     let mut pyramid = [(n, x); 6];
     for (plane, &m) in pyramid.iter_mut().zip(sides) {
         *plane = (m, x);
@@ -303,6 +305,28 @@ mod tests {
         sum * area / (k * k) as f64
     }
 
+    /// `count` random small triangles between the plane z = 0 and the emitter at z = 1:
+    /// centres over the square at heights 0.2–0.8, sizes 0.2–0.8, slightly tilted.
+    fn random_occluders(rng: &mut Rng, count: usize) -> Vec<[DVec3; 3]> {
+        (0..count)
+            .map(|_| {
+                let c = DVec3::new(
+                    rng.next_f64() - 0.5,
+                    rng.next_f64() - 0.5,
+                    0.2 + 0.6 * rng.next_f64(),
+                );
+                let r = 0.6 * rng.next_f64() + 0.2;
+                std::array::from_fn(|_| {
+                    c + r * DVec3::new(
+                        rng.next_f64() - 0.5,
+                        rng.next_f64() - 0.5,
+                        0.4 * (rng.next_f64() - 0.5),
+                    )
+                })
+            })
+            .collect()
+    }
+
     fn segment_hits(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
         let d = q - p;
         let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
@@ -482,18 +506,7 @@ mod tests {
         let mut hidden = 0;
         for case in 0..32 {
             let x = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.0);
-            let occluders: Vec<[DVec3; 3]> = (0..1 + case % 4)
-                .map(|_| {
-                    let c = DVec3::new(
-                        rng.next_f64() - 0.5,
-                        rng.next_f64() - 0.5,
-                        0.2 + 0.6 * rng.next_f64(),
-                    );
-                    std::array::from_fn(|_| {
-                        c + 0.5 * DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.0)
-                    })
-                })
-                .collect();
+            let occluders = random_occluders(&mut rng, 1 + case % 4);
             let whole = visible_form_factor(x, DVec3::Z, &quad, DOWN, MARGIN, |_, visit| {
                 occluders.iter().all(visit)
             })
@@ -528,23 +541,7 @@ mod tests {
             let x = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.0);
             let n = (DVec3::Z + 0.3 * DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.0))
                 .normalize();
-            let occluders: Vec<[DVec3; 3]> = (0..1 + case % 5)
-                .map(|_| {
-                    let c = DVec3::new(
-                        rng.next_f64() - 0.5,
-                        rng.next_f64() - 0.5,
-                        0.2 + 0.6 * rng.next_f64(),
-                    );
-                    let r = 0.6 * rng.next_f64() + 0.2;
-                    std::array::from_fn(|_| {
-                        c + r * DVec3::new(
-                            rng.next_f64() - 0.5,
-                            rng.next_f64() - 0.5,
-                            0.4 * (rng.next_f64() - 0.5),
-                        )
-                    })
-                })
-                .collect();
+            let occluders = random_occluders(&mut rng, 1 + case % 5);
             for e in square() {
                 let f = point_to_polygon(x, n, &e);
                 let got = exact(x, n, &e, &occluders).unwrap();
