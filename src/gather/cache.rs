@@ -45,7 +45,7 @@ use super::indirect::Count;
 use super::sites::Spot;
 use super::{Gathered, Gatherer, NEAR_DEPTH};
 use crate::color::Rgb;
-use crate::light::emitter::GATHER_MAX_SHADOW_RAYS;
+use crate::light::emitter::CACHE_MAX_SHADOW_RAYS;
 use crate::sampling::Rng;
 
 /// Ward's a: a record serves a point while its error estimate ε = d/R + √(1 − n·nᵢ) stays under
@@ -296,7 +296,7 @@ impl Gatherer<'_> {
     /// (radiance units, before ρ: from the records): Le + ρ·(D + E + reflected) (see the
     /// module documentation).
     pub(super) fn cached_vertex(&self, spot: &Spot, reflected: Rgb, rng: &mut Rng) -> Gathered {
-        let direct = self.reflected_direct(spot, GATHER_MAX_SHADOW_RAYS, rng);
+        let direct = self.reflected_direct(spot, CACHE_MAX_SHADOW_RAYS, rng);
         self.cached_vertex_lit(spot, reflected, direct, rng)
     }
 

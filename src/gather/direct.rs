@@ -82,6 +82,16 @@ pub const OTHER_LIGHT_MAX_SAMPLES: usize = 4 * OTHER_LIGHT_SAMPLES;
 /// that see most of the others would come out too bright, those that see little too dark.
 pub const OTHER_LIGHT_PILOT: usize = OTHER_LIGHT_SAMPLES;
 
+/// The points of an emitter triangle (barycentric) that [`Gatherer::coarse_direct`] aims its
+/// shadow rays at: the centroid of each of the four triangles of its midpoint subdivision, so
+/// that each stands for a quarter of the emitter's area.
+pub const COARSE_POINTS: [[f64; 3]; 4] = [
+    [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+    [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
+    [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
+    [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+];
+
 /// With more emitters than this in the scene, the others' shadow rays draw emitters from the
 /// scene-wide distribution of their power (Le_max × area, one binary search a ray) instead of
 /// weights computed at the point for every emitter: the cost per point and per near hit stays
@@ -435,6 +445,40 @@ impl Gatherer<'_> {
         );
         let rho = self.patches.reflectance[spot.patch as usize];
         (std::array::from_fn(|c| rho[c] * direct[c]), penumbra, exact)
+    }
+
+    /// A cheap, deterministic estimate of the reflected direct light at `spot` from the
+    /// emitters `exact`: each one's unoccluded form factor (exact) times the share of its
+    /// [`COARSE_POINTS`] that a shadow ray from the spot reaches. The points are the same on
+    /// an emitter from every receiver, so the estimates at nearby points are correlated: an
+    /// edge whose ends and midpoint all see every point gets the unoccluded light at each,
+    /// whose departure from linearity is small, and an occluder that hides points from the
+    /// midpoint alone (a leg's shadow between two lit vertices) shows as a departure of the
+    /// midpoint from its ends' mean. The display refinement orders its exact tests by it
+    /// ([`super::refine`]); it values nothing.
+    pub(crate) fn coarse_direct(&self, spot: &Spot, exact: &[u32]) -> Rgb {
+        let from = self.surfaces.point(spot.x + self.lift * spot.n);
+        let mut sum = [0.0; 3];
+        for &k in exact {
+            let e = &self.emitters[k as usize];
+            let Some(f) = e.form_factor(spot.x, spot.n) else {
+                continue;
+            };
+            let seen = COARSE_POINTS
+                .iter()
+                .filter(|b| {
+                    let y = b[0] * e.corners[0] + b[1] * e.corners[1] + b[2] * e.corners[2];
+                    let to = self.surfaces.point(y + self.lift * e.normal);
+                    !self.surfaces.occluded(&from, &to, spot.patch)
+                })
+                .count();
+            let v = seen as f64 / COARSE_POINTS.len() as f64;
+            for (s, le) in sum.iter_mut().zip(e.le) {
+                *s += le * f * v;
+            }
+        }
+        let rho = self.patches.reflectance[spot.patch as usize];
+        std::array::from_fn(|c| rho[c] * sum[c])
     }
 
     /// Whether the hemisphere rays at `x` would bring some emitter's Le that `exact` and the
