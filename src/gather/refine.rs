@@ -49,7 +49,7 @@
 //! vertices 17 cm apart) darkens the midpoint's alone. Under many lights nearly every edge
 //! of a floor has an end in some penumbra, and the ends' contrast does not see such a shadow
 //! at all; on the generated office (seeds 1–3) the order by both displays 3.09, 3.20, 3.23 %
-//! RMS against 3.24, 3.31, 3.59 % by the ends alone, for about 4 s of its bake (every candidate
+//! RMS against 3.24, 3.31, 3.59 % by the ends alone, for about 3 s of its bake (every candidate
 //! edge's midpoint, four shadow rays per exact emitter triangle).
 //!
 //! The midpoints tested and left whole are not thrown away: the vertex values are fitted to
