@@ -41,7 +41,7 @@
 //! choice is ordered by the edges' vertex indices, so a fixed seed gives the same mesh for any
 //! thread count.
 //!
-//! The cheap estimate ([`Gatherer::coarse_direct`]) is each exact emitter's unoccluded form
+//! The cheap estimate (`Gatherer::coarse_direct`) is each exact emitter's unoccluded form
 //! factor times the share of four fixed points of it that a shadow ray reaches. The points
 //! are the same from every receiver, so the estimates at an edge's ends and midpoint are
 //! correlated: where all three see every point it departs from linear only as the unoccluded
