@@ -131,18 +131,28 @@ impl Gatherer<'_> {
         if self.groups <= MAX_EXACT_EMITTERS {
             return (0..self.emitters.len() as u32).collect();
         }
-        let mut bounds: Vec<(f64, u32)> = self
+        let own: Vec<f64> = self
             .emitters
             .iter()
-            .enumerate()
-            .map(|(k, e)| {
+            .map(|e| {
                 let d = (x.distance(e.centre) - e.radius).max(1e-3 * e.radius);
-                (e.power / (PI * d * d), k as u32)
+                e.power / (PI * d * d)
+            })
+            .collect();
+        // A paired half ranks by its quadrilateral's bound, the two halves' sum: it is
+        // computed as one with its partner, and a large lamp of two triangles must not lose
+        // its place to a smaller single triangle that outranks each half.
+        let mut bounds: Vec<(f64, u32)> = own
+            .iter()
+            .enumerate()
+            .map(|(k, &b)| {
+                let partner = self.partner[k].map_or(0.0, |(j, _)| own[j as usize]);
+                (b + partner, k as u32)
             })
             .collect();
         let by_bound = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
         // The first MAX_EXACT_EMITTERS groups by bound lie among the first twice as many
-        // emitters (each group takes at least one of them).
+        // emitters (a group's members share its bound and are at most two).
         let top = (2 * MAX_EXACT_EMITTERS).min(bounds.len());
         bounds.select_nth_unstable_by(top - 1, by_bound);
         bounds[..top].sort_unstable_by(by_bound);

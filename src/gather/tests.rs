@@ -937,3 +937,33 @@ fn the_cheap_direct_light_is_exact_where_it_is_seen_and_shows_a_shadow_between_l
     assert!((coarse(&a) - coarse(&b)).abs() < 1e-9 * ends);
     assert!((ends - coarse(&m)).abs() > 0.1 * ends);
 }
+
+#[test]
+fn a_quadrilateral_light_ranks_by_its_whole_bound() {
+    // Nine lights 10 above a point, Le 1 each, facing it: eight single triangles of area
+    // 0.005 around the axis and one square of area 0.0064 on it, two halves of 0.0032. Each
+    // half is fainter than any single triangle, the square brighter: with eight exact
+    // emitters at a point the square must be one of them (its two halves).
+    let mut b = SceneBuilder::new();
+    let lamp = b.material("lamp", [0.0; 3], [1.0; 3]);
+    for i in 0..8 {
+        let angle = i as f64 * std::f64::consts::FRAC_PI_4;
+        let (x, y) = (0.3 * angle.cos(), 0.3 * angle.sin());
+        // Clockwise seen from above: it faces down, toward the point.
+        let c = [(x, y), (x, y + 0.1), (x + 0.1, y)].map(|(x, y)| b.vertex(DVec3::new(x, y, 10.0)));
+        b.triangle(c, lamp);
+    }
+    b.quad(square(-0.04, -0.04, 0.08, 10.0, false), lamp);
+    let scene = b.build().unwrap();
+    let patches = crate::mesh::subdivide(&scene, 10.0, 0.0).unwrap();
+    let radiance = vec![[0.0; 3]; patches.len()];
+    let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
+    assert_eq!((g.emitters.len(), g.groups), (10, 9));
+    let halves: Vec<u32> = (0..10u32)
+        .filter(|&k| g.partner[k as usize].is_some())
+        .collect();
+    assert_eq!(halves.len(), 2);
+    let exact = g.exact_emitters(DVec3::ZERO);
+    assert_eq!(exact.len(), MAX_EXACT_EMITTERS + 1, "{exact:?}");
+    assert!(halves.iter().all(|k| exact.contains(k)), "{exact:?}");
+}
