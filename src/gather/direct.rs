@@ -8,7 +8,8 @@
 //!   too many (a crowded view), V̄ is estimated by kernel-weighted shadow rays
 //!   ([`crate::light::Emitter::cast_shadow_rays`]), adaptive: [`GATHER_SHADOW_RAYS`] per
 //!   emitter, and when any emitter's rays disagree (the point is in a penumbra) up to
-//!   [`GATHER_MAX_SHADOW_RAYS`] for every emitter.
+//!   [`GATHER_MAX_SHADOW_RAYS`] for every emitter (at a vertex of the `cache` gather,
+//!   [`crate::light::emitter::CACHE_MAX_SHADOW_RAYS`]).
 //! - The others that are small as seen from the point ([`SAMPLED_SPREAD`]) share
 //!   [`OTHER_LIGHT_SAMPLES`] shadow rays, drawn in proportion to Le·F (many-light next-event
 //!   estimation); the large near ones are left to the hemisphere rays ([`super::indirect`]).

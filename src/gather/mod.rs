@@ -436,18 +436,24 @@ impl Gatherer<'_> {
     /// The patch is the first one met from a thousandth of the scene's extent above `x`,
     /// straight down; `None` where there is none, or it does not face `n`.
     pub fn at_point(&self, x: DVec3, n: DVec3, rays: usize, seed: u64) -> Option<Gathered> {
+        let spot = self.spot_at(x, n)?;
+        let mut rng = Rng::new(&[self.seed, seed, 0x9_0B_E5]);
+        Some(self.full(&spot, rays, &mut rng))
+    }
+
+    /// The surface point `x` (unit normal `n`, on the side it faces) as a gathering spot, on
+    /// the patch [`Gatherer::at_point`] describes.
+    pub(crate) fn spot_at(&self, x: DVec3, n: DVec3) -> Option<Spot> {
         let above = 1e-3 * self.extent();
         let hit = self.surfaces.closest(x + above * n, -n, NONE)?;
         if hit.t > 2.0 * above || self.patches.normal[hit.patch as usize].dot(n) <= 0.0 {
             return None;
         }
-        let spot = Spot {
+        Some(Spot {
             x,
             n,
             patch: hit.patch,
-        };
-        let mut rng = Rng::new(&[self.seed, seed, 0x9_0B_E5]);
-        Some(self.full(&spot, rays, &mut rng))
+        })
     }
 
     /// Le of patch `p` plus the reflected parts: `direct` as [`Gatherer::reflected_direct`]

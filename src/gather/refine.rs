@@ -652,6 +652,7 @@ fn write_coarse(c: &Option<(u64, Rgb)>, w: &mut Writer) {
     d.iter().for_each(|&v| w.f64(v));
 }
 
+/// Reads what [`write_coarse`] wrote.
 fn read_coarse(r: &mut Reader) -> Option<(u64, Rgb)> {
     let ([some], k) = (r.bytes(), r.u64());
     let d = [r.f64(), r.f64(), r.f64()];

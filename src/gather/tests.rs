@@ -885,18 +885,7 @@ fn the_cheap_direct_light_is_exact_where_it_is_seen_and_shows_a_shadow_between_l
     let patches = crate::mesh::subdivide(&scene, 0.25, 0.0).unwrap();
     let radiance = vec![[0.0; 3]; patches.len()];
     let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
-    let spot = |x: f64| {
-        let at = DVec3::new(x, 0.001, 0.0);
-        let hit = g
-            .surfaces
-            .closest(at + 0.01 * DVec3::Z, -DVec3::Z, NONE)
-            .unwrap();
-        Spot {
-            x: at,
-            n: DVec3::Z,
-            patch: hit.patch,
-        }
-    };
+    let spot = |x: f64| g.spot_at(DVec3::new(x, 0.001, 0.0), DVec3::Z).unwrap();
     let exact = |s: &Spot| 0.5 * g.direct(s.x, s.n, s.patch, &mut Rng::new(&[1]))[0];
     let coarse = |s: &Spot| g.coarse_direct(s, &g.exact_emitters(s.x))[0];
     let (a, m, b) = (spot(-0.5), spot(0.0), spot(0.5));
