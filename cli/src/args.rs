@@ -189,6 +189,9 @@ pub enum SceneKind {
     /// triangles): twelve ceiling panels and the sky in eight windows, desks with monitors,
     /// turned office chairs, columns, bookcases and potted plants; a point-wise benchmark scene.
     Office,
+    /// The office by daylight: its eight windows open and its ceiling panels dark, to bake with
+    /// `--up z --sky L --sun AZIMUTH,ELEVATION,E` (the windows face south: azimuth 135–225°).
+    OfficeDaylit,
 }
 
 /// Options of `radiosity generate`.

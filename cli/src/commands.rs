@@ -212,6 +212,7 @@ pub fn generate(args: &GenerateArgs) -> Result<u8, Failure> {
         SceneKind::Attic => scenes::attic()?,
         SceneKind::Kitchen => scenes::kitchen()?,
         SceneKind::Office => scenes::office(triangles(args)?)?,
+        SceneKind::OfficeDaylit => scenes::office_daylit(triangles(args)?)?,
     };
     io::obj::save(&scene, &args.output)?;
     Ok(0)

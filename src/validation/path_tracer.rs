@@ -20,6 +20,16 @@
 //! probability = the path weight's largest channel, capped at 1, after three bounces), which
 //! keeps the estimator unbiased (Arvo & Kirk 1990; pbrt-v4 `PathIntegrator`).
 //!
+//! The lights outside the mesh ([`Environment`]: `--sky`, `--sun`, point and spot lights),
+//! where given (`pointwise::trace_reference_lit`), are traced the same way and just as independently of the
+//! bake's estimates of them ([`crate::light::outside`]): a path that leaves the scene brings
+//! the sky's radiance in its direction (none below the horizon), and at every path vertex one
+//! shadow ray goes to a uniform point of the sun's disc (E_sun cosθ V / π, the disc's
+//! [`SUN_DIAMETER_DEGREES`]) and one to each point light (I · falloff · cosθ V / (π r²), the
+//! spot's falloff as glTF gives it). The sun and the lamps are found by those rays only (a
+//! direction sample never meets a point, and the sky's radiance leaves the disc out), the
+//! sky by the direction samples only, so nothing is counted twice.
+//!
 //! The mean over a surface is the average of L at points drawn uniformly by area
 //! (stratified); points buried in contact geometry ([`Visibility::buried`]'s test,
 //! a normal ray that first meets a back face) see nothing and count as dark, so
@@ -31,7 +41,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::color::Rgb;
+use crate::geometry::orthonormal_basis;
+use crate::light::outside::SUN_DIAMETER_DEGREES;
 use crate::sampling::{malley, triangle_barycentrics, Rng};
+use crate::scene::lights::{Environment, Toward};
 use crate::scene::Scene;
 use crate::visibility::Visibility;
 
@@ -197,6 +210,8 @@ pub(crate) struct Tracer<'a> {
     emitter_cdf: Vec<f64>,
     /// Probability that next-event estimation picks triangle t (0 for non-emitters).
     emitter_pick: Vec<f64>,
+    /// The lights outside the mesh ([`Tracer::lit_by`]; none by default).
+    env: Environment,
 }
 
 impl<'a> Tracer<'a> {
@@ -248,7 +263,59 @@ impl<'a> Tracer<'a> {
             emitters,
             emitter_cdf,
             emitter_pick,
+            env: Environment::default(),
         }
+    }
+
+    /// The same tracer with the lights outside the mesh `env` (sky, sun, point and spot
+    /// lights) as well as the scene's emitters (see the module documentation).
+    pub(crate) fn lit_by(mut self, env: &Environment) -> Self {
+        self.env = env.clone();
+        self
+    }
+
+    /// One next-event sample of the lights outside the mesh at the point `x` of triangle `t`:
+    /// (1/π)·(E_sun cosθ V by one ray to a uniform point of the sun's disc, plus each point
+    /// light's I · falloff · cosθ V / r²). Radiance units, before ρ. Rays pass partly
+    /// transparent faces by their transmittance ([`Visibility::transmittance`]).
+    fn outside_direct(&self, t: usize, x: DVec3, rng: &mut Rng) -> Rgb {
+        use std::f64::consts::PI;
+        let n = self.normal[t];
+        let mut sum = [0.0; 3];
+        if let (Some(sun), Some(s)) = (self.env.sun, self.env.sun_direction()) {
+            // Uniform over the disc's solid angle: cos uniform in [cos_max, 1].
+            let cos_max = (0.5 * SUN_DIAMETER_DEGREES).to_radians().cos();
+            let c = 1.0 - rng.next_f64() * (1.0 - cos_max);
+            let phi = 2.0 * PI * rng.next_f64();
+            let (u, v) = orthonormal_basis(s);
+            let sin = (1.0 - c * c).max(0.0).sqrt();
+            let dir = c * s + sin * (phi.cos() * u + phi.sin() * v);
+            let cos = n.dot(dir);
+            if cos > 0.0 {
+                let pass = self.vis.transmittance(x, dir, f64::INFINITY, t as u32);
+                for (s, e) in sum.iter_mut().zip(sun.irradiance) {
+                    *s += e * cos * pass / PI;
+                }
+            }
+        }
+        for light in &self.env.lights {
+            let Some(Toward {
+                to,
+                r2,
+                cos,
+                falloff,
+                ..
+            }) = light.toward(x, n)
+            else {
+                continue;
+            };
+            // The segment x → the light (`to` its whole length), just short of the light.
+            let pass = self.vis.transmittance(x, to, 1.0 - 1e-9, t as u32);
+            for (s, i) in sum.iter_mut().zip(light.intensity) {
+                *s += i * falloff * cos * pass / (r2 * PI);
+            }
+        }
+        sum
     }
 
     /// ρ at the point `x` of triangle `t`: the material's, varied by its texture where the
@@ -348,10 +415,22 @@ impl<'a> Tracer<'a> {
                     l[ch] += weight[ch] * direct[ch];
                 }
             }
+            if self.env.has_sharp() {
+                let outside = self.outside_direct(t, x, rng);
+                for ch in 0..3 {
+                    l[ch] += weight[ch] * outside[ch];
+                }
+            }
             // Continue along a cosine-weighted direction; the reflected light found there is
             // ρ there times its own incident integral.
             let dir = cosine_direction(self.normal[t], rng);
             let Some(hit) = self.vis.closest_hit(x, dir, f64::INFINITY, t as u32) else {
+                // Out of the scene: the sky's radiance that way (0 below the horizon; the
+                // cosine-weighted density cancels the integrand's cosθ/π).
+                let sky = self.env.sky_radiance(dir);
+                for ch in 0..3 {
+                    l[ch] += weight[ch] * sky[ch];
+                }
                 break;
             };
             let h = hit.triangle as usize;

@@ -2,23 +2,68 @@
 //! uniform by area (emitters and buried points left out), each traced until the standard
 //! error of its luminance is at most the given share of it, written as the point-wise
 //! benchmark's CSV.
-//! `cargo run --release -p radiosity-tools --example probes -- SCENE OUT.csv [N] [ERROR]`
-//! (N probes, 500 by default; ERROR 0.01 by default). The tracer knows the scene's
-//! emitters and materials (transmittance included), not `--sky`, `--sun` or lamps.
+//! `cargo run --release -p radiosity-tools --example probes -- SCENE OUT.csv [N] [ERROR]
+//! [--sky L] [--sun AZIMUTH,ELEVATION,E] [--up x|y|z]`
+//! (N probes, 500 by default; ERROR 0.01 by default). The tracer knows the scene's emitters
+//! and materials (transmittance included) and, as the bake takes them, a uniform grey sky of
+//! radiance L (W·sr⁻¹·m⁻²) and the sun (degrees, W·m⁻²) about the up axis (y by default);
+//! not lamps files.
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
-use radiosity::scene::Scene;
+use anyhow::{bail, Context, Result};
+use radiosity::scene::{Environment, Scene, Sun, Up};
 use radiosity::validation::pointwise::{self, ReferenceSettings};
 
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: probes SCENE OUT.csv [N] [ERROR]";
-    let scene_path = args.first().context(usage)?;
-    let out = args.get(1).context(usage)?;
-    let n: usize = args.get(2).map_or(Ok(500), |s| s.parse()).context(usage)?;
-    let error: f64 = args.get(3).map_or(Ok(0.01), |s| s.parse()).context(usage)?;
+    let usage = "usage: probes SCENE OUT.csv [N] [ERROR] [--sky L] [--sun AZ,EL,E] [--up x|y|z]";
+    let mut positional = Vec::new();
+    let mut env = Environment::default();
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let mut value = || {
+            args.next()
+                .with_context(|| format!("{a} needs a value; {usage}"))
+        };
+        match a.as_str() {
+            "--sky" => env.sky = [value()?.parse().context("--sky: a number")?; 3],
+            "--sun" => {
+                let v: Vec<f64> = value()?
+                    .split(',')
+                    .map(str::parse)
+                    .collect::<Result<_, _>>()
+                    .context("--sun: AZIMUTH,ELEVATION,E")?;
+                let [azimuth_degrees, elevation_degrees, e] = v[..] else {
+                    bail!("--sun: AZIMUTH,ELEVATION,E (three numbers)");
+                };
+                env.sun = Some(Sun {
+                    azimuth_degrees,
+                    elevation_degrees,
+                    irradiance: [e; 3],
+                });
+            }
+            "--up" => {
+                env.up = match value()?.as_str() {
+                    "x" => Up::X,
+                    "y" => Up::Y,
+                    "z" => Up::Z,
+                    other => bail!("--up: x, y or z, not {other}"),
+                }
+            }
+            _ => positional.push(a),
+        }
+    }
+    env.validate()?;
+    let scene_path = positional.first().context(usage)?;
+    let out = positional.get(1).context(usage)?;
+    let n: usize = positional
+        .get(2)
+        .map_or(Ok(500), |s| s.parse())
+        .context(usage)?;
+    let error: f64 = positional
+        .get(3)
+        .map_or(Ok(0.01), |s| s.parse())
+        .context(usage)?;
     let scene = Scene::load(Path::new(scene_path))?;
     let mut probes = pointwise::sample_points(&scene, n, 1)?;
     let settings = ReferenceSettings {
@@ -26,7 +71,7 @@ fn main() -> Result<()> {
         ..ReferenceSettings::default()
     };
     let t = std::time::Instant::now();
-    pointwise::trace_reference(&scene, &mut probes, &settings);
+    pointwise::trace_reference_lit(&scene, &env, &mut probes, &settings);
     pointwise::write_csv(Path::new(out), &probes)?;
     println!(
         "{n} probes traced to {:.1} % in {:.1} s: {out}",

@@ -10,7 +10,7 @@ use crate::scene::{Scene, SceneBuilder};
 use crate::Result;
 
 mod office;
-pub use office::office;
+pub use office::{office, office_daylit};
 
 /// A geodesic sphere of radius `radius` centred at the origin, seen from inside (every face's
 /// front side — counter-clockwise winding — faces the centre). Made by subdividing an
@@ -957,6 +957,33 @@ mod tests {
                 _ => {}
             }
         }
+    }
+
+    #[test]
+    fn the_daylit_office_has_no_emitter_and_its_windows_open_to_the_sky() {
+        // Its light is the bake's sky and sun: a ray level from the aisle out through a
+        // window (the fifth, x ∈ [12.4, 14.6], sill 0.9 m, transom 2.0 m, mullion at 13.5)
+        // leaves the scene, and one into the pier beside it (x ∈ [11.6, 12.4]) does not.
+        // The lamp-lit office closes the same window with its sky quad.
+        let out = |scene: &Scene, x: f64| {
+            let corners: Vec<[DVec3; 3]> = (0..scene.triangles.len())
+                .map(|t| {
+                    scene.triangles[t]
+                        .vertices
+                        .map(|v| scene.positions[v as usize])
+                })
+                .collect();
+            let vis = crate::visibility::Visibility::build(&corners);
+            let from = DVec3::new(x, 5.0, 1.7);
+            vis.closest_hit(from, DVec3::NEG_Y, f64::INFINITY, u32::MAX)
+                .is_none()
+        };
+        let daylit = office_daylit(20_000).unwrap();
+        assert!(!daylit.has_emitters());
+        assert!(daylit.warnings.is_empty(), "{:?}", daylit.warnings);
+        assert!(out(&daylit, 13.0), "through the window");
+        assert!(!out(&daylit, 12.0), "into the pier");
+        assert!(!out(&office(20_000).unwrap(), 13.0), "the sky quad");
     }
 
     #[test]

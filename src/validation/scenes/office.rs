@@ -32,6 +32,20 @@ use crate::Result;
 /// the cells round up: 50,016 for 50,000, 100,540 for 100,000, 1,000,308 for 10⁶.
 /// Deterministic (the variations come from fixed [`Rng`] keys), so a size names a scene.
 pub fn office(triangles: usize) -> Result<Scene> {
+    office_in(triangles, false)
+}
+
+/// [`office`] by daylight: the same room, furniture and cells, but its eight window openings
+/// open (no sky quads: the light comes from the bake's `--sky` and `--sun`, the wall y = 0
+/// facing south with z up, so a sun of azimuth 135–225° shines in) and its ceiling panels
+/// dark (ρ = Le = 0). Baked with, for example, `--up z --sky 4 --sun 200,35,100`, and traced
+/// with the same lights by the point-wise tools (`probes … --sky 4 --sun 200,35,100 --up z`).
+pub fn office_daylit(triangles: usize) -> Result<Scene> {
+    office_in(triangles, true)
+}
+
+/// [`office`], or [`office_daylit`] if `daylight`.
+fn office_in(triangles: usize, daylight: bool) -> Result<Scene> {
     let mut b = SceneBuilder::new();
     let carpet = b.material("carpet", [0.22, 0.25, 0.3], [0.0; 3]);
     let walls = b.material("walls", [0.7, 0.7, 0.68], [0.0; 3]);
@@ -50,8 +64,14 @@ pub fn office(triangles: usize) -> Result<Scene> {
         b.material("bark", [0.3, 0.22, 0.15], [0.0; 3]),
         b.material("leaves", [0.1, 0.35, 0.12], [0.0; 3]),
     ];
-    let lamp = b.material("lamp", [0.0; 3], [10.0, 9.8, 9.3]);
-    let sky = b.material("sky", [0.0; 3], [3.5, 3.9, 4.6]);
+    let (lamp, sky) = if daylight {
+        (b.material("lamp", [0.0; 3], [0.0; 3]), None)
+    } else {
+        (
+            b.material("lamp", [0.0; 3], [10.0, 9.8, 9.3]),
+            Some(b.material("sky", [0.0; 3], [3.5, 3.9, 4.6])),
+        )
+    };
     let v = DVec3::new;
     let (length, depth, height) = (24.0, 14.0, 3.0);
 
@@ -68,7 +88,7 @@ pub fn office(triangles: usize) -> Result<Scene> {
         &mut b,
         &mut grids,
         v(length, 0.0, height),
-        [walls, sky, frame],
+        (walls, sky, frame),
     );
 
     // Ceiling panels over the two rows of pods and the aisle between them; round columns in
@@ -132,15 +152,14 @@ pub fn office(triangles: usize) -> Result<Scene> {
 /// 0.9 m), 3 m apart, their reveals (jambs, sill and head, 20 cm deep) and, closing each at
 /// the reveals' outer edge, the sky facing into the room behind a mullion and two transom
 /// halves (boxes 8 cm deep, 6 cm in front of the sky). The wall's pieces around the openings
-/// (under the sills, over the heads, the piers) go to `grids`. `materials`: [walls, sky,
-/// frame].
+/// (under the sills, over the heads, the piers) go to `grids`. `materials`: walls and frame,
+/// and the sky's (`None`: the openings are left open).
 fn office_windows(
     b: &mut SceneBuilder,
     grids: &mut Vec<GridRect>,
     size: DVec3,
-    materials: [u32; 3],
+    (walls, sky, frame): (u32, Option<u32>, u32),
 ) {
-    let [walls, sky, frame] = materials;
     let v = DVec3::new;
     let (sill, head, reveal) = (0.9, 2.5, 0.2);
     grids.push(GridRect::new(
@@ -169,7 +188,9 @@ fn office_windows(
         rectangle(b, v(x1, -reveal, sill), v(x1, 0.0, head), 0, walls);
         rectangle(b, v(x0, -reveal, sill), v(x1, 0.0, sill), 5, walls);
         rectangle(b, v(x0, -reveal, head), v(x1, 0.0, head), 4, walls);
-        rectangle(b, v(x0, -reveal, sill), v(x1, -reveal, head), 3, sky);
+        if let Some(sky) = sky {
+            rectangle(b, v(x0, -reveal, sill), v(x1, -reveal, head), 3, sky);
+        }
         let (c, y0, y1) = ((x0 + x1) / 2.0, -0.14, -0.06);
         add_box(
             b,
