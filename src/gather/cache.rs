@@ -41,6 +41,7 @@ use rayon::prelude::*;
 use rustc_hash::FxBuildHasher;
 use serde::Serialize;
 
+use super::bright::BRIGHT_RAYS;
 use super::indirect::Count;
 use super::sites::Spot;
 use super::{Gathered, Gatherer, NEAR_DEPTH};
@@ -452,12 +453,12 @@ impl Gatherer<'_> {
                 progress.advance(1);
                 let mut rng = Rng::new(&[self.seed(), v as u64, 0xCAC4E]);
                 let s = spot(v);
-                self.hemisphere(
+                self.hemisphere_with(
                     record.x,
                     record.n,
                     s.patch,
                     (&[], Count::All),
-                    rays_of(k),
+                    (rays_of(k), BRIGHT_RAYS),
                     NEAR_DEPTH,
                     &mut rng,
                 )

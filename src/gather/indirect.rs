@@ -12,18 +12,24 @@
 //!   surface seen through a doorway, an occluder's outline), [`EDGE_RAYS`] more rays go into
 //!   the strata beside it, each stratum's share chosen from its neighbours' rays only, so the
 //!   estimate stays unbiased ([`Gatherer::with_edge_rays`]).
+//! - **Bright patches**: where some patches' reflected light is many times the scene's mean
+//!   (the floor where the sun falls), shadow rays go to them as well, weighed against the
+//!   hemisphere's by multiple importance sampling ([`super::bright`]).
 //! - **The sky** comes through the rays that leave the scene above the horizon (a uniform sky
 //!   as its exact unoccluded light times the open share of those rays, so an open surface
 //!   gets it exactly).
 
 use glam::DVec3;
 
+use std::f64::consts::PI;
+
+use super::bright::{Bright, BRIGHT_RAYS};
 use super::sites::Spot;
 use super::trace::PatchHit;
 use super::Gatherer;
 use crate::color::{luminance, Rgb};
 use crate::light::emitter::NEAR_HIT_SHADOW_RAYS;
-use crate::sampling::{malley, Rng};
+use crate::sampling::{malley, triangle_barycentrics, Rng};
 use crate::scene::SkyModel;
 use crate::visibility::NONE;
 
@@ -89,7 +95,8 @@ impl Gatherer<'_> {
         rays: usize,
         rng: &mut Rng,
     ) -> Rgb {
-        self.hemisphere(x, n, ignore, (exact, Count::Rule), rays, NEAR_DEPTH, rng)
+        let rays = (rays, BRIGHT_RAYS);
+        self.hemisphere_with(x, n, ignore, (exact, Count::Rule), rays, NEAR_DEPTH, rng)
             .radiance
     }
 
@@ -147,6 +154,23 @@ impl Gatherer<'_> {
         near_bounces: u32,
         rng: &mut Rng,
     ) -> Hemisphere {
+        self.hemisphere_with(x, n, ignore, counted, (rays, 0), near_bounces, rng)
+    }
+
+    /// [`Gatherer::hemisphere`] with `bright` shadow rays to the bright patches as well
+    /// (`(rays, bright)`), combined with the hemisphere rays by multiple importance sampling
+    /// ([`super::bright`]; none where the scene has no bright patch).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn hemisphere_with(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        ignore: u32,
+        counted: (&[u32], Count),
+        (rays, bright): (usize, usize),
+        near_bounces: u32,
+        rng: &mut Rng,
+    ) -> Hemisphere {
         let frame = Frame::of(n);
         let mut sum = [0.0; 3];
         let mut backs = 0usize;
@@ -158,38 +182,70 @@ impl Gatherer<'_> {
         // √rays × √rays strata of the unit square (Malley: uniform on the disc, lifted).
         let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
         let total = side * side;
+        // The bright patches' rays, and the weights that share each direction between them
+        // and the hemisphere's (`super::bright`).
+        let bright = match &self.bright {
+            Some(b) if bright > 0 && near_bounces > 0 => Some((b, bright)),
+            _ => None,
+        };
+        let mis = Mis {
+            strata: total as f64,
+            bright: bright.map_or(0.0, |(_, k)| k as f64),
+        };
         // Each stratum's first ray, for the rays beside edges.
         let edges = side >= EDGE_MIN_SIDE && self.edge_rays > 0.0;
-        let mut strata: Vec<Rgb> = Vec::with_capacity(if edges { total } else { 0 });
+        let mut strata: Vec<First> = Vec::with_capacity(if edges { total } else { 0 });
         for k in 0..total {
             let dir = frame.in_stratum(k, side, rng);
             let is_above = dir.dot(up) > 0.0;
             above += usize::from(is_above);
-            let brought = match self.along(x, n, dir, ignore, counted, near_bounces, rng) {
-                Ray::Brought(l) => l,
+            let (brought, density) = match self.along(x, n, dir, ignore, counted, near_bounces, rng)
+            {
+                Ray::Brought(l, density) => (l, density),
                 Ray::Back => {
                     backs += 1;
-                    [0.0; 3]
+                    ([0.0; 3], 0.0)
                 }
                 Ray::Left => {
                     open += usize::from(is_above);
-                    self.left_along(dir)
+                    (self.left_along(dir), 0.0)
                 }
             };
-            squares += luminance(brought).powi(2);
-            for (s, l) in sum.iter_mut().zip(brought) {
+            let cos = dir.dot(n);
+            let weighted = brought.map(|l| l * mis.hemisphere(density, cos, 1));
+            squares += luminance(weighted).powi(2);
+            for (s, l) in sum.iter_mut().zip(weighted) {
                 *s += l;
             }
             if edges {
-                strata.push(brought);
+                strata.push(First {
+                    brought,
+                    density,
+                    cos,
+                });
             }
         }
         let count = total as f64;
+        // Rays per stratum (1, or more beside edges).
+        let mut per_stratum: Vec<usize> = Vec::new();
         if edges {
-            sum = self.beside_edges(x, &frame, ignore, counted, near_bounces, &strata, rng);
+            (sum, per_stratum) =
+                self.beside_edges(x, &frame, ignore, counted, near_bounces, &strata, mis, rng);
         }
         let mut out = sum.map(|s| s / count);
         let spread = (squares / count - luminance(out).powi(2)).max(0.0);
+        if let Some((b, k)) = bright {
+            let rays_in = |dir: DVec3| {
+                per_stratum
+                    .get(frame.stratum_of(dir, side))
+                    .copied()
+                    .unwrap_or(1)
+            };
+            let found = self.bright_rays(x, n, ignore, b, k, mis, rays_in, rng);
+            for (o, l) in out.iter_mut().zip(found) {
+                *o += l;
+            }
+        }
         if self.env.sky_model == SkyModel::Uniform {
             // A uniform sky by the ratio estimate: exact where nothing is in the way.
             for (o, l) in out
@@ -206,6 +262,56 @@ impl Gatherer<'_> {
         }
     }
 
+    /// The bright patches' share of ∫ L_r cosθ/π dω at `x` by `count` shadow rays to them
+    /// (see [`super::bright`]), each weighted against the hemisphere's rays in its direction's
+    /// stratum (`rays_in`). Radiance units.
+    #[allow(clippy::too_many_arguments)]
+    fn bright_rays(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        ignore: u32,
+        bright: &Bright,
+        count: usize,
+        mis: Mis,
+        rays_in: impl Fn(DVec3) -> usize,
+        rng: &mut Rng,
+    ) -> Rgb {
+        let origin = x + self.lift * n;
+        let from = self.surfaces.point(origin);
+        let mut sum = [0.0; 3];
+        let draws: Vec<usize> = bright.draws(count, rng.next_f64()).collect();
+        for h in draws {
+            let [a, b, c] = self.patches.corners(h);
+            let [wa, wb, wc] = triangle_barycentrics(rng.next_f64(), rng.next_f64());
+            let y = wa * a + wb * b + wc * c;
+            let ny = self.patches.normal[h];
+            let d = y - origin;
+            let r = d.length();
+            // A near point is the hemisphere rays' alone (they evaluate it one bounce
+            // further, not as the patch's mean): see `super::bright`.
+            if r == 0.0 || r < NEAR_HIT * self.patches.area[h].sqrt() {
+                continue;
+            }
+            let dir = d / r;
+            let cos = n.dot(dir);
+            let density = bright.direction_density(h, origin, y, ny);
+            if cos <= 0.0 || density <= 0.0 || h as u32 == ignore {
+                continue;
+            }
+            let to = self.surfaces.point(y + self.lift * ny);
+            if self.surfaces.occluded(&from, &to, ignore) {
+                continue;
+            }
+            let w = mis.bright(density, cos, rays_in(dir));
+            let l = self.radiance[h];
+            for (s, l) in sum.iter_mut().zip(l) {
+                *s += l * (cos / PI) / density * w / count as f64;
+            }
+        }
+        sum
+    }
+
     /// The stratified sum Σ_k of each stratum's mean, with more rays in the strata beside an
     /// edge of the incident light. `strata` holds the first ray of each of the √n × √n strata
     /// of [`Gatherer::hemisphere`] (row i the radial coordinate, column j the angle, which
@@ -218,6 +324,9 @@ impl Gatherer<'_> {
     /// either. So m_k does not depend on stratum k's own rays, each stratum's mean stays an
     /// unbiased estimate of its integral, and so does the sum (the test
     /// `rays_beside_edges_keep_the_gather_unbiased_and_cut_its_noise`).
+    ///
+    /// With the bright patches sampled too, each ray of stratum k counts with the weight of
+    /// its stratum's m_k + 1 rays ([`Mis::hemisphere`]); also returns those counts.
     #[allow(clippy::too_many_arguments)]
     fn beside_edges(
         &self,
@@ -226,9 +335,10 @@ impl Gatherer<'_> {
         ignore: u32,
         counted: (&[u32], Count),
         near_bounces: u32,
-        strata: &[Rgb],
+        strata: &[First],
+        mis: Mis,
         rng: &mut Rng,
-    ) -> Rgb {
+    ) -> (Rgb, Vec<usize>) {
         let side = (strata.len() as f64).sqrt().round() as usize;
         debug_assert_eq!(side * side, strata.len());
         // Stratum k and its neighbours: rows i − 1..=i + 1 within the disc, columns j − 1..=j + 1
@@ -238,7 +348,7 @@ impl Gatherer<'_> {
             (i.saturating_sub(1)..(i + 2).min(side))
                 .flat_map(move |ii| [j + side - 1, j, j + 1].map(|c| ii * side + c % side))
         };
-        let y: Vec<f64> = strata.iter().map(|&l| luminance(l)).collect();
+        let y: Vec<f64> = strata.iter().map(|f| luminance(f.brought)).collect();
         let range: Vec<f64> = (0..strata.len())
             .map(|k| {
                 let (lo, hi) = block(k)
@@ -251,7 +361,8 @@ impl Gatherer<'_> {
             .collect();
         let spread: f64 = range.iter().sum();
         let mut sum = [0.0; 3];
-        for (k, &first) in strata.iter().enumerate() {
+        let mut per_stratum = Vec::with_capacity(strata.len());
+        for (k, first) in strata.iter().enumerate() {
             // m_k ∝ range_k, normalised by the ranges that do not see stratum k's own ray (not
             // its neighbours', nor its own), so that m_k stays independent of that ray.
             let (near, count) = block(k).fold((0.0, 0usize), |(r, c), q| (r + range[q], c + 1));
@@ -262,24 +373,27 @@ impl Gatherer<'_> {
             } else {
                 0
             };
-            let mut stratum = first;
+            let w = mis.hemisphere(first.density, first.cos, m + 1);
+            let mut stratum = first.brought.map(|l| l * w);
             for _ in 0..m {
                 let dir = frame.in_stratum(k, side, rng);
-                let brought = match self.along(x, frame.n, dir, ignore, counted, near_bounces, rng)
-                {
-                    Ray::Brought(l) => l,
-                    Ray::Back => [0.0; 3],
-                    Ray::Left => self.left_along(dir),
-                };
+                let (brought, density) =
+                    match self.along(x, frame.n, dir, ignore, counted, near_bounces, rng) {
+                        Ray::Brought(l, density) => (l, density),
+                        Ray::Back => ([0.0; 3], 0.0),
+                        Ray::Left => (self.left_along(dir), 0.0),
+                    };
+                let w = mis.hemisphere(density, dir.dot(frame.n), m + 1);
                 for (s, l) in stratum.iter_mut().zip(brought) {
-                    *s += l;
+                    *s += l * w;
                 }
             }
             for (s, l) in sum.iter_mut().zip(stratum) {
                 *s += l / (m + 1) as f64;
             }
+            per_stratum.push(m + 1);
         }
-        sum
+        (sum, per_stratum)
     }
 
     /// What a hemisphere ray that left the scene along `dir` brings: the sky's radiance from
@@ -321,22 +435,33 @@ impl Gatherer<'_> {
                 || exact.binary_search(&e).is_ok()
                 || self.sampled(&self.emitters[e as usize], x));
         let (l, le) = (self.radiance[h], self.patches.emission[h]);
+        let y = x + self.lift * n + hit.t * dir;
         if near_bounces > 0 && hit.t < NEAR_HIT * self.patches.area[h].sqrt() {
             // A near hit (a concave corner): the patch's mean is not the radiance at the
             // hit point; evaluate it there, one bounce further (see NEAR_HIT).
-            let y = x + self.lift * n + hit.t * dir;
             let reflected = self.reflected_at_hit(y, h, exact, near_bounces - 1, rng);
-            return Ray::Brought(std::array::from_fn(|c| {
-                (if counted { 0.0 } else { le[c] }) + reflected[c]
-            }));
+            return Ray::Brought(
+                std::array::from_fn(|c| (if counted { 0.0 } else { le[c] }) + reflected[c]),
+                0.0,
+            );
         }
-        Ray::Brought(std::array::from_fn(|c| {
-            if counted {
-                (l[c] - le[c]).max(0.0)
-            } else {
-                l[c]
+        // A far point of a bright patch: how densely the bright rays propose it.
+        let density = match &self.bright {
+            Some(b) if near_bounces > 0 => {
+                b.direction_density(h, x + self.lift * n, y, self.patches.normal[h])
             }
-        }))
+            _ => 0.0,
+        };
+        Ray::Brought(
+            std::array::from_fn(|c| {
+                if counted {
+                    (l[c] - le[c]).max(0.0)
+                } else {
+                    l[c]
+                }
+            }),
+            density,
+        )
     }
 
     /// The reflected indirect light ρ·∫ L cosθ/π dω at `spot` by `rays` hemisphere rays (as
@@ -351,12 +476,12 @@ impl Gatherer<'_> {
         rays: usize,
         rng: &mut Rng,
     ) -> (Rgb, f64, f64) {
-        let h = self.hemisphere(
+        let h = self.hemisphere_with(
             spot.x,
             spot.n,
             spot.patch,
             (exact, Count::Rule),
-            rays,
+            (rays, BRIGHT_RAYS),
             NEAR_DEPTH,
             rng,
         );
@@ -481,8 +606,10 @@ enum Ray {
     Left,
     /// It met the back of a one-sided surface, which sends nothing.
     Back,
-    /// The radiance it brings from a front face.
-    Brought(Rgb),
+    /// The radiance it brings from a front face, and the density with which one ray to the
+    /// bright patches proposes its direction ([`super::bright`]; 0 unless it reached a far
+    /// point of a bright patch and the gather samples them).
+    Brought(Rgb, f64),
 }
 
 /// A hemisphere's estimate ([`Gatherer::hemisphere`]).
@@ -518,5 +645,54 @@ impl Frame {
         let u = (i as f64 + rng.next_f64()) / side as f64;
         let v = (j as f64 + rng.next_f64()) / side as f64;
         malley(u, v, self.t, self.b, self.n)
+    }
+
+    /// The stratum of [`Frame::in_stratum`] that holds the direction `dir` (above the
+    /// hemisphere's base): Malley's map inverted, the disc point's squared radius and angle.
+    fn stratum_of(&self, dir: DVec3, side: usize) -> usize {
+        let (a, b) = (self.t.dot(dir), self.b.dot(dir));
+        let u = (a * a + b * b).min(1.0);
+        let v = (b.atan2(a) / (2.0 * PI)).rem_euclid(1.0);
+        let cell = |x: f64| ((x * side as f64) as usize).min(side - 1);
+        cell(u) * side + cell(v)
+    }
+}
+
+/// A stratum's first hemisphere ray: what it brought, the bright rays' density in its
+/// direction ([`Ray::Brought`]) and its cosine to the normal.
+struct First {
+    brought: Rgb,
+    density: f64,
+    cos: f64,
+}
+
+/// The balance heuristic between a hemisphere's rays and its rays to the bright patches
+/// ([`super::bright`]).
+#[derive(Clone, Copy)]
+struct Mis {
+    /// The hemisphere's strata, S.
+    strata: f64,
+    /// Rays to the bright patches, K (0: none, every weight 1).
+    bright: f64,
+}
+
+impl Mis {
+    /// The weight of a hemisphere ray in a stratum of `rays` rays, at cosine `cos` to the
+    /// normal, whose direction one bright ray proposes with density `density`:
+    /// c_h / (c_h + c_l), c_h = rays · S · cos/π, c_l = K · density.
+    fn hemisphere(self, density: f64, cos: f64, rays: usize) -> f64 {
+        let light = self.bright * density;
+        if light <= 0.0 {
+            return 1.0;
+        }
+        let own = rays as f64 * self.strata * cos / PI;
+        own / (own + light)
+    }
+
+    /// The weight of a bright ray, the complement of [`Mis::hemisphere`] in its direction.
+    fn bright(self, density: f64, cos: f64, rays: usize) -> f64 {
+        let light = self.bright * density;
+        let own = rays as f64 * self.strata * cos / PI;
+        light / (own + light)
     }
 }

@@ -48,6 +48,7 @@ use crate::visibility::NONE;
 use sites::Spot;
 use trace::Surfaces;
 
+mod bright;
 pub mod cache;
 mod direct;
 mod indirect;
@@ -228,6 +229,9 @@ pub struct Gatherer<'a> {
     unsampled: Option<cache::Index>,
     /// The ranks that share the gather's vertices ([`Gatherer::with_comm`]).
     pub(super) comm: &'a dyn Exchange,
+    /// The solution's bright patches, which the gather's points also reach by shadow rays
+    /// ([`bright`]); `None` where no patch is that bright.
+    bright: Option<bright::Bright>,
 }
 
 impl<'a> Gatherer<'a> {
@@ -283,6 +287,7 @@ impl<'a> Gatherer<'a> {
             cache: false,
             unsampled: None,
             comm: &Solo,
+            bright: bright::Bright::of(patches, radiance),
         }
     }
 

@@ -6,7 +6,9 @@
 //! one gather's). `cargo run --release -p radiosity-tools --example gather_at_probes --
 //! PROBES.csv SCENE [RAYS] [SEED]` (defaults 4096 rays, seed 1; the scene's own lights, the
 //! bake's default settings, or `MAX_EDGE=X` and `METHOD=matrix|hierarchical` for the bake's
-//! `--max-edge` and `--method`: the two methods' solutions compared at the same probes).
+//! `--max-edge` and `--method`: the two methods' solutions compared at the same probes;
+//! `SKY=L`, `SUN=AZIMUTH,ELEVATION,E` and `UP=x|y|z` for a grey `--sky`, the `--sun` and
+//! `--up`, as the `probes` example takes them).
 //! With `GATHER_DUMP=FILE`, each probe's reference, gathered luminance, its direct and
 //! indirect parts at both seeds go to FILE as CSV.
 
@@ -53,6 +55,35 @@ fn main() -> Result<()> {
             other => anyhow::bail!("METHOD={other}: not matrix, hierarchical or auto"),
         };
     }
+    if let Some(sky) = std::env::var_os("SKY") {
+        let l: f64 = sky.to_string_lossy().parse().context("SKY=L: a number")?;
+        settings.environment.sky = [l; 3];
+    }
+    if let Some(sun) = std::env::var_os("SUN") {
+        let v: Vec<f64> = sun
+            .to_string_lossy()
+            .split(',')
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .context("SUN=AZIMUTH,ELEVATION,E")?;
+        let [azimuth_degrees, elevation_degrees, e] = v[..] else {
+            anyhow::bail!("SUN=AZIMUTH,ELEVATION,E: three numbers");
+        };
+        settings.environment.sun = Some(radiosity::scene::Sun {
+            azimuth_degrees,
+            elevation_degrees,
+            irradiance: [e; 3],
+        });
+    }
+    if let Some(up) = std::env::var_os("UP") {
+        settings.environment.up = match up.to_string_lossy().as_ref() {
+            "x" => radiosity::scene::Up::X,
+            "y" => radiosity::scene::Up::Y,
+            "z" => radiosity::scene::Up::Z,
+            other => anyhow::bail!("UP={other}: not x, y or z"),
+        };
+    }
+    settings.environment.validate()?;
     // The gatherer reads the scene the solve's patches came from: where the matrix method
     // splits the contact lines into the scene (the default), split them here and solve that.
     let scene = if settings.resolved(&scene)?.method == Method::Matrix {
