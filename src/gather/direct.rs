@@ -302,7 +302,7 @@ impl Gatherer<'_> {
             let sun = if one_light {
                 self.env.sharp_direct_sampled(&self.light_tree, &at, rng)
             } else {
-                self.env.sharp_direct(&at, rng)
+                self.env.sharp_direct_shown(&at, rng)
             };
             for (s, o) in sum.iter_mut().zip(sun) {
                 *s += o;

@@ -24,6 +24,7 @@ use glam::DVec3;
 use std::f64::consts::PI;
 
 use super::bright::{Bright, BRIGHT_RAYS};
+use super::openings::{Openings, OPENING_RAYS};
 use super::sites::Spot;
 use super::trace::PatchHit;
 use super::Gatherer;
@@ -184,14 +185,20 @@ impl Gatherer<'_> {
         let total = side * side;
         // The bright patches' rays, and the weights that share each direction between them
         // and the hemisphere's (`super::bright`).
-        let bright = match &self.bright {
-            Some(b) if bright > 0 && near_bounces > 0 => Some((b, bright)),
-            _ => None,
-        };
+        // The rays through the openings likewise, where the scene has them.
+        let top = bright > 0 && near_bounces > 0;
+        let bright = self.bright.as_ref().filter(|_| top).map(|b| (b, bright));
+        let openings = self.openings.as_ref().filter(|_| top);
         let mis = Mis {
             strata: total as f64,
             bright: bright.map_or(0.0, |(_, k)| k as f64),
+            open: if openings.is_some() {
+                OPENING_RAYS as f64
+            } else {
+                0.0
+            },
         };
+        let origin = x + self.lift * n;
         // Each stratum's first ray, for the rays beside edges.
         let edges = side >= EDGE_MIN_SIDE && self.edge_rays > 0.0;
         let mut strata: Vec<First> = Vec::with_capacity(if edges { total } else { 0 });
@@ -199,20 +206,15 @@ impl Gatherer<'_> {
             let dir = frame.in_stratum(k, side, rng);
             let is_above = dir.dot(up) > 0.0;
             above += usize::from(is_above);
-            let (brought, density) = match self.along(x, n, dir, ignore, counted, near_bounces, rng)
-            {
-                Ray::Brought(l, density) => (l, density),
-                Ray::Back => {
-                    backs += 1;
-                    ([0.0; 3], 0.0)
-                }
-                Ray::Left => {
-                    open += usize::from(is_above);
-                    (self.left_along(dir), 0.0)
-                }
-            };
+            let ray = self.along(x, n, dir, ignore, counted, near_bounces, rng);
+            match ray {
+                Ray::Back => backs += 1,
+                Ray::Left => open += usize::from(is_above),
+                Ray::Brought(..) => {}
+            }
+            let (brought, light) = self.weighed(ray, origin, dir, mis, openings);
             let cos = dir.dot(n);
-            let weighted = brought.map(|l| l * mis.hemisphere(density, cos, 1));
+            let weighted = brought.map(|l| l * mis.hemisphere(light, cos, 1));
             squares += luminance(weighted).powi(2);
             for (s, l) in sum.iter_mut().zip(weighted) {
                 *s += l;
@@ -220,7 +222,7 @@ impl Gatherer<'_> {
             if edges {
                 strata.push(First {
                     brought,
-                    density,
+                    light,
                     cos,
                 });
             }
@@ -229,24 +231,37 @@ impl Gatherer<'_> {
         // Rays per stratum (1, or more beside edges).
         let mut per_stratum: Vec<usize> = Vec::new();
         if edges {
-            (sum, per_stratum) =
-                self.beside_edges(x, &frame, ignore, counted, near_bounces, &strata, mis, rng);
+            (sum, per_stratum) = self.beside_edges(
+                x,
+                &frame,
+                ignore,
+                counted,
+                near_bounces,
+                &strata,
+                (mis, openings),
+                rng,
+            );
         }
         let mut out = sum.map(|s| s / count);
         let spread = (squares / count - luminance(out).powi(2)).max(0.0);
+        let rays_in = |dir: DVec3| {
+            per_stratum
+                .get(frame.stratum_of(dir, side))
+                .copied()
+                .unwrap_or(1)
+        };
         if let Some((b, k)) = bright {
-            let rays_in = |dir: DVec3| {
-                per_stratum
-                    .get(frame.stratum_of(dir, side))
-                    .copied()
-                    .unwrap_or(1)
-            };
             let found = self.bright_rays(x, n, ignore, b, k, mis, rays_in, rng);
             for (o, l) in out.iter_mut().zip(found) {
                 *o += l;
             }
         }
-        if self.env.sky_model == SkyModel::Uniform {
+        if let Some(o) = openings {
+            let found = self.opening_rays(origin, n, ignore, o, mis, rays_in, rng);
+            for (o, l) in out.iter_mut().zip(found) {
+                *o += l;
+            }
+        } else if self.env.sky_model == SkyModel::Uniform {
             // A uniform sky by the ratio estimate: exact where nothing is in the way.
             for (o, l) in out
                 .iter_mut()
@@ -303,10 +318,68 @@ impl Gatherer<'_> {
             if self.surfaces.occluded(&from, &to, ignore) {
                 continue;
             }
-            let w = mis.bright(density, cos, rays_in(dir));
+            let w = mis.light(mis.bright * density, cos, rays_in(dir));
             let l = self.radiance[h];
             for (s, l) in sum.iter_mut().zip(l) {
                 *s += l * (cos / PI) / density * w / count as f64;
+            }
+        }
+        sum
+    }
+
+    /// What a hemisphere ray from `origin` along `dir` brings, and the count-density with which
+    /// the bright or the opening rays propose its direction ([`Mis`]). With the openings
+    /// sampled, a ray that leaves the scene brings the sky's radiance that way (the ratio
+    /// estimate of a uniform sky is not used then).
+    fn weighed(
+        &self,
+        ray: Ray,
+        origin: DVec3,
+        dir: DVec3,
+        mis: Mis,
+        openings: Option<&Openings>,
+    ) -> (Rgb, f64) {
+        match (ray, openings) {
+            (Ray::Brought(l, density), _) => (l, mis.bright * density),
+            (Ray::Back, _) => ([0.0; 3], 0.0),
+            (Ray::Left, Some(o)) => (
+                self.env.sky_radiance(dir),
+                mis.open * o.direction_density(origin, dir),
+            ),
+            (Ray::Left, None) => (self.left_along(dir), 0.0),
+        }
+    }
+
+    /// The sky's share of ∫ L cosθ/π dω at `origin` (unit normal `n`, lifted off its patch
+    /// `ignore`) by [`OPENING_RAYS`] rays toward points of the openings (see
+    /// [`super::openings`]), each weighed against the hemisphere's rays in its direction's
+    /// stratum (`rays_in`). Radiance units.
+    #[allow(clippy::too_many_arguments)]
+    fn opening_rays(
+        &self,
+        origin: DVec3,
+        n: DVec3,
+        ignore: u32,
+        openings: &Openings,
+        mis: Mis,
+        rays_in: impl Fn(DVec3) -> usize,
+        rng: &mut Rng,
+    ) -> Rgb {
+        let mut sum = [0.0; 3];
+        let up = self.env.up.axis();
+        for q in openings.points(OPENING_RAYS, rng) {
+            let dir = (q - origin).normalize();
+            let cos = n.dot(dir);
+            if cos <= 0.0 || dir.dot(up) <= 0.0 {
+                continue;
+            }
+            let density = openings.direction_density(origin, dir);
+            if density <= 0.0 || self.surfaces.closest(origin, dir, ignore).is_some() {
+                continue;
+            }
+            let w = mis.light(mis.open * density, cos, rays_in(dir));
+            for (s, l) in sum.iter_mut().zip(self.env.sky_radiance(dir)) {
+                *s += l * (cos / PI) / density * w / OPENING_RAYS as f64;
             }
         }
         sum
@@ -336,9 +409,10 @@ impl Gatherer<'_> {
         counted: (&[u32], Count),
         near_bounces: u32,
         strata: &[First],
-        mis: Mis,
+        (mis, openings): (Mis, Option<&Openings>),
         rng: &mut Rng,
     ) -> (Rgb, Vec<usize>) {
+        let origin = x + self.lift * frame.n;
         let side = (strata.len() as f64).sqrt().round() as usize;
         debug_assert_eq!(side * side, strata.len());
         // Stratum k and its neighbours: rows i − 1..=i + 1 within the disc, columns j − 1..=j + 1
@@ -373,17 +447,13 @@ impl Gatherer<'_> {
             } else {
                 0
             };
-            let w = mis.hemisphere(first.density, first.cos, m + 1);
+            let w = mis.hemisphere(first.light, first.cos, m + 1);
             let mut stratum = first.brought.map(|l| l * w);
             for _ in 0..m {
                 let dir = frame.in_stratum(k, side, rng);
-                let (brought, density) =
-                    match self.along(x, frame.n, dir, ignore, counted, near_bounces, rng) {
-                        Ray::Brought(l, density) => (l, density),
-                        Ray::Back => ([0.0; 3], 0.0),
-                        Ray::Left => (self.left_along(dir), 0.0),
-                    };
-                let w = mis.hemisphere(density, dir.dot(frame.n), m + 1);
+                let ray = self.along(x, frame.n, dir, ignore, counted, near_bounces, rng);
+                let (brought, light) = self.weighed(ray, origin, dir, mis, openings);
+                let w = mis.hemisphere(light, dir.dot(frame.n), m + 1);
                 for (s, l) in stratum.iter_mut().zip(brought) {
                     *s += l * w;
                 }
@@ -658,30 +728,34 @@ impl Frame {
     }
 }
 
-/// A stratum's first hemisphere ray: what it brought, the bright rays' density in its
-/// direction ([`Ray::Brought`]) and its cosine to the normal.
+/// A stratum's first hemisphere ray: what it brought, the other strategies' count-density
+/// in its direction ([`Mis`]) and its cosine to the normal.
 struct First {
     brought: Rgb,
-    density: f64,
+    light: f64,
     cos: f64,
 }
 
 /// The balance heuristic between a hemisphere's rays and its rays to the bright patches
-/// ([`super::bright`]).
+/// ([`super::bright`]) and through the openings ([`super::openings`]). Each direction is
+/// proposed by the hemisphere and at most one of the two (a direction either meets a patch or
+/// leaves the scene), so one "light" density per ray: c_l = K × the density of one of that
+/// strategy's rays there (0 where neither proposes it).
 #[derive(Clone, Copy)]
 struct Mis {
     /// The hemisphere's strata, S.
     strata: f64,
-    /// Rays to the bright patches, K (0: none, every weight 1).
+    /// Rays to the bright patches, K_b (0: none).
     bright: f64,
+    /// Rays through the openings, K_o (0: none).
+    open: f64,
 }
 
 impl Mis {
     /// The weight of a hemisphere ray in a stratum of `rays` rays, at cosine `cos` to the
-    /// normal, whose direction one bright ray proposes with density `density`:
-    /// c_h / (c_h + c_l), c_h = rays · S · cos/π, c_l = K · density.
-    fn hemisphere(self, density: f64, cos: f64, rays: usize) -> f64 {
-        let light = self.bright * density;
+    /// normal, whose direction the other strategies propose with count-density `light`:
+    /// c_h / (c_h + c_l), c_h = rays · S · cos/π.
+    fn hemisphere(self, light: f64, cos: f64, rays: usize) -> f64 {
         if light <= 0.0 {
             return 1.0;
         }
@@ -689,9 +763,9 @@ impl Mis {
         own / (own + light)
     }
 
-    /// The weight of a bright ray, the complement of [`Mis::hemisphere`] in its direction.
-    fn bright(self, density: f64, cos: f64, rays: usize) -> f64 {
-        let light = self.bright * density;
+    /// The weight of a bright or opening ray: c_l / (c_h + c_l), the complement of
+    /// [`Mis::hemisphere`] in its direction.
+    fn light(self, light: f64, cos: f64, rays: usize) -> f64 {
         let own = rays as f64 * self.strata * cos / PI;
         light / (own + light)
     }

@@ -18,6 +18,8 @@
 //! | where a vertex is gathered | `sites` | the point, nudged off contacts ([`NUDGE`]); buried vertices |
 //! | the direct term | `direct` | the emitters' F·V̄ (exact visible pieces, else shadow rays: [`crate::light::emitter`]), many-light sampling, the sun and lamps |
 //! | the indirect term (`full`) | `indirect` | hemisphere rays into the solved patches, near hits ([`NEAR_HIT`]), rays beside edges ([`EDGE_RAYS`]), the sky |
+//! | bright patches | `bright` | the solution's far brighter patches (a daylit floor's sun patches), reached by shadow rays too, weighed against the hemisphere's |
+//! | openings | `openings` | where the sky comes into an enclosed scene, found by a pilot of rays, reached by rays too, weighed likewise |
 //! | rays against the patches | `trace` | the scene triangles the patches tile, and the patch hit on a grid |
 //! | display refinement | [`mod@refine`] | output edges split where the light departs from linear ([`refine::DEFAULT_TOLERANCE`]) |
 //! | the values shown | [`local_fit`] | noise fitted away, the chord correction, the tested midpoints' least squares |
@@ -53,6 +55,7 @@ pub mod cache;
 mod direct;
 mod indirect;
 pub mod local_fit;
+mod openings;
 pub mod refine;
 mod sites;
 mod trace;
@@ -232,6 +235,8 @@ pub struct Gatherer<'a> {
     /// The solution's bright patches, which the gather's points also reach by shadow rays
     /// ([`bright`]); `None` where no patch is that bright.
     bright: Option<bright::Bright>,
+    /// Where the sky comes in, where the scene is enclosed ([`openings`]).
+    openings: Option<openings::Openings>,
 }
 
 impl<'a> Gatherer<'a> {
@@ -268,6 +273,13 @@ impl<'a> Gatherer<'a> {
             })
             .collect();
         let partner = direct::pair_emitters(&emitters);
+        let surfaces = Surfaces::new(patches);
+        let lift = LIFT * (hi - lo).length();
+        let openings = if env.sky.iter().any(|&l| l > 0.0) {
+            openings::Openings::find(patches, &surfaces, env.up.axis(), lift, seed)
+        } else {
+            None
+        };
         let groups = emitters.len() - partner.iter().flatten().count() / 2;
         Gatherer {
             emitters,
@@ -277,9 +289,9 @@ impl<'a> Gatherer<'a> {
             groups,
             patches,
             radiance,
-            surfaces: Surfaces::new(patches),
+            surfaces,
             nudge_max: f64::INFINITY,
-            lift: LIFT * (hi - lo).length(),
+            lift,
             seed,
             edge_rays: EDGE_RAYS,
             env: env.clone(),
@@ -288,6 +300,7 @@ impl<'a> Gatherer<'a> {
             unsampled: None,
             comm: &Solo,
             bright: bright::Bright::of(patches, radiance),
+            openings,
         }
     }
 
