@@ -158,9 +158,10 @@ impl Gatherer<'_> {
         self.hemisphere_with(x, n, ignore, counted, (rays, 0), near_bounces, rng)
     }
 
-    /// [`Gatherer::hemisphere`] with `bright` shadow rays to the bright patches as well
-    /// (`(rays, bright)`), combined with the hemisphere rays by multiple importance sampling
-    /// ([`super::bright`]; none where the scene has no bright patch).
+    /// [`Gatherer::hemisphere`] with `bright` shadow rays to the bright patches (`(rays,
+    /// bright)`; [`super::bright`]) and, with `bright` > 0, [`OPENING_RAYS`] rays through the
+    /// openings ([`super::openings`]) as well, each combined with the hemisphere rays by
+    /// multiple importance sampling; neither where the scene has none, nor at a near hit.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn hemisphere_with(
         &self,
@@ -183,9 +184,8 @@ impl Gatherer<'_> {
         // √rays × √rays strata of the unit square (Malley: uniform on the disc, lifted).
         let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
         let total = side * side;
-        // The bright patches' rays, and the weights that share each direction between them
-        // and the hemisphere's (`super::bright`).
-        // The rays through the openings likewise, where the scene has them.
+        // The bright patches' rays and the rays through the openings, where the scene has
+        // them, and the weights that share each direction between them and the hemisphere's.
         let top = bright > 0 && near_bounces > 0;
         let bright = self.bright.as_ref().filter(|_| top).map(|b| (b, bright));
         let openings = self.openings.as_ref().filter(|_| top);
