@@ -76,8 +76,8 @@ impl Openings {
         }
         let margin = 1e-3 * (hi - lo).length().max(f64::MIN_POSITIVE);
         let (lo, hi) = (lo - DVec3::splat(margin), hi + DVec3::splat(margin));
-        let area: Vec<f64> = patches.area.clone();
-        let cdf: Vec<f64> = area
+        let cdf: Vec<f64> = patches
+            .area
             .iter()
             .scan(0.0, |s, &a| {
                 *s += a;

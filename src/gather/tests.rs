@@ -411,14 +411,9 @@ fn cache_gather_is_the_same_for_any_thread_count() {
     assert_eq!(run(1), run(3));
 }
 
-#[test]
-fn rays_beside_edges_keep_the_gather_unbiased_and_cut_its_noise() {
-    // The Cornell box's walls dim (radiance 0.01) but for a bright square of its ceiling
-    // (1.0; no emission), gathered at a floor point beside the tall block, which hides part
-    // of the square: the incident light has edges (the square's outline and the block's).
-    // The plain stratified gather is unbiased by construction; the one with rays beside the
-    // edges must agree with it in the mean over many independent gathers, and be less
-    // noisy (the estimates' spread over those gathers).
+/// The Cornell box's patches, dim (radiance 0.01) but for a bright square of its ceiling (1.0,
+/// no emission), for the gather's noise tests.
+fn cornell_bright_square() -> (Scene, Patches, Vec<Rgb>) {
     let (scene, patches, _) = cornell_unlit();
     let radiance: Vec<Rgb> = (0..patches.len())
         .map(|i| {
@@ -430,6 +425,27 @@ fn rays_beside_edges_keep_the_gather_unbiased_and_cut_its_noise() {
             [if bright { 1.0 } else { 0.01 }; 3]
         })
         .collect();
+    (scene, patches, radiance)
+}
+
+/// The mean of independent estimates `y`, their standard deviation and the mean's standard
+/// error.
+fn spread_of(y: &[f64]) -> (f64, f64, f64) {
+    let m = y.len() as f64;
+    let mean = y.iter().sum::<f64>() / m;
+    let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
+    (mean, sd, sd / m.sqrt())
+}
+
+#[test]
+fn rays_beside_edges_keep_the_gather_unbiased_and_cut_its_noise() {
+    // The Cornell box's walls dim (radiance 0.01) but for a bright square of its ceiling
+    // (1.0; no emission), gathered at a floor point beside the tall block, which hides part
+    // of the square: the incident light has edges (the square's outline and the block's).
+    // The plain stratified gather is unbiased by construction; the one with rays beside the
+    // edges must agree with it in the mean over many independent gathers, and be less
+    // noisy (the estimates' spread over those gathers).
+    let (scene, patches, radiance) = cornell_bright_square();
     let env = Environment::default();
     let (x, n) = (DVec3::new(200.0, 0.0, 480.0), DVec3::Y);
     let spread = |edge_rays: f64| {
@@ -446,10 +462,7 @@ fn rays_beside_edges_keep_the_gather_unbiased_and_cut_its_noise() {
                 )
             })
             .collect();
-        let m = y.len() as f64;
-        let mean = y.iter().sum::<f64>() / m;
-        let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
-        (mean, sd, sd / m.sqrt())
+        spread_of(&y)
     };
     let (plain, plain_sd, plain_se) = spread(0.0);
     let (edges, edges_sd, edges_se) = spread(EDGE_RAYS);
@@ -480,17 +493,7 @@ fn rays_to_the_bright_patches_keep_the_gather_unbiased_and_cut_its_noise() {
     // heuristic. The plain stratified gather (no rays to the square, no rays beside edges)
     // is unbiased by construction; with the square's rays the mean over many independent
     // gathers must agree with it, and the gathers must spread less.
-    let (scene, patches, _) = cornell_unlit();
-    let radiance: Vec<Rgb> = (0..patches.len())
-        .map(|i| {
-            let c = patches.centroid[i];
-            let bright = patches.normal[i].y < -0.9
-                && c.y > 500.0
-                && (c.x - 278.0).abs() < 120.0
-                && (c.z - 280.0).abs() < 120.0;
-            [if bright { 1.0 } else { 0.01 }; 3]
-        })
-        .collect();
+    let (scene, patches, radiance) = cornell_bright_square();
     let env = Environment::default();
     let (x, n) = (DVec3::new(200.0, 0.0, 480.0), DVec3::Y);
     let spread = |bright: usize, edge_rays: f64| {
@@ -504,10 +507,7 @@ fn rays_to_the_bright_patches_keep_the_gather_unbiased_and_cut_its_noise() {
                 luminance(h.radiance)
             })
             .collect();
-        let m = y.len() as f64;
-        let mean = y.iter().sum::<f64>() / m;
-        let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
-        (mean, sd, sd / m.sqrt())
+        spread_of(&y)
     };
     let (plain, plain_sd, plain_se) = spread(0, 0.0);
     let (mis, mis_sd, mis_se) = spread(BRIGHT_RAYS, 0.0);
@@ -610,10 +610,7 @@ fn rays_through_a_window_keep_the_skys_light_unbiased_and_cut_its_noise() {
                 luminance(h.radiance)
             })
             .collect();
-        let m = y.len() as f64;
-        let mean = y.iter().sum::<f64>() / m;
-        let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
-        (mean, sd, sd / m.sqrt())
+        spread_of(&y)
     };
     let (plain, plain_sd, plain_se) = spread(false);
     let (open, open_sd, open_se) = spread(true);
