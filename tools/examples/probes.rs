@@ -3,8 +3,9 @@
 //! error of its luminance is at most the given share of it, written as the point-wise
 //! benchmark's CSV.
 //! `cargo run --release -p radiosity-tools --example probes -- SCENE OUT.csv [N] [ERROR]
-//! [--sky L] [--sun AZIMUTH,ELEVATION,E] [--up x|y|z]`
-//! (N probes, 500 by default; ERROR 0.01 by default). The tracer knows the scene's emitters
+//! [--sky L] [--sun AZIMUTH,ELEVATION,E] [--up x|y|z] [--seed S]`
+//! (N probes, 500 by default; ERROR 0.01 by default; S draws the points and seeds the paths,
+//! 1 by default: another S is an independent probe set). The tracer knows the scene's emitters
 //! and materials (transmittance included) and, as the bake takes them, a uniform grey sky of
 //! radiance L (W·sr⁻¹·m⁻²) and the sun (degrees, W·m⁻²) about the up axis (y by default);
 //! not lamps files.
@@ -16,9 +17,11 @@ use radiosity::scene::{Environment, Scene, Sun, Up};
 use radiosity::validation::pointwise::{self, ReferenceSettings};
 
 fn main() -> Result<()> {
-    let usage = "usage: probes SCENE OUT.csv [N] [ERROR] [--sky L] [--sun AZ,EL,E] [--up x|y|z]";
+    let usage =
+        "usage: probes SCENE OUT.csv [N] [ERROR] [--sky L] [--sun AZ,EL,E] [--up x|y|z] [--seed S]";
     let mut positional = Vec::new();
     let mut env = Environment::default();
+    let mut seed = 1;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut value = || {
@@ -50,6 +53,7 @@ fn main() -> Result<()> {
                     other => bail!("--up: x, y or z, not {other}"),
                 }
             }
+            "--seed" => seed = value()?.parse().context("--seed: a whole number")?,
             _ => positional.push(a),
         }
     }
@@ -65,9 +69,10 @@ fn main() -> Result<()> {
         .map_or(Ok(0.01), |s| s.parse())
         .context(usage)?;
     let scene = Scene::load(Path::new(scene_path))?;
-    let mut probes = pointwise::sample_points(&scene, n, 1)?;
+    let mut probes = pointwise::sample_points(&scene, n, seed)?;
     let settings = ReferenceSettings {
         relative_error: error,
+        seed,
         ..ReferenceSettings::default()
     };
     let t = std::time::Instant::now();
