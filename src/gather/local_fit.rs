@@ -352,10 +352,10 @@ fn fit_midpoints(values: &mut [Rgb], buried: &[bool], midpoints: &[Midpoint]) ->
     used
 }
 
-/// In the fit to the tested midpoints (step 3 of [`correct`]) each sample weighs 1/Y², Y its luminance but at
-/// least this fraction of the unburied vertices' mean: darker points (a tenth of the mean
-/// is where the point-wise benchmark stops scoring) are not worth pinning exactly, and a
-/// black sample's weight stays finite.
+/// In the fit to the tested midpoints (step 3 of [`correct`]) each sample weighs 1/Y², Y its
+/// luminance but at least this fraction of the unburied vertices' mean: darker points (a
+/// tenth of the mean is where the point-wise benchmark stops scoring) are not worth pinning
+/// exactly, and a black sample's weight stays finite.
 pub const RELATIVE_FLOOR: f64 = 0.1;
 
 /// The chord correction c_v of the vertex `v` (see the module documentation), from the
