@@ -451,8 +451,10 @@ impl Gatherer<'_> {
     /// The `full` gather at the surface point `x` (unit normal `n`, on the side it faces) by
     /// `rays` hemisphere rays, keyed by `seed`: what a vertex there would show with no display
     /// in between, for diagnosis against point references (the tools' `gather_at_probes`).
-    /// The patch is the first one met from a thousandth of the scene's extent above `x`,
-    /// straight down; `None` where there is none, or it does not face `n`.
+    /// The patch is the first one met from ten times the rays' lift above `x` (1e-5 of the
+    /// scene's extent, far below any gap the gather resolves: a thousandth reached past a
+    /// table's underside 5 mm above a leg's top and found no patch there), straight down;
+    /// `None` where there is none, or it does not face `n`.
     pub fn at_point(&self, x: DVec3, n: DVec3, rays: usize, seed: u64) -> Option<Gathered> {
         let spot = self.spot_at(x, n)?;
         let mut rng = Rng::new(&[self.seed, seed, 0x9_0B_E5]);
@@ -462,7 +464,7 @@ impl Gatherer<'_> {
     /// The surface point `x` (unit normal `n`, on the side it faces) as a gathering spot, on
     /// the patch [`Gatherer::at_point`] describes.
     pub(crate) fn spot_at(&self, x: DVec3, n: DVec3) -> Option<Spot> {
-        let above = 1e-3 * self.extent();
+        let above = 10.0 * self.lift;
         let hit = self.surfaces.closest(x + above * n, -n, NONE)?;
         if hit.t > 2.0 * above || self.patches.normal[hit.patch as usize].dot(n) <= 0.0 {
             return None;

@@ -244,6 +244,25 @@ fn a_point_gather_finds_its_patch_and_the_exact_direct_light() {
 }
 
 #[test]
+fn a_point_gather_finds_a_floor_point_under_a_plate_a_millimetre_above_it() {
+    // A floor 4 m wide under a plate 1 mm above it (1.8e-4 of the scene's extent: a table's
+    // leg top 5 mm under its top, in a room of 25 m, is 2e-4 of it). The point on the floor
+    // is there to gather at; a search that starts above the plate finds the plate's back and
+    // no point.
+    let (scene, _) = plate_over_floor(0.5, 1e-3, 2.0);
+    let patches = crate::mesh::subdivide(&scene, 1.0, 0.0).unwrap();
+    let radiance = vec![[0.0; 3]; patches.len()];
+    let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
+    let x = DVec3::new(0.1, 0.2, 0.0);
+    let at = g
+        .at_point(x, DVec3::Z, 16, 3)
+        .expect("a point on the floor");
+    assert!(!at.buried);
+    // The plate's underside itself, facing the floor, is a point too.
+    assert!(g.at_point(x + 1e-3 * DVec3::Z, -DVec3::Z, 16, 3).is_some());
+}
+
+#[test]
 fn partly_hidden_other_lights_get_more_rays() {
     // Seen from (1/2, 1/2, 0) the blocker hides half of the 6 × 6 grid: the exact emitters'
     // shares are exact (no noise), and the others' sixteen pilot rays disagree at almost
