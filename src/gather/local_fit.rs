@@ -62,7 +62,7 @@
 //! ([`MAX_BEND`]; the test `midpoints_are_bent_as_the_fitted_quadratics_bend_…`). Last, the
 //! values x are fitted to every point computed, the vertices' own values y (as corrected
 //! above) and those midpoints m: x minimises Σ_v w_v (x_v − y_v)² + Σ_m w_m ((x_a + x_b)/2 − m)²,
-//! each sample weighed by 1/its luminance² ([`RELATIVE_FLOOR`]): the relative error made
+//! each sample weighed by 1/its luminance² ([`dark_floor`]): the relative error made
 //! small, as a viewer sees it and the point-wise benchmark scores it. (Unweighted, a shaded
 //! vertex whose edge crosses the sun's patch edge unsplit, its midpoint shaded and its other
 //! end lit, was driven to 2·shade − sun < 0 and shown black on a lit floor; weighed, the fit
@@ -116,12 +116,14 @@ pub struct Midpoint {
 /// indirect light denoised, then the chord correction, then fitted to the `midpoints` too
 /// (see the module documentation), except at buried vertices. `tolerance` is τ, the bound of
 /// a correction and of the fits' residuals relative to the vertex's luminance; 0 leaves every
-/// value as gathered.
+/// value as gathered. `floor` is the display's dark floor ([`dark_floor`], radiance units):
+/// the midpoints' fit weighs a sample by 1/max(Y, floor)².
 pub fn correct(
     mesh: &mut BakedMesh,
     values: &[Gathered],
     midpoints: &[Midpoint],
     tolerance: f64,
+    floor: f64,
 ) -> Corrected {
     let mut done = Corrected::default();
     mesh.vertex_radiance = values.iter().map(|g| g.radiance).collect();
@@ -246,7 +248,7 @@ pub fn correct(
             }
         })
         .collect();
-    done.midpoints = fit_midpoints(&mut mesh.vertex_radiance, &buried, &midpoints);
+    done.midpoints = fit_midpoints(&mut mesh.vertex_radiance, &buried, &midpoints, floor);
     done
 }
 
@@ -295,20 +297,14 @@ impl Quadratic {
 const MIDPOINT_SWEEPS: usize = 1000;
 
 /// The vertex values x minimising Σ_v w_v (x_v − y_v)² + Σ_m w_m ((x_a + x_b)/2 − m)² over the
-/// vertex values y and the `midpoints` m (on edges a–b), w = 1/luminance² of the sample
-/// ([`RELATIVE_FLOOR`]), non-negative: the display fitted to every
+/// vertex values y and the `midpoints` m (on edges a–b), w = 1/max(Y, `floor`)² of the
+/// sample (Y its luminance; [`dark_floor`]), non-negative: the display fitted to every
 /// point the gather has computed, vertices and tested midpoints alike (projected
 /// Gauss–Seidel on the normal equations, each channel apart, vertices in index order: the
 /// same result on any thread count). Midpoints with a buried end are left out. Returns how
 /// many were fitted.
-fn fit_midpoints(values: &mut [Rgb], buried: &[bool], midpoints: &[Midpoint]) -> usize {
-    // Each sample's weight: 1 / its luminance², floored (RELATIVE_FLOOR).
-    let (sum, count) = values
-        .iter()
-        .zip(buried)
-        .filter(|(_, &b)| !b)
-        .fold((0.0, 0usize), |(s, n), (v, _)| (s + luminance(*v), n + 1));
-    let floor = (RELATIVE_FLOOR * sum / count.max(1) as f64).max(f64::MIN_POSITIVE);
+fn fit_midpoints(values: &mut [Rgb], buried: &[bool], midpoints: &[Midpoint], floor: f64) -> usize {
+    let floor = floor.max(f64::MIN_POSITIVE);
     let weight = |l: &Rgb| 1.0 / luminance(*l).max(floor).powi(2);
     let mut edges: Vec<Vec<(u32, Rgb, f64)>> = vec![Vec::new(); values.len()];
     let mut used = 0;
@@ -351,11 +347,26 @@ fn fit_midpoints(values: &mut [Rgb], buried: &[bool], midpoints: &[Midpoint]) ->
     used
 }
 
-/// In the fit to the tested midpoints (step 3 of [`correct`]) each sample weighs 1/Y², Y its
-/// luminance but at least this fraction of the unburied vertices' mean: darker points (a
-/// tenth of the mean is where the point-wise benchmark stops scoring) are not worth pinning
-/// exactly, and a black sample's weight stays finite.
-pub const RELATIVE_FLOOR: f64 = 0.1;
+/// The display's dark floor as a share of its points' mean luminance ([`dark_floor`]).
+pub const DARK_SHARE: f64 = 0.1;
+
+/// The display's dark floor Y_floor (radiance units): [`DARK_SHARE`] of the mean luminance of
+/// the vertices `values` that are neither buried nor on an emitter (`emits(v)`), or of 1 if
+/// there is none. Points darker than it are not worth their relative error: the display
+/// refinement measures an edge's departure against max(Y, Y_floor) ([`super::refine()`]), and
+/// the fit to the tested midpoints (step 3 of [`correct`]) weighs a sample by
+/// 1/max(Y, Y_floor)², so a black sample's weight stays finite. A tenth is also where the
+/// point-wise benchmark stops scoring.
+pub fn dark_floor(values: &[Gathered], emits: impl Fn(usize) -> bool) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (v, g) in values.iter().enumerate() {
+        if !g.buried && !emits(v) {
+            sum += luminance(g.radiance);
+            n += 1;
+        }
+    }
+    DARK_SHARE * if n == 0 { 1.0 } else { sum / n as f64 }
+}
 
 /// The chord correction c_v of the vertex `v` (see the module documentation), from the
 /// quadratic through its value fitted to those at `ring`, in the tangent plane `(t, u)`;
@@ -517,6 +528,11 @@ fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [[f64; 3]; N]) -> Option<[
 mod tests {
     use super::*;
 
+    /// The dark floor of `values` on a grid with no emitter ([`dark_floor`]).
+    fn floor_of(values: &[Gathered]) -> f64 {
+        dark_floor(values, |_| false)
+    }
+
     /// An n × n grid of unit squares on z = 0, each cut into two triangles (counter-clockwise
     /// seen from +z), and its vertices' gathered values: `direct(x, y)` and `indirect(x, y,
     /// v)` (v the vertex's index) in every channel, no emission.
@@ -617,7 +633,10 @@ mod tests {
         mesh.vertex_radiance = values.iter().map(|g| g.radiance).collect();
         let before = worst_shortfall(&mesh, &f);
         assert!(before > 1e-4, "the chord's shortfall is visible: {before}");
-        assert_eq!(correct(&mut mesh, &values, &[], 0.02).chord, 49);
+        assert_eq!(
+            correct(&mut mesh, &values, &[], 0.02, floor_of(&values)).chord,
+            49
+        );
         assert!(worst_shortfall(&mesh, &f) < 1e-12);
         // With one (0.001 x y), the alternating diagonals give triangles different shortfalls,
         // which their corners share: the whole surface's integral is still exact (each
@@ -627,7 +646,7 @@ mod tests {
         let (mut mesh, values) = grid(6, f, none);
         mesh.vertex_radiance = values.iter().map(|g| g.radiance).collect();
         let before = worst_shortfall(&mesh, &f);
-        correct(&mut mesh, &values, &[], 0.02);
+        correct(&mut mesh, &values, &[], 0.02, floor_of(&values));
         let shown: f64 = mesh
             .faces
             .iter()
@@ -682,15 +701,20 @@ mod tests {
                 .sum()
         };
         let exact = total(&mesh, false);
-        let done = correct(&mut mesh, &values, &chords, 0.02);
+        let done = correct(&mut mesh, &values, &chords, 0.02, floor_of(&values));
         assert_eq!((done.denoised, done.midpoints), (49, chords.len()));
         let shown = total(&mesh, true);
         assert!((shown - exact).abs() < 2e-5 * exact, "{shown} vs {exact}");
         // The chords themselves, fitted to the chord-corrected values, fall short.
         let (mut mesh, values) = grid(6, |_, _| 0.0, |x, y, _| f(x, y));
-        correct(&mut mesh, &values, &[], 0.02);
+        correct(&mut mesh, &values, &[], 0.02, floor_of(&values));
         let buried = vec![false; values.len()];
-        fit_midpoints(&mut mesh.vertex_radiance, &buried, &chords);
+        fit_midpoints(
+            &mut mesh.vertex_radiance,
+            &buried,
+            &chords,
+            floor_of(&values),
+        );
         let short = exact - total(&mesh, true);
         assert!(
             short > 1e-4 * exact,
@@ -704,7 +728,7 @@ mod tests {
         let f = |x: f64, y: f64| 2.0 + 0.1 * x - 0.05 * y;
         let indirect = |x: f64, y: f64, _| 0.5 - 0.02 * x + 0.03 * y;
         let (mut mesh, values) = grid(5, f, indirect);
-        correct(&mut mesh, &values, &[], 0.02);
+        correct(&mut mesh, &values, &[], 0.02, floor_of(&values));
         for (a, g) in mesh.vertex_radiance.iter().zip(&values) {
             assert!((a[0] - g.radiance[0]).abs() < 1e-14, "{a:?} vs {g:?}");
         }
@@ -713,7 +737,7 @@ mod tests {
         let (mut mesh, mut values) = grid(5, f, indirect);
         let buried = 14;
         values[buried] = Gathered::buried([50.0; 3]);
-        correct(&mut mesh, &values, &[], 0.02);
+        correct(&mut mesh, &values, &[], 0.02, floor_of(&values));
         for (v, (a, g)) in mesh.vertex_radiance.iter().zip(&values).enumerate() {
             assert!(
                 (a[0] - g.radiance[0]).abs() < 1e-14,
@@ -735,14 +759,17 @@ mod tests {
             grid(6, |x, _| step(x), none),
             grid(6, |_, _| 1.0, |x, _, _| step(x)),
         ] {
-            correct(&mut mesh, &values, &[], 0.02);
+            correct(&mut mesh, &values, &[], 0.02, floor_of(&values));
             for (a, g) in mesh.vertex_radiance.iter().zip(&values) {
                 assert_eq!(a, &g.radiance);
             }
         }
         // And with τ = 0 nothing moves at all.
         let (mut mesh, values) = grid(6, |x, y| 1.0 - 0.01 * x * y, |x, _, v| 0.1 * x + v as f64);
-        assert_eq!(correct(&mut mesh, &values, &[], 0.0), Corrected::default());
+        assert_eq!(
+            correct(&mut mesh, &values, &[], 0.0, floor_of(&values)),
+            Corrected::default()
+        );
         for (a, g) in mesh.vertex_radiance.iter().zip(&values) {
             assert_eq!(a, &g.radiance);
         }
@@ -774,9 +801,9 @@ mod tests {
         };
         let indirect = |x: f64, y: f64, v: usize| smooth(x, y, v) + noise(v);
         let (mut clean, values) = grid(12, |_, _| 1.0, smooth);
-        correct(&mut clean, &values, &[], 0.02);
+        correct(&mut clean, &values, &[], 0.02, floor_of(&values));
         let (mut mesh, values) = grid(12, |_, _| 1.0, indirect);
-        let done = correct(&mut mesh, &values, &[], 0.02);
+        let done = correct(&mut mesh, &values, &[], 0.02, floor_of(&values));
         assert_eq!(done.denoised, 169);
         let rms = |a: &[Rgb]| rms_against(a, &clean.vertex_radiance);
         let gathered: Vec<Rgb> = values.iter().map(|g| g.radiance).collect();
@@ -803,12 +830,12 @@ mod tests {
         };
         let indirect = |x: f64, y: f64, v: usize| smooth(x, y, v) + noise(v);
         let (mut clean, values) = grid(12, |_, _| 1.0, smooth);
-        correct(&mut clean, &values, &[], 0.02);
+        correct(&mut clean, &values, &[], 0.02, floor_of(&values));
         let rms = |a: &[Rgb]| rms_against(a, &clean.vertex_radiance);
         let (mut mesh, mut values) = grid(12, |_, _| 1.0, indirect);
         let gathered: Vec<Rgb> = values.iter().map(|g| g.radiance).collect();
         let before = rms(&gathered);
-        let unstated = correct(&mut mesh, &values, &[], 0.02);
+        let unstated = correct(&mut mesh, &values, &[], 0.02, floor_of(&values));
         let kept = rms(&mesh.vertex_radiance);
         // Only the corners' and edges' small rings, which a quadratic fits exactly, move.
         assert!(unstated.denoised < 169 / 5, "{unstated:?}");
@@ -816,7 +843,7 @@ mod tests {
         for g in &mut values {
             g.indirect_error = amplitude / 3f64.sqrt();
         }
-        let done = correct(&mut mesh, &values, &[], 0.02);
+        let done = correct(&mut mesh, &values, &[], 0.02, floor_of(&values));
         // A ring whose residual happens to exceed its stated standard error stays (9 of 169).
         assert!(done.denoised >= 169 * 9 / 10, "{done:?}");
         let after = rms(&mesh.vertex_radiance);
@@ -904,7 +931,12 @@ mod tests {
         let before = weighted_squared_error(&mesh, &f, 40, relative);
         let midpoints = midpoints_of(&mesh, &f);
         let buried = vec![false; values.len()];
-        let fitted = fit_midpoints(&mut mesh.vertex_radiance, &buried, &midpoints);
+        let fitted = fit_midpoints(
+            &mut mesh.vertex_radiance,
+            &buried,
+            &midpoints,
+            floor_of(&values),
+        );
         assert_eq!(fitted, midpoints.len());
         let after = weighted_squared_error(&mesh, &f, 40, relative);
         eprintln!("relative squared error {before} -> {after}");
@@ -937,7 +969,12 @@ mod tests {
         for m in midpoints.iter_mut().filter(|m| m.ends.contains(&14)) {
             m.radiance = [50.0; 3];
         }
-        fit_midpoints(&mut mesh.vertex_radiance, &buried, &midpoints);
+        fit_midpoints(
+            &mut mesh.vertex_radiance,
+            &buried,
+            &midpoints,
+            floor_of(&values),
+        );
         for (v, (a, g)) in mesh.vertex_radiance.iter().zip(&values).enumerate() {
             let expected = if v == 14 { 50.0 } else { g.radiance[0] };
             assert!((a[0] - expected).abs() < 1e-12, "vertex {v}: {a:?}");

@@ -12,8 +12,9 @@
 //! split (a, b) when |Y(ρD_m) − Y(ρD_a + ρD_b)/2| > τ · max(Y((L_a + L_b)/2), Y_floor),
 //!
 //! Y the luminance, τ the tolerance, Y_floor a tenth of the mean luminance of the non-emitting
-//! vertices (darker points are not worth vertices). The indirect light is smooth except near a
-//! contact or a narrow gap, where it falls off within the gap's width; an edge whose endpoints'
+//! vertices ([`super::local_fit::dark_floor`]: darker points are not worth vertices). The
+//! indirect light is smooth except near a contact or a narrow gap, where it falls off within
+//! the gap's width; an edge whose endpoints'
 //! reflected indirect light differs by more than 2τ · max(…) is split (its midpoint would show
 //! the mean of two values that differ that much), and so is one whose midpoint's indirect light,
 //! estimated by [`TEST_RAYS`] hemisphere rays (`full` only), departs from its ends' mean by more
@@ -286,7 +287,12 @@ pub fn refine(
         values,
         face_patch,
     };
-    let floor = 0.1 * d.mean_lit_luminance(&gatherer.patches.emission);
+    let emission = &gatherer.patches.emission;
+    let floor = local_fit::dark_floor(&d.values, |v| {
+        emission[d.sites[v].patches[0] as usize]
+            .iter()
+            .any(|&c| c > 0.0)
+    });
     let min_edge2 = (MIN_EDGE * gatherer.extent()).powi(2);
     // Edges tested and kept whole, and edges over τ waiting for budget: not tested again.
     let mut kept: HashSet<Edge> = HashSet::new();
@@ -577,7 +583,7 @@ pub fn refine(
         .collect();
     let present: HashSet<Edge> = d.mesh.faces.iter().flat_map(|&f| face_edges(f)).collect();
     midpoints.retain(|m| present.contains(&edge(m.ends[0], m.ends[1])));
-    let corrected = local_fit::correct(d.mesh, &d.values, &midpoints, tolerance);
+    let corrected = local_fit::correct(d.mesh, &d.values, &midpoints, tolerance, floor);
     (done.denoised, done.chord, done.midpoints) =
         (corrected.denoised, corrected.chord, corrected.midpoints);
     done
@@ -726,25 +732,6 @@ fn mid(a: Rgb, b: Rgb) -> Rgb {
 }
 
 impl Display<'_> {
-    /// Mean luminance of the vertices that are not buried and whose patch emits nothing
-    /// (`emission` per patch; 1 if there are none).
-    fn mean_lit_luminance(&self, emission: &[Rgb]) -> f64 {
-        let (mut sum, mut n) = (0.0, 0usize);
-        for (g, s) in self.values.iter().zip(&self.sites) {
-            let le = emission[s.patches[0] as usize];
-            if g.buried || le.iter().any(|&c| c > 0.0) {
-                continue;
-            }
-            sum += luminance(g.radiance);
-            n += 1;
-        }
-        if n == 0 {
-            1.0
-        } else {
-            sum / n as f64
-        }
-    }
-
     /// Where an output edge lies: its endpoints' mesh vertices (lower first).
     fn place(&self, e: Edge) -> Edge {
         edge(
