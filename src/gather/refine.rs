@@ -14,15 +14,15 @@
 //! Y the luminance, τ the tolerance, Y_floor a tenth of the mean luminance of the non-emitting
 //! vertices ([`super::local_fit::dark_floor`]: darker points are not worth vertices). The
 //! indirect light is smooth except near a contact or a narrow gap, where it falls off within
-//! the gap's width; an edge whose endpoints'
-//! reflected indirect light differs by more than 2τ · max(…) is split (its midpoint would show
-//! the mean of two values that differ that much), and so is one whose midpoint's indirect light,
-//! estimated by [`TEST_RAYS`] hemisphere rays (`full` only), departs from its ends' mean by more
-//! than τ · max(…) plus [`SIGNIFICANCE`] standard errors of that estimate: a dark middle between
-//! lit ends, which neither the ends nor the direct light show (a table's underside above a
-//! leg's top 5 mm below it, the floor under a seat). A midpoint whose test rays meet mostly
-//! the backs of surfaces is walled in where nobody sees it ([`ENCLOSED`]: the floor under a
-//! partition of two wall faces), and its edge is left alone.
+//! the gap's width; an edge whose endpoints' reflected indirect light differs by more than
+//! 2τ · max(…) is split (its midpoint would show the mean of two values that differ that much),
+//! and so is one whose midpoint's indirect light, estimated by [`TEST_RAYS`] hemisphere rays
+//! (`full` only), departs from its ends' mean by more than τ · max(…) plus [`SIGNIFICANCE`]
+//! standard errors of that estimate: a dark middle between lit ends, which neither the ends nor
+//! the direct light show (a table's underside above a leg's top 5 mm below it, the floor under
+//! a seat). A midpoint whose test rays meet mostly the backs of surfaces is walled in where
+//! nobody sees it ([`ENCLOSED`]: the floor under a partition of two wall faces), and its edge
+//! is left alone.
 //!
 //! A split edge gets a new output vertex at its midpoint with its own final gather (after the
 //! `cache` gather: the direct light its test found there, the point's costly part, and its own
