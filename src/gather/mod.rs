@@ -53,6 +53,7 @@ use trace::Surfaces;
 mod bright;
 pub mod cache;
 mod direct;
+pub mod flip;
 mod indirect;
 pub mod local_fit;
 mod openings;

@@ -53,9 +53,13 @@
 //! RMS against 3.24, 3.31, 3.59 % by the ends alone, for about 3 s of its bake (every candidate
 //! edge's midpoint, four shadow rays per exact emitter triangle).
 //!
+//! Before the fit, the diagonal of two coplanar triangles is turned where the other one
+//! interpolates the direct light better ([`super::flip`]): a shadow along a diagonal shows.
+//!
 //! The midpoints tested and left whole are not thrown away: the vertex values are fitted to
 //! them at the end ([`super::local_fit`]), so where the budget ran out the display shows the
-//! light around a vertex, not only at it.
+//! light around a vertex, not only at it (the midpoints of edges a flip took away are
+//! dropped).
 //!
 //! Why deviation × √length: what a split buys is the squared error it removes over the area
 //! the viewer sees. The error an edge leaves is mostly a discontinuity of the light crossing
@@ -214,6 +218,11 @@ pub struct Refined {
     /// Tested midpoints of edges left whole that the vertex values were fitted to
     /// ([`super::local_fit`]).
     pub midpoints: usize,
+    /// Crossing points of two diagonals where the direct light was evaluated to choose one
+    /// ([`super::flip`]).
+    pub flip_tests: usize,
+    /// Diagonals turned to follow the direct light ([`super::flip`]).
+    pub flips: usize,
     /// Stopped at [`Plan::deadline`] (a bake's time budget) before its budget or its
     /// candidates ran out.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
@@ -576,6 +585,19 @@ pub fn refine(
         done.levels += 1;
         candidates = d.split_faces(&midpoint);
     }
+    // The diagonals turned where the other one follows the direct light (before the fit,
+    // which fits the vertex values to the faces as they end).
+    if deadline.is_none_or(|d| std::time::Instant::now() < d) {
+        let shown: Vec<Rgb> = d.values.iter().map(|g| g.radiance).collect();
+        let flipped = super::flip::flip_edges(
+            gatherer,
+            (&mut d.mesh.faces, &d.face_patch),
+            (&d.sites, &d.values, &shown),
+            (tolerance, floor),
+            (&mut coarse_at, visible_fraction),
+        );
+        (done.flip_tests, done.flips) = (flipped.tests, flipped.flips);
+    }
     d.mesh.positions = d
         .sites
         .iter()
@@ -637,7 +659,7 @@ fn coarse_departures(
 /// The cheap direct light at a display vertex or midpoint `site`
 /// ([`Gatherer::coarse_direct`] over the emitters computed exactly there), with the key of
 /// those emitters ([`Gatherer::exact_key`]); `None` where the site is buried.
-fn coarse_direct_at(
+pub(super) fn coarse_direct_at(
     gatherer: &Gatherer,
     site: &Site,
     visible_fraction: &[f64],
@@ -651,7 +673,7 @@ fn coarse_direct_at(
 }
 
 /// Writes a [`coarse_direct_at`] result for another rank ([`read_coarse`] reads it).
-fn write_coarse(c: &Option<(u64, Rgb)>, w: &mut Writer) {
+pub(super) fn write_coarse(c: &Option<(u64, Rgb)>, w: &mut Writer) {
     w.bytes(&[c.is_some() as u8]);
     let (k, d) = c.unwrap_or_default();
     w.u64(k);
@@ -659,7 +681,7 @@ fn write_coarse(c: &Option<(u64, Rgb)>, w: &mut Writer) {
 }
 
 /// Reads what [`write_coarse`] wrote.
-fn read_coarse(r: &mut Reader) -> Option<(u64, Rgb)> {
+pub(super) fn read_coarse(r: &mut Reader) -> Option<(u64, Rgb)> {
     let ([some], k) = (r.bytes(), r.u64());
     let d = [r.f64(), r.f64(), r.f64()];
     (some != 0).then_some((k, d))

@@ -1138,3 +1138,104 @@ fn a_quadrilateral_light_ranks_by_its_whole_bound() {
     assert_eq!(exact.len(), MAX_EXACT_EMITTERS + 1, "{exact:?}");
     assert!(halves.iter().all(|k| exact.contains(k)), "{exact:?}");
 }
+
+/// The floor square (0, 0)–(2, 2) of two triangles split along (0, 0)–(2, 2), a small lamp
+/// 3 m above its centre and a plank 2.5 m below the lamp along the diagonal from `plank` to
+/// the square's centre (and as far beyond), whose shadow is a dark valley along that
+/// diagonal: the display's vertices after a direct-light gather, and what `flip_edges` made
+/// of the floor's diagonal (the pair of corners it joins), and all the faces.
+fn floor_diagonal_under_a_plank(plank: DVec3) -> ([DVec3; 2], super::flip::Flipped, Vec<[u32; 3]>) {
+    let mut b = SceneBuilder::new();
+    let white = b.material("white", [0.5; 3], [0.0; 3]);
+    let light = b.material("light", [0.0; 3], [20.0; 3]);
+    let v = DVec3::new;
+    b.quad(
+        [v(0., 0., 0.), v(2., 0., 0.), v(2., 2., 0.), v(0., 2., 0.)],
+        white,
+    );
+    // The lamp, 0.2 m square, facing down; the plank, 0.3 m wide, facing down.
+    let s = 0.1;
+    b.quad(
+        [
+            v(1. - s, 1. - s, 3.),
+            v(1. - s, 1. + s, 3.),
+            v(1. + s, 1. + s, 3.),
+            v(1. + s, 1. - s, 3.),
+        ],
+        light,
+    );
+    let centre = v(1., 1., 0.5);
+    let along = (v(plank.x, plank.y, 0.5) - centre).normalize() * 2.2;
+    let across = v(-along.y, along.x, 0.).normalize() * 0.15;
+    let corners = [
+        centre + along + across,
+        centre + along - across,
+        centre - along - across,
+        centre - along + across,
+    ];
+    b.quad(corners, white);
+    let scene = b.build().unwrap();
+    let patches = crate::mesh::subdivide(&scene, 10.0, 0.0).unwrap();
+    let radiance = vec![[0.0; 3]; patches.len()];
+    let (mut mesh, sites) = crate::bake::bake_sites(&patches, &radiance, 30.0);
+    let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
+    let visible = vec![1.0; patches.len()];
+    let baked = vec![[0.0; 3]; sites.len()];
+    let (values, _) = gather(&g, &sites, &baked, Gather::Full, 16, None, &visible);
+    let shown: Vec<Rgb> = values.iter().map(|g| g.radiance).collect();
+    let face_patch: Vec<u32> = (0..mesh.faces.len() as u32).collect();
+    let flipped = super::flip::flip_edges(
+        &g,
+        (&mut mesh.faces, &face_patch),
+        (&sites, &values, &shown),
+        (0.02, 0.0),
+        (&mut Default::default(), &visible),
+    );
+    // The floor's two faces (patches 0 and 1): the edge they share.
+    let on_floor = |f: usize| mesh.faces[f].map(|v| sites[v as usize].position);
+    let (f0, f1) = (on_floor(0), on_floor(1));
+    let shared: Vec<DVec3> = f0.iter().copied().filter(|p| f1.contains(p)).collect();
+    assert_eq!(
+        shared.len(),
+        2,
+        "the floor's faces share an edge: {f0:?} {f1:?}"
+    );
+    ([shared[0], shared[1]], flipped, mesh.faces)
+}
+
+#[test]
+fn a_diagonal_turns_to_follow_a_shadow_along_the_other_one() {
+    // The plank's shadow runs along (2, 0)–(0, 2), across the floor's diagonal (0, 0)–(2, 2):
+    // at the centre, in the shadow, the diagonal in place interpolates its lit ends, the
+    // other its shadowed ends. That one is taken. Laid along the diagonal in place instead,
+    // the shadow keeps it.
+    let is =
+        |d: [DVec3; 2], a: DVec3, b: DVec3| (d[0] == a && d[1] == b) || (d[0] == b && d[1] == a);
+    let v = DVec3::new;
+    let (across, flipped, _) = floor_diagonal_under_a_plank(v(2., 0., 0.));
+    assert!(
+        is(across, v(2., 0., 0.), v(0., 2., 0.)),
+        "the diagonal along the shadow: {across:?} ({flipped:?})"
+    );
+    assert!(
+        flipped.flips >= 1 && flipped.tests >= flipped.flips,
+        "{flipped:?}"
+    );
+    let (along, flipped, _) = floor_diagonal_under_a_plank(v(2., 2., 0.));
+    assert!(
+        is(along, v(0., 0., 0.), v(2., 2., 0.)),
+        "the diagonal along the shadow stays: {along:?} ({flipped:?})"
+    );
+}
+
+#[test]
+fn flips_are_the_same_for_any_thread_count() {
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| floor_diagonal_under_a_plank(DVec3::new(2.0, 0.0, 0.0)).2)
+    };
+    assert_eq!(run(1), run(3));
+}
