@@ -39,7 +39,7 @@
 
 use std::collections::HashMap;
 
-use super::refine::{coarse_direct_at, face_edges, read_coarse, write_coarse, Edge};
+use super::refine::{coarse_direct_at, complete_coarse, face_edges, Edge};
 use super::{Gathered, Gatherer};
 use crate::bake::Site;
 use crate::color::luminance;
@@ -312,20 +312,8 @@ fn promising(
     coarse_at: &mut Coarse,
     visible_fraction: &[f64],
 ) -> Vec<Quad> {
-    let mut fresh: Vec<u32> = quads
-        .iter()
-        .flat_map(|q| [q.a, q.b, q.c, q.d])
-        .filter(|v| !coarse_at.contains_key(v))
-        .collect();
-    fresh.sort_unstable();
-    fresh.dedup();
-    let found = gatherer.comm.map_shared(
-        fresh.len(),
-        |i| coarse_direct_at(gatherer, &sites[fresh[i] as usize], visible_fraction),
-        write_coarse,
-        read_coarse,
-    );
-    coarse_at.extend(fresh.iter().copied().zip(found));
+    let ends = quads.iter().flat_map(|q| [q.a, q.b, q.c, q.d]);
+    complete_coarse(gatherer, sites, ends, coarse_at, visible_fraction);
     let coarse_at = &*coarse_at;
     let keep = gatherer.comm.map_shared(
         quads.len(),

@@ -622,20 +622,8 @@ fn coarse_departures(
     coarse_at: &mut HashMap<u32, Option<(u64, Rgb)>>,
     visible_fraction: &[f64],
 ) -> Vec<f64> {
-    let mut fresh: Vec<u32> = edges
-        .iter()
-        .flat_map(|e| [e.1 .0, e.1 .1])
-        .filter(|v| !coarse_at.contains_key(v))
-        .collect();
-    fresh.sort_unstable();
-    fresh.dedup();
-    let found = gatherer.comm.map_shared(
-        fresh.len(),
-        |i| coarse_direct_at(gatherer, &d.sites[fresh[i] as usize], visible_fraction),
-        write_coarse,
-        read_coarse,
-    );
-    coarse_at.extend(fresh.iter().copied().zip(found));
+    let ends = edges.iter().flat_map(|e| [e.1 .0, e.1 .1]);
+    complete_coarse(gatherer, &d.sites, ends, coarse_at, visible_fraction);
     let coarse_at = &*coarse_at;
     gatherer.comm.map_shared(
         edges.len(),
@@ -672,8 +660,29 @@ pub(super) fn coarse_direct_at(
     ))
 }
 
+/// Adds to `coarse_at` the [`coarse_direct_at`] estimate of each of `vertices` (display
+/// vertices, at `sites`) it lacks, computed once each, in vertex order, shared among ranks.
+pub(super) fn complete_coarse(
+    gatherer: &Gatherer,
+    sites: &[Site],
+    vertices: impl Iterator<Item = u32>,
+    coarse_at: &mut HashMap<u32, Option<(u64, Rgb)>>,
+    visible_fraction: &[f64],
+) {
+    let mut fresh: Vec<u32> = vertices.filter(|v| !coarse_at.contains_key(v)).collect();
+    fresh.sort_unstable();
+    fresh.dedup();
+    let found = gatherer.comm.map_shared(
+        fresh.len(),
+        |i| coarse_direct_at(gatherer, &sites[fresh[i] as usize], visible_fraction),
+        write_coarse,
+        read_coarse,
+    );
+    coarse_at.extend(fresh.iter().copied().zip(found));
+}
+
 /// Writes a [`coarse_direct_at`] result for another rank ([`read_coarse`] reads it).
-pub(super) fn write_coarse(c: &Option<(u64, Rgb)>, w: &mut Writer) {
+fn write_coarse(c: &Option<(u64, Rgb)>, w: &mut Writer) {
     w.bytes(&[c.is_some() as u8]);
     let (k, d) = c.unwrap_or_default();
     w.u64(k);
@@ -681,7 +690,7 @@ pub(super) fn write_coarse(c: &Option<(u64, Rgb)>, w: &mut Writer) {
 }
 
 /// Reads what [`write_coarse`] wrote.
-pub(super) fn read_coarse(r: &mut Reader) -> Option<(u64, Rgb)> {
+fn read_coarse(r: &mut Reader) -> Option<(u64, Rgb)> {
     let ([some], k) = (r.bytes(), r.u64());
     let d = [r.f64(), r.f64(), r.f64()];
     (some != 0).then_some((k, d))
