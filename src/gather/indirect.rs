@@ -82,6 +82,10 @@ pub const NEAR_RAYS: usize = 1;
 /// time, more of it the deeper, and helps little.
 pub const NEAR_DEPTH: u32 = 2;
 
+/// Rays of [`Gatherer::coarse_indirect`]: 4 × 4 strata, as many as a display test's own
+/// ([`super::refine::TEST_RAYS`]).
+pub const COARSE_RAYS: usize = 16;
+
 impl Gatherer<'_> {
     /// ∫_Ω L_r(h(x, ω)) cosθ/π dω by `rays` stratified cosine-weighted rays: the reflected
     /// radiance arriving at `x` from the solution (radiance units). A ray that hits within
@@ -602,6 +606,42 @@ impl Gatherer<'_> {
 }
 
 impl Gatherer<'_> {
+    /// The reflected indirect light at `spot`, ray by ray and cheaply: [`COARSE_RAYS`]
+    /// stratified cosine-weighted rays, each giving the luminance of ρ × what it first meets:
+    /// the solution's reflected radiance L − Le of a front face (emission is the direct
+    /// term's), nothing from a back, the sky's radiance where it leaves the scene. No near
+    /// hits, bright patches or openings: it values nothing. The jitter is the same at every
+    /// point (one fixed seed), so points with the same normal cast the same directions, and the
+    /// difference of two nearby points' estimates ray by ray keeps what differs between them
+    /// (a leg's top 5 mm under one, the floor under the other) while most of what they share
+    /// cancels: common random numbers. The display refinement orders and decides its tests of
+    /// the indirect light by it ([`super::refine`]).
+    pub(crate) fn coarse_indirect(&self, spot: &Spot) -> [f32; COARSE_RAYS] {
+        let mut rng = Rng::new(&[self.seed, 0xC0A7_5E1D]);
+        let rho = self.patches.reflectance[spot.patch as usize];
+        let sky = self.env.sky.iter().any(|&l| l > 0.0);
+        let mut out = [0.0; COARSE_RAYS];
+        let mut k = 0;
+        self.first_hits(spot, COARSE_RAYS, &mut rng, |dir, hit| {
+            let l = match hit {
+                None if sky => self.env.escaped(dir),
+                None => [0.0; 3],
+                Some(hit) => {
+                    let h = hit.patch as usize;
+                    if self.patches.normal[h].dot(dir) >= 0.0 {
+                        [0.0; 3]
+                    } else {
+                        let (l, le) = (self.radiance[h], self.patches.emission[h]);
+                        std::array::from_fn(|c| (l[c] - le[c]).max(0.0))
+                    }
+                }
+            };
+            out[k] = luminance(std::array::from_fn(|c| rho[c] * l[c])) as f32;
+            k += 1;
+        });
+        out
+    }
+
     /// Casts √rays × √rays stratified cosine-weighted rays from `spot` (unshaded) and calls
     /// `f` with each direction and its first hit (`None` where it leaves the scene); returns
     /// how many.

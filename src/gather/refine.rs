@@ -20,7 +20,11 @@
 //! (`full` only), departs from its ends' mean by more than τ · max(…) plus [`SIGNIFICANCE`]
 //! standard errors of that estimate: a dark middle between lit ends, which neither the ends nor
 //! the direct light show (a table's underside above a leg's top 5 mm below it, the floor under
-//! a seat). A midpoint whose test rays meet mostly the backs of surfaces is walled in where
+//! a seat). An edge that test keeps whole is tested once more by the same departure taken ray
+//! by ray (`Gatherer::coarse_indirect`: the same 16 directions from the midpoint and both
+//! ends, so that much of what the three points share cancels): a bright middle between ends
+//! darkened by what is beside them, which the midpoint's own rays' noise hides (a seat's
+//! underside between corners that see the legs' tops 5 mm away). A midpoint whose test rays meet mostly the backs of surfaces is walled in where
 //! nobody sees it ([`ENCLOSED`]: the floor under a partition of two wall faces), and its edge
 //! is left alone.
 //!
@@ -74,6 +78,7 @@
 
 use std::collections::{HashMap, HashSet};
 
+use super::indirect::COARSE_RAYS;
 use super::local_fit::{self, Midpoint};
 use super::{Cache, Gather, Gathered, Gatherer};
 use crate::bake::{BakedMesh, Site};
@@ -439,7 +444,19 @@ pub fn refine(
                 }
                 let departure = (luminance(im) - luminance(mid(va.indirect, vb.indirect))).abs()
                     - SIGNIFICANCE * error;
-                direct.max(departure.max(0.0) / reference)
+                let deviation = direct.max(departure.max(0.0) / reference);
+                if deviation > tolerance {
+                    return deviation;
+                }
+                // Kept whole so far: the same departure ray by ray, the ends' rays along the
+                // midpoint's, shows a few per cent that the rays' own noise hides.
+                let [Some(a), Some(b)] =
+                    [e.0, e.1].map(|v| gatherer.spot(&d.sites[v as usize], visible_fraction))
+                else {
+                    return deviation;
+                };
+                let correlated = correlated_departure(gatherer, [&spot, &a, &b]);
+                deviation.max(correlated / reference)
             });
             (at_midpoint.max(indirect), found, lit)
         };
@@ -694,6 +711,31 @@ fn read_coarse(r: &mut Reader) -> Option<(u64, Rgb)> {
     let ([some], k) = (r.bytes(), r.u64());
     let d = [r.f64(), r.f64(), r.f64()];
     (some != 0).then_some((k, d))
+}
+
+/// Normals whose cosine is at least this are the same for [`correlated_departure`]: their
+/// frames, and so their rays' directions, agree.
+const SAME_NORMAL: f64 = 1.0 - 1e-9;
+
+/// How far the reflected indirect light at an edge's midpoint `m` departs from the mean of its
+/// ends' (`a`, `b`), ray by ray in the cheap estimate
+/// ([`Gatherer::coarse_indirect`]: the same directions from all three), less [`SIGNIFICANCE`]
+/// standard errors of the rays' differences (an upper bound of it: the rays are stratified),
+/// at least 0; luminance. 0 unless all three have the same normal. Where the three points see the same surfaces most of the rays' noise cancels in
+/// the differences, and a departure of a few per cent shows with 16 rays that alone carry a
+/// noise of 10–25 %: the middle of a seat's underside, lit by the floor, between two corners
+/// that see the legs' dark tops 5 mm away.
+fn correlated_departure(gatherer: &Gatherer, [m, a, b]: [&super::sites::Spot; 3]) -> f64 {
+    if a.n.dot(m.n) < SAME_NORMAL || b.n.dot(m.n) < SAME_NORMAL {
+        return 0.0;
+    }
+    let [m, a, b] = [m, a, b].map(|s| gatherer.coarse_indirect(s));
+    let k = COARSE_RAYS as f64;
+    let d: [f64; COARSE_RAYS] =
+        std::array::from_fn(|r| f64::from(m[r]) - 0.5 * (f64::from(a[r]) + f64::from(b[r])));
+    let mean = d.iter().sum::<f64>() / k;
+    let spread = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1.0);
+    (mean.abs() - SIGNIFICANCE * (spread / k).sqrt()).max(0.0)
 }
 
 /// An edge to split, and why.
@@ -1176,6 +1218,88 @@ mod tests {
         // Under the plate's centre ~0.25 % of the open value (above); a quarter leaves room
         // for the gather's noise and for a vertex a little off the centre.
         assert!(y(0) < 0.25 * y(1), "centre {} against open {}", y(0), y(1));
+    }
+
+    #[test]
+    fn the_indirect_light_ray_by_ray_finds_a_bright_middle_between_shaded_ends() {
+        // A receiver (ρ = 0.5, z = 0, facing up) under the CIE overcast sky, whose radiance
+        // falls from the zenith to a third at the horizon, so that what one ray brings varies
+        // by a factor of 3. Two black plates, 4 cm square, hover 5 mm above two of its corners
+        // (a leg's top under a seat, upside down): at the plates' inner corners they fill
+        // most of a quadrant of the hemisphere, and the edge between those two points is
+        // about a third darker at its ends than at its open middle. Nothing emits: there is
+        // no direct light, and the ends are alike, so only the indirect light's test can
+        // find the middle.
+        let (side, leg) = (0.45, 0.04);
+        let mut b = SceneBuilder::new();
+        let rcv = b.material("receiver", [RHO; 3], [0.0; 3]);
+        let black = b.material("plate", [0.0; 3], [0.0; 3]);
+        let rect = |z: f64, (x0, x1): (f64, f64), up: bool| {
+            let c = [
+                DVec3::new(x0, x0, z),
+                DVec3::new(x1, x0, z),
+                DVec3::new(x1, x1, z),
+                DVec3::new(x0, x1, z),
+            ];
+            if up {
+                c
+            } else {
+                [c[0], c[3], c[2], c[1]]
+            }
+        };
+        b.quad(rect(0.0, (0.0, side), true), rcv);
+        b.quad(rect(0.005, (0.0, leg), false), black);
+        b.quad(rect(0.005, (side - leg, side), false), black);
+        let scene = b.build().unwrap();
+        let patches = crate::mesh::subdivide(&scene, 0.1, 0.0).unwrap();
+        let radiance = vec![[0.0; 3]; patches.len()];
+        let env = crate::scene::Environment {
+            sky: [1.0; 3],
+            sky_model: crate::scene::SkyModel::Overcast,
+            up: crate::scene::Up::Z,
+            ..crate::scene::Environment::default()
+        };
+        let gatherer = |seed| crate::gather::Gatherer::new(&scene, &patches, &radiance, &env, seed);
+        let at = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        let mid = |[a, b]: [DVec3; 2]| 0.5 * (a + b);
+        // The oracle: the reflected indirect light by 4,096 rays (its noise ≈ 0.3 %).
+        let oracle = gatherer(99);
+        let indirect = |x: DVec3| {
+            luminance(
+                oracle
+                    .at_point(x, DVec3::Z, 4096, 7)
+                    .expect("on the receiver")
+                    .indirect,
+            )
+        };
+        let near = [at(leg, leg), at(side - leg, side - leg)];
+        let across = [at(0.1, 0.35), at(0.35, 0.1)];
+        let ends = 0.5 * (indirect(near[0]) + indirect(near[1]));
+        let between = indirect(mid(near)) - ends;
+        // The setting's premise: the middle is far more than τ brighter.
+        assert!(between > 0.2 * ends, "{between} over {ends}");
+        for seed in 0..16 {
+            let g = gatherer(seed);
+            let departure = |e: [DVec3; 2]| {
+                let [m, a, b] = [mid(e), e[0], e[1]].map(|x| g.spot_at(x, DVec3::Z).unwrap());
+                super::correlated_departure(&g, [&m, &a, &b])
+            };
+            // Found, past τ of the ends' light, and not more than there is: 2 standard
+            // errors of the rays' differences come off their mean, which 16 rays leave within
+            // a fifth of the truth here (the blocked rays are 4 to 6 of 16, by the jitter).
+            let found = departure(near);
+            assert!(
+                found > super::DEFAULT_TOLERANCE * ends && found < 1.2 * between,
+                "seed {seed}: {found} against {between} (τ × ends {})",
+                super::DEFAULT_TOLERANCE * ends
+            );
+            // Across the open middle the light is smooth and the rays agree: nothing found.
+            assert_eq!(
+                departure(across),
+                0.0,
+                "seed {seed}: across the open middle"
+            );
+        }
     }
 
     #[test]
