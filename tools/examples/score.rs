@@ -2,13 +2,29 @@
 //! each bake sees (vertex colours interpolated), at the probes, against their path-traced
 //! radiance. `cargo run --release -p radiosity-tools --example score -- PROBES.csv BAKE.ply…`
 //! With `SCORE_DUMP=FILE`, each probe's triangle and reference and shown luminance are also
-//! written to FILE as CSV (the last bake's), to break the error down by surface.
+//! written to FILE as CSV (the last bake's), to break the error down by surface. With
+//! `TRACE=SCENE TRACE_SECONDS=S`, the path tracer that made the references, given S seconds
+//! (wall clock, on this machine, nothing else running) and another seed, is scored the same
+//! way: the bake's error against a tracer's at equal time (the scene's own lights only).
 
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use radiosity::io::ply;
-use radiosity::validation::pointwise::{self, Display};
+use radiosity::scene::Scene;
+use radiosity::validation::pointwise::{self, Display, Score};
+
+/// One row of the table: what was scored, and how.
+fn row(what: &str, s: &Score) {
+    println!(
+        "| {what} | {} | {:.2} % | {:.2} % | {:.2} % | {:+.2} % |",
+        s.scored,
+        100.0 * s.rms,
+        100.0 * s.median,
+        100.0 * s.p90,
+        100.0 * s.bias
+    );
+}
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -35,15 +51,22 @@ fn main() -> Result<()> {
             }
             std::fs::write(&dump, csv).with_context(|| format!("writing {dump:?}"))?;
         }
-        let s = pointwise::score(&probes, &shown);
-        println!(
-            "| {bake} | {} | {:.2} % | {:.2} % | {:.2} % | {:+.2} % |",
-            s.scored,
-            100.0 * s.rms,
-            100.0 * s.median,
-            100.0 * s.p90,
-            100.0 * s.bias
-        );
+        row(bake, &pointwise::score(&probes, &shown));
+    }
+    if let (Some(scene), Some(seconds)) =
+        (std::env::var_os("TRACE"), std::env::var_os("TRACE_SECONDS"))
+    {
+        let seconds = seconds.to_string_lossy();
+        let seconds: f64 = seconds
+            .parse()
+            .ok()
+            .filter(|s: &f64| s.is_finite() && *s > 0.0)
+            .with_context(|| format!("TRACE_SECONDS={seconds}: not a positive number"))?;
+        let scene = Scene::load(Path::new(&scene))?;
+        let (traced, paths) = pointwise::trace_for(&scene, &probes, seconds, 7);
+        let traced: Vec<_> = traced.into_iter().map(Some).collect();
+        let what = format!("path tracer, {seconds} s ({paths} paths a probe)");
+        row(&what, &pointwise::score(&probes, &traced));
     }
     Ok(())
 }
