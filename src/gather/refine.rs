@@ -929,6 +929,7 @@ mod tests {
     use glam::DVec3;
 
     use crate::color::luminance;
+    use crate::gather::tests::square;
     use crate::geometry::kernel::point_to_polygon;
     use crate::pipeline::{self, Outcome, Settings};
     use crate::sampling::Rng;
@@ -1172,23 +1173,10 @@ mod tests {
         let rcv = b.material("receiver", [RHO; 3], [0.0; 3]);
         let src = b.material("source", [0.0; 3], [LE; 3]);
         let black = b.material("black", [0.0; 3], [0.0; 3]);
-        let rect = |z: f64, (x0, x1): (f64, f64), up: bool| {
-            let c = [
-                DVec3::new(x0, x0, z),
-                DVec3::new(x1, x0, z),
-                DVec3::new(x1, x1, z),
-                DVec3::new(x0, x1, z),
-            ];
-            if up {
-                c
-            } else {
-                [c[0], c[3], c[2], c[1]]
-            }
-        };
-        b.quad(rect(0.0, (0.0, 1.0), true), rcv);
-        b.quad(rect(1.0, (-1.0, 2.0), false), white);
-        b.quad(rect(0.95, (0.3, 0.7), true), src);
-        b.quad(rect(0.005, (0.4, 0.6), false), black); // facing the receiver
+        b.quad(square(0.0, 0.0, 1.0, 0.0, true), rcv);
+        b.quad(square(-1.0, -1.0, 3.0, 1.0, false), white);
+        b.quad(square(0.3, 0.3, 0.4, 0.95, true), src);
+        b.quad(square(0.4, 0.4, 0.2, 0.005, false), black); // facing the receiver
         let scene = b.build().unwrap();
         let settings = Settings {
             max_edge: Some(2.0),
@@ -1234,22 +1222,10 @@ mod tests {
         let mut b = SceneBuilder::new();
         let rcv = b.material("receiver", [RHO; 3], [0.0; 3]);
         let black = b.material("plate", [0.0; 3], [0.0; 3]);
-        let rect = |z: f64, (x0, x1): (f64, f64), up: bool| {
-            let c = [
-                DVec3::new(x0, x0, z),
-                DVec3::new(x1, x0, z),
-                DVec3::new(x1, x1, z),
-                DVec3::new(x0, x1, z),
-            ];
-            if up {
-                c
-            } else {
-                [c[0], c[3], c[2], c[1]]
-            }
-        };
-        b.quad(rect(0.0, (0.0, side), true), rcv);
-        b.quad(rect(0.005, (0.0, leg), false), black);
-        b.quad(rect(0.005, (side - leg, side), false), black);
+        b.quad(square(0.0, 0.0, side, 0.0, true), rcv);
+        b.quad(square(0.0, 0.0, leg, 0.005, false), black);
+        let far = side - leg;
+        b.quad(square(far, far, leg, 0.005, false), black);
         let scene = b.build().unwrap();
         let patches = crate::mesh::subdivide(&scene, 0.1, 0.0).unwrap();
         let radiance = vec![[0.0; 3]; patches.len()];

@@ -132,7 +132,7 @@ fn a_vertex_in_full_shadow_gets_no_direct_light() {
 
 /// The square [x0, x0 + side] × [y0, y0 + side] in the plane at height `z`, counter-clockwise
 /// seen from above (`up`: its front faces +z) or from below.
-fn square(x0: f64, y0: f64, side: f64, z: f64, up: bool) -> [DVec3; 4] {
+pub(super) fn square(x0: f64, y0: f64, side: f64, z: f64, up: bool) -> [DVec3; 4] {
     let c = [
         DVec3::new(x0, y0, z),
         DVec3::new(x0 + side, y0, z),

@@ -38,13 +38,7 @@ fn main() -> Result<()> {
     let probes = pointwise::read_csv(Path::new(probes))?;
     let scene = Scene::load(Path::new(scene))?;
     let mut settings = Settings::default();
-    if let Some(x) = std::env::var_os("MAX_EDGE") {
-        let x = x.to_string_lossy();
-        let edge: f64 = x
-            .parse()
-            .ok()
-            .filter(|e: &f64| e.is_finite() && *e > 0.0)
-            .with_context(|| format!("MAX_EDGE={x}: not a positive length"))?;
+    if let Some(edge) = radiosity_tools::positive_env("MAX_EDGE", "length")? {
         settings.max_edge = Some(edge);
     }
     if let Some(m) = std::env::var_os("METHOD") {

@@ -53,20 +53,14 @@ fn main() -> Result<()> {
         }
         row(bake, &pointwise::score(&probes, &shown));
     }
-    if let (Some(scene), Some(seconds)) =
-        (std::env::var_os("TRACE"), std::env::var_os("TRACE_SECONDS"))
-    {
-        let seconds = seconds.to_string_lossy();
-        let seconds: f64 = seconds
-            .parse()
-            .ok()
-            .filter(|s: &f64| s.is_finite() && *s > 0.0)
-            .with_context(|| format!("TRACE_SECONDS={seconds}: not a positive number"))?;
-        let scene = Scene::load(Path::new(&scene))?;
-        let (traced, paths) = pointwise::trace_for(&scene, &probes, seconds, 7);
-        let traced: Vec<_> = traced.into_iter().map(Some).collect();
-        let what = format!("path tracer, {seconds} s ({paths} paths a probe)");
-        row(&what, &pointwise::score(&probes, &traced));
+    if let Some(scene) = std::env::var_os("TRACE") {
+        if let Some(seconds) = radiosity_tools::positive_env("TRACE_SECONDS", "number")? {
+            let scene = Scene::load(Path::new(&scene))?;
+            let (traced, paths) = pointwise::trace_for(&scene, &probes, seconds, 7);
+            let traced: Vec<_> = traced.into_iter().map(Some).collect();
+            let what = format!("path tracer, {seconds} s ({paths} paths a probe)");
+            row(&what, &pointwise::score(&probes, &traced));
+        }
     }
     Ok(())
 }

@@ -20,6 +20,21 @@ pub fn root() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
 }
 
+/// The environment variable `name` as a positive, finite number, `None` where it is unset; an
+/// error naming it and its value otherwise (`what` says what it should be: "length").
+pub fn positive_env(name: &str, what: &str) -> Result<Option<f64>> {
+    let Some(value) = std::env::var_os(name) else {
+        return Ok(None);
+    };
+    let value = value.to_string_lossy();
+    let x = value
+        .parse()
+        .ok()
+        .filter(|x: &f64| x.is_finite() && *x > 0.0)
+        .with_context(|| format!("{name}={value}: not a positive {what}"))?;
+    Ok(Some(x))
+}
+
 /// What every harness's command line has: `--quick` (a smaller sweep), `--out DIR` (where the
 /// results go) and `--help`; `cargo bench` adds `--bench`, which is ignored. Every other word is
 /// kept, in order, in `other` for the harness to read (sections, internal options).
