@@ -619,13 +619,11 @@ impl Gatherer<'_> {
     pub(crate) fn coarse_indirect(&self, spot: &Spot) -> [f32; COARSE_RAYS] {
         let mut rng = Rng::new(&[self.seed, 0xC0A7_5E1D]);
         let rho = self.patches.reflectance[spot.patch as usize];
-        let sky = self.env.sky.iter().any(|&l| l > 0.0);
         let mut out = [0.0; COARSE_RAYS];
         let mut k = 0;
         self.first_hits(spot, COARSE_RAYS, &mut rng, |dir, hit| {
             let l = match hit {
-                None if sky => self.env.escaped(dir),
-                None => [0.0; 3],
+                None => self.env.escaped(dir),
                 Some(hit) => {
                     let h = hit.patch as usize;
                     if self.patches.normal[h].dot(dir) >= 0.0 {
