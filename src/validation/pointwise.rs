@@ -22,7 +22,9 @@
 //!    median and 90th percentile of |e|, and the mean e (a bias).
 //!
 //! [`trace_for`] gives the same tracer a time budget at the same points: the equal-time
-//! comparison of a bake with path tracing. Every estimate is keyed by (seed, probe, batch), so
+//! comparison of a bake with path tracing, the tracer spending all of it on the probes;
+//! [`trace_for_frame`] gives the probes only their share of a frame of more points, as a
+//! renderer of one view would. Every estimate is keyed by (seed, probe, batch), so
 //! a fixed seed gives the same numbers for any thread count.
 
 use std::path::Path;
@@ -292,12 +294,44 @@ pub fn trace_for_lit(
     seconds: f64,
     seed: u64,
 ) -> (Vec<Rgb>, u32) {
+    trace_share(scene, env, probes, seconds, 1.0, seed)
+}
+
+/// The same path tracer given `seconds` (wall clock, its set-up included) for a frame of
+/// `points` ≥ the probes' number, scored at the probes: after the set-up, the probes get
+/// their share of the time, probes / `points` of it, as a frame's pixels would each get theirs
+/// (a pixel's paths do not depend on the other pixels', so the probes are a sample of such a
+/// frame). What a renderer of one view shows in the seconds a bake of every surface takes.
+pub fn trace_for_frame(
+    scene: &Scene,
+    probes: &[Probe],
+    seconds: f64,
+    points: f64,
+    seed: u64,
+) -> (Vec<Rgb>, u32) {
+    assert!(points >= probes.len() as f64, "a frame holds its probes");
+    let share = probes.len() as f64 / points;
+    trace_share(scene, &Environment::default(), probes, seconds, share, seed)
+}
+
+/// Rounds of a few paths at every probe until `share` of `seconds` after the tracer's set-up
+/// is spent (the set-up counted in full).
+fn trace_share(
+    scene: &Scene,
+    env: &Environment,
+    probes: &[Probe],
+    seconds: f64,
+    share: f64,
+    seed: u64,
+) -> (Vec<Rgb>, u32) {
     const ROUND: u32 = 4;
     let start = Instant::now();
     let tracer = Tracer::new(scene).lit_by(env);
+    let set_up = start.elapsed().as_secs_f64();
+    let budget = set_up + share * (seconds - set_up).max(0.0);
     let mut sums = vec![Sums::default(); probes.len()];
     let mut round = 0u64;
-    while round == 0 || start.elapsed().as_secs_f64() < seconds {
+    while round == 0 || start.elapsed().as_secs_f64() < budget {
         sums.par_iter_mut().enumerate().for_each(|(k, s)| {
             s.add(
                 &tracer,
@@ -634,6 +668,24 @@ mod tests {
         display.face_radiance.extend(&fronts.face_radiance);
         for s in display.at(&probes) {
             assert_eq!(s.map(|s| s.interpolated), Some(front));
+        }
+    }
+
+    #[test]
+    fn a_frame_of_many_points_gives_the_probes_their_share_of_the_time() {
+        // Half a second for the probes alone runs thousands of rounds on two plates; as a
+        // frame of 10⁶ points the probes get 50/10⁶ of it after the set-up (25 µs: one round,
+        // or a few). Each returns finite, non-negative radiance at every probe.
+        let scene = scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
+        let probes = sample_points(&scene, 50, 3).unwrap();
+        let (alone, alone_paths) = trace_for(&scene, &probes, 0.5, 1);
+        let (frame, frame_paths) = trace_for_frame(&scene, &probes, 0.5, 1e6, 1);
+        assert!(
+            10 * frame_paths < alone_paths,
+            "{frame_paths} paths a probe in a frame, {alone_paths} alone"
+        );
+        for l in alone.iter().chain(&frame) {
+            assert!(l.iter().all(|c| c.is_finite() && *c >= 0.0), "{l:?}");
         }
     }
 

@@ -6,6 +6,12 @@
 //! `TRACE=SCENE TRACE_SECONDS=S`, the path tracer that made the references, given S seconds
 //! (wall clock, on this machine, nothing else running) and another seed, is scored the same
 //! way: the bake's error against a tracer's at equal time (the scene's own lights only).
+//! That tracer spends all S seconds on the probes alone, where a bake lights every surface.
+//! With `TRACE_POINTS=N` as well (N ≥ the probes), it is given the share of S that N points
+//! would each get after its set-up, probes / N of the rest: the error of a tracer rendering a frame of N pixels in S
+//! seconds, read at the probes' pixels (each pixel's paths are independent of the others', so
+//! the probes are a sample of such a frame's points; Mitsuba's 256 × 256 frame at equal time,
+//! BENCHMARKS.md, is N = 65,536).
 
 use std::path::Path;
 
@@ -56,9 +62,23 @@ fn main() -> Result<()> {
     if let Some(scene) = std::env::var_os("TRACE") {
         if let Some(seconds) = radiosity_tools::positive_env("TRACE_SECONDS", "number")? {
             let scene = Scene::load(Path::new(&scene))?;
-            let (traced, paths) = pointwise::trace_for(&scene, &probes, seconds, 7);
+            let ((traced, paths), frame) =
+                match radiosity_tools::positive_env("TRACE_POINTS", "count")? {
+                    Some(n) if n < probes.len() as f64 => anyhow::bail!(
+                        "TRACE_POINTS={n}: fewer points than the {} probes",
+                        probes.len()
+                    ),
+                    Some(n) => (
+                        pointwise::trace_for_frame(&scene, &probes, seconds, n, 7),
+                        format!(", a frame of {n} points"),
+                    ),
+                    None => (
+                        pointwise::trace_for(&scene, &probes, seconds, 7),
+                        String::new(),
+                    ),
+                };
             let traced: Vec<_> = traced.into_iter().map(Some).collect();
-            let what = format!("path tracer, {seconds} s ({paths} paths a probe)");
+            let what = format!("path tracer, {seconds} s{frame} ({paths} paths a probe)");
             row(&what, &pointwise::score(&probes, &traced));
         }
     }
