@@ -31,9 +31,9 @@
 //! sky by the direction samples only, so nothing is counted twice.
 //!
 //! The mean over a surface is the average of L at points drawn uniformly by area
-//! (stratified); points buried in contact geometry ([`Visibility::buried`]'s test,
-//! a normal ray that first meets a back face) see nothing and count as dark, so
-//! [`SurfaceMean::mean`] is the mean over the whole surface (what its area emits and
+//! (stratified); points buried in contact geometry ([`Visibility::buried`]'s test: a
+//! normal ray that first meets a back face, or a surface lying face to face) see nothing
+//! and count as dark, so [`SurfaceMean::mean`] is the mean over the whole surface (what its area emits and
 //! reflects in total) and [`SurfaceMean::visible_mean`] the mean over its visible part. Each
 //! comes with its standard error. Facet normals only: this is a reference for flat scenes.
 
@@ -516,13 +516,18 @@ impl<'a> Tracer<'a> {
         self.emitter_pick[e] / self.area[e] * r2 / cy
     }
 
-    /// True when the first surface straight along x's normal is seen from behind (`x` lies
-    /// inside a closed object or under a surface resting on it): the test of
-    /// [`Visibility::buried`] and of the gather, [`Visibility::first_hit_from_behind`],
-    /// so a point inside objects that touch along coincident faces (a table leg under its
-    /// top) is buried whichever of the two faces the rounding puts first.
+    /// True when `x` on triangle `t` is buried: the bake's own test, [`Visibility::buried`]
+    /// (the form factors', the hierarchy's and the gather's). The first surface straight
+    /// along x's normal is seen from behind (`x` lies inside a closed object or under a
+    /// surface resting on it; of objects that touch along coincident faces, a table leg under
+    /// its top, whichever face the rounding puts first), or another surface passes through
+    /// `x` facing it ([`Visibility::lies_face_to_face`]: a leg's bottom on the floor, a
+    /// cabinet's back flush against a one-sided wall). Without the second, a cabinet's back
+    /// against an outer wall of a daylit room passed for visible, and its paths, leaving
+    /// through the wall's plane at distance 0, read about half the sky: a reference neither
+    /// the bake nor a viewer could show.
     pub(crate) fn buried(&self, t: usize, x: DVec3) -> bool {
-        self.vis.first_hit_from_behind(x, self.normal[t], t as u32) == Some(true)
+        self.vis.buried(x, self.normal[t], t as u32)
     }
 }
 
@@ -616,6 +621,98 @@ mod tests {
             let (t, q) = floor(x, y);
             assert!(!tracer.buried(t, q), "beside the leg at ({x}, {y})");
         }
+    }
+
+    #[test]
+    fn a_back_flush_against_a_one_sided_wall_is_buried_and_never_a_probe() {
+        // A one-sided wall x = 0 facing +x with open space behind it, and a cabinet's back
+        // face lying on it, facing −x. The back's normal ray leaves through the wall's plane
+        // at distance 0 and meets nothing: only the face-to-face half of the bake's test buries
+        // it (and the wall behind the cabinet). Before, the sampler drew probes there, whose
+        // paths read about half the sky.
+        use crate::scene::SceneBuilder;
+        use crate::validation::pointwise::sample_points;
+        use glam::dvec3;
+        let mut b = SceneBuilder::new();
+        let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+        let light = b.material("light", [0.0; 3], [1.0; 3]);
+        // The wall (y, z in [0, 2]), counter-clockwise seen from +x.
+        b.quad(
+            [
+                [0.0, 0.0, 0.0],
+                [0.0, 2.0, 0.0],
+                [0.0, 2.0, 2.0],
+                [0.0, 0.0, 2.0],
+            ]
+            .map(DVec3::from),
+            grey,
+        );
+        // The cabinet's back (y, z in [0.5, 1.5]), counter-clockwise seen from −x.
+        b.quad(
+            [
+                [0.0, 0.5, 0.5],
+                [0.0, 0.5, 1.5],
+                [0.0, 1.5, 1.5],
+                [0.0, 1.5, 0.5],
+            ]
+            .map(DVec3::from),
+            grey,
+        );
+        // A lamp in front of the wall, facing it.
+        b.quad(
+            [
+                [3.0, 0.0, 0.0],
+                [3.0, 0.0, 2.0],
+                [3.0, 2.0, 2.0],
+                [3.0, 2.0, 0.0],
+            ]
+            .map(DVec3::from),
+            light,
+        );
+        let scene = b.build().unwrap();
+        let tracer = Tracer::new(&scene);
+        // Triangles 0, 1: the wall; 2, 3: the cabinet's back.
+        let on = |ts: [usize; 2], p: DVec3| {
+            let t = ts
+                .into_iter()
+                .find(|&t| {
+                    let [a, b, c] = scene.triangles[t]
+                        .vertices
+                        .map(|v| scene.positions[v as usize]);
+                    let w = crate::mesh::barycentric(p, [a, b, c]);
+                    w.iter().all(|&w| w >= 0.0)
+                })
+                .unwrap();
+            (t, p)
+        };
+        for (y, z) in [(1.0, 1.0), (0.6, 1.4), (1.2, 0.7)] {
+            let (t, p) = on([2, 3], dvec3(0.0, y, z));
+            assert!(tracer.buried(t, p), "the cabinet's back at ({y}, {z})");
+            let (t, p) = on([0, 1], dvec3(0.0, y, z));
+            assert!(
+                tracer.buried(t, p),
+                "the wall behind the cabinet at ({y}, {z})"
+            );
+        }
+        for (y, z) in [(0.2, 0.2), (1.8, 1.0), (1.0, 1.8)] {
+            let (t, p) = on([0, 1], dvec3(0.0, y, z));
+            assert!(
+                !tracer.buried(t, p),
+                "the wall beside the cabinet at ({y}, {z})"
+            );
+        }
+        let probes = sample_points(&scene, 300, 4).unwrap();
+        assert!(
+            probes.iter().all(|p| p.triangle < 2),
+            "a probe on the cabinet's back"
+        );
+        assert!(
+            probes
+                .iter()
+                .all(|p| !(0.5..=1.5).contains(&p.position.y)
+                    || !(0.5..=1.5).contains(&p.position.z)),
+            "a probe on the wall behind the cabinet"
+        );
     }
 
     #[test]

@@ -140,6 +140,17 @@ pub fn sample_points(scene: &Scene, n: usize, seed: u64) -> Result<Vec<Probe>> {
     Ok(probes)
 }
 
+/// Whether each probe is buried by [`sample_points`]' test (the bake's,
+/// [`crate::visibility::Visibility::buried`]): stored probe sets drawn before a change of
+/// that test are filtered by it, keeping their references.
+pub fn buried(scene: &Scene, probes: &[Probe]) -> Vec<bool> {
+    let tracer = Tracer::new(scene);
+    probes
+        .iter()
+        .map(|p| tracer.buried(p.triangle as usize, p.position))
+        .collect()
+}
+
 /// Running sums of one probe's path estimates.
 #[derive(Clone, Copy, Default)]
 struct Sums {

@@ -9,6 +9,8 @@
 //! and materials (transmittance included) and, as the bake takes them, a uniform grey sky of
 //! radiance L (W·sr⁻¹·m⁻²) and the sun (degrees, W·m⁻²) about the up axis (y by default);
 //! not lamps files.
+//! `probes SCENE OUT.csv --refilter IN.csv` writes IN.csv's probes without those the
+//! sampler's burial test leaves out now (`pointwise::buried`), their references unchanged.
 
 use std::path::Path;
 
@@ -22,6 +24,7 @@ fn main() -> Result<()> {
     let mut positional = Vec::new();
     let mut env = Environment::default();
     let mut seed = 1;
+    let mut refilter = None;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut value = || {
@@ -54,6 +57,7 @@ fn main() -> Result<()> {
                 }
             }
             "--seed" => seed = value()?.parse().context("--seed: a whole number")?,
+            "--refilter" => refilter = Some(value()?),
             _ => positional.push(a),
         }
     }
@@ -69,6 +73,23 @@ fn main() -> Result<()> {
         .map_or(Ok(0.01), |s| s.parse())
         .context(usage)?;
     let scene = Scene::load(Path::new(scene_path))?;
+    if let Some(input) = refilter {
+        let probes = pointwise::read_csv(Path::new(&input))?;
+        let buried = pointwise::buried(&scene, &probes);
+        let kept: Vec<_> = probes
+            .into_iter()
+            .zip(&buried)
+            .filter(|(_, &b)| !b)
+            .map(|(p, _)| p)
+            .collect();
+        pointwise::write_csv(Path::new(out), &kept)?;
+        let left = buried.iter().filter(|&&b| b).count();
+        println!(
+            "{input}: {left} buried probes left out, {} kept: {out}",
+            kept.len()
+        );
+        return Ok(());
+    }
     let mut probes = pointwise::sample_points(&scene, n, seed)?;
     let settings = ReferenceSettings {
         relative_error: error,
