@@ -5,8 +5,9 @@
 //!
 //! 1. **Probes** ([`sample_points`]): `n` points drawn uniformly by area over the scene's
 //!    triangles (fixed seed), leaving out emitters (their radiance is their own Le, no test of
-//!    the solve) and buried points (the floor under a block: no viewer sees them; the test of
-//!    [`path_tracer`](super::path_tracer)).
+//!    the solve) and buried points (the floor under a block, a cabinet's back flush against
+//!    a wall: no viewer sees them; the bake's own test, as [`path_tracer`](super::path_tracer)
+//!    applies it).
 //! 2. **Reference** ([`trace_reference`]): outgoing radiance at each probe from the independent
 //!    path tracer ([`super::path_tracer`], next-event estimation with MIS), paths added per
 //!    probe until the standard error of its luminance is at most a target fraction of it
