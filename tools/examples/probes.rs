@@ -20,7 +20,8 @@ use radiosity::validation::pointwise::{self, ReferenceSettings};
 
 fn main() -> Result<()> {
     let usage =
-        "usage: probes SCENE OUT.csv [N] [ERROR] [--sky L] [--sun AZ,EL,E] [--up x|y|z] [--seed S]";
+        "usage: probes SCENE OUT.csv [N] [ERROR] [--sky L] [--sun AZ,EL,E] [--up x|y|z] [--seed S] \
+         | probes SCENE OUT.csv --refilter IN.csv";
     let mut positional = Vec::new();
     let mut env = Environment::default();
     let mut seed = 1;
