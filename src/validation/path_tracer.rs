@@ -33,8 +33,8 @@
 //! The mean over a surface is the average of L at points drawn uniformly by area
 //! (stratified); points buried in contact geometry ([`Visibility::buried`]'s test: a
 //! normal ray that first meets a back face, or a surface lying face to face) see nothing
-//! and count as dark, so [`SurfaceMean::mean`] is the mean over the whole surface (what its area emits and
-//! reflects in total) and [`SurfaceMean::visible_mean`] the mean over its visible part. Each
+//! and count as dark, so [`SurfaceMean::mean`] is the mean over the whole surface (what its
+//! area emits and reflects in total) and [`SurfaceMean::visible_mean`] the mean over its visible part. Each
 //! comes with its standard error. Facet normals only: this is a reference for flat scenes.
 
 use glam::DVec3;
@@ -542,7 +542,29 @@ fn cosine_direction(n: DVec3, rng: &mut Rng) -> DVec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::SceneBuilder;
     use crate::validation::{closed_forms, scenes};
+
+    /// Adds the quadrilateral with corners `c` (counter-clockwise seen from its front).
+    fn quad(b: &mut SceneBuilder, c: [[f64; 3]; 4], material: u32) {
+        b.quad(c.map(DVec3::from), material);
+    }
+
+    /// Which of the triangles `among` holds the point `p` of their plane (the first, where `p`
+    /// lies on an edge they share; weights within rounding of 0 count as inside).
+    fn triangle_at(scene: &Scene, among: impl IntoIterator<Item = usize>, p: DVec3) -> usize {
+        among
+            .into_iter()
+            .find(|&t| {
+                let corners = scene.triangles[t]
+                    .vertices
+                    .map(|v| scene.positions[v as usize]);
+                crate::mesh::barycentric(p, corners)
+                    .iter()
+                    .all(|&w| w >= -1e-12)
+            })
+            .expect("a triangle holds the point")
+    }
 
     #[test]
     fn the_floor_under_a_leg_touching_its_table_is_buried() {
@@ -550,12 +572,10 @@ mod tests {
         // the top's underside coincide. From the floor inside the leg's footprint the ray up
         // meets the leg's top from behind and the underside from the front at the same
         // distance: buried, whichever rounds first (the gather's and the form factors' rule).
-        use crate::scene::SceneBuilder;
         use glam::dvec3;
         let mut b = SceneBuilder::new();
         let grey = b.material("grey", [0.5; 3], [0.0; 3]);
         let light = b.material("light", [0.0; 3], [1.0; 3]);
-        let quad = |b: &mut SceneBuilder, c: [[f64; 3]; 4], m| b.quad(c.map(DVec3::from), m);
         quad(
             &mut b,
             [
@@ -601,17 +621,8 @@ mod tests {
         let tracer = Tracer::new(&scene);
         let floor = |x: f64, y: f64| {
             // The floor's triangle under (x, y): the first two triangles are the floor's.
-            let t = (0..2)
-                .find(|&t| {
-                    let [a, b, c] = scene.triangles[t]
-                        .vertices
-                        .map(|v| scene.positions[v as usize]);
-                    let q = dvec3(x, y, 0.0);
-                    let side = |u: DVec3, v: DVec3| (v - u).cross(q - u).z >= 0.0;
-                    side(a, b) && side(b, c) && side(c, a)
-                })
-                .unwrap();
-            (t, dvec3(x, y, 0.0))
+            let q = dvec3(x, y, 0.0);
+            (triangle_at(&scene, 0..2, q), q)
         };
         for (x, y) in [(0.5, 0.5), (0.2, 0.9), (0.99, 0.01), (0.7, 0.3)] {
             let (t, q) = floor(x, y);
@@ -630,72 +641,59 @@ mod tests {
         // at distance 0 and meets nothing: only the face-to-face half of the bake's test buries
         // it (and the wall behind the cabinet). Before, the sampler drew probes there, whose
         // paths read about half the sky.
-        use crate::scene::SceneBuilder;
         use crate::validation::pointwise::sample_points;
         use glam::dvec3;
         let mut b = SceneBuilder::new();
         let grey = b.material("grey", [0.5; 3], [0.0; 3]);
         let light = b.material("light", [0.0; 3], [1.0; 3]);
         // The wall (y, z in [0, 2]), counter-clockwise seen from +x.
-        b.quad(
+        quad(
+            &mut b,
             [
                 [0.0, 0.0, 0.0],
                 [0.0, 2.0, 0.0],
                 [0.0, 2.0, 2.0],
                 [0.0, 0.0, 2.0],
-            ]
-            .map(DVec3::from),
+            ],
             grey,
         );
         // The cabinet's back (y, z in [0.5, 1.5]), counter-clockwise seen from −x.
-        b.quad(
+        quad(
+            &mut b,
             [
                 [0.0, 0.5, 0.5],
                 [0.0, 0.5, 1.5],
                 [0.0, 1.5, 1.5],
                 [0.0, 1.5, 0.5],
-            ]
-            .map(DVec3::from),
+            ],
             grey,
         );
         // A lamp in front of the wall, facing it.
-        b.quad(
+        quad(
+            &mut b,
             [
                 [3.0, 0.0, 0.0],
                 [3.0, 0.0, 2.0],
                 [3.0, 2.0, 2.0],
                 [3.0, 2.0, 0.0],
-            ]
-            .map(DVec3::from),
+            ],
             light,
         );
         let scene = b.build().unwrap();
         let tracer = Tracer::new(&scene);
         // Triangles 0, 1: the wall; 2, 3: the cabinet's back.
-        let on = |ts: [usize; 2], p: DVec3| {
-            let t = ts
-                .into_iter()
-                .find(|&t| {
-                    let [a, b, c] = scene.triangles[t]
-                        .vertices
-                        .map(|v| scene.positions[v as usize]);
-                    let w = crate::mesh::barycentric(p, [a, b, c]);
-                    w.iter().all(|&w| w >= 0.0)
-                })
-                .unwrap();
-            (t, p)
-        };
+        let on = |ts: std::ops::Range<usize>, p: DVec3| (triangle_at(&scene, ts, p), p);
         for (y, z) in [(1.0, 1.0), (0.6, 1.4), (1.2, 0.7)] {
-            let (t, p) = on([2, 3], dvec3(0.0, y, z));
+            let (t, p) = on(2..4, dvec3(0.0, y, z));
             assert!(tracer.buried(t, p), "the cabinet's back at ({y}, {z})");
-            let (t, p) = on([0, 1], dvec3(0.0, y, z));
+            let (t, p) = on(0..2, dvec3(0.0, y, z));
             assert!(
                 tracer.buried(t, p),
                 "the wall behind the cabinet at ({y}, {z})"
             );
         }
         for (y, z) in [(0.2, 0.2), (1.8, 1.0), (1.0, 1.8)] {
-            let (t, p) = on([0, 1], dvec3(0.0, y, z));
+            let (t, p) = on(0..2, dvec3(0.0, y, z));
             assert!(
                 !tracer.buried(t, p),
                 "the wall beside the cabinet at ({y}, {z})"

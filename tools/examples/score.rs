@@ -8,10 +8,10 @@
 //! way: the bake's error against a tracer's at equal time (the scene's own lights only).
 //! That tracer spends all S seconds on the probes alone, where a bake lights every surface.
 //! With `TRACE_POINTS=N` as well (N ≥ the probes), it is given the share of S that N points
-//! would each get after its set-up, probes / N of the rest: the error of a tracer rendering a frame of N pixels in S
-//! seconds, read at the probes' pixels (each pixel's paths are independent of the others', so
-//! the probes are a sample of such a frame's points; Mitsuba's 256 × 256 frame at equal time,
-//! BENCHMARKS.md, is N = 65,536).
+//! would each get after its set-up, probes / N of the rest: the error of a tracer rendering a
+//! frame of N pixels in S seconds, read at the probes' pixels (each pixel's paths are
+//! independent of the others', so the probes are a sample of such a frame's points;
+//! Mitsuba's 256 × 256 frame at equal time, BENCHMARKS.md, is N = 65,536).
 
 use std::path::Path;
 
