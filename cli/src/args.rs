@@ -356,6 +356,12 @@ pub struct SolveArgs {
     /// tested and left whole.
     #[arg(long, value_name = "FRACTION", allow_negative_numbers = true, default_value_t = pipeline::Settings::default().gather_tolerance, help_heading = "Final gather")]
     pub gather_tolerance: f64,
+    /// A factor on the display refinement's bound on new vertices (and its midpoint tests):
+    /// where the bound binds, as on a furnished scene under many lights, more vertices follow
+    /// more of the shadows, for about the refinement's time times the factor. In (0, 64];
+    /// --max-time sets it back to 1 first.
+    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true, default_value_t = pipeline::Settings::default().display_budget, help_heading = "Final gather")]
+    pub display_budget: f64,
     /// Longest patch edge, scene units [default: bounding-box diagonal / 16].
     #[arg(
         long,
@@ -610,6 +616,7 @@ impl SolveArgs {
             gather: self.gather,
             gather_rays: self.gather_rays,
             gather_tolerance: self.gather_tolerance,
+            display_budget: self.display_budget,
         };
         settings.validate()?;
         Ok(settings)

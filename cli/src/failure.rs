@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 39] = [
+pub const FLAGS: [(&str, &str); 40] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -57,6 +57,7 @@ pub const FLAGS: [(&str, &str); 39] = [
     ("discontinuities", "--discontinuities"),
     ("gather_rays", "--gather-rays"),
     ("gather_tolerance", "--gather-tolerance"),
+    ("display_budget", "--display-budget"),
 ];
 
 /// The flag that sets the library's setting `name`, if there is one.

@@ -124,6 +124,12 @@ pub fn budget_for(mode: Gather, rays: usize, direct: usize, vertices: usize) -> 
     }
 }
 
+/// `budget` new vertices times `factor` ([`crate::pipeline::Settings::display_budget`]),
+/// rounded down; the midpoint tests follow, [`tests_per_new_vertex`] for each.
+pub fn scaled(budget: usize, factor: f64) -> usize {
+    (budget as f64 * factor) as usize
+}
+
 /// New vertices of the `cache` gather's display refinement per output vertex, at most
 /// ([`budget_for`]): 1 / [`CACHE_TESTS_PER_NEW_VERTEX`], so that the tests evaluate the
 /// direct light as many times as the gather did at the output's vertices. A new vertex takes

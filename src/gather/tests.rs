@@ -932,6 +932,26 @@ fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
         tests <= refine::CACHE_TESTS_PER_NEW_VERTEX * most,
         "{tests} midpoint tests for at most {most} new vertices"
     );
+    // The budget binds here (within the last level's rounding), so twice the budget
+    // (`--display-budget 2`) adds more vertices, and at most twice as many.
+    assert!(
+        added + added / 10 >= most,
+        "{added} of {most}: the budget did not bind"
+    );
+    let twice = pipeline::solve_scene(
+        &scene,
+        &Settings {
+            display_budget: 2.0,
+            ..settings
+        },
+    )
+    .unwrap();
+    let added2 = twice.report.display_refinement.vertices;
+    assert_eq!(twice.report.vertices - added2, before);
+    assert!(
+        added2 > added && added2 <= 2 * most,
+        "{added2} vertices at twice the budget of {most}, {added} at once"
+    );
 }
 
 /// The `cache` gather's records beside a plate over a floor under a uniform sky, where the

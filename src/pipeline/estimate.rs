@@ -367,8 +367,9 @@ impl Estimate {
         if e.gather != Gather::None {
             let vertices = e.vertices;
             if e.gather == Gather::Cache {
+                // The refinement's part grows with its budget (--display-budget).
                 let share = if s.gather_tolerance > 0.0 {
-                    1.0
+                    CACHE_UNREFINED_SHARE + (1.0 - CACHE_UNREFINED_SHARE) * s.display_budget
                 } else {
                     CACHE_UNREFINED_SHARE
                 };
@@ -390,7 +391,10 @@ impl Estimate {
                 let mut traced = vertices as f64 * r * (1.0 + gather::EDGE_RAYS);
                 let mut points = vertices as f64;
                 if s.gather_tolerance > 0.0 {
-                    let added = gather::refine::budget(rays, direct as usize) as f64;
+                    let added = gather::refine::scaled(
+                        gather::refine::budget(rays, direct as usize),
+                        s.display_budget,
+                    ) as f64;
                     let tests = gather::refine::TESTS_PER_NEW_VERTEX as f64;
                     traced += added * (r + tests * gather::refine::TEST_RAYS as f64);
                     points += added * (1.0 + tests);
@@ -408,7 +412,10 @@ impl Estimate {
                     _ => 0,
                 };
                 let refined = if s.gather_tolerance > 0.0 {
-                    gather::refine::budget_for(e.gather, hemisphere, light_rays, vertices)
+                    gather::refine::scaled(
+                        gather::refine::budget_for(e.gather, hemisphere, light_rays, vertices),
+                        s.display_budget,
+                    )
                 } else {
                     0
                 };
@@ -556,6 +563,12 @@ pub fn fit_time_on(
     let mut s = settings.clone();
     let mut changes: Vec<String> = Vec::new();
     let mut e = first.clone();
+    // A display budget raised past the default is the first to give way.
+    if s.display_budget > 1.0 && e.gather != Gather::None && s.gather_tolerance > 0.0 {
+        s.display_budget = 1.0;
+        e = Estimate::with_pilot(scene, &s, threads, first.pilot.as_ref(), comm)?;
+        changes.push("--display-budget 1".into());
+    }
     if e.method == Method::Hierarchical {
         let mut raise = 1.0;
         while e.seconds > budget && raise < MAX_EPSILON_RAISE {

@@ -17,7 +17,9 @@ pub mod speed;
 
 pub use estimate::Estimate;
 pub use report::{Report, Seconds};
-pub use settings::{Method, Settings, WriteOptions, AUTO_MATRIX_MAX_PATCHES, MAX_FINER};
+pub use settings::{
+    Method, Settings, WriteOptions, AUTO_MATRIX_MAX_PATCHES, MAX_DISPLAY_BUDGET, MAX_FINER,
+};
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -616,11 +618,14 @@ fn bake_stage(
             mode,
             rays,
             tolerance: settings.gather_tolerance,
-            budget: gather::refine::budget_for(
-                mode,
-                rays,
-                gatherer.direct_cost_per_point(),
-                sites.len(),
+            budget: gather::refine::scaled(
+                gather::refine::budget_for(
+                    mode,
+                    rays,
+                    gatherer.direct_cost_per_point(),
+                    sites.len(),
+                ),
+                settings.display_budget,
             ),
             deadline: settings.display_deadline,
         };

@@ -144,7 +144,18 @@ pub struct Settings {
     /// The same bound limits the local fits after it, which also fit the values to the
     /// midpoints tested and left whole ([`mod@crate::gather::local_fit`]).
     pub gather_tolerance: f64,
+    /// A factor on the display refinement's bound on new vertices and on its midpoint tests
+    /// ([`crate::gather::refine::budget_for`]), in (0, [`MAX_DISPLAY_BUDGET`]]; 1 = the
+    /// default bound. Where the bound binds (a furnished scene under many lights), more
+    /// vertices follow more of the shadows, at about the refinement's cost times the factor:
+    /// the time a user trades for the picture (BENCHMARKS.md "Large outputs: the `cache`
+    /// gather" measures it).
+    pub display_budget: f64,
 }
+
+/// The largest [`Settings::display_budget`]: past it the refinement's cost, about the
+/// gather's times the factor, would dwarf the rest of any bake.
+pub const MAX_DISPLAY_BUDGET: f64 = 64.0;
 
 impl Default for Settings {
     fn default() -> Self {
@@ -169,6 +180,7 @@ impl Default for Settings {
             gather: Gather::Auto,
             gather_rays: None,
             gather_tolerance: crate::gather::refine::DEFAULT_TOLERANCE,
+            display_budget: 1.0,
         }
     }
 }
@@ -309,6 +321,15 @@ impl Settings {
                 format!("{} is not a number >= 0", self.gather_tolerance),
             ));
         }
+        if !(self.display_budget > 0.0 && self.display_budget <= MAX_DISPLAY_BUDGET) {
+            return Err(Error::setting(
+                "display_budget",
+                format!(
+                    "{} is not a factor in (0, {MAX_DISPLAY_BUDGET}]",
+                    self.display_budget
+                ),
+            ));
+        }
         if let Some(r) = self.gather_rays {
             if !(1..=65536).contains(&r) {
                 return Err(Error::setting(
@@ -360,7 +381,7 @@ mod tests {
     fn validate_names_the_first_bad_setting() {
         Settings::default().validate().unwrap();
         type Breakage = (fn(&mut Settings), &'static str);
-        let cases: [Breakage; 18] = [
+        let cases: [Breakage; 21] = [
             (|s| s.max_memory = Some(0.0), "max_memory"),
             (|s| s.max_time = Some(0.0), "max_time"),
             (|s| s.max_time = Some(f64::NAN), "max_time"),
@@ -368,6 +389,9 @@ mod tests {
             (|s| s.gather_rays = Some(0), "gather_rays"),
             (|s| s.gather_tolerance = -0.01, "gather_tolerance"),
             (|s| s.gather_tolerance = f64::INFINITY, "gather_tolerance"),
+            (|s| s.display_budget = 0.0, "display_budget"),
+            (|s| s.display_budget = f64::NAN, "display_budget"),
+            (|s| s.display_budget = 65.0, "display_budget"),
             (|s| s.max_edge = Some(0.0), "max_edge"),
             (|s| s.max_edge = Some(f64::NAN), "max_edge"),
             (|s| s.max_edge = Some(-2.0), "max_edge"),

@@ -673,6 +673,39 @@ fn a_time_budget_coarsens_the_settings_the_estimate_says_are_too_slow() {
     assert_eq!(fitted_estimate.memory_bytes, after.memory_bytes);
 }
 
+/// `--display-budget`: the estimate counts the display refinement's larger budget, and a
+/// time budget that the default display would fit gives up the larger one first (and only
+/// it: ε is left as asked).
+#[test]
+fn a_time_budget_gives_up_a_raised_display_budget_first() {
+    let scene = scenes::living_room().unwrap();
+    let s = pipeline::Settings {
+        method: Method::Hierarchical,
+        ..pipeline::Settings::default()
+    };
+    let raised = pipeline::Settings {
+        display_budget: 4.0,
+        ..s.clone()
+    };
+    let first = pipeline::Estimate::of(&scene, &s, 2).unwrap();
+    let more = pipeline::Estimate::of(&scene, &raised, 2).unwrap();
+    assert!(
+        more.gather_seconds > first.gather_seconds,
+        "{} s against {} s",
+        more.gather_seconds,
+        first.gather_seconds
+    );
+    let budget = 0.5 * (first.seconds + more.seconds);
+    let (fitted, _, said) = pipeline::estimate::fit_time(&scene, &raised, 2, budget).unwrap();
+    let said = said.expect("a sentence");
+    assert_eq!(fitted.display_budget, 1.0);
+    assert_eq!(fitted.hierarchical.epsilon, s.hierarchical.epsilon);
+    assert!(
+        said.contains("--display-budget 1") && said.contains("fits") && !said.contains("--epsilon"),
+        "{said}"
+    );
+}
+
 /// The estimate of a scene of [`pipeline::estimate::PILOT_MIN_ROOTS`] roots or more runs a
 /// pilot solve on a sample of them, on the roots the bake makes (here the living room cut to
 /// 0.3 m: 8,868 roots), and counts the links the bake's solve ends with: within 25 % (the

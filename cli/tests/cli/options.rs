@@ -152,6 +152,8 @@ fn hierarchical_method_bakes_and_checks_its_settings() {
         (&["--epsilon", "0"][..], "--epsilon"),
         (&["--min-area", "2"][..], "--min-area"),
         (&["--link-rays", "0"][..], "--link-rays"),
+        (&["--display-budget", "0"][..], "--display-budget"),
+        (&["--display-budget", "65"][..], "--display-budget"),
     ] {
         let o = hierarchical(extra);
         assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", stderr(&o));
