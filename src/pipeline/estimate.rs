@@ -256,7 +256,19 @@ impl Estimate {
                 let gathered_bytes = if gather == Gather::None {
                     0.0
                 } else {
-                    PILOTED_BYTES_PER_GATHERED_VERTEX * vertices as f64
+                    // The default display refinement is in the fitted bytes per vertex; a
+                    // raised budget (--display-budget) adds its further vertices.
+                    let more = if s.gather_tolerance > 0.0 && s.display_budget > 1.0 {
+                        let rays = s
+                            .gather_rays
+                            .map_or_else(|| gather::auto_rays(vertices, finer), |r| r as usize);
+                        let direct = gather_direct_cost(scene) as usize;
+                        let budget = gather::refine::budget_for(gather, rays, direct, vertices);
+                        (gather::refine::scaled(budget, s.display_budget) - budget) as f64
+                    } else {
+                        0.0
+                    };
+                    PILOTED_BYTES_PER_GATHERED_VERTEX * (vertices as f64 + more)
                 };
                 // The links and elements grow about as ε^-0.4 (the generated hall of 10⁴
                 // triangles between ε = 10⁻⁴ and 10⁻⁵).

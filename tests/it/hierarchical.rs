@@ -673,9 +673,9 @@ fn a_time_budget_coarsens_the_settings_the_estimate_says_are_too_slow() {
     assert_eq!(fitted_estimate.memory_bytes, after.memory_bytes);
 }
 
-/// `--display-budget`: the estimate counts the display refinement's larger budget, and a
-/// time budget that the default display would fit gives up the larger one first (and only
-/// it: ε is left as asked).
+/// `--display-budget`: the estimate counts the display refinement's larger budget, in time
+/// and in memory, and a time budget that the default display would fit gives up the larger
+/// one first (and only it: ε is left as asked).
 #[test]
 fn a_time_budget_gives_up_a_raised_display_budget_first() {
     let scene = scenes::living_room().unwrap();
@@ -703,6 +703,26 @@ fn a_time_budget_gives_up_a_raised_display_budget_first() {
     assert!(
         said.contains("--display-budget 1") && said.contains("fits") && !said.contains("--epsilon"),
         "{said}"
+    );
+    // A piloted estimate's peak memory counts the display's further vertices (the living
+    // room cut to 0.3 m: 8,868 roots; its output's vertices outweigh its links).
+    let piloted = |display_budget| pipeline::Settings {
+        method: Method::Hierarchical,
+        max_edge: Some(0.3),
+        gather: Gather::Cache,
+        display_budget,
+        ..pipeline::Settings::default()
+    };
+    let one = pipeline::Estimate::of(&scene, &piloted(1.0), 2).unwrap();
+    let eight = pipeline::Estimate::of(&scene, &piloted(8.0), 2).unwrap();
+    assert!(one.pilot.is_some());
+    assert!(
+        eight.memory_bytes > one.memory_bytes && eight.gather_seconds > one.gather_seconds,
+        "{} B, {} s against {} B, {} s",
+        eight.memory_bytes,
+        eight.gather_seconds,
+        one.memory_bytes,
+        one.gather_seconds
     );
 }
 
