@@ -460,7 +460,8 @@ impl Gatherer<'_> {
 
     /// A cheap, deterministic estimate of the reflected direct light at `spot` from the
     /// emitters `exact`: each one's unoccluded form factor (exact) times the share of its
-    /// [`COARSE_POINTS`] that a shadow ray from the spot reaches. The points are the same on
+    /// [`COARSE_POINTS`] that a shadow ray from the spot reaches; and from the sun and the
+    /// point lights, [`Environment::coarse_sharp_direct`](crate::scene::Environment::coarse_sharp_direct). The points are the same on
     /// an emitter from every receiver, so the estimates at nearby points are correlated: an
     /// edge whose ends and midpoint all see every point gets the unoccluded light at each,
     /// whose departure from linearity is small, and an occluder that hides points from the
@@ -486,6 +487,18 @@ impl Gatherer<'_> {
             let v = seen as f64 / COARSE_POINTS.len() as f64;
             for (s, le) in sum.iter_mut().zip(e.le) {
                 *s += le * f * v;
+            }
+        }
+        if self.env.has_sharp() {
+            let at = Receiver {
+                vis: self.surfaces.vis(),
+                x: spot.x,
+                n: spot.n,
+                ignore: self.surfaces.traced(spot.patch),
+                lift: self.lift,
+            };
+            for (s, d) in sum.iter_mut().zip(self.env.coarse_sharp_direct(&at)) {
+                *s += d;
             }
         }
         let rho = self.patches.reflectance[spot.patch as usize];

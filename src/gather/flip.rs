@@ -16,8 +16,8 @@
 //! - Elsewhere the cheap, correlated estimate of the direct light the refinement orders its
 //!   tests by (`Gatherer::coarse_direct`) is taken at X and the four vertices; where the
 //!   turned diagonal interpolates it better by [`MARGIN`] × τ of the local luminance (or
-//!   wherever the scene has a sun or point lights, which that estimate leaves out, and whose
-//!   shadow rays cost little), the direct light at X is computed exactly
+//!   wherever the scene has more point lights than that estimate counts, whose shadow rays
+//!   cost little), the direct light at X is computed exactly
 //!   (`Gatherer::reflected_direct`, as the refinement's midpoint tests do), and the diagonal
 //!   is turned to (c, d) when its interpolation of the vertices' direct light errs less there,
 //!   by at least [`MARGIN`] × τ of the local luminance. The direct light is the sharp part of
@@ -114,7 +114,7 @@ pub(super) fn flip_edges(
             .filter_map(|e| quad(gatherer, faces, face_patch, sites, values, &by_edge, *e))
             .filter_map(|q| screened(q, shown, tolerance, floor))
             .collect();
-        let quads = if gatherer.env.sharp_rays() > 0 {
+        let quads = if !gatherer.env.coarse_counts_all() {
             quads
         } else {
             promising(

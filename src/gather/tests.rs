@@ -1130,6 +1130,42 @@ fn the_cheap_direct_light_is_exact_where_it_is_seen_and_shows_a_shadow_between_l
 }
 
 #[test]
+fn the_cheap_direct_light_shows_the_suns_shadow_between_lit_ends() {
+    // A floor (ρ = 0.5) under the sun at the zenith (E = 1) and a black square of side 0.05
+    // at height 0.5 over the origin. The ends x = ±0.5 see the sun, the midpoint does not:
+    // the cheap estimate, one ray to the disc's centre, is ρ E / π at the ends and 0 at the
+    // midpoint, so the display's refinement tests this edge for the shadow its ends miss.
+    let mut b = SceneBuilder::new();
+    let floor = b.material("floor", [0.5; 3], [0.0; 3]);
+    let black = b.material("black", [0.0; 3], [0.0; 3]);
+    for (x0, y0) in [(-1.0, -1.0), (0.0, -1.0), (-1.0, 0.0), (0.0, 0.0)] {
+        b.quad(square(x0, y0, 1.0, 0.0, true), floor);
+    }
+    b.quad(square(-0.025, -0.025, 0.05, 0.5, false), black);
+    let scene = b.build().unwrap();
+    let patches = crate::mesh::subdivide(&scene, 0.25, 0.0).unwrap();
+    let radiance = vec![[0.0; 3]; patches.len()];
+    let env = Environment {
+        sun: Some(crate::scene::lights::Sun {
+            azimuth_degrees: 0.0,
+            elevation_degrees: 90.0,
+            irradiance: [1.0; 3],
+        }),
+        up: crate::scene::Up::Z,
+        ..Environment::default()
+    };
+    let g = Gatherer::new(&scene, &patches, &radiance, &env, 1);
+    let spot = |x: f64| g.spot_at(DVec3::new(x, 0.001, 0.0), DVec3::Z).unwrap();
+    let coarse = |s: &Spot| g.coarse_direct(s, &g.exact_emitters(s.x))[0];
+    let lit = 0.5 / std::f64::consts::PI;
+    for x in [-0.5, 0.5] {
+        let c = coarse(&spot(x));
+        assert!((c - lit).abs() < 1e-12, "{x}: {c} against {lit}");
+    }
+    assert_eq!(coarse(&spot(0.0)), 0.0);
+}
+
+#[test]
 fn a_quadrilateral_light_ranks_by_its_whole_bound() {
     // Nine lights 10 above a point, Le 1 each, facing it: eight single triangles of area
     // 0.005 around the axis and one square of area 0.0064 on it, two halves of 0.0032. Each
