@@ -614,7 +614,7 @@ mod tests {
         // The sun at the zenith over a floor point; a roof 3 above it covers the half-plane
         // beyond a straight edge at angle `turn` whose direction from the point is δ off the
         // zenith, so the roof hides the segment of the disc (angular radius α) beyond δ: a
-        // share (θ − sin θ cos θ)/π with cos θ = δ/α (plane geometry: the disc spans 0.27°,
+        // share (θ − sin θ cos θ)/π with cos θ = δ/α (plane geometry: the disc's radius is 0.27°,
         // where the sphere's curvature changes the share by about α² ≈ 2e-5).
         let env = Environment {
             sun: Some(Sun {
