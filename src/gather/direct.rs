@@ -461,13 +461,14 @@ impl Gatherer<'_> {
     /// A cheap, deterministic estimate of the reflected direct light at `spot` from the
     /// emitters `exact`: each one's unoccluded form factor (exact) times the share of its
     /// [`COARSE_POINTS`] that a shadow ray from the spot reaches; and from the sun and the
-    /// point lights, [`Environment::coarse_sharp_direct`](crate::scene::Environment::coarse_sharp_direct). The points are the same on
-    /// an emitter from every receiver, so the estimates at nearby points are correlated: an
-    /// edge whose ends and midpoint all see every point gets the unoccluded light at each,
-    /// whose departure from linearity is small, and an occluder that hides points from the
-    /// midpoint alone (a leg's shadow between two lit vertices) shows as a departure of the
-    /// midpoint from its ends' mean. The display refinement orders its exact tests by it
-    /// ([`super::refine`]); it values nothing.
+    /// point lights,
+    /// [`Environment::coarse_sharp_direct`](crate::scene::Environment::coarse_sharp_direct).
+    /// The points are the same on an emitter from every receiver, so the estimates at nearby
+    /// points are correlated: an edge whose ends and midpoint all see every point gets the
+    /// unoccluded light at each, whose departure from linearity is small, and an occluder
+    /// that hides points from the midpoint alone (a leg's shadow between two lit vertices)
+    /// shows as a departure of the midpoint from its ends' mean. The display refinement orders
+    /// its exact tests by it ([`super::refine`]); it values nothing.
     pub(crate) fn coarse_direct(&self, spot: &Spot, exact: &[u32]) -> Rgb {
         let from = self.surfaces.point(spot.x + self.lift * spot.n);
         let mut sum = [0.0; 3];
