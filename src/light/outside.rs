@@ -277,10 +277,10 @@ impl Environment {
     /// occluder that hides the sun from a midpoint and not from its edge's ends (a chair
     /// leg's shadow between two lit vertices) shows as a departure from the ends' mean.
     pub fn coarse_sharp_direct(&self, at: &Receiver) -> Rgb {
-        // No ray below is drawn at random: the generator is never read.
-        let mut rng = Rng::new(&[0]);
-        let (mut d, _) = self.sun_points(at, 1, &mut rng, |_, _| (0.0, 0.0));
+        let (mut d, _) = self.sun_points(at, 1, |_| (0.0, 0.0));
         if self.coarse_counts_all() {
+            // No light is drawn at random (no sampled rays): the generator is never read.
+            let mut rng = Rng::new(&[0]);
             let lights = self.sharp_direct_with(at, (EXACT_LIGHTS, 0), 0, &mut rng);
             for (d, l) in d.iter_mut().zip(lights) {
                 *d += l;
@@ -306,7 +306,7 @@ impl Environment {
     /// light at a point a standard error of 9 % of the whole sun; these leave a few per cent.
     fn sun_rays(&self, at: &Receiver, rays: usize, rng: &mut Rng) -> (Rgb, bool) {
         let (rings, sectors) = sun_grid(rays);
-        self.sun_points(at, rays, rng, |k, rng| {
+        self.sun_points(at, rays, |k| {
             let (ring, sector) = (k / sectors, k % sectors);
             let u = (ring as f64 + rng.next_f64()) / rings as f64;
             let v = (sector as f64 + rng.next_f64()) / sectors as f64;
@@ -326,23 +326,22 @@ impl Environment {
         let turn = rng.next_f64();
         // u grows as the square of the angle from the disc's centre.
         let ring = SUN_PILOT_RING * SUN_PILOT_RING;
-        self.sun_points(at, SUN_PILOT, rng, |k, _| match k {
+        self.sun_points(at, SUN_PILOT, |k| match k {
             0 => (0.0, 0.0),
             _ => (ring, turn + (k - 1) as f64 / (SUN_PILOT - 1) as f64),
         })
         .1
     }
 
-    /// The sun's light at the receiver by `rays` shadow rays to the points `point(k, rng)` of
-    /// its disc, k in 0..rays, each (u, v) in [0, 1]² mapped to the disc uniformly in solid
+    /// The sun's light at the receiver by `rays` shadow rays to the points `point(k)` of its
+    /// disc, k in 0..rays, each (u, v) in [0, 1]² mapped to the disc uniformly in solid
     /// angle (cos θ = 1 − u (1 − cos α), α its angular radius; φ = 2π v), and whether the
     /// rays disagreed.
     fn sun_points(
         &self,
         at: &Receiver,
         rays: usize,
-        rng: &mut Rng,
-        mut point: impl FnMut(usize, &mut Rng) -> (f64, f64),
+        mut point: impl FnMut(usize) -> (f64, f64),
     ) -> (Rgb, bool) {
         let (Some(sun), Some(s)) = (self.sun, self.sun_direction()) else {
             return ([0.0; 3], false);
@@ -358,7 +357,7 @@ impl Environment {
         let mut seen = 0.0;
         let (mut least, mut most) = (f64::INFINITY, f64::NEG_INFINITY);
         for k in 0..rays {
-            let (u, v) = point(k, rng);
+            let (u, v) = point(k);
             let c = 1.0 - u * (1.0 - cos_max);
             let phi = 2.0 * PI * v;
             let sin = (1.0 - c * c).max(0.0).sqrt();
