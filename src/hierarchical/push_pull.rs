@@ -68,33 +68,55 @@ impl Hierarchy<'_> {
     /// children.
     pub(super) fn push_pull(&mut self, ge: Vec<Rgb>, gc: Vec<ClusterGather>, with_direct: bool) {
         let down = self.push_down(ge, gc);
+        let leaves = self.leaf_radiance(&down, with_direct);
+        drop(down);
+        self.pull(leaves);
+    }
+
+    /// Each leaf's L = Le + ρ·(D + G) from what it gathered, `down` (see [`Self::push_pull`]);
+    /// inner elements 0.
+    fn leaf_radiance(&self, down: &[Rgb], with_direct: bool) -> Vec<Rgb> {
+        let t = &self.tree;
+        (0..t.elements.len())
+            .into_par_iter()
+            .map(|e| {
+                let el = &t.elements[e];
+                if el.first_child != tree::NO_CHILD {
+                    return [0.0; 3];
+                }
+                let r = el.root as usize;
+                let norm = match self.row_sum.get(e) {
+                    Some(&s) if s > 0.0 => 1.0 / s,
+                    _ => 1.0,
+                };
+                let le = self.carried_emission(r);
+                let d = if with_direct {
+                    self.direct[e].mean
+                } else {
+                    [0.0; 3]
+                };
+                let rho = self.roots.reflectance[r];
+                std::array::from_fn(|c| le[c] + rho[c] * (d[c] + down[e][c] * norm))
+            })
+            .collect()
+    }
+
+    /// Sets every element's and cluster's radiance from the leaves' (the entries of `l` at
+    /// leaves; the others are overwritten): the pull half of push-pull. Linear in the leaves'
+    /// radiance, with fixed weights.
+    pub(super) fn pull(&mut self, mut l: Vec<Rgb>) {
         let t = &self.tree;
         let n = t.elements.len();
-        let mut l = vec![[0.0; 3]; n];
         // Radiance is pulled up weighted by visible area: a source's buried part (the floor
         // under a block) emits nothing and is seen by nobody, and its visibility rays already
         // count it as blocked, so its darkness must not dilute the visible part's radiance.
         let mut visible_area = vec![0.0; n];
         let mut lmax = vec![0.0f64; n];
         // A leaf: (L, visible area, largest channel).
-        let leaf = |e: usize| {
-            let el = &t.elements[e];
-            let r = el.root as usize;
-            let norm = match self.row_sum.get(e) {
-                Some(&s) if s > 0.0 => 1.0 / s,
-                _ => 1.0,
-            };
-            let le = self.carried_emission(r);
-            let d = if with_direct {
-                self.direct[e].mean
-            } else {
-                [0.0; 3]
-            };
-            let rho = self.roots.reflectance[r];
-            let l: Rgb = std::array::from_fn(|c| le[c] + rho[c] * (d[c] + down[e][c] * norm));
+        let leaf = |e: usize, l: Rgb| {
             (
                 l,
-                el.area * self.visible[e],
+                t.elements[e].area * self.visible[e],
                 l.iter().copied().fold(0.0, f64::max),
             )
         };
@@ -116,7 +138,7 @@ impl Hierarchy<'_> {
         for e in (roots..n).rev() {
             let i = e - roots;
             (l_tail[i], va_tail[i], lm_tail[i]) = if t.elements[e].first_child == tree::NO_CHILD {
-                leaf(e)
+                leaf(e, l_tail[i])
             } else {
                 inner(e, l_tail, va_tail, lm_tail)
             };
@@ -128,7 +150,7 @@ impl Hierarchy<'_> {
             .enumerate()
             .for_each(|(e, ((l, va), lm))| {
                 (*l, *va, *lm) = if t.elements[e].first_child == tree::NO_CHILD {
-                    leaf(e)
+                    leaf(e, *l)
                 } else {
                     inner(e, l_tail, va_tail, lm_tail)
                 };

@@ -3,7 +3,8 @@
 //! gives its children's radiance weighted by how much of F reaches each
 //! ([`Hierarchy::link_radiance`]). Push-pull ([`super::push_pull`]) then spreads what each
 //! node gathered. Sweeps repeat until the relative change per sweep is below the tolerance
-//! ([`Hierarchy::converge`]).
+//! ([`Hierarchy::converge`], which combines the last sweeps' radiance by Anderson
+//! acceleration, [`crate::solve::anderson`]).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -13,13 +14,18 @@ use super::push_pull::{add, ClusterGather};
 use super::tree::{self, Node};
 use super::{Hierarchy, ORIENTED_CONE_COS};
 use crate::color::Rgb;
-use crate::solve;
+use crate::solve::{self, anderson};
 
 impl Hierarchy<'_> {
     /// One Jacobi sweep: gather over all links from the current radiance, then push-pull.
     /// Returns the relative change ‖ΔL‖ / ‖Le‖ over the leaves (area-weighted 2-norms): the
     /// residual E − (I − K)L of the linear system the links define.
     pub fn sweep(&mut self) -> f64 {
+        self.sweep_from().0
+    }
+
+    /// [`Self::sweep`], also returning the radiance it swept from.
+    fn sweep_from(&mut self) -> (f64, Vec<Rgb>) {
         if self.rows_stale {
             self.refresh_rows();
         }
@@ -45,23 +51,57 @@ impl Hierarchy<'_> {
                 den += el.area * source * source;
             }
         }
-        if den > 0.0 {
-            (num / den).sqrt()
-        } else {
-            0.0
-        }
+        let residual = if den > 0.0 { (num / den).sqrt() } else { 0.0 };
+        (residual, old)
     }
 
     /// Sweeps until the residual is at most the tolerance or the sweep limit; true if
     /// converged.
+    ///
+    /// The sweeps are accelerated ([`anderson`]): a sweep is the affine map L ↦ E + K L over
+    /// the leaves' radiance (push-pull sets every other node's from them, linearly), and each
+    /// next iterate combines the last [`anderson::DEPTH`] + 1 sweeps' images so that their
+    /// residuals, combined alike, are smallest (GMRES-like: in a white room about a third of
+    /// the plain sweeps). The combination is clamped at 0 (the solution is ≥ 0) and the
+    /// history restarted wherever a residual grows. The residual reported and tested is the
+    /// plain one of the last sweep, and the radiance kept is that sweep's image.
     pub(super) fn converge(&mut self, solver: &solve::Settings, history: &mut Vec<f64>) -> bool {
         let mut clock = solve::SweepClock::new(solver.tolerance);
+        // Weighted as the residual is: leaves by area, inner elements not at all.
+        let weights = self
+            .tree
+            .elements
+            .iter()
+            .map(|el| {
+                if el.first_child == tree::NO_CHILD {
+                    el.area
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut accel = anderson::Anderson::new(anderson::DEPTH, weights);
+        let mut last = f64::INFINITY;
         for _ in 0..solver.max_iterations {
-            let r = self.sweep();
+            let (r, old) = self.sweep_from();
             history.push(r);
             clock.report(self.stats.sweeps, r);
             if r <= solver.tolerance {
                 return true;
+            }
+            if r > last {
+                accel.restart();
+            }
+            last = r;
+            let mut next = std::mem::take(&mut self.elem_l);
+            if accel.step(&old, &mut next) {
+                drop(old);
+                for l in &mut next {
+                    l.iter_mut().for_each(|x| *x = x.max(0.0));
+                }
+                self.pull(next);
+            } else {
+                self.elem_l = next;
             }
         }
         false

@@ -26,7 +26,7 @@ use crate::{form_factor, Result};
 const CHUNK: usize = 4096;
 
 /// Σ_i f(i) over 0..n, in chunks of [`CHUNK`] summed in order.
-fn sum<const C: usize>(n: usize, f: impl Fn(usize) -> [f64; C] + Sync) -> [f64; C] {
+pub(super) fn sum<const C: usize>(n: usize, f: impl Fn(usize) -> [f64; C] + Sync) -> [f64; C] {
     let parts: Vec<[f64; C]> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|k| {

@@ -30,6 +30,7 @@
 //! caller must not hide it. A grey scene (ρ and Le equal in the three channels on every
 //! patch) is solved in one channel and copied: a third of the arithmetic.
 
+pub mod anderson;
 pub mod cg;
 pub mod southwell;
 pub mod stationary;
