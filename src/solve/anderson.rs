@@ -18,10 +18,11 @@
 //! The differences and the previous residual are kept in f32 (at 10⁶ elements each vector is
 //! 12 MB, not 24): a difference's own relative precision is what the least-squares fit
 //! needs. The previous image, from which ΔG is taken, stays in f64: near convergence ΔG is
-//! a millionth of it. The small normal
-//! equations (m × m) are solved by Cholesky with a relative ridge of 10⁻¹⁰; a history
-//! whose columns are dependent to that level drops its oldest column. Every sum is taken in
-//! fixed chunks in a fixed order: the same iterates for any thread count.
+//! a millionth of it. The small normal equations (m × m) are solved by Cholesky with a
+//! ridge of 10⁻¹⁰ of their largest diagonal entry, which keeps them solvable where the
+//! columns are nearly dependent; where they still cannot be solved (a history that is not
+//! finite) the oldest column is dropped. Every sum is taken in fixed chunks in a fixed
+//! order: the same iterates for any thread count.
 
 use std::collections::VecDeque;
 
@@ -34,7 +35,7 @@ use crate::color::Rgb;
 pub const DEPTH: usize = 3;
 
 /// The ridge added to the normal equations' diagonal, relative to their largest diagonal
-/// entry: columns dependent to this level are dropped rather than trusted.
+/// entry: nearly dependent columns share a bounded weight instead of an arbitrary one.
 const RIDGE: f64 = 1e-10;
 
 /// The state of an accelerated iteration over `weights.len()` entries of three channels.
@@ -121,8 +122,8 @@ impl Anderson {
         false
     }
 
-    /// γ minimising ‖f − ΔF γ‖_W (f = `g` − `x`) by the normal equations, or `None` where
-    /// they are singular to the ridge's level.
+    /// γ minimising ‖f − ΔF γ‖_W (f = `g` − `x`) by the ridged normal equations, or `None`
+    /// where they cannot be solved (a history of zeros or of values that are not finite).
     fn fit(&self, x: &[Rgb], g: &[Rgb]) -> Option<DVector<f64>> {
         let m = self.df.len();
         let w = &self.weights;
