@@ -61,10 +61,11 @@ impl Hierarchy<'_> {
     /// The sweeps are accelerated ([`anderson`]): a sweep is the affine map L ↦ E + K L over
     /// the leaves' radiance (push-pull sets every other node's from them, linearly), and each
     /// next iterate combines the last [`anderson::DEPTH`] + 1 sweeps' images so that their
-    /// residuals, combined alike, are smallest (GMRES-like: in a white room about a third of
-    /// the plain sweeps). The combination is clamped at 0 (the solution is ≥ 0) and the
+    /// residuals, combined alike, are smallest (GMRES-like: in a white room a third to a sixth
+    /// of the plain sweeps). The combination is clamped at 0 (the solution is ≥ 0) and the
     /// history restarted wherever a residual grows. The residual reported and tested is the
-    /// plain one of the last sweep, and the radiance kept is that sweep's image.
+    /// plain one of the last sweep, and on convergence the radiance kept is that sweep's
+    /// image (at the sweep limit, the last combination).
     pub(super) fn converge(&mut self, solver: &solve::Settings, history: &mut Vec<f64>) -> bool {
         let mut clock = solve::SweepClock::new(solver.tolerance);
         // Weighted as the residual is: leaves by area, inner elements not at all.
