@@ -32,7 +32,9 @@
 //!    mean ([`near`]).
 //!    Refinement is interleaved with the solve (refine against the current radiance, sweep,
 //!    refine again: the multigridding of HSA91 §4.3), until a converged solution asks for no
-//!    more links.
+//!    more links. Each convergence combines the last sweeps by Anderson acceleration
+//!    (`Hierarchy::converge`, [`crate::solve::anderson`]): a Krylov method's sweeps, not
+//!    Jacobi's, where the reflectance is high.
 //! 4. **Output** ([`output`]): the leaves, triangulated conformingly (a leaf with a split
 //!    neighbour is fanned through the neighbour's edge vertices), are the output patches.
 //!
