@@ -488,13 +488,14 @@ fn hierarchical_scene(
     );
     report.seconds.patches += t.elapsed().as_secs_f64();
     let baked = match display {
-        Some((patches, radiance, visible, stats)) => {
-            report.display_contacts = Some(stats);
+        Some(cut) => {
+            report.display_contacts = Some(cut.stats);
+            report.sun_lines = cut.sun_lines;
             bake_stage(
                 scene,
-                &patches,
-                &radiance,
-                &visible,
+                &cut.patches,
+                &cut.radiance,
+                &cut.visible_fraction,
                 settings,
                 &mut report,
                 comm,
@@ -535,17 +536,15 @@ fn gather_mode(scene: &Scene, settings: &Settings, vertices: usize) -> Gather {
 }
 
 /// The hierarchical solution's output patches cut along the scene's contact lines
-/// ([`mesh::split_patches`]): the pieces with their leaves' radiance and visible fractions,
-/// and what the cut did; `None` unless `discontinuities = auto`, the scene has contacts and
-/// a gather runs on the cut output (its pieces would otherwise only show their leaves'
-/// values).
+/// ([`mesh::split_patches`]) and the sun's penumbra lines ([`mesh::sun_lines`]); `None` unless `discontinuities = auto`, the scene has such lines and a
+/// gather runs on the cut output (its pieces would otherwise only show their leaves' values).
 fn display_contacts(
     scene: &Scene,
     patches: &Patches,
     radiance: &[crate::Rgb],
     visible_fraction: &[f64],
     settings: &Settings,
-) -> Option<(Patches, Vec<crate::Rgb>, Vec<f64>, mesh::ContactStats)> {
+) -> Option<CutDisplay> {
     let crease = settings.crease_degrees.min(bake::FACET_DEGREES);
     let gathered = |patches: &Patches, radiance: &[crate::Rgb]| {
         let vertices = bake::bake_sites(patches, radiance, crease).1.len();
@@ -554,15 +553,42 @@ fn display_contacts(
     if settings.discontinuities != mesh::Discontinuities::Auto || !gathered(patches, radiance) {
         return None;
     }
-    let lines = mesh::contact_lines(scene)?;
+    let mut lines = mesh::contact_lines(scene);
+    let half_angle = (0.5 * crate::light::outside::SUN_DIAMETER_DEGREES).to_radians();
+    let sun = (settings.environment.sun_direction())
+        .and_then(|sun| mesh::sun_lines(scene, sun, half_angle));
+    let sun_count = sun.as_ref().map_or(0, |s| s.iter().map(Vec::len).sum());
+    if let Some(sun) = sun {
+        match &mut lines {
+            Some(lines) => lines.iter_mut().zip(sun).for_each(|(l, s)| l.extend(s)),
+            None => lines = Some(sun),
+        }
+    }
     let (lo, hi) = scene.bounds();
-    let (cut, parent, stats) = mesh::split_patches(&lines, patches, (hi - lo).length())?;
+    let (cut, parent, stats) = mesh::split_patches(&lines?, patches, (hi - lo).length())?;
     let cut_radiance: Vec<crate::Rgb> = parent.iter().map(|&i| radiance[i as usize]).collect();
     let cut_visible = parent
         .iter()
         .map(|&i| visible_fraction[i as usize])
         .collect();
-    gathered(&cut, &cut_radiance).then_some((cut, cut_radiance, cut_visible, stats))
+    gathered(&cut, &cut_radiance).then_some(CutDisplay {
+        patches: cut,
+        radiance: cut_radiance,
+        visible_fraction: cut_visible,
+        stats,
+        sun_lines: sun_count,
+    })
+}
+
+/// The hierarchical display cut along its discontinuity lines ([`display_contacts`]): the
+/// pieces, each with its leaf's radiance (W·sr⁻¹·m⁻²) and visible fraction, what the cut did,
+/// and the sun's lines it took.
+struct CutDisplay {
+    patches: Patches,
+    radiance: Vec<crate::Rgb>,
+    visible_fraction: Vec<f64>,
+    stats: mesh::ContactStats,
+    sun_lines: usize,
 }
 
 /// Bake: patch radiance → the output mesh's vertices (→ final gather at them, unless

@@ -60,6 +60,10 @@ pub struct Report {
     /// method with `discontinuities = auto` and a final gather, [`crate::mesh::split_patches`]):
     /// `triangles` counts the display's faces after the cut.
     pub display_contacts: Option<crate::mesh::ContactStats>,
+    /// The sun's penumbra lines cut into the display with the contact lines
+    /// ([`crate::mesh::sun_lines`]), before they are clipped to the faces: two per run of
+    /// an edge's shadow on one plane.
+    pub sun_lines: usize,
     /// Longest patch edge used, scene units.
     pub max_edge: f64,
     /// Patches of the final solve (after refinement).
@@ -170,6 +174,7 @@ impl Report {
             orientation: None,
             contacts: None,
             display_contacts: None,
+            sun_lines: 0,
             max_edge: 0.0,
             patches: 0,
             refine_rounds: 0,

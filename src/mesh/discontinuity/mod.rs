@@ -2,7 +2,8 @@
 //! one face touches or crosses another face's plane or is mounted on it (a block standing on
 //! the floor, a leg under a table top, a light mounted just below the ceiling: [`contact`]),
 //! and the outlines of near shadows ([`near_shadow`]). The line becomes an edge of the face it
-//! lies on.
+//! lies on. Under a sun, the edges of its penumbrae cut the hierarchical display as well
+//! ([`sun`]).
 //! Then no patch spans both the part a viewer sees and the part the other object hides, so no
 //! vertex carries lit light into a hidden region or hidden darkness into a lit one (Lischinski,
 //! Tampieri & Greenberg, "Discontinuity meshing for accurate radiosity", IEEE CG&A 1992: these
@@ -47,10 +48,12 @@ pub mod contact;
 pub mod display;
 mod face;
 pub mod near_shadow;
+pub mod sun;
 
 pub use contact::{MOUNTED, NEAR, TOUCH};
 pub use display::split_patches;
 pub use near_shadow::NEAR_SHADOW;
+pub use sun::sun_lines;
 
 /// Which discontinuities of the radiance become mesh edges before patching.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -62,6 +65,7 @@ pub enum Discontinuities {
     /// hall's floor under hundreds of table legs) leave long thin triangles between them that
     /// would cost the generated hall more than twice its links and its time, while the gather
     /// at the display's vertices needs only the display's faces to stop at the contacts.
+    /// Under a sun the display is cut along its penumbrae's lines too ([`sun_lines`]).
     Auto,
     /// None: patches follow the input triangles only.
     None,
@@ -88,8 +92,8 @@ impl crate::choice::Choice for Discontinuities {
     fn description(self) -> &'static str {
         match self {
             Discontinuities::Auto => {
-                "contacts for the matrix method; for the hierarchical, contact lines cut the \
-                 display's faces only"
+                "contacts for the matrix method; for the hierarchical, contact lines (and the \
+                 sun's shadow edges) cut the display's faces only"
             }
             Discontinuities::None => "patches follow the input triangles only",
             Discontinuities::Contacts => {
