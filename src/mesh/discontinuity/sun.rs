@@ -16,10 +16,12 @@
 //! edge projected onto the receiver's plane along the direction of its plane nearest s.
 //!
 //! Which edges: an edge of the scene is a candidate unless exactly two triangles share it and
-//! both face the sun alike (a crease inside a lit or a shaded surface casts nothing). Points
+//! both face the sun alike and pass it alike (a crease inside a lit or a shaded surface casts
+//! nothing; the edge between a pane and its wall does). Points
 //! along a candidate (one every [`SAMPLE_SPACING`] of the extent) are traced away from the sun
-//! to the surface their shadow falls on, and the line is kept where the centre of the sun is
-//! seen on one side of it and hidden on the other ([`SIDE`] beside it): the test that the edge
+//! to the surface their shadow falls on, and the line is kept where the share of the sun's
+//! centre seen on one side of it ([`SIDE`] beside it) and on the other differ by [`STEP`] or
+//! more (a pane passes its transmittance t, an opaque face none): the test that the edge
 //! is lit, that it is a silhouette from the sun and that nothing else already shades the
 //! receiver there. A run of samples falling on one plane gives one line pair, which goes to every
 //! triangle of that plane it crosses ([`split_patches`](super::split_patches) clips it to each
@@ -30,7 +32,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::scene::{Scene, NO_TWIN};
-use crate::visibility::Visibility;
+use crate::visibility::{Visibility, NONE};
 
 /// Spacing of the points traced along a candidate edge, as a fraction of the scene's extent
 /// (7.5 cm in a 30 m office): a line's end is placed to within half of it where its shadow
@@ -48,6 +50,15 @@ pub const SIDE: f64 = 2e-4;
 /// a shadow cast from closer than this allows is drawn as a ramp this wide (1.5 mm in a 30 m
 /// office), not as two lines the triangulation could not keep apart.
 pub const MIN_HALF_WIDTH: f64 = 5e-5;
+
+/// A face faces the sun where n·s exceeds this: one parallel to the sun (a wall beside its
+/// rays, n·s zero but for rounding) does not, so it and a face turned away share no
+/// silhouette.
+const FACING: f64 = 1e-9;
+
+/// The least jump of the share of the sun's centre seen (its transmittance: 1 unoccluded, a
+/// pane's t through a pane, 0 behind an opaque face) across a line for it to be drawn.
+pub const STEP: f64 = 0.05;
 
 /// A receiver whose plane is within this cosine of edge-on to the sun is not given lines: it
 /// gets almost none of the sun's light to show.
@@ -121,7 +132,7 @@ fn unit_normal(scene: &Scene, t: usize) -> DVec3 {
 
 /// The scene's edges that may cast a sun shadow line, in the order of their vertex indices:
 /// all but those shared by exactly two surfaces (a twin pair counting once) that face the sun
-/// alike.
+/// alike and pass it alike (a pane beside a wall does not).
 fn candidate_edges(scene: &Scene, normals: &[DVec3], sun: DVec3) -> Vec<Edge> {
     let mut all: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * scene.triangles.len());
     for (t, tri) in scene.triangles.iter().enumerate() {
@@ -145,7 +156,10 @@ fn candidate_edges(scene: &Scene, normals: &[DVec3], sun: DVec3) -> Vec<Edge> {
         let triangles: Vec<u32> = group.iter().map(|g| g.2).collect();
         if let [t0, t1] = triangles[..] {
             let (f0, f1) = (normals[t0 as usize].dot(sun), normals[t1 as usize].dot(sun));
-            if (f0 > 0.0) == (f1 > 0.0) {
+            let t = |t: u32| {
+                scene.materials[scene.triangles[t as usize].material as usize].transmittance
+            };
+            if (f0 > FACING) == (f1 > FACING) && t(t0) == t(t1) {
                 continue;
             }
         }
@@ -191,24 +205,37 @@ fn edge_lines(
         .map(|i| {
             let t = (i as f64 + 0.5) / k as f64;
             let x = a + (b - a) * t;
-            let hit = vis.closest_hit(x, -sun, f64::INFINITY, e.triangles[0])?;
+            // Traced from `side` past the edge: not into a face that meets it there (its
+            // other triangle, or a neighbour's edge along it that is not shared).
+            let start = x - sun * side;
+            let hit = vis.closest_hit(start, -sun, f64::INFINITY, e.triangles[0])?;
             let r = hit.triangle as usize;
             let n = normals[r];
             if n.dot(sun) < GRAZING || hit.t < side {
                 return None;
             }
-            let at = x - sun * hit.t;
-            // The line's direction on the receiver, and the two sides of it, just above it.
+            let at = start - sun * hit.t;
+            // The line's direction on the receiver, and the two sides of it.
             let along = dir - sun * (dir.dot(n) / sun.dot(n));
             let beside = n.cross(along).normalize_or_zero() * side;
-            let lit =
-                |p: DVec3| vis.transmittance(p + n * side, sun, f64::INFINITY, r as u32) > 0.5;
-            (lit(at + beside) != lit(at - beside)).then_some(Sample {
-                t,
-                receiver: r as u32,
-                at,
-                distance: hit.t,
-            })
+            // Each side is a point of the receiver's surface (not past the edge of a floor
+            // where its wall stands beside the sun's rays), and its share of the sun.
+            let on_surface = |p: DVec3| {
+                vis.closest_hit(p + n * side, -n, 2.0 * side, NONE)
+                    .is_some_and(|h| normals[h.triangle as usize].dot(n) > 1.0 - 1e-6)
+            };
+            // Traced from `side` toward the sun: off the surface, on the same side of the line
+            // (a point lifted along the normal would see past the edge a little further on).
+            let seen = |p: DVec3| vis.transmittance(p + sun * side, sun, f64::INFINITY, r as u32);
+            let (p, q) = (at + beside, at - beside);
+            (on_surface(p) && on_surface(q) && (seen(p) - seen(q)).abs() >= STEP).then_some(
+                Sample {
+                    t,
+                    receiver: r as u32,
+                    at,
+                    distance: hit.t + side,
+                },
+            )
         })
         .collect();
     // The two tangent planes' directions nearest the sun (module documentation).
@@ -274,7 +301,7 @@ fn receivers(
     let lo = pts.iter().fold(DVec3::INFINITY, |m, &p| m.min(p));
     let hi = pts.iter().fold(DVec3::NEG_INFINITY, |m, &p| m.max(p));
     let mut found = Vec::new();
-    vis.overlapping(lo, hi, [crate::visibility::NONE; 2], |t| {
+    vis.overlapping(lo, hi, [NONE; 2], |t| {
         let n = normals[t as usize];
         let c = scene.positions[scene.triangles[t as usize].vertices[0] as usize];
         if n.dot(line.normal).abs() > 1.0 - 1e-6 && n.dot(c - line.point).abs() < 1e-5 * extent {

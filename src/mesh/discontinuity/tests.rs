@@ -629,3 +629,72 @@ fn the_hierarchical_display_follows_the_suns_shadow_edge() {
         "without the lines the edge is blurred: {worst}"
     );
 }
+
+/// The sun through a pane (transmittance 0.3) in a window of a wall: its patch on the floor is
+/// bounded by the opening's four edges, so lines follow them there (the pane passes 0.3 of
+/// the sun, the wall none: a jump of 0.3). The same window shut by an opaque pane, and the
+/// wall's outer side (turned from the room, its back to the sun), get none.
+#[test]
+fn sun_lines_follow_a_sun_patch_through_a_pane() {
+    let window = |transmittance: f64| {
+        let (mut b, white, _) = floor();
+        let glass = b.material("glass", [0.05; 3], [0.0; 3]);
+        if transmittance > 0.0 {
+            b.set_transmittance(glass, transmittance);
+        }
+        // The wall x = 4 facing the room (−x), with an opening y in [1, 3], z in [1, 2].
+        let wall = |b: &mut SceneBuilder, y: [f64; 2], z: [f64; 2], m: u32| {
+            let p = |y: f64, z: f64| DVec3::new(4.0, y, z);
+            b.quad(
+                [p(y[0], z[0]), p(y[0], z[1]), p(y[1], z[1]), p(y[1], z[0])],
+                m,
+            );
+        };
+        wall(&mut b, [0., 4.], [0., 1.], white);
+        wall(&mut b, [0., 4.], [2., 3.], white);
+        wall(&mut b, [0., 1.], [1., 2.], white);
+        wall(&mut b, [3., 4.], [1., 2.], white);
+        wall(&mut b, [1., 3.], [1., 2.], glass);
+        b.build().unwrap()
+    };
+    let e = 30f64.to_radians();
+    let sun = DVec3::new(e.cos(), 0.0, e.sin());
+    let alpha = 0.265f64.to_radians();
+    let lines = sun_lines(&window(0.3), sun, alpha).expect("lines");
+    assert!(
+        lines[2..].iter().all(Vec::is_empty),
+        "none on the wall or the pane"
+    );
+    // Across the sun: the opening's bottom (z = 1) and top (z = 2) edges, on the floor at
+    // x = 4 − z / tan 30°, each as the two sides of its penumbra.
+    let mut xs: Vec<f64> = lines[0]
+        .iter()
+        .filter(|[p, q]| (p.x - q.x).abs() < 1e-9)
+        .map(|[p, _]| p.x)
+        .collect();
+    xs.sort_by(f64::total_cmp);
+    // Each edge of the opening is two edges of the mesh (the pane's, and the wall's beside
+    // it, longer: a T-junction), which cast the same line.
+    xs.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    assert_eq!(xs.len(), 4, "{xs:?}");
+    for (pair, z) in xs.chunks(2).zip([2.0, 1.0]) {
+        let want = [4.0 - z / (e - alpha).tan(), 4.0 - z / (e + alpha).tan()];
+        for (got, want) in pair.iter().zip(want) {
+            assert!((got - want).abs() < 1e-9, "{pair:?} for z = {z}: {want}");
+        }
+    }
+    // Along the sun: the opening's sides y = 1 and 3 (edges between the pane and the wall,
+    // both facing the room: they cast lines because the pane passes the sun), each line within
+    // its penumbra's half-width (4 m · tan 0.265° at most) of them.
+    for y in [1.0, 3.0] {
+        let near = |p: DVec3| (p.y - y).abs() < 4.0 * alpha.tan() * 1.01;
+        assert!(
+            lines[0].iter().any(|[p, q]| near(*p) && near(*q)),
+            "y = {y}"
+        );
+    }
+    assert!(
+        sun_lines(&window(0.0), sun, alpha).is_none(),
+        "a shut window casts no sun patch"
+    );
+}
