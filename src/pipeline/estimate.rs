@@ -651,8 +651,8 @@ pub fn links_within(limit: f64) -> u64 {
 }
 
 /// The output vertices of a hierarchical bake before any display refinement, counted on its
-/// root `patches` as the bake shares them out: cut along the scene's contact lines first where
-/// the bake's display will be ([`mesh::split_patches`]; `discontinuities = auto` with a final
+/// root `patches` as the bake shares them out: cut along the scene's contact lines (and the
+/// sun's penumbra lines, [`mesh::sun_lines`]) first where the bake's display will be ([`mesh::split_patches`]; `discontinuities = auto` with a final
 /// gather), which on detailed interiors (brushes meeting walls and floors) makes 1.2–2.3×
 /// the roots' vertices. The leaves add more where the solve splits roots; they are not known
 /// before it.
@@ -663,12 +663,14 @@ fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> usize {
     if s.discontinuities != mesh::Discontinuities::Auto || !lit || !gathered {
         return plain;
     }
-    // The contact lines of a sample of the triangles: the vertices their cuts add, scaled
-    // up (at 10⁶ triangles all of them take as long as the rest of the estimate).
+    // The contact lines of a sample of the triangles, and the sun lines their edges cast:
+    // the vertices their cuts add, scaled up (at 10⁶ triangles all of them take as long as
+    // the rest of the estimate).
     let p = (DISPLAY_SAMPLE as f64 / scene.triangles.len().max(1) as f64).min(1.0);
     let seed = s.form_factors.seed;
     let on = |t: usize| p >= 1.0 || Rng::new(&[seed, t as u64, 0xC0_7AC7]).next_f64() < p;
-    let cut = mesh::contact_lines_on(scene, &on).and_then(|lines| {
+    let lines = mesh::display_lines_on(scene, s.environment.sun_direction(), &on);
+    let cut = lines.and_then(|(lines, _)| {
         let (lo, hi) = scene.bounds();
         mesh::split_patches(&lines, patches, (hi - lo).length())
     });

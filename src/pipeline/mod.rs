@@ -553,19 +553,10 @@ fn display_contacts(
     if settings.discontinuities != mesh::Discontinuities::Auto || !gathered(patches, radiance) {
         return None;
     }
-    let mut lines = mesh::contact_lines(scene);
-    let half_angle = (0.5 * crate::light::outside::SUN_DIAMETER_DEGREES).to_radians();
-    let sun = (settings.environment.sun_direction())
-        .and_then(|sun| mesh::sun_lines(scene, sun, half_angle));
-    let sun_count = sun.as_ref().map_or(0, |s| s.iter().map(Vec::len).sum());
-    if let Some(sun) = sun {
-        match &mut lines {
-            Some(lines) => lines.iter_mut().zip(sun).for_each(|(l, s)| l.extend(s)),
-            None => lines = Some(sun),
-        }
-    }
+    let (lines, sun_count) =
+        mesh::display_lines_on(scene, settings.environment.sun_direction(), &|_| true)?;
     let (lo, hi) = scene.bounds();
-    let (cut, parent, stats) = mesh::split_patches(&lines?, patches, (hi - lo).length())?;
+    let (cut, parent, stats) = mesh::split_patches(&lines, patches, (hi - lo).length())?;
     let cut_radiance: Vec<crate::Rgb> = parent.iter().map(|&i| radiance[i as usize]).collect();
     let cut_visible = parent
         .iter()

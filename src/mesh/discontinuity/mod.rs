@@ -53,7 +53,7 @@ pub mod sun;
 pub use contact::{MOUNTED, NEAR, TOUCH};
 pub use display::split_patches;
 pub use near_shadow::NEAR_SHADOW;
-pub use sun::sun_lines;
+pub use sun::{sun_lines, sun_lines_on};
 
 /// Which discontinuities of the radiance become mesh edges before patching.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -126,6 +126,26 @@ pub struct ContactStats {
 /// scene a twin has its front's segments (found on the fronts alone: a pair is cut alike).
 pub fn contact_lines(scene: &Scene) -> Option<Vec<Vec<[DVec3; 2]>>> {
     contact_lines_on(scene, &|_| true)
+}
+
+/// The lines that cut the hierarchical display ([`split_patches`]): the contact lines and,
+/// under a sun in unit direction `sun` (toward it), its penumbra lines ([`sun_lines`]); of the
+/// triangles `on` picks alone, and their edges ([`contact_lines_on`], [`sun::sun_lines_on`]).
+/// `None` when there are none; else the lines on each triangle and how many are the sun's.
+pub fn display_lines_on(
+    scene: &Scene,
+    sun: Option<DVec3>,
+    on: &(dyn Fn(usize) -> bool + Sync),
+) -> Option<(Vec<Vec<[DVec3; 2]>>, usize)> {
+    let contacts = contact_lines_on(scene, on);
+    let half_angle = (0.5 * crate::light::outside::SUN_DIAMETER_DEGREES).to_radians();
+    let Some(sun) = sun.and_then(|sun| sun::sun_lines_on(scene, sun, half_angle, on)) else {
+        return contacts.map(|c| (c, 0));
+    };
+    let count = sun.iter().map(Vec::len).sum();
+    let mut lines = contacts.unwrap_or_else(|| vec![Vec::new(); sun.len()]);
+    lines.iter_mut().zip(sun).for_each(|(l, s)| l.extend(s));
+    Some((lines, count))
 }
 
 /// [`contact_lines`] on the triangles `on` picks alone (the others get none): the segments of

@@ -72,6 +72,17 @@ const ALONG_SUN: f64 = 0.05;
 /// traced against the scene with its panes' transmittance. See the module documentation.
 /// `None` when no line is found.
 pub fn sun_lines(scene: &Scene, sun: DVec3, half_angle: f64) -> Option<Vec<Vec<[DVec3; 2]>>> {
+    sun_lines_on(scene, sun, half_angle, &|_| true)
+}
+
+/// [`sun_lines`] cast by the edges of the triangles `on` picks alone (an edge counts as its
+/// lowest-numbered triangle's): the lines of a sample of the edges, for an estimate.
+pub fn sun_lines_on(
+    scene: &Scene,
+    sun: DVec3,
+    half_angle: f64,
+    on: &(dyn Fn(usize) -> bool + Sync),
+) -> Option<Vec<Vec<[DVec3; 2]>>> {
     let n = scene.triangles.len();
     let (lo, hi) = scene.bounds();
     let extent = (hi - lo).length();
@@ -90,7 +101,8 @@ pub fn sun_lines(scene: &Scene, sun: DVec3, half_angle: f64) -> Option<Vec<Vec<[
         .collect();
     let vis = &Visibility::build(&corners).with_transmittance(&transmittance);
     let normals: Vec<DVec3> = (0..n).map(|t| unit_normal(scene, t)).collect();
-    let edges = candidate_edges(scene, &normals, sun);
+    let mut edges = candidate_edges(scene, &normals, sun);
+    edges.retain(|e| on(e.triangles[0] as usize));
     let found: Vec<Vec<Line>> = edges
         .par_iter()
         .map(|e| edge_lines(scene, vis, &normals, e, sun, half_angle, extent))
