@@ -669,7 +669,7 @@ fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> usize {
     let p = (DISPLAY_SAMPLE as f64 / scene.triangles.len().max(1) as f64).min(1.0);
     let seed = s.form_factors.seed;
     let on = |t: usize| p >= 1.0 || Rng::new(&[seed, t as u64, 0xC0_7AC7]).next_f64() < p;
-    let lines = mesh::display_lines_on(scene, s.environment.sun_direction(), &on);
+    let lines = mesh::display_lines_on(scene, super::sun_disc(&s.environment), &on);
     let cut = lines.and_then(|(lines, _)| {
         let (lo, hi) = scene.bounds();
         mesh::split_patches(&lines, patches, (hi - lo).length())

@@ -554,7 +554,7 @@ fn display_contacts(
         return None;
     }
     let (lines, sun_count) =
-        mesh::display_lines_on(scene, settings.environment.sun_direction(), &|_| true)?;
+        mesh::display_lines_on(scene, sun_disc(&settings.environment), &|_| true)?;
     let (lo, hi) = scene.bounds();
     let (cut, parent, stats) = mesh::split_patches(&lines, patches, (hi - lo).length())?;
     let cut_radiance: Vec<crate::Rgb> = parent.iter().map(|&i| radiance[i as usize]).collect();
@@ -569,6 +569,14 @@ fn display_contacts(
         stats,
         sun_lines: sun_count,
     })
+}
+
+/// The sun's unit direction (toward it) and angular radius (radians,
+/// [`crate::light::outside::SUN_DIAMETER_DEGREES`] / 2), if there is a sun: what its
+/// penumbra lines are drawn from ([`mesh::display_lines_on`]).
+fn sun_disc(environment: &crate::scene::Environment) -> Option<(DVec3, f64)> {
+    let radius = (0.5 * crate::light::outside::SUN_DIAMETER_DEGREES).to_radians();
+    environment.sun_direction().map(|s| (s, radius))
 }
 
 /// The hierarchical display cut along its discontinuity lines ([`display_contacts`]): the

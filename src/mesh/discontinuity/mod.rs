@@ -129,17 +129,17 @@ pub fn contact_lines(scene: &Scene) -> Option<Vec<Vec<[DVec3; 2]>>> {
 }
 
 /// The lines that cut the hierarchical display ([`split_patches`]): the contact lines and,
-/// under a sun in unit direction `sun` (toward it), its penumbra lines ([`sun_lines`]); of the
-/// triangles `on` picks alone, and their edges ([`contact_lines_on`], [`sun::sun_lines_on`]).
-/// `None` when there are none; else the lines on each triangle and how many are the sun's.
+/// under a sun (its unit direction, toward it, and its angular radius in radians) its
+/// penumbra lines ([`sun_lines`]); of the triangles `on` picks alone, and their edges
+/// ([`contact_lines_on`], [`sun::sun_lines_on`]). `None` when there are none; else the lines
+/// on each triangle and how many are the sun's.
 pub fn display_lines_on(
     scene: &Scene,
-    sun: Option<DVec3>,
+    sun: Option<(DVec3, f64)>,
     on: &(dyn Fn(usize) -> bool + Sync),
 ) -> Option<(Vec<Vec<[DVec3; 2]>>, usize)> {
     let contacts = contact_lines_on(scene, on);
-    let half_angle = (0.5 * crate::light::outside::SUN_DIAMETER_DEGREES).to_radians();
-    let Some(sun) = sun.and_then(|sun| sun::sun_lines_on(scene, sun, half_angle, on)) else {
+    let Some(sun) = sun.and_then(|(sun, radius)| sun::sun_lines_on(scene, sun, radius, on)) else {
         return contacts.map(|c| (c, 0));
     };
     let count = sun.iter().map(Vec::len).sum();
