@@ -41,7 +41,7 @@ use rayon::prelude::*;
 use rustc_hash::FxBuildHasher;
 use serde::Serialize;
 
-use super::bright::BRIGHT_RAYS;
+use super::bright::bright_rays;
 use super::indirect::Count;
 use super::sites::Spot;
 use super::{Gathered, Gatherer, NEAR_DEPTH};
@@ -458,7 +458,7 @@ impl Gatherer<'_> {
                     record.n,
                     s.patch,
                     (&[], Count::All),
-                    (rays_of(k), BRIGHT_RAYS),
+                    (rays_of(k), bright_rays(rays_of(k))),
                     NEAR_DEPTH,
                     &mut rng,
                 )

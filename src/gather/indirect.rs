@@ -23,7 +23,7 @@ use glam::DVec3;
 
 use std::f64::consts::PI;
 
-use super::bright::{Bright, BRIGHT_RAYS};
+use super::bright::{bright_rays, Bright};
 use super::openings::{Openings, OPENING_RAYS};
 use super::sites::Spot;
 use super::trace::PatchHit;
@@ -100,7 +100,7 @@ impl Gatherer<'_> {
         rays: usize,
         rng: &mut Rng,
     ) -> Rgb {
-        let rays = (rays, BRIGHT_RAYS);
+        let rays = (rays, bright_rays(rays));
         self.hemisphere_with(x, n, ignore, (exact, Count::Rule), rays, NEAR_DEPTH, rng)
             .radiance
     }
@@ -555,7 +555,7 @@ impl Gatherer<'_> {
             spot.n,
             spot.patch,
             (exact, Count::Rule),
-            (rays, BRIGHT_RAYS),
+            (rays, bright_rays(rays)),
             NEAR_DEPTH,
             rng,
         );
