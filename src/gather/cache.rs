@@ -45,7 +45,7 @@ use super::bright::bright_rays;
 use super::indirect::Count;
 use super::sites::Spot;
 use super::{Gathered, Gatherer, NEAR_DEPTH};
-use crate::color::Rgb;
+use crate::color::{luminance, Rgb};
 use crate::light::emitter::CACHE_MAX_SHADOW_RAYS;
 use crate::sampling::Rng;
 
@@ -61,7 +61,9 @@ pub const ACCURACY: f64 = 0.1;
 
 /// Hemisphere rays of all the records when their number per record is not given, shared out
 /// ∝ √(the area each record shows), at least [`MIN_RECORD_RAYS`] and at most
-/// [`MAX_RECORD_RAYS`] each: twice the `full` gather's ([`super::AUTO_RAY_BUDGET`]). The
+/// [`MAX_RECORD_RAYS`] each: twice the `full` gather's ([`super::AUTO_RAY_BUDGET`]), times
+/// [`budget_factor`] where the records bring more of the light shown than on the scene this
+/// was measured on (a room lit by the sky and the sun alone). The
 /// records' noise is most of the seed-to-seed part of the displayed error on a furnished
 /// scene, and twice the rays took the office's displayed RMS from 4.85, 4.85, 5.11 % to 4.66,
 /// 4.55, 4.68 % over three seeds for 1.06× the bake, more than 1.06× the time buys a path
@@ -341,6 +343,7 @@ impl Gatherer<'_> {
         &self,
         spots: &[Option<Spot>],
         areas: &[f64],
+        shares: &[f64],
         rays: Option<usize>,
     ) -> (Vec<Option<Rgb>>, Cache) {
         let extent = self.extent();
@@ -430,17 +433,21 @@ impl Gatherer<'_> {
             })
             .collect();
         // The area each record shows, and its rays: ∝ √area out of the budget (the area-
-        // weighted squared error Σ A σ²/n is least for n ∝ √A at a fixed Σ n).
+        // weighted squared error Σ A σ²/n is least for n ∝ √A at a fixed Σ n); the budget
+        // grows with the share of the shown light the records bring ([`budget_factor`]).
         let mut shown = vec![0.0; records.len()];
-        for (list, &a) in weights.iter().zip(areas) {
+        let mut weighed = vec![0.0; records.len()];
+        for ((list, &a), &s) in weights.iter().zip(areas).zip(shares) {
             for &(k, w) in list {
                 shown[k as usize] += w * a;
+                weighed[k as usize] += w * a * s * s;
             }
         }
         let total: f64 = shown.iter().map(|a| a.sqrt()).sum();
+        let budget = RAY_BUDGET as f64 * budget_factor(&shown, &weighed);
         let rays_of = |k: usize| {
             rays.unwrap_or_else(|| {
-                let share = RAY_BUDGET as f64 * shown[k].sqrt() / total.max(f64::MIN_POSITIVE);
+                let share = budget * shown[k].sqrt() / total.max(f64::MIN_POSITIVE);
                 (share.round() as usize).clamp(MIN_RECORD_RAYS, MAX_RECORD_RAYS)
             })
         };
@@ -491,6 +498,49 @@ impl Gatherer<'_> {
         (out, cache)
     }
 }
+
+/// The share of each vertex's shown light that the records bring (its reflected indirect
+/// light), as the solution judges it: 1 − lit/L in luminance, with lit = Le + ρ·(D + E) the
+/// vertex's own terms (`lit[v]`, gathered) and L the solution's radiance there (`baked[v]`),
+/// at least [`MIN_SHARE`]; 1 where the solution shows nothing. L is a patch's mean, so beside
+/// a shadow the share is a guess, which only weighs the budget ([`budget_factor`]).
+pub fn record_shares(lit: &[Gathered], baked: &[Rgb]) -> Vec<f64> {
+    lit.iter()
+        .zip(baked)
+        .map(|(g, b)| {
+            let (own, whole) = (luminance(g.radiance), luminance(*b));
+            if whole > 0.0 {
+                (1.0 - own / whole).clamp(MIN_SHARE, 1.0)
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+/// The least share [`record_shares`] gives a vertex.
+pub const MIN_SHARE: f64 = 0.1;
+
+/// The records' rays as a multiple of [`RAY_BUDGET`], from the area each shows (`shown`, A_k)
+/// and that area weighed by the squared shares of the light it brings there (`weighed`,
+/// S_k = Σ_v w_vk a_v s_v², [`record_shares`]). A record's noise reaches what a vertex shows
+/// times the share, so at fixed rays the display's noise from the records grows as the mean
+/// share s̄ = Σ√S_k / Σ√A_k: the budget is scaled by (s̄ / [`REFERENCE_SHARE`])² to keep it
+/// where [`RAY_BUDGET`] was measured, and never below it: between 1 and
+/// [`MAX_BUDGET_FACTOR`] (s̄ ≤ 1).
+pub fn budget_factor(shown: &[f64], weighed: &[f64]) -> f64 {
+    let plain: f64 = shown.iter().map(|a| a.sqrt()).sum();
+    let share = weighed.iter().map(|a| a.sqrt()).sum::<f64>() / plain.max(f64::MIN_POSITIVE);
+    (share / REFERENCE_SHARE).powi(2).max(1.0)
+}
+
+/// The records' mean share of the shown light (s̄ of [`budget_factor`]) on the scene
+/// [`RAY_BUDGET`] was measured on: the office of 10⁵ triangles under its twelve lamps, 0.62.
+pub const REFERENCE_SHARE: f64 = 0.6;
+
+/// The most [`budget_factor`] gives, where the records bring all the light shown:
+/// 1 / [`REFERENCE_SHARE`]², 2.8.
+pub const MAX_BUDGET_FACTOR: f64 = 1.0 / (REFERENCE_SHARE * REFERENCE_SHARE);
 
 #[cfg(test)]
 mod tests {
@@ -555,5 +605,31 @@ mod tests {
         }
         let h = |c: [i64; 3]| FxBuildHasher.hash_one(c);
         assert_ne!(h([1, 2, 3]), h([3, 2, 1]));
+    }
+
+    /// A record's share is what its vertex's own terms leave of the solution's light there,
+    /// floored, and 1 where the solution is dark; the budget grows as the squared mean share
+    /// over the reference share, at least 1, and a record's area counts as √A.
+    #[test]
+    fn the_records_budget_follows_the_share_of_the_light_they_bring() {
+        use super::{budget_factor, record_shares, MIN_SHARE, REFERENCE_SHARE};
+        use crate::gather::Gathered;
+        let lit = |y: f64| Gathered::buried([y; 3]);
+        let shares = record_shares(
+            &[lit(0.3), lit(2.0), lit(0.0), lit(1.0)],
+            &[[1.0; 3], [1.0; 3], [0.0; 3], [1.0; 3]],
+        );
+        let expected = [0.7, MIN_SHARE, 1.0, MIN_SHARE];
+        for (s, e) in shares.iter().zip(expected) {
+            assert!((s - e).abs() < 1e-12, "{shares:?}");
+        }
+        // Every record's light all the records': (1 / 0.6)² = 2.78.
+        let f = budget_factor(&[1.0, 4.0], &[1.0, 4.0]);
+        assert!((f - (1.0 / REFERENCE_SHARE).powi(2)).abs() < 1e-12, "{f}");
+        // Shares 0.9 on an area of 4 and 0.3 on an area of 1: s̄ = (0.9·2 + 0.3·1) / 3 = 0.7.
+        let f = budget_factor(&[1.0, 4.0], &[0.09, 4.0 * 0.81]);
+        assert!((f - (0.7 / REFERENCE_SHARE).powi(2)).abs() < 1e-12, "{f}");
+        // Below the reference share the budget stays.
+        assert_eq!(budget_factor(&[1.0, 4.0], &[0.01, 0.04]), 1.0);
     }
 }

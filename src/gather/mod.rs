@@ -384,6 +384,21 @@ pub struct Gathered {
 }
 
 impl Gathered {
+    /// This point's value with `reflected` (radiance units, after its ρ) added to its
+    /// indirect light and to what it shows.
+    pub(crate) fn with_reflected(mut self, reflected: Rgb) -> Self {
+        for ((i, l), r) in self
+            .indirect
+            .iter_mut()
+            .zip(&mut self.radiance)
+            .zip(reflected)
+        {
+            *i += r;
+            *l += r;
+        }
+        self
+    }
+
     /// A buried point showing `radiance` (the bake's value, or its neighbours' mean).
     pub fn buried(radiance: Rgb) -> Self {
         Gathered {
@@ -626,18 +641,35 @@ fn cached(
             a / 3.0
         })
         .collect();
-    let (indirect, cache) = gatherer.cached_indirect(&spots, &areas, rays);
+    // Each vertex's light but the records' first, Le + ρ·(D + E): what share of it the
+    // records bring sets their rays ([`cache::record_shares`]).
     let progress = crate::progress::stage("gather: direct light", Some(spots.len() as u64));
-    let at = |v: usize| {
+    let lit = |v: usize| {
         progress.advance(1);
-        let (Some(spot), Some(reflected)) = (&spots[v], indirect[v]) else {
-            return Gathered::buried(baked[v]);
-        };
-        gatherer.cached_vertex(spot, reflected, &mut gatherer.vertex_rng(v))
+        match &spots[v] {
+            Some(spot) => gatherer.cached_vertex(spot, [0.0; 3], &mut gatherer.vertex_rng(v)),
+            None => Gathered::buried(baked[v]),
+        }
     };
-    let values = gatherer
+    let lit = gatherer
         .comm
-        .map_shared(spots.len(), at, Gathered::write, Gathered::read);
+        .map_shared(spots.len(), lit, Gathered::write, Gathered::read);
+    drop(progress);
+    let shares = cache::record_shares(&lit, baked);
+    let (indirect, cache) = gatherer.cached_indirect(&spots, &areas, &shares, rays);
+    let values = lit
+        .into_iter()
+        .zip(indirect)
+        .zip(&spots)
+        .enumerate()
+        .map(|(v, ((g, reflected), spot))| match (spot, reflected) {
+            (Some(spot), Some(reflected)) => {
+                let rho = gatherer.patches.reflectance[spot.patch as usize];
+                g.with_reflected(std::array::from_fn(|c| rho[c] * reflected[c]))
+            }
+            _ => Gathered::buried(baked[v]),
+        })
+        .collect();
     (values, cache)
 }
 

@@ -387,7 +387,15 @@ impl Estimate {
                 };
                 let per_vertex = GATHER_CACHE_SECONDS_PER_VERTEX
                     + GATHER_CACHE_SECONDS_PER_DIRECT * gather_direct_cost(scene);
-                let records = (gather::cache::RAY_BUDGET as f64 - FITTED_RECORD_RAYS)
+                // The records' rays grow with the share of the light they bring
+                // (`gather::cache::budget_factor`, known only once they are placed): all but
+                // the sun's where no triangle emits, the most it gives.
+                let factor = if scene.has_emitters() {
+                    1.0
+                } else {
+                    gather::cache::MAX_BUDGET_FACTOR
+                };
+                let records = (gather::cache::RAY_BUDGET as f64 * factor - FITTED_RECORD_RAYS)
                     * GATHER_CACHE_SECONDS_PER_RECORD_RAY;
                 e.seconds += (per_vertex * share * vertices as f64 + records) * per_core;
             } else {
