@@ -26,6 +26,9 @@
 //!   whose reach spanned it showed the open floor's light under the desk (the generated
 //!   office of 10⁵ triangles: 58,669 records → 65,461, displayed RMS 3.66, 3.58, 3.99 →
 //!   3.52, 3.39, 3.89 % over seeds 1–3; BENCHMARKS.md "Large outputs: the `cache` gather").
+//! - A record's hemisphere rays are shared out of a budget ∝ √(the area it shows), the
+//!   budget grown where the records bring most of the light shown ([`budget_factor`]: a
+//!   room lit by the sky, where the direct term is the sun's alone).
 //!
 //! A vertex shows Le + ρ·(D + E + I): D its exact direct term, E the Le of the emitters its
 //! direct term leaves to hemisphere rays (large and near: [`super::SAMPLED_SPREAD`]), by a few
@@ -62,8 +65,8 @@ pub const ACCURACY: f64 = 0.1;
 /// Hemisphere rays of all the records when their number per record is not given, shared out
 /// ∝ √(the area each record shows), at least [`MIN_RECORD_RAYS`] and at most
 /// [`MAX_RECORD_RAYS`] each: twice the `full` gather's ([`super::AUTO_RAY_BUDGET`]), times
-/// [`budget_factor`] where the records bring more of the light shown than on the scene this
-/// was measured on (a room lit by the sky and the sun alone). The
+/// [`budget_factor`] where the records bring more of the light shown than on the office it
+/// was measured on, under its lamps (as in a room lit by the sky and the sun alone). The
 /// records' noise is most of the seed-to-seed part of the displayed error on a furnished
 /// scene, and twice the rays took the office's displayed RMS from 4.85, 4.85, 5.11 % to 4.66,
 /// 4.55, 4.68 % over three seeds for 1.06× the bake, more than 1.06× the time buys a path
