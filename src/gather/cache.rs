@@ -13,7 +13,15 @@
 //!   distance to the surfaces that shape it, and with the normal. A record serves x where
 //!   ε_i < a ([`ACCURACY`]) and x is not behind it; the value at x is the weighted mean of the
 //!   records that serve it, with weights 1/ε_i − 1/a (Ward's 1/ε, brought to 0 at the edge of
-//!   the record's reach so that the interpolant is continuous).
+//!   the record's reach so that the interpolant is continuous), each record's value carried
+//!   to x by its gradient: I_i + (x − x_i)·∇I_i.
+//! - A record's gradient ∇I_i comes from its own rays, no ray more (Ward & Heckbert,
+//!   "Irradiance gradients", 1992: how the light crossing each boundary between its strata
+//!   changes as the point moves; `indirect::Gradient`), limited so that it changes the light
+//!   by at most a quarter within the record's reach ([`GRADIENT_LIMIT`]). Without it, light
+//!   that falls off along a wall or away from a window shows as steps between records, each
+//!   flat around its own; with it, the interpolation follows such a slope (the point-wise
+//!   benchmark's offices: BENCHMARKS.md "A daylit office").
 //! - Records are placed coarse to fine, the same for any thread count: at each level, among
 //!   the vertices no record serves, the lowest-numbered one in each cell of a grid (and each of
 //!   six normal directions) becomes a record; the cells halve from the largest reach to the
@@ -45,7 +53,7 @@ use rustc_hash::FxBuildHasher;
 use serde::Serialize;
 
 use super::bright::bright_rays;
-use super::indirect::Count;
+use super::indirect::{Count, Gradient};
 use super::sites::Spot;
 use super::{Gathered, Gatherer, NEAR_DEPTH};
 use crate::color::{luminance, Rgb};
@@ -61,6 +69,16 @@ use crate::sampling::Rng;
 /// leaves) for at most a third more gather time, and 0.05 spreads the rays too thin
 /// (BENCHMARKS.md "Large outputs: the `cache` gather").
 pub const ACCURACY: f64 = 0.1;
+
+/// The most a record's gradient may change its light within its reach, as a share of it
+/// (`Gradient::limited`). Ward's records serve points within a = 0.1 of R, the distance
+/// on which their light changes ([`ACCURACY`]), so the light changes by about a
+/// tenth there; a gradient that claims more than 2.5 times that is mostly the noise of a few
+/// rays that met a bright surface near by (the daylit office, second probe set, seed 2:
+/// limited to the whole light 6.22 % RMS, to half of it 6.11 %, to a quarter 5.51 %, with no
+/// gradient 5.98 %; the lamp-lit office 3.04, 2.99, 3.02 against 3.11 %; BENCHMARKS.md
+/// "A daylit office").
+pub const GRADIENT_LIMIT: f64 = 0.25;
 
 /// Hemisphere rays of all the records when their number per record is not given, shared out
 /// ∝ √(the area each record shows), at least [`MIN_RECORD_RAYS`] and at most
@@ -151,17 +169,22 @@ pub struct Cache {
     records: Vec<Record>,
     /// Each record's reflected light (radiance units, before the receiver's ρ).
     values: Vec<Rgb>,
+    /// The gradient of each record's light ([`Gradient`], limited within its reach).
+    gradients: Vec<Gradient>,
     index: Index,
     pub stats: CacheStats,
 }
 
 impl Cache {
-    /// The records' reflected light interpolated at (x, n), or `None` where no record serves.
+    /// The records' reflected light interpolated at (x, n), each carried to x by its gradient,
+    /// or `None` where no record serves.
     pub(super) fn at(&self, x: DVec3, n: DVec3) -> Option<Rgb> {
         let (mut sum, mut total) = ([0.0; 3], 0.0);
         serving(&self.index, &self.records, x, n, |k, w| {
+            let k = k as usize;
             total += w;
-            for (a, b) in sum.iter_mut().zip(self.values[k as usize]) {
+            let carried = self.gradients[k].carry(self.values[k], x - self.records[k].x);
+            for (a, b) in sum.iter_mut().zip(carried) {
                 *a += w * b;
             }
         });
@@ -455,7 +478,7 @@ impl Gatherer<'_> {
             })
         };
         let progress = crate::progress::stage("gather: records", Some(records.len() as u64));
-        let values: Vec<Rgb> = records
+        let (values, gradients): (Vec<Rgb>, Vec<Gradient>) = records
             .par_iter()
             .zip(&record_vertex)
             .enumerate()
@@ -463,28 +486,34 @@ impl Gatherer<'_> {
                 progress.advance(1);
                 let mut rng = Rng::new(&[self.seed(), v as u64, 0xCAC4E]);
                 let s = spot(v);
-                self.hemisphere_with(
+                let (h, g) = self.hemisphere_graded(
                     record.x,
                     record.n,
                     s.patch,
                     (&[], Count::All),
                     (rays_of(k), bright_rays(rays_of(k))),
                     NEAR_DEPTH,
+                    true,
                     &mut rng,
-                )
-                .radiance
+                );
+                let g = g
+                    .expect("asked for")
+                    .limited(h.radiance, record.reach(), GRADIENT_LIMIT);
+                (h.radiance, g)
             })
-            .collect();
+            .unzip();
         stats.record_rays = (0..records.len()).map(rays_of).sum();
 
         let out: Vec<Option<Rgb>> = spots
             .iter()
             .zip(&weights)
             .map(|(s, list)| {
-                s.as_ref()?;
+                let s = s.as_ref()?;
                 let mut sum = [0.0; 3];
                 for &(k, w) in list {
-                    for (a, b) in sum.iter_mut().zip(values[k as usize]) {
+                    let k = k as usize;
+                    let carried = gradients[k].carry(values[k], s.x - records[k].x);
+                    for (a, b) in sum.iter_mut().zip(carried) {
                         *a += w * b;
                     }
                 }
@@ -495,6 +524,7 @@ impl Gatherer<'_> {
         let cache = Cache {
             records,
             values,
+            gradients,
             index,
             stats,
         };

@@ -173,10 +173,28 @@ impl Gatherer<'_> {
         n: DVec3,
         ignore: u32,
         counted: (&[u32], Count),
-        (rays, bright): (usize, usize),
+        rays: (usize, usize),
         near_bounces: u32,
         rng: &mut Rng,
     ) -> Hemisphere {
+        self.hemisphere_graded(x, n, ignore, counted, rays, near_bounces, false, rng)
+            .0
+    }
+
+    /// [`Gatherer::hemisphere_with`], and with `graded` the estimate's gradients as well
+    /// ([`Gradient`], from the same rays: no ray more).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn hemisphere_graded(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        ignore: u32,
+        counted: (&[u32], Count),
+        (rays, bright): (usize, usize),
+        near_bounces: u32,
+        graded: bool,
+        rng: &mut Rng,
+    ) -> (Hemisphere, Option<Gradient>) {
         let frame = Frame::of(n);
         let mut sum = [0.0; 3];
         let mut backs = 0usize;
@@ -206,15 +224,25 @@ impl Gatherer<'_> {
         // Each stratum's first ray, for the rays beside edges.
         let edges = side >= EDGE_MIN_SIDE && self.edge_rays > 0.0;
         let mut strata: Vec<First> = Vec::with_capacity(if edges { total } else { 0 });
+        // Each stratum's first ray for the gradients: the radiance it met and how far.
+        let mut seen: Vec<(Rgb, f64)> = Vec::with_capacity(if graded { total } else { 0 });
         for k in 0..total {
             let dir = frame.in_stratum(k, side, rng);
             let is_above = dir.dot(up) > 0.0;
             above += usize::from(is_above);
-            let ray = self.along(x, n, dir, ignore, counted, near_bounces, rng);
+            let (ray, distance) = self.along(x, n, dir, ignore, counted, near_bounces, rng);
             match ray {
                 Ray::Back => backs += 1,
                 Ray::Left => open += usize::from(is_above),
                 Ray::Brought(..) => {}
+            }
+            if graded {
+                let met = match ray {
+                    Ray::Brought(l, _) => l,
+                    Ray::Back => [0.0; 3],
+                    Ray::Left => self.env.sky_radiance(dir),
+                };
+                seen.push((met, distance));
             }
             let (brought, light) = self.weighed(ray, origin, dir, mis, openings);
             let cos = dir.dot(n);
@@ -274,11 +302,12 @@ impl Gatherer<'_> {
                 *o += l;
             }
         }
-        Hemisphere {
+        let hemisphere = Hemisphere {
             radiance: out,
             error: (spread / count).sqrt(),
             backs: backs as f64 / count,
-        }
+        };
+        (hemisphere, graded.then(|| gradient(&frame, side, &seen)))
     }
 
     /// The bright patches' share of ∫ L_r cosθ/π dω at `x` by `count` shadow rays to them
@@ -455,7 +484,7 @@ impl Gatherer<'_> {
             let mut stratum = first.brought.map(|l| l * w);
             for _ in 0..m {
                 let dir = frame.in_stratum(k, side, rng);
-                let ray = self.along(x, frame.n, dir, ignore, counted, near_bounces, rng);
+                let (ray, _) = self.along(x, frame.n, dir, ignore, counted, near_bounces, rng);
                 let (brought, light) = self.weighed(ray, origin, dir, mis, openings);
                 let w = mis.hemisphere(light, dir.dot(frame.n), m + 1);
                 for (s, l) in stratum.iter_mut().zip(brought) {
@@ -493,13 +522,13 @@ impl Gatherer<'_> {
         (exact, rule): (&[u32], Count),
         near_bounces: u32,
         rng: &mut Rng,
-    ) -> Ray {
+    ) -> (Ray, f64) {
         let Some(hit) = self.surfaces.closest(x + self.lift * n, dir, ignore) else {
-            return Ray::Left;
+            return (Ray::Left, f64::INFINITY);
         };
         let h = hit.patch as usize;
         if self.patches.normal[h].dot(dir) >= 0.0 {
-            return Ray::Back; // the back of a one-sided surface sends nothing
+            return (Ray::Back, hit.t); // the back of a one-sided surface sends nothing
         }
         // The emitted part of what it sends was counted by the direct term if its emitter
         // is one of `exact` or sampled from here (the others' rays), or every emitter's is.
@@ -514,9 +543,12 @@ impl Gatherer<'_> {
             // A near hit (a concave corner): the patch's mean is not the radiance at the
             // hit point; evaluate it there, one bounce further (see NEAR_HIT).
             let reflected = self.reflected_at_hit(y, h, exact, near_bounces - 1, rng);
-            return Ray::Brought(
-                std::array::from_fn(|c| (if counted { 0.0 } else { le[c] }) + reflected[c]),
-                0.0,
+            return (
+                Ray::Brought(
+                    std::array::from_fn(|c| (if counted { 0.0 } else { le[c] }) + reflected[c]),
+                    0.0,
+                ),
+                hit.t,
             );
         }
         // A far point of a bright patch: how densely the bright rays propose it.
@@ -526,16 +558,14 @@ impl Gatherer<'_> {
             }
             _ => 0.0,
         };
-        Ray::Brought(
-            std::array::from_fn(|c| {
-                if counted {
-                    (l[c] - le[c]).max(0.0)
-                } else {
-                    l[c]
-                }
-            }),
-            density,
-        )
+        let brought = std::array::from_fn(|c| {
+            if counted {
+                (l[c] - le[c]).max(0.0)
+            } else {
+                l[c]
+            }
+        });
+        (Ray::Brought(brought, density), hit.t)
     }
 
     /// The reflected indirect light ρ·∫ L cosθ/π dω at `spot` by `rays` hemisphere rays (as
@@ -729,6 +759,91 @@ pub(super) struct Hemisphere {
     pub(super) error: f64,
     /// The share of the rays that met the back of a surface, in [0, 1].
     pub(super) backs: f64,
+}
+
+/// The first-order change of a hemisphere's I = ∫ L cosθ/π dω (radiance units) with the
+/// point's position, per colour channel (Ward & Heckbert, "Irradiance gradients",
+/// Eurographics Rendering Workshop 1992; in the notation of Křivánek & Gautron, "Practical
+/// global illumination with irradiance caching", 2009, §2.3): at x near x₀ on the same
+/// surface, I(x) ≈ I(x₀) + (x − x₀)·∇I, ∇I in radiance per scene unit, in the tangent plane.
+///
+/// (Ward & Heckbert's rotational gradient, the change with the normal, is not kept: its
+/// estimate weighs each ray by tanθ, and the rays near the horizon that meet a sunlit floor
+/// made it noisier than the change it models; BENCHMARKS.md "A daylit office".)
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Gradient(pub(super) [DVec3; 3]);
+
+impl Gradient {
+    /// `value` (the estimate at x₀) carried to x₀ + `offset`, each channel kept in
+    /// [0, 2·value]: a first-order estimate that its own noise or a far extrapolation would
+    /// otherwise take below zero.
+    pub(super) fn carry(&self, value: Rgb, offset: DVec3) -> Rgb {
+        std::array::from_fn(|c| (value[c] + offset.dot(self.0[c])).clamp(0.0, 2.0 * value[c]))
+    }
+
+    /// The gradient scaled so that within `reach` of x₀ it changes the luminance by at most
+    /// `share` of the value's (Křivánek et al., "Making radiance and irradiance caching
+    /// practical", EGSR 2006, bound a record's radius by I / |∇I| for the same reason: a
+    /// linear extrapolation of a noisy gradient runs far from the light).
+    pub(super) fn limited(self, value: Rgb, reach: f64, share: f64) -> Gradient {
+        let size = luminance(self.0.map(|g| g.length())) * reach;
+        let y = share * luminance(value);
+        if size > y {
+            let scale = if size > 0.0 { y / size } else { 0.0 };
+            Gradient(self.0.map(|g| g * scale))
+        } else {
+            self
+        }
+    }
+}
+
+/// The translational gradient of a stratified hemisphere from its strata's first rays
+/// (`seen[k]`: the radiance met in stratum k of [`Frame::in_stratum`]'s `side` × `side`, and
+/// how far; ∞ for a ray that left the scene), by Ward & Heckbert's formula (see
+/// [`Gradient`]). The rows of the grid are the strata of sin²θ (their j, M = `side`), its
+/// columns those of φ (their k, N = `side`). As the point moves, the surfaces that each
+/// boundary between neighbouring strata meets shift in its view, and the light changes by the
+/// difference of the two strata's radiance, times the boundary's length in projected solid
+/// angle, over the nearer of the two hits' distances:
+///
+/// π ∇I = Σ_k [ u_k (2π/N) Σ_{j≥1} sinθ⁻_j cos²θ⁻_j (L_{jk} − L_{j−1,k}) / min(r_{jk}, r_{j−1,k})
+///      + v⁻_k Σ_j cosθ_j (cosθ⁻_j − cosθ⁺_j) (L_{jk} − L_{j,k−1}) / (sinθ_j min(r_{jk}, r_{j,k−1})) ],
+///
+/// u_k the tangent direction at the column's centre φ_k, v⁻_k that at φ⁻_k + π/2 (φ⁻_k the
+/// column's first angle), θ_j the row's centre and θ⁻_j, θ⁺_j its bounds (sin²θ⁻_j = j/M). A
+/// boundary between two rays that both left the scene moves nothing.
+fn gradient(frame: &Frame, side: usize, seen: &[(Rgb, f64)]) -> Gradient {
+    debug_assert_eq!(seen.len(), side * side);
+    let m = side as f64;
+    let tangent = |phi: f64| phi.cos() * frame.t + phi.sin() * frame.b;
+    let mut g = [DVec3::ZERO; 3];
+    let mut add = |dir: DVec3, f: f64, l: Rgb, l2: Rgb| {
+        if f.is_finite() {
+            for c in 0..3 {
+                g[c] += dir * (f * (l[c] - l2[c]));
+            }
+        }
+    };
+    for i in 0..side {
+        let (lo, centre, hi) = (i as f64 / m, (i as f64 + 0.5) / m, (i + 1) as f64 / m);
+        let (sin_c, cos_c) = (centre.sqrt(), (1.0 - centre).sqrt());
+        let (sin_lo, cos_lo) = (lo.sqrt(), (1.0 - lo).sqrt());
+        let cos_hi = (1.0 - hi).max(0.0).sqrt();
+        for j in 0..side {
+            let (l, r) = seen[i * side + j];
+            if i >= 1 {
+                let (l2, r2) = seen[(i - 1) * side + j];
+                let f = 2.0 / m * sin_lo * cos_lo * cos_lo / r.min(r2);
+                add(tangent(2.0 * PI * (j as f64 + 0.5) / m), f, l, l2);
+            }
+            if side > 1 {
+                let (l2, r2) = seen[i * side + (j + side - 1) % side];
+                let f = cos_c * (cos_lo - cos_hi) / (PI * sin_c * r.min(r2));
+                add(tangent(2.0 * PI * j as f64 / m + 0.5 * PI), f, l, l2);
+            }
+        }
+    }
+    Gradient(g)
 }
 
 /// The tangent frame of a hemisphere, and the cosine-weighted direction in one of its strata.

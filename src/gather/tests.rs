@@ -1311,3 +1311,70 @@ fn flips_are_the_same_for_any_thread_count() {
     };
     assert_eq!(run(1), run(3));
 }
+
+#[test]
+fn a_records_gradient_is_the_change_of_its_light_across_the_floor() {
+    // A floor under a bright unit square (radiance 1, no emission) at height 1, beside the
+    // point: the light arriving at x on the floor is ∫ L cosθ/π dω = F(x → square), exact
+    // ([`point_to_polygon`]), and its gradient is F's, by central differences. Ward &
+    // Heckbert's estimate from a hemisphere's strata, averaged over independent gathers,
+    // must point the same way and match it in size.
+    let mut b = SceneBuilder::new();
+    let floor = b.material("floor", [0.5; 3], [0.0; 3]);
+    let lit = b.material("lit", [0.5; 3], [0.0; 3]);
+    b.quad(square(-2.0, -2.0, 4.0, 0.0, true), floor);
+    let corners = square(0.5, -0.3, 1.0, 1.0, false);
+    b.quad(corners, lit);
+    let scene = b.build().unwrap();
+    let patches = crate::mesh::subdivide(&scene, 0.5, 0.0).unwrap();
+    let radiance: Vec<Rgb> = (0..patches.len())
+        .map(|i| {
+            [if patches.centroid[i].z > 0.5 {
+                1.0
+            } else {
+                0.0
+            }; 3]
+        })
+        .collect();
+    let env = Environment::default();
+    let g = Gatherer::new(&scene, &patches, &radiance, &env, 1);
+    let x = DVec3::new(0.1, 0.0, 0.0);
+    let f = |p: DVec3| point_to_polygon(p, DVec3::Z, &corners);
+    let h = 1e-5;
+    let exact = DVec3::new(
+        (f(x + h * DVec3::X) - f(x - h * DVec3::X)) / (2.0 * h),
+        (f(x + h * DVec3::Y) - f(x - h * DVec3::Y)) / (2.0 * h),
+        0.0,
+    );
+    let estimate = |rays: usize| {
+        let estimates: Vec<DVec3> = (0..400u64)
+            .map(|k| {
+                let mut rng = Rng::new(&[11, k]);
+                let counted = (&[][..], Count::All);
+                let (_, gradient) =
+                    g.hemisphere_graded(x, DVec3::Z, NONE, counted, (rays, 0), 0, true, &mut rng);
+                gradient.expect("asked for").0[1]
+            })
+            .collect();
+        let mean = estimates.iter().sum::<DVec3>() / estimates.len() as f64;
+        let (_, sd, se) = spread_of(&estimates.iter().map(|e| e.x).collect::<Vec<_>>());
+        (mean, sd, se)
+    };
+    assert!(
+        exact.x > 0.1 && exact.y > 0.0,
+        "the square is to +x, most of it to +y: {exact}"
+    );
+    // Measured, exact (0.1655, 0.0348): the mean of 400 estimates by 64 rays (8 strata a side)
+    // 16 % short of it, by 256 rays 6.3 % short, by 1,024 under 5 %, always in its direction.
+    // Ward & Heckbert take each boundary's length and distance at the strata's centres, and
+    // that bias falls with the strata's size; a first-order model short by a few per cent
+    // still takes out most of what interpolation without it leaves. Asked: within 10 % (plus
+    // four standard errors of the mean) at 256 rays, within 5 % at 1,024.
+    for (rays, within) in [(256, 0.10), (1024, 0.05)] {
+        let (mean, sd, se) = estimate(rays);
+        assert!(
+            (mean - exact).length() < within * exact.length() + 4.0 * se,
+            "{rays} rays: estimated {mean} (spread {sd}) against {exact}"
+        );
+    }
+}
