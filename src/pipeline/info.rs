@@ -146,11 +146,7 @@ impl SceneInfo {
             back_faces: scene.twin.iter().filter(|&&u| u != NO_TWIN).count() / 2,
             camera: scene.camera.map(CameraInfo::from),
             framing: scene.camera.is_none().then(|| {
-                let tris: Vec<[glam::DVec3; 3]> = scene
-                    .triangles
-                    .iter()
-                    .map(|t| t.vertices.map(|v| scene.positions[v as usize]))
-                    .collect();
+                let tris = scene.triangle_corners();
                 CameraInfo::from(crate::render::best_framing(&tris, environment.up))
             }),
             warnings: scene.warnings.clone(),

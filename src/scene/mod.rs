@@ -297,6 +297,31 @@ impl Scene {
             })
     }
 
+    /// Each triangle's corners, in triangle order (scene units).
+    pub fn triangle_corners(&self) -> Vec<[DVec3; 3]> {
+        self.triangles
+            .iter()
+            .map(|t| t.vertices.map(|v| self.positions[v as usize]))
+            .collect()
+    }
+
+    /// Each triangle's share of the light it lets through, in triangle order: its material's
+    /// transmittance, in [0, 1].
+    pub fn triangle_transmittance(&self) -> Vec<f64> {
+        self.triangles
+            .iter()
+            .map(|t| self.materials[t.material as usize].transmittance)
+            .collect()
+    }
+
+    /// The scene's triangles as ray casting sees them ([`Visibility`], its triangle `t` the
+    /// scene's), the partly transparent ones passing rays by their share
+    /// ([`Scene::triangle_transmittance`]).
+    pub fn visibility(&self) -> crate::visibility::Visibility {
+        crate::visibility::Visibility::build(&self.triangle_corners())
+            .with_transmittance(&self.triangle_transmittance())
+    }
+
     /// Area of triangle `t`, ½ |(p1 − p0) × (p2 − p0)|, in squared length units.
     /// Panics if `t` or its vertex indices are out of range (as slice indexing does).
     pub fn triangle_area(&self, t: usize) -> f64 {

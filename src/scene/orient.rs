@@ -225,11 +225,7 @@ pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation
     }
 
     // Step 2: each surface to the side it is seen from.
-    let mut corners: Vec<[DVec3; 3]> = out
-        .triangles
-        .iter()
-        .map(|t| t.vertices.map(|v| out.positions[v as usize]))
-        .collect();
+    let mut corners = out.triangle_corners();
     let (lo, hi) = out.bounds();
     let lift = 1e-5 * (hi - lo).length();
     let light_points = light_points(&out, &corners, lights, lift);
@@ -266,11 +262,7 @@ pub fn orient(scene: &Scene, lights: &[DVec3], seed: u64) -> (Scene, Orientation
                 }
             }
         }
-        corners = out
-            .triangles
-            .iter()
-            .map(|t| t.vertices.map(|v| out.positions[v as usize]))
-            .collect();
+        corners = out.triangle_corners();
     }
     for (s, faces) in members.iter().enumerate() {
         if !turned[s] {

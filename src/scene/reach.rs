@@ -4,12 +4,9 @@
 //! materials none of whose rays reaches the front of any surface; the pipeline turns them into
 //! warnings. It owns only that test; it changes nothing.
 
-use glam::DVec3;
-
 use super::Scene;
 use crate::geometry::orthonormal_basis;
 use crate::sampling::{malley, point_in_triangle, ByArea, Rng};
-use crate::visibility::Visibility;
 
 /// Probe rays per emitting material: cosine-weighted from points spread over its triangles
 /// by area. An emitter that lights some surface with a share s of its light has all of them
@@ -27,18 +24,9 @@ pub fn unlit_emitters(scene: &Scene, seed: u64) -> Vec<String> {
     if emitting.is_empty() {
         return Vec::new();
     }
-    let corners: Vec<[DVec3; 3]> = scene
-        .triangles
-        .iter()
-        .map(|t| t.vertices.map(|v| scene.positions[v as usize]))
-        .collect();
+    let corners = scene.triangle_corners();
     // Panes pass the probes by their share, as they pass the bake's rays.
-    let transmittance: Vec<f64> = scene
-        .triangles
-        .iter()
-        .map(|t| scene.materials[t.material as usize].transmittance)
-        .collect();
-    let vis = Visibility::build(&corners).with_transmittance(&transmittance);
+    let vis = scene.visibility();
     let mut unlit = Vec::new();
     for m in emitting {
         let tris: Vec<usize> = (0..scene.triangles.len())
@@ -76,6 +64,7 @@ pub fn unlit_emitters(scene: &Scene, seed: u64) -> Vec<String> {
 mod tests {
     use super::*;
     use crate::scene::SceneBuilder;
+    use glam::DVec3;
 
     /// A floor (0..1 at z = 0, facing up) and a lamp above it at z = 1, facing down (toward
     /// the floor) or up (away from everything).

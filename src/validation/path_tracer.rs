@@ -216,11 +216,7 @@ pub(crate) struct Tracer<'a> {
 
 impl<'a> Tracer<'a> {
     pub(crate) fn new(scene: &'a Scene) -> Self {
-        let corners: Vec<[DVec3; 3]> = scene
-            .triangles
-            .iter()
-            .map(|t| t.vertices.map(|v| scene.positions[v as usize]))
-            .collect();
+        let corners = scene.triangle_corners();
         let normal = corners
             .iter()
             .map(|[a, b, c]| (*b - *a).cross(*c - *a).normalize())
@@ -247,16 +243,11 @@ impl<'a> Tracer<'a> {
             emitter_pick[e as usize] =
                 emitter_cdf[k] - if k > 0 { emitter_cdf[k - 1] } else { 0.0 };
         }
-        // Partly transparent faces pass a path with chance t (the screen-door model of
-        // `Material::transmittance`).
-        let transmittance: Vec<f64> = scene
-            .triangles
-            .iter()
-            .map(|t| scene.materials[t.material as usize].transmittance)
-            .collect();
         Tracer {
             scene,
-            vis: Visibility::build(&corners).with_transmittance(&transmittance),
+            // Partly transparent faces pass a path with chance t (the screen-door model of
+            // `Material::transmittance`).
+            vis: scene.visibility(),
             corners,
             normal,
             area,

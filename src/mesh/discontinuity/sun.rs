@@ -89,17 +89,7 @@ pub fn sun_lines_on(
     if n == 0 || extent <= 0.0 || !sun.is_finite() {
         return None;
     }
-    let corners: Vec<[DVec3; 3]> = scene
-        .triangles
-        .iter()
-        .map(|t| t.vertices.map(|v| scene.positions[v as usize]))
-        .collect();
-    let transmittance: Vec<f64> = scene
-        .triangles
-        .iter()
-        .map(|t| scene.materials[t.material as usize].transmittance)
-        .collect();
-    let vis = &Visibility::build(&corners).with_transmittance(&transmittance);
+    let vis = &scene.visibility();
     let normals: Vec<DVec3> = (0..n).map(|t| unit_normal(scene, t)).collect();
     let mut edges = candidate_edges(scene, &normals, sun);
     edges.retain(|e| on(e.triangles[0] as usize));
