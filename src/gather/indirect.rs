@@ -769,7 +769,7 @@ pub(super) struct Hemisphere {
 ///
 /// (Ward & Heckbert's rotational gradient, the change with the normal, is not kept: its
 /// estimate weighs each ray by tanθ, and the rays near the horizon that meet a sunlit floor
-/// made it noisier than the change it models; BENCHMARKS.md "A daylit office".)
+/// made it noisier than the change it models; BENCHMARKS.md "Tried and not kept".)
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Gradient(pub(super) [DVec3; 3]);
 
