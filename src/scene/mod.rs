@@ -314,8 +314,8 @@ impl Scene {
             .collect()
     }
 
-    /// The scene's triangles as ray casting sees them ([`Visibility`], its triangle `t` the
-    /// scene's), the partly transparent ones passing rays by their share
+    /// The scene's triangles as ray casting sees them ([`crate::visibility::Visibility`], its
+    /// triangle `t` the scene's), the partly transparent ones passing rays by their share
     /// ([`Scene::triangle_transmittance`]).
     pub fn visibility(&self) -> crate::visibility::Visibility {
         crate::visibility::Visibility::build(&self.triangle_corners())
