@@ -181,14 +181,17 @@ impl Cache {
     pub(super) fn at(&self, x: DVec3, n: DVec3) -> Option<Rgb> {
         let (mut sum, mut total) = ([0.0; 3], 0.0);
         serving(&self.index, &self.records, x, n, |k, w| {
-            let k = k as usize;
             total += w;
-            let carried = self.gradients[k].carry(self.values[k], x - self.records[k].x);
-            for (a, b) in sum.iter_mut().zip(carried) {
+            for (a, b) in sum.iter_mut().zip(self.carried(k as usize, x)) {
                 *a += w * b;
             }
         });
         (total > 0.0).then(|| sum.map(|a| a / total))
+    }
+
+    /// Record k's reflected light carried to x by its gradient (radiance units).
+    fn carried(&self, k: usize, x: DVec3) -> Rgb {
+        self.gradients[k].carry(self.values[k], x - self.records[k].x)
     }
 }
 
@@ -504,6 +507,13 @@ impl Gatherer<'_> {
             .unzip();
         stats.record_rays = (0..records.len()).map(rays_of).sum();
 
+        let mut cache = Cache {
+            records,
+            values,
+            gradients,
+            index,
+            stats,
+        };
         let out: Vec<Option<Rgb>> = spots
             .iter()
             .zip(&weights)
@@ -511,23 +521,14 @@ impl Gatherer<'_> {
                 let s = s.as_ref()?;
                 let mut sum = [0.0; 3];
                 for &(k, w) in list {
-                    let k = k as usize;
-                    let carried = gradients[k].carry(values[k], s.x - records[k].x);
-                    for (a, b) in sum.iter_mut().zip(carried) {
+                    for (a, b) in sum.iter_mut().zip(cache.carried(k as usize, s.x)) {
                         *a += w * b;
                     }
                 }
                 Some(sum)
             })
             .collect();
-        stats.interpolated = out.iter().flatten().count() - stats.records;
-        let cache = Cache {
-            records,
-            values,
-            gradients,
-            index,
-            stats,
-        };
+        cache.stats.interpolated = out.iter().flatten().count() - cache.stats.records;
         (out, cache)
     }
 }

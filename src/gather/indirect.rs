@@ -816,6 +816,13 @@ fn gradient(frame: &Frame, side: usize, seen: &[(Rgb, f64)]) -> Gradient {
     debug_assert_eq!(seen.len(), side * side);
     let m = side as f64;
     let tangent = |phi: f64| phi.cos() * frame.t + phi.sin() * frame.b;
+    // Per column: u_k, at its centre, and v⁻_k, at its first angle plus π/2.
+    let u: Vec<DVec3> = (0..side)
+        .map(|j| tangent(2.0 * PI * (j as f64 + 0.5) / m))
+        .collect();
+    let v: Vec<DVec3> = (0..side)
+        .map(|j| tangent(2.0 * PI * j as f64 / m + 0.5 * PI))
+        .collect();
     let mut g = [DVec3::ZERO; 3];
     let mut add = |dir: DVec3, f: f64, l: Rgb, l2: Rgb| {
         if f.is_finite() {
@@ -834,12 +841,12 @@ fn gradient(frame: &Frame, side: usize, seen: &[(Rgb, f64)]) -> Gradient {
             if i >= 1 {
                 let (l2, r2) = seen[(i - 1) * side + j];
                 let f = 2.0 / m * sin_lo * cos_lo * cos_lo / r.min(r2);
-                add(tangent(2.0 * PI * (j as f64 + 0.5) / m), f, l, l2);
+                add(u[j], f, l, l2);
             }
             if side > 1 {
                 let (l2, r2) = seen[i * side + (j + side - 1) % side];
                 let f = cos_c * (cos_lo - cos_hi) / (PI * sin_c * r.min(r2));
-                add(tangent(2.0 * PI * j as f64 / m + 0.5 * PI), f, l, l2);
+                add(v[j], f, l, l2);
             }
         }
     }
