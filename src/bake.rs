@@ -40,6 +40,9 @@ pub fn bake(patches: &Patches, radiance: &[Rgb], crease_degrees: f64) -> BakedMe
     bake_sites(patches, radiance, crease_degrees).0
 }
 
+/// The patches of a [`Site`]: up to four inline, more on the heap.
+pub type SitePatches = smallvec::SmallVec<[u32; 4]>;
+
 /// An output vertex as a point of the surface: where the final gather
 /// ([`crate::gather`]) evaluates the radiance it shows.
 #[derive(Debug, Clone, PartialEq)]
@@ -49,8 +52,8 @@ pub struct Site {
     /// Unit normal: the area-weighted mean of its patches' normals.
     pub normal: DVec3,
     /// The patches whose corner this vertex is (one surface group: same material, normals
-    /// within the crease angle).
-    pub patches: Vec<u32>,
+    /// within the crease angle); up to four kept inline (most vertices have one to four).
+    pub patches: SitePatches,
     /// Other output vertices share its position: it lies on a crease or a material border,
     /// where surfaces meet.
     pub shared: bool,
@@ -125,7 +128,7 @@ pub fn bake_sites(
                 sites.push(Site {
                     position: pos,
                     normal: DVec3::ZERO,
-                    patches: Vec::new(),
+                    patches: SitePatches::new(),
                     shared: false,
                     mesh_vertex: v as u32,
                 });
@@ -166,6 +169,10 @@ pub fn bake_sites(
     for site in &mut sites {
         site.normal = site.normal.normalize_or_zero();
     }
+    // Grown by doubling: up to twice the output's vertices held through the gather.
+    sites.shrink_to_fit();
+    mesh.positions.shrink_to_fit();
+    mesh.vertex_radiance.shrink_to_fit();
     (mesh, sites)
 }
 

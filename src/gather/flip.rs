@@ -55,8 +55,111 @@ pub const MARGIN: f64 = 0.5;
 pub const ROUNDS: usize = 3;
 
 /// Each display vertex's cheap direct light and the key of its exact emitters
-/// (the refinement's `coarse_direct_at`), once computed; `None` where it is buried.
-pub(super) type Coarse = HashMap<u32, Option<(u64, crate::color::Rgb)>>;
+/// (the refinement's `coarse_direct_at`), once computed; `None` where it is buried. Indexed
+/// by vertex (`coarse[&v]`, which panics for a vertex not yet computed): most of a large
+/// output's vertices are, and a hash map of them would take twice the bytes.
+#[derive(Debug, Default)]
+pub(super) struct Coarse(Vec<Option<Option<(u64, crate::color::Rgb)>>>);
+
+impl Coarse {
+    /// Whether vertex `v`'s estimate has been computed.
+    pub(super) fn contains_key(&self, v: &u32) -> bool {
+        self.0.get(*v as usize).is_some_and(Option::is_some)
+    }
+
+    /// Sets the estimates of `found` (vertex, estimate).
+    pub(super) fn extend(
+        &mut self,
+        found: impl IntoIterator<Item = (u32, Option<(u64, crate::color::Rgb)>)>,
+    ) {
+        for (v, c) in found {
+            if self.0.len() <= v as usize {
+                self.0.resize(v as usize + 1, None);
+            }
+            self.0[v as usize] = Some(c);
+        }
+    }
+}
+
+impl std::ops::Index<&u32> for Coarse {
+    type Output = Option<(u64, crate::color::Rgb)>;
+
+    fn index(&self, v: &u32) -> &Self::Output {
+        self.0[*v as usize]
+            .as_ref()
+            .expect("a display vertex's cheap direct light is computed before it is read")
+    }
+}
+
+/// The faces on each output edge, in the order they were added: a pair inline (16 bytes an
+/// edge, no allocation of its own: the map of a large output's every edge is the largest
+/// thing the flips hold), the rare edge of three or more faces (a non-manifold output) in a
+/// side map.
+#[derive(Debug, Default)]
+struct FacesOf {
+    pairs: HashMap<Edge, [u32; 2], rustc_hash::FxBuildHasher>,
+    more: HashMap<Edge, Vec<u32>>,
+}
+
+/// An empty slot of [`FacesOf::pairs`].
+const NO_FACE: u32 = u32::MAX;
+/// Both slots of [`FacesOf::pairs`] for an edge whose faces are in [`FacesOf::more`].
+const MORE: u32 = u32::MAX - 1;
+
+impl FacesOf {
+    fn add(&mut self, e: Edge, f: usize) {
+        let f = f as u32;
+        let slot = self.pairs.entry(e).or_insert([NO_FACE; 2]);
+        match *slot {
+            [NO_FACE, _] => slot[0] = f,
+            [MORE, _] => self.more.entry(e).or_default().push(f),
+            [_, NO_FACE] => slot[1] = f,
+            [a, b] => {
+                self.more.insert(e, vec![a, b, f]);
+                *slot = [MORE; 2];
+            }
+        }
+    }
+
+    /// Takes face `f` off edge `e` (every time it is listed), and the edge away with its
+    /// last face.
+    fn remove(&mut self, e: Edge, f: usize) {
+        let f = f as u32;
+        let Some(slot) = self.pairs.get_mut(&e) else {
+            return;
+        };
+        let left: Vec<u32> = match *slot {
+            [MORE, _] => self.more.remove(&e).unwrap_or_default(),
+            pair => pair.into_iter().filter(|&g| g != NO_FACE).collect(),
+        };
+        let left: Vec<u32> = left.into_iter().filter(|&g| g != f).collect();
+        match left.len() {
+            0 => {
+                self.pairs.remove(&e);
+            }
+            1 | 2 => *slot = [left[0], left.get(1).copied().unwrap_or(NO_FACE)],
+            _ => {
+                self.more.insert(e, left);
+            }
+        }
+    }
+
+    /// The two faces of `e`, if it has exactly two.
+    fn pair(&self, e: Edge) -> Option<[usize; 2]> {
+        match *self.pairs.get(&e)? {
+            [a, b] if a != MORE && b != NO_FACE => Some([a as usize, b as usize]),
+            _ => None,
+        }
+    }
+
+    fn contains(&self, e: Edge) -> bool {
+        self.pairs.contains_key(&e)
+    }
+
+    fn edges(&self) -> impl Iterator<Item = Edge> + '_ {
+        self.pairs.keys().copied()
+    }
+}
 
 /// What the flips did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
@@ -98,13 +201,13 @@ pub(super) fn flip_edges(
     (coarse_at, visible_fraction): (&mut Coarse, &[f64]),
 ) -> Flipped {
     let mut done = Flipped::default();
-    let mut by_edge: HashMap<Edge, Vec<usize>> = HashMap::new();
+    let mut by_edge = FacesOf::default();
     for (f, &face) in faces.iter().enumerate() {
         for e in face_edges(face) {
-            by_edge.entry(e).or_default().push(f);
+            by_edge.add(e, f);
         }
     }
-    let mut candidates: Vec<Edge> = by_edge.keys().copied().collect();
+    let mut candidates: Vec<Edge> = by_edge.edges().collect();
     let seed = gatherer.seed();
     for _ in 0..ROUNDS {
         candidates.sort_unstable();
@@ -156,19 +259,14 @@ pub(super) fn flip_edges(
         candidates.clear();
         for (_, i) in order {
             let q = quads[i];
-            if touched[q.f1] || touched[q.f2] || by_edge.contains_key(&edge(q.c, q.d)) {
+            if touched[q.f1] || touched[q.f2] || by_edge.contains(edge(q.c, q.d)) {
                 continue;
             }
             touched[q.f1] = true;
             touched[q.f2] = true;
             for f in [q.f1, q.f2] {
                 for e in face_edges(faces[f]) {
-                    if let Some(list) = by_edge.get_mut(&e) {
-                        list.retain(|&g| g != f);
-                        if list.is_empty() {
-                            by_edge.remove(&e);
-                        }
-                    }
+                    by_edge.remove(e, f);
                 }
             }
             // The quadrilateral a → d → b → c, counter-clockwise: (a, d, c) and (d, b, c).
@@ -176,7 +274,7 @@ pub(super) fn flip_edges(
             faces[q.f2] = [q.d, q.b, q.c];
             for f in [q.f1, q.f2] {
                 for e in face_edges(faces[f]) {
-                    by_edge.entry(e).or_default().push(f);
+                    by_edge.add(e, f);
                     candidates.push(e);
                 }
             }
@@ -201,13 +299,10 @@ fn quad(
     face_patch: &[u32],
     sites: &[Site],
     values: &[Gathered],
-    by_edge: &HashMap<Edge, Vec<usize>>,
+    by_edge: &FacesOf,
     e: Edge,
 ) -> Option<Quad> {
-    let [f1, f2] = by_edge.get(&e)?.as_slice() else {
-        return None;
-    };
-    let (f1, f2) = (*f1, *f2);
+    let [f1, f2] = by_edge.pair(e)?;
     // Rotate f1 to (a, b, c) with a → b along it; f2 must run b → a.
     let face = faces[f1];
     let k = (0..3).find(|&k| edge(face[k], face[(k + 1) % 3]) == e)?;
@@ -348,12 +443,61 @@ fn promising(
 
 /// The site of X, on the quad's two patches.
 fn crossing_site(gatherer: &Gatherer, q: &Quad, face_patch: &[u32]) -> Site {
-    let patches = vec![face_patch[q.f1], face_patch[q.f2]];
+    let patches = crate::bake::SitePatches::from_slice(&[face_patch[q.f1], face_patch[q.f2]]);
     Site {
         position: q.x,
         normal: gatherer.patches.normal[patches[0] as usize],
         patches,
         shared: false,
         mesh_vertex: u32::MAX,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Adds and removes faces on a few edges, three and four a time on some (a non-manifold
+    /// output), and a face listed twice on one (a degenerate face), checking after each step
+    /// what the flips read against a plain list per edge.
+    #[test]
+    fn faces_of_edges_match_a_list_per_edge() {
+        let mut faces = FacesOf::default();
+        let mut lists: HashMap<Edge, Vec<usize>> = HashMap::new();
+        let mut rng = Rng::new(&[7]);
+        for step in 0..4000 {
+            let e = (rng.below(4) as u32, 9);
+            let f = rng.below(6);
+            if rng.next_f64() < 0.55 {
+                faces.add(e, f);
+                lists.entry(e).or_default().push(f);
+            } else {
+                faces.remove(e, f);
+                if let Some(list) = lists.get_mut(&e) {
+                    list.retain(|&g| g != f);
+                    if list.is_empty() {
+                        lists.remove(&e);
+                    }
+                }
+            }
+            for k in 0..4 {
+                let e = (k, 9);
+                let want = lists
+                    .get(&e)
+                    .and_then(|l| <[usize; 2]>::try_from(l.as_slice()).ok());
+                assert_eq!(
+                    faces.pair(e),
+                    want,
+                    "step {step}, edge {e:?}: {:?}",
+                    lists.get(&e)
+                );
+                assert_eq!(faces.contains(e), lists.contains_key(&e), "step {step}");
+            }
+        }
+        let mut edges: Vec<Edge> = faces.edges().collect();
+        edges.sort_unstable();
+        let mut want: Vec<Edge> = lists.keys().copied().collect();
+        want.sort_unstable();
+        assert_eq!(edges, want);
     }
 }

@@ -131,12 +131,7 @@ pub fn correct(
         return done;
     }
     let positions: Vec<DVec3> = mesh.positions.iter().map(|&p| DVec3::from(p)).collect();
-    let mut faces_of: Vec<Vec<u32>> = vec![Vec::new(); positions.len()];
-    for (f, face) in mesh.faces.iter().enumerate() {
-        for &v in face {
-            faces_of[v as usize].push(f as u32);
-        }
-    }
+    let faces_of = Stars::of(&mesh.faces, positions.len());
     let buried: Vec<bool> = values.iter().map(|g| g.buried).collect();
     let around = |f: u32| mesh.faces[f as usize].map(|w| positions[w as usize]);
     // A vertex's tangent frame (from the area-weighted normal of the faces around it) and
@@ -146,7 +141,8 @@ pub fn correct(
         if buried[v] {
             return None;
         }
-        let normal: DVec3 = faces_of[v]
+        let normal: DVec3 = faces_of
+            .of_vertex(v)
             .iter()
             .map(|&f| {
                 let c = around(f);
@@ -160,7 +156,8 @@ pub fn correct(
     // neighbours that compute the same emitters exactly (where they differ, a large near
     // emitter's light is in one's direct light and in the other's indirect).
     let indirect: Vec<Rgb> = values.iter().map(|g| g.indirect).collect();
-    let quadratics: Vec<Option<Quadratic>> = (0..positions.len())
+    // Each vertex's fitted value, and the bend of its quadratic for the midpoints (step 3).
+    let (fitted, bends): (Vec<Option<Rgb>>, Vec<Option<Bend>>) = (0..positions.len())
         .into_par_iter()
         .map(|v| {
             let (frame, ring) = local(v)?;
@@ -179,18 +176,14 @@ pub fn correct(
                 / points.len() as f64)
                 .sqrt();
             let bound = (tolerance * luminance(values[v].radiance)).max(noise);
-            (residual <= bound).then_some(Quadratic {
-                origin: positions[v],
-                frame,
-                scale,
-                base: indirect[v],
-                x,
-            })
+            // The quadratic's value at the vertex: its constant term, relative to `base`.
+            let at_vertex: Rgb = std::array::from_fn(|k| indirect[v][k] + x[5][k]);
+            (residual <= bound).then(|| (at_vertex, Bend::of(frame, scale, &x)))
         })
-        .collect();
-    for (v, q) in quadratics.iter().enumerate() {
-        if let Some(q) = q {
-            let fit = q.at(positions[v]);
+        .map(Option::unzip)
+        .unzip();
+    for (v, fit) in fitted.into_iter().enumerate() {
+        if let Some(fit) = fit {
             for k in 0..3 {
                 mesh.vertex_radiance[v][k] =
                     (mesh.vertex_radiance[v][k] + fit[k] - indirect[v][k]).max(0.0);
@@ -198,13 +191,14 @@ pub fn correct(
             done.denoised += 1;
         }
     }
+    drop(indirect);
     // 2. The chord correction of the whole.
     let old = &mesh.vertex_radiance;
     let shifts: Vec<Option<Rgb>> = (0..positions.len())
         .into_par_iter()
         .map(|v| {
             let (frame, ring) = local(v)?;
-            let star: Vec<[DVec3; 3]> = faces_of[v].iter().map(|&f| around(f)).collect();
+            let star: Vec<[DVec3; 3]> = faces_of.of_vertex(v).iter().map(|&f| around(f)).collect();
             chord(v, &star, &ring, &positions, old, frame, tolerance)
         })
         .collect();
@@ -223,15 +217,10 @@ pub fn correct(
         .iter()
         .map(|m| {
             let [a, b] = m.ends.map(|v| v as usize);
-            let at = (positions[a] + positions[b]) / 2.0;
             // Each fitted end's quadratic's departure from its own chord along the edge.
             let bends: Vec<Rgb> = [a, b]
                 .iter()
-                .filter_map(|&e| {
-                    let q = quadratics[e].as_ref()?;
-                    let (qa, qb, qm) = (q.at(positions[a]), q.at(positions[b]), q.at(at));
-                    Some(std::array::from_fn(|k| qm[k] - 0.5 * (qa[k] + qb[k])))
-                })
+                .filter_map(|&e| Some(bends[e].as_ref()?.along(positions[b] - positions[a])))
                 .collect();
             if bends.is_empty() {
                 return *m;
@@ -264,27 +253,81 @@ pub fn correct(
 /// table legs), and so do the quadratics' values at the midpoint in place of their bend.
 pub const MAX_BEND: f64 = 0.5;
 
-/// A vertex's local quadratic of the indirect light (step 1 of [`correct`]), to evaluate
-/// anywhere near it.
-struct Quadratic {
-    /// The vertex's position and tangent frame, scene units.
-    origin: DVec3,
-    frame: Frame,
-    /// The fit's unit of length ([`fit`]).
-    scale: f64,
-    /// The vertex's gathered indirect light, W·sr⁻¹·m⁻² per channel.
-    base: Rgb,
-    /// The coefficients of (x, y, ½x², xy, ½y², 1) relative to `base` ([`fit`] with N = 6).
-    x: [[f64; 3]; 6],
+/// The second-order part of a vertex's local quadratic of the indirect light (step 1 of
+/// [`correct`]): all that the midpoints' bend (step 3) needs of it, since the quadratic's
+/// linear part and value cancel in a departure from its chord. Kept for every vertex at once,
+/// so in single precision (64 bytes, not the whole quadratic's 256): the bend it gives is
+/// bounded by [`MAX_BEND`] · τ of the light, and its rounding, 10⁻⁷ of the bend, is far below
+/// anything shown.
+struct Bend {
+    /// The tangent frame (t, u) the quadratic was fitted in.
+    frame: [[f32; 3]; 2],
+    /// The coefficients of ½x², xy and ½y² per channel, (x, y) in scene units along (t, u):
+    /// W·sr⁻¹·m⁻² per squared scene unit.
+    second: [[f32; 3]; 3],
 }
 
-impl Quadratic {
-    /// The fitted indirect light at `p` (projected onto the tangent plane).
-    fn at(&self, p: DVec3) -> Rgb {
-        let d = (p - self.origin) / self.scale;
-        let (x, y) = (d.dot(self.frame.0), d.dot(self.frame.1));
-        let row = [x, y, 0.5 * x * x, x * y, 0.5 * y * y, 1.0];
-        std::array::from_fn(|k| self.base[k] + (0..6).map(|i| row[i] * self.x[i][k]).sum::<f64>())
+impl Bend {
+    /// The second-order part of the coefficients `x` of [`fit`] (N = 6) fitted in `frame` in
+    /// units of `scale`.
+    fn of((t, u): Frame, scale: f64, x: &[[f64; 3]; 6]) -> Bend {
+        let per_unit = 1.0 / (scale * scale);
+        Bend {
+            frame: [t, u].map(|a| a.as_vec3().to_array()),
+            second: std::array::from_fn(|i| x[2 + i].map(|c| (c * per_unit) as f32)),
+        }
+    }
+
+    /// The quadratic's departure from its chord at the midpoint of a segment of direction
+    /// `d` (scene units, projected onto the tangent plane), per channel: −Q(d)/4 for its
+    /// quadratic form Q (Q((p + q)/2) − (Q(p) + Q(q))/2 = −Q(p − q)/4; the linear part and the
+    /// value cancel).
+    fn along(&self, d: DVec3) -> Rgb {
+        let [t, u] = self.frame.map(|a| DVec3::from(a.map(f64::from)));
+        let (x, y) = (d.dot(t), d.dot(u));
+        let row = [0.5 * x * x, x * y, 0.5 * y * y];
+        std::array::from_fn(|k| {
+            -0.25
+                * (0..3)
+                    .map(|i| row[i] * f64::from(self.second[i][k]))
+                    .sum::<f64>()
+        })
+    }
+}
+
+/// The faces around each vertex, in face order: one array for all (offsets into it per
+/// vertex), not a vector a vertex.
+struct Stars {
+    start: Vec<u32>,
+    faces: Vec<u32>,
+}
+
+impl Stars {
+    fn of(faces: &[[u32; 3]], vertices: usize) -> Stars {
+        let mut start = vec![0u32; vertices + 1];
+        for &v in faces.iter().flatten() {
+            start[v as usize + 1] += 1;
+        }
+        for v in 0..vertices {
+            start[v + 1] += start[v];
+        }
+        let mut next = start.clone();
+        let mut around = vec![0u32; start[vertices] as usize];
+        for (f, face) in faces.iter().enumerate() {
+            for &v in face {
+                around[next[v as usize] as usize] = f as u32;
+                next[v as usize] += 1;
+            }
+        }
+        Stars {
+            start,
+            faces: around,
+        }
+    }
+
+    /// The faces around vertex `v`.
+    fn of_vertex(&self, v: usize) -> &[u32] {
+        &self.faces[self.start[v] as usize..self.start[v + 1] as usize]
     }
 }
 
@@ -414,8 +457,9 @@ fn chord(
 
 /// The vertices within two edges of `v` over the faces around it (not `v`, none `fixed`),
 /// sorted.
-fn two_ring(v: usize, faces_of: &[Vec<u32>], faces: &[[u32; 3]], fixed: &[bool]) -> Vec<u32> {
-    let mut one: Vec<u32> = faces_of[v]
+fn two_ring(v: usize, faces_of: &Stars, faces: &[[u32; 3]], fixed: &[bool]) -> Vec<u32> {
+    let mut one: Vec<u32> = faces_of
+        .of_vertex(v)
         .iter()
         .flat_map(|&f| faces[f as usize])
         .collect();
@@ -423,7 +467,12 @@ fn two_ring(v: usize, faces_of: &[Vec<u32>], faces: &[[u32; 3]], fixed: &[bool])
     one.dedup();
     let mut ring: Vec<u32> = one
         .iter()
-        .flat_map(|&w| faces_of[w as usize].iter().flat_map(|&f| faces[f as usize]))
+        .flat_map(|&w| {
+            faces_of
+                .of_vertex(w as usize)
+                .iter()
+                .flat_map(|&f| faces[f as usize])
+        })
         .filter(|&w| w as usize != v && !fixed[w as usize])
         .collect();
     ring.sort_unstable();
@@ -618,6 +667,52 @@ mod tests {
             .iter()
             .map(|&t| (displayed_integral(mesh, t) - exact_integral(mesh, t, f)).abs())
             .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn a_bend_is_the_quadratics_departure_from_its_chord() {
+        // A quadratic with every term, in a tilted frame and a scale of 0.7: its value at the
+        // midpoint of a segment less its ends' mean, evaluated term by term in double
+        // precision, against the stored second-order part (single precision: 1e-6 of it).
+        let frame = DVec3::new(1.0, 2.0, 0.5).normalize().any_orthonormal_pair();
+        let (scale, origin) = (0.7, DVec3::new(0.3, -0.2, 1.1));
+        let x: [[f64; 3]; 6] =
+            std::array::from_fn(|i| [1.5, -0.4, 0.9].map(|c| c * (i as f64 - 2.5)));
+        let q = |p: DVec3| -> Rgb {
+            let d = (p - origin) / scale;
+            let (a, b) = (d.dot(frame.0), d.dot(frame.1));
+            let row = [a, b, 0.5 * a * a, a * b, 0.5 * b * b, 1.0];
+            std::array::from_fn(|k| (0..6).map(|i| row[i] * x[i][k]).sum())
+        };
+        let bend = Bend::of(frame, scale, &x);
+        for (p, r) in [
+            (DVec3::new(0.1, 0.4, -0.3), DVec3::new(-0.6, 0.2, 0.8)),
+            (DVec3::new(2.0, -1.0, 0.0), DVec3::new(1.5, 1.0, 0.3)),
+        ] {
+            let (qp, qr, qm) = (q(p), q(r), q(0.5 * (p + r)));
+            let got = bend.along(r - p);
+            for k in 0..3 {
+                let want = qm[k] - 0.5 * (qp[k] + qr[k]);
+                assert!(want.abs() > 1e-3, "{want}");
+                assert!(
+                    (got[k] - want).abs() <= 1e-6 * want.abs(),
+                    "{k}: {} against {want}",
+                    got[k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_stars_list_each_vertexs_faces_in_order() {
+        let faces = [[0, 1, 2], [2, 1, 3], [3, 4, 2], [0, 2, 4]];
+        let stars = Stars::of(&faces, 6);
+        for v in 0..6u32 {
+            let scan: Vec<u32> = (0..faces.len() as u32)
+                .filter(|&f| faces[f as usize].contains(&v))
+                .collect();
+            assert_eq!(stars.of_vertex(v as usize), scan.as_slice(), "vertex {v}");
+        }
     }
 
     #[test]

@@ -78,10 +78,11 @@
 
 use std::collections::{HashMap, HashSet};
 
+use super::flip::Coarse;
 use super::indirect::COARSE_RAYS;
 use super::local_fit::{self, Midpoint};
 use super::{Cache, Gather, Gathered, Gatherer};
-use crate::bake::{BakedMesh, Site};
+use crate::bake::{BakedMesh, Site, SitePatches};
 use crate::color::{luminance, Rgb};
 use crate::distributed::{Reader, Writer};
 use crate::light::emitter::{CACHE_MAX_SHADOW_RAYS, GATHER_MAX_SHADOW_RAYS, MIDPOINT_SHADOW_RAYS};
@@ -307,6 +308,15 @@ pub fn refine(
         values,
         face_patch,
     };
+    // The most the levels can add, reserved once: grown by doubling, the output's largest
+    // arrays would hold up to twice their length at the flips (the bake's peak on a large
+    // output). A split edge adds a vertex and one or two faces on each side. (A budget
+    // raised past the output's own size grows them as it goes.)
+    let more = budget.min(d.sites.len());
+    d.sites.reserve_exact(more);
+    d.values.reserve_exact(more);
+    d.mesh.faces.reserve_exact(2 * more);
+    d.face_patch.reserve_exact(2 * more);
     let emission = &gatherer.patches.emission;
     let floor = local_fit::dark_floor(&d.values, |v| {
         emission[d.sites[v].patches[0] as usize]
@@ -331,7 +341,7 @@ pub fn refine(
     // vertices); a refinement that stops early ends its stage there.
     let progress = crate::progress::stage("display refinement", Some((tests_left + budget) as u64));
     // Each vertex's cheap direct light (`coarse_direct_at`), once computed.
-    let mut coarse_at: HashMap<u32, Option<(u64, Rgb)>> = HashMap::new();
+    let mut coarse_at = Coarse::default();
 
     for _ in 0..MAX_LEVELS {
         let remaining = budget - done.vertices;
@@ -371,6 +381,7 @@ pub fn refine(
                 edges.push((contrast * root, e, reference, root));
             }
         }
+        drop(seen);
         // An edge whose ends are alike may hide a shadow between them: the cheap, correlated
         // estimate of the direct light at its midpoint shows it (see the module doc).
         let departures = coarse_departures(gatherer, &d, &edges, &mut coarse_at, visible_fraction);
@@ -381,6 +392,8 @@ pub fn refine(
         edges.sort_unstable_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
         let allowed = remaining.div_ceil(2);
         edges.truncate(tests_left.min(tests_per_vertex * allowed));
+        // The first level's candidates are every edge of the output: not kept through it.
+        edges.shrink_to_fit();
         tests_left -= edges.len();
         done.tests += edges.len();
         let seed = gatherer.seed();
@@ -509,7 +522,7 @@ pub fn refine(
         // Chosen edges with other output edges at the same place: their midpoints are shared.
         let mut beside_others: HashSet<Edge> = HashSet::new();
         {
-            let by_place = d.edges_by_place();
+            let by_place = d.edges_at(split.iter().map(|s| d.place(s.edge)).collect());
             let mut placed = HashSet::new();
             for s in split {
                 let place = d.place(s.edge);
@@ -608,6 +621,9 @@ pub fn refine(
         done.levels += 1;
         candidates = d.split_faces(&midpoint);
     }
+    // What only the levels needed goes before the flips and the fit, whose own arrays make
+    // the bake's peak on a large output (BENCHMARKS.md "Large outputs: the `cache` gather").
+    drop((kept, deferred, lit_at, candidates));
     // The diagonals turned where the other one follows the direct light (before the fit,
     // which fits the vertex values to the faces as they end).
     if deadline.is_none_or(|d| std::time::Instant::now() < d) {
@@ -621,13 +637,15 @@ pub fn refine(
         );
         (done.flip_tests, done.flips) = (flipped.tests, flipped.flips);
     }
-    d.mesh.positions = d
-        .sites
+    drop(coarse_at);
+    d.mesh.positions = std::mem::take(&mut d.sites)
         .iter()
         .map(|s| [s.position.x, s.position.y, s.position.z])
         .collect();
-    let present: HashSet<Edge> = d.mesh.faces.iter().flat_map(|&f| face_edges(f)).collect();
-    midpoints.retain(|m| present.contains(&edge(m.ends[0], m.ends[1])));
+    {
+        let present: HashSet<Edge> = d.mesh.faces.iter().flat_map(|&f| face_edges(f)).collect();
+        midpoints.retain(|m| present.contains(&edge(m.ends[0], m.ends[1])));
+    }
     let corrected = local_fit::correct(d.mesh, &d.values, &midpoints, tolerance, floor);
     (done.denoised, done.chord, done.midpoints) =
         (corrected.denoised, corrected.chord, corrected.midpoints);
@@ -642,7 +660,7 @@ fn coarse_departures(
     gatherer: &Gatherer,
     d: &Display,
     edges: &[(f64, Edge, f64, f64)],
-    coarse_at: &mut HashMap<u32, Option<(u64, Rgb)>>,
+    coarse_at: &mut Coarse,
     visible_fraction: &[f64],
 ) -> Vec<f64> {
     let ends = edges.iter().flat_map(|e| [e.1 .0, e.1 .1]);
@@ -689,7 +707,7 @@ pub(super) fn complete_coarse(
     gatherer: &Gatherer,
     sites: &[Site],
     vertices: impl Iterator<Item = u32>,
-    coarse_at: &mut HashMap<u32, Option<(u64, Rgb)>>,
+    coarse_at: &mut Coarse,
     visible_fraction: &[f64],
 ) {
     let mut fresh: Vec<u32> = vertices.filter(|v| !coarse_at.contains_key(v)).collect();
@@ -819,12 +837,17 @@ impl Display<'_> {
         )
     }
 
-    /// Every output edge, grouped by place.
-    fn edges_by_place(&self) -> HashMap<Edge, Vec<Edge>> {
+    /// The output edges at each of `places`, grouped by place (only those: a map of every
+    /// edge would be the largest thing a level holds on a large output).
+    fn edges_at(&self, places: HashSet<Edge>) -> HashMap<Edge, Vec<Edge>> {
         let mut map: HashMap<Edge, Vec<Edge>> = HashMap::new();
         for &face in &self.mesh.faces {
             for e in face_edges(face) {
-                let sides = map.entry(self.place(e)).or_default();
+                let place = self.place(e);
+                if !places.contains(&place) {
+                    continue;
+                }
+                let sides = map.entry(place).or_default();
                 if !sides.contains(&e) {
                     sides.push(e);
                 }
@@ -856,7 +879,7 @@ impl Display<'_> {
     fn midpoint_site(&self, e: Edge, patches: &[u32]) -> Site {
         let (a, b) = (&self.sites[e.0 as usize], &self.sites[e.1 as usize]);
         let patches = if patches.is_empty() {
-            let mut common: Vec<u32> = a
+            let mut common: SitePatches = a
                 .patches
                 .iter()
                 .copied()
@@ -867,7 +890,7 @@ impl Display<'_> {
             }
             common
         } else {
-            patches.to_vec()
+            SitePatches::from_slice(patches)
         };
         Site {
             position: 0.5 * (a.position + b.position),

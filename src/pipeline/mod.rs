@@ -476,6 +476,8 @@ fn hierarchical_scene(
     });
     crate::progress::note(|| report::hierarchical_note(&h.stats, &h.solution));
     report.hierarchical = Some(h.stats);
+    // The roots are the solve's; the display and its gather read the leaves.
+    drop(roots);
 
     // The display's faces cut along the contact lines, for the gather at their vertices.
     let t = Instant::now();
