@@ -46,6 +46,7 @@
 //! the furnace it shows a bias of +0.2 % where the boxes hide parts of the walls.)
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -216,32 +217,35 @@ fn serving(index: &Index, records: &[Record], x: DVec3, n: DVec3, mut f: impl Fn
 /// shows the open floor's light under the desk. Jacobi on the radii as they are (the same
 /// for any thread count). Returns whether some R shrank.
 fn clamp_radii(index: &Index, records: &mut [Record]) -> bool {
-    let bounds: Vec<(u32, f64)> = records
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(j, rj)| {
-            let mut found = Vec::new();
-            index.near(rj.x, |i| {
-                let ri = &records[i as usize];
-                let d = rj.x - ri.x;
-                let dist = d.length();
-                let bound = rj.r + dist;
-                if i as usize != j
-                    && dist < ri.reach()
-                    && d.dot(ri.n) >= -FRONT * dist
-                    && bound < ri.r
-                {
-                    found.push((i, bound));
-                }
-            });
-            found
+    // Each record's least bound so far, as the bits of a non-negative f64 (ordered as the
+    // numbers are): a minimum is the same in any order, and one word a record, where the list
+    // of every (record, bound) pair found ran to gigabytes on a hall of 10⁶ triangles (a
+    // coarse level's reach holds thousands of records).
+    let least: Vec<AtomicU64> = records
+        .iter()
+        .map(|r| {
+            debug_assert!(r.r.is_sign_positive(), "a record's radius is >= 0");
+            AtomicU64::new(r.r.to_bits())
         })
         .collect();
-    for &(i, bound) in &bounds {
-        let r = &mut records[i as usize].r;
-        *r = r.min(bound);
+    let shrank = AtomicBool::new(false);
+    records.par_iter().enumerate().for_each(|(j, rj)| {
+        index.near(rj.x, |i| {
+            let ri = &records[i as usize];
+            let d = rj.x - ri.x;
+            let dist = d.length();
+            let bound = rj.r + dist;
+            if i as usize != j && dist < ri.reach() && d.dot(ri.n) >= -FRONT * dist && bound < ri.r
+            {
+                least[i as usize].fetch_min(bound.to_bits(), Ordering::Relaxed);
+                shrank.store(true, Ordering::Relaxed);
+            }
+        });
+    });
+    for (record, least) in records.iter_mut().zip(least) {
+        record.r = f64::from_bits(least.into_inner());
     }
-    !bounds.is_empty()
+    shrank.into_inner()
 }
 
 /// Spheres by centre (the records by their reach, the emitters by the reach within which they
