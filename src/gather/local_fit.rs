@@ -88,6 +88,7 @@ use rayon::prelude::*;
 use super::Gathered;
 use crate::bake::BakedMesh;
 use crate::color::{luminance, Rgb};
+use crate::mesh::VertexFaces;
 
 /// A tangent plane's orthonormal pair (t, u).
 type Frame = (DVec3, DVec3);
@@ -131,7 +132,7 @@ pub fn correct(
         return done;
     }
     let positions: Vec<DVec3> = mesh.positions.iter().map(|&p| DVec3::from(p)).collect();
-    let faces_of = Stars::of(&mesh.faces, positions.len());
+    let faces_of = VertexFaces::new(&mesh.faces, positions.len());
     let buried: Vec<bool> = values.iter().map(|g| g.buried).collect();
     let around = |f: u32| mesh.faces[f as usize].map(|w| positions[w as usize]);
     // A vertex's tangent frame (from the area-weighted normal of the faces around it) and
@@ -142,7 +143,7 @@ pub fn correct(
             return None;
         }
         let normal: DVec3 = faces_of
-            .of_vertex(v)
+            .faces(v)
             .iter()
             .map(|&f| {
                 let c = around(f);
@@ -198,7 +199,7 @@ pub fn correct(
         .into_par_iter()
         .map(|v| {
             let (frame, ring) = local(v)?;
-            let star: Vec<[DVec3; 3]> = faces_of.of_vertex(v).iter().map(|&f| around(f)).collect();
+            let star: Vec<[DVec3; 3]> = faces_of.faces(v).iter().map(|&f| around(f)).collect();
             chord(v, &star, &ring, &positions, old, frame, tolerance)
         })
         .collect();
@@ -292,42 +293,6 @@ impl Bend {
                     .map(|i| row[i] * f64::from(self.second[i][k]))
                     .sum::<f64>()
         })
-    }
-}
-
-/// The faces around each vertex, in face order: one array for all (offsets into it per
-/// vertex), not a vector a vertex.
-struct Stars {
-    start: Vec<u32>,
-    faces: Vec<u32>,
-}
-
-impl Stars {
-    fn of(faces: &[[u32; 3]], vertices: usize) -> Stars {
-        let mut start = vec![0u32; vertices + 1];
-        for &v in faces.iter().flatten() {
-            start[v as usize + 1] += 1;
-        }
-        for v in 0..vertices {
-            start[v + 1] += start[v];
-        }
-        let mut next = start.clone();
-        let mut around = vec![0u32; start[vertices] as usize];
-        for (f, face) in faces.iter().enumerate() {
-            for &v in face {
-                around[next[v as usize] as usize] = f as u32;
-                next[v as usize] += 1;
-            }
-        }
-        Stars {
-            start,
-            faces: around,
-        }
-    }
-
-    /// The faces around vertex `v`.
-    fn of_vertex(&self, v: usize) -> &[u32] {
-        &self.faces[self.start[v] as usize..self.start[v + 1] as usize]
     }
 }
 
@@ -457,9 +422,9 @@ fn chord(
 
 /// The vertices within two edges of `v` over the faces around it (not `v`, none `fixed`),
 /// sorted.
-fn two_ring(v: usize, faces_of: &Stars, faces: &[[u32; 3]], fixed: &[bool]) -> Vec<u32> {
+fn two_ring(v: usize, faces_of: &VertexFaces, faces: &[[u32; 3]], fixed: &[bool]) -> Vec<u32> {
     let mut one: Vec<u32> = faces_of
-        .of_vertex(v)
+        .faces(v)
         .iter()
         .flat_map(|&f| faces[f as usize])
         .collect();
@@ -469,7 +434,7 @@ fn two_ring(v: usize, faces_of: &Stars, faces: &[[u32; 3]], fixed: &[bool]) -> V
         .iter()
         .flat_map(|&w| {
             faces_of
-                .of_vertex(w as usize)
+                .faces(w as usize)
                 .iter()
                 .flat_map(|&f| faces[f as usize])
         })
@@ -700,18 +665,6 @@ mod tests {
                     got[k]
                 );
             }
-        }
-    }
-
-    #[test]
-    fn the_stars_list_each_vertexs_faces_in_order() {
-        let faces = [[0, 1, 2], [2, 1, 3], [3, 4, 2], [0, 2, 4]];
-        let stars = Stars::of(&faces, 6);
-        for v in 0..6u32 {
-            let scan: Vec<u32> = (0..faces.len() as u32)
-                .filter(|&f| faces[f as usize].contains(&v))
-                .collect();
-            assert_eq!(stars.of_vertex(v as usize), scan.as_slice(), "vertex {v}");
         }
     }
 
