@@ -128,18 +128,18 @@ impl FacesOf {
         let Some(slot) = self.pairs.get_mut(&e) else {
             return;
         };
-        let left: Vec<u32> = match *slot {
-            [MORE, _] => self.more.remove(&e).unwrap_or_default(),
+        let mut left: smallvec::SmallVec<[u32; 2]> = match *slot {
+            [MORE, _] => self.more.remove(&e).unwrap_or_default().into(),
             pair => pair.into_iter().filter(|&g| g != NO_FACE).collect(),
         };
-        let left: Vec<u32> = left.into_iter().filter(|&g| g != f).collect();
+        left.retain(|g| *g != f);
         match left.len() {
             0 => {
                 self.pairs.remove(&e);
             }
             1 | 2 => *slot = [left[0], left.get(1).copied().unwrap_or(NO_FACE)],
             _ => {
-                self.more.insert(e, left);
+                self.more.insert(e, left.into_vec());
             }
         }
     }
