@@ -7,6 +7,8 @@
 //! differ by at most the crease angle given (union–find over the patches at that vertex). Each
 //! group becomes its own output vertex, with the area-weighted mean radiance of its patches,
 //! L_v = Σ A_p L_p / Σ A_p. So the red wall does not bleed into the floor's corner vertices.
+//! With [`bake_sites_apart`], patches covered by a face a thin gap in front of them are a
+//! surface of their own too (the light jumps at the covering face's outline).
 //!
 //! The bake of the pipeline groups only patches of one flat facet ([`FACET_DEGREES`]), however
 //! smooth the surface the form factors take the mesh to sample (`--crease`): the displayed
@@ -60,6 +62,10 @@ pub struct Site {
     /// The patch-mesh vertex it stands at: output vertices split at a crease or a material
     /// border have the same one.
     pub mesh_vertex: u32,
+    /// Where it lies on the outline of a face covering part of its surface a thin gap in
+    /// front of it (either side of the outline, [`bake_sites_apart`]): that gap, scene units;
+    /// 0 elsewhere.
+    pub gap: f32,
 }
 
 /// A radiance below 0 by no more than this fraction of the largest value in its set is
@@ -93,6 +99,22 @@ pub fn bake_sites(
     radiance: &[Rgb],
     crease_degrees: f64,
 ) -> (BakedMesh, Vec<Site>) {
+    bake_sites_apart(patches, radiance, crease_degrees, &[])
+}
+
+/// [`bake_sites`], where moreover a patch covered by a face a thin gap in front of it
+/// (`covers[p]` > 0, that gap in scene units, [`crate::gather::Gatherer::covers`]; empty:
+/// none) shares no output vertex with one that is not: the covering face's outline is a jump
+/// of the light at the display's scale, and each side shows its own. Both sides' vertices
+/// on the outline carry the gap ([`Site::gap`]).
+pub fn bake_sites_apart(
+    patches: &Patches,
+    radiance: &[Rgb],
+    crease_degrees: f64,
+    covers: &[f64],
+) -> (BakedMesh, Vec<Site>) {
+    let gap = |p: usize| covers.get(p).copied().unwrap_or(0.0);
+    let is_covered = |p: usize| gap(p) > 0.0;
     let mut sites = Vec::new();
     let cos_crease = crease_degrees.to_radians().cos();
     let nv = patches.positions.len();
@@ -117,6 +139,7 @@ pub fn bake_sites(
             let (pa, pb) = (ps[a] as usize, ps[b] as usize);
             patches.material[pa] == patches.material[pb]
                 && patches.normal[pa].dot(patches.normal[pb]) >= cos_crease
+                && is_covered(pa) == is_covered(pb)
         });
         // One output vertex per group, in order of the group's first patch (deterministic).
         let first_out = mesh.positions.len();
@@ -131,6 +154,7 @@ pub fn bake_sites(
                     patches: SitePatches::new(),
                     shared: false,
                     mesh_vertex: v as u32,
+                    gap: 0.0,
                 });
             }
             let p = ps[a] as usize;
@@ -145,8 +169,15 @@ pub fn bake_sites(
             out_vertex[around.offset(v) + a] = (first_out + g) as u32;
         }
         if sums.len() > 1 {
+            // On a covering face's outline: the widest gap over the covered patches here.
+            let outline = ps.iter().any(|&q| is_covered(q as usize))
+                && ps.iter().any(|&q| !is_covered(q as usize));
+            let widest = ps.iter().map(|&q| gap(q as usize)).fold(0.0, f64::max);
             for site in &mut sites[first_out..] {
                 site.shared = true;
+                if outline {
+                    site.gap = widest as f32;
+                }
             }
         }
         for (s, w) in sums {

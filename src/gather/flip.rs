@@ -450,6 +450,7 @@ fn crossing_site(gatherer: &Gatherer, q: &Quad, face_patch: &[u32]) -> Site {
         patches,
         shared: false,
         mesh_vertex: u32::MAX,
+        gap: 0.0,
     }
 }
 

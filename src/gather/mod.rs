@@ -238,6 +238,9 @@ pub struct Gatherer<'a> {
     bright: Option<bright::Bright>,
     /// Where the sky comes in, where the scene is enclosed ([`openings`]).
     openings: Option<openings::Openings>,
+    /// Each patch's gap under a parallel face close in front of it (scene units), 0 where
+    /// none ([`Gatherer::covers`]); empty until [`Gatherer::with_covers`].
+    cover: Vec<f64>,
 }
 
 impl<'a> Gatherer<'a> {
@@ -302,6 +305,7 @@ impl<'a> Gatherer<'a> {
             comm: &Solo,
             bright: bright::Bright::of(patches, radiance),
             openings,
+            cover: Vec::new(),
         }
     }
 

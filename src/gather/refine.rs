@@ -297,10 +297,6 @@ pub fn refine(
         budget,
         deadline,
     } = *plan;
-    if mode == Gather::None || tolerance <= 0.0 || budget == 0 {
-        mesh.vertex_radiance = values.iter().map(|g| g.radiance).collect();
-        return done;
-    }
     let face_patch = (0..mesh.faces.len() as u32).collect();
     let mut d = Display {
         mesh,
@@ -308,6 +304,11 @@ pub fn refine(
         values,
         face_patch,
     };
+    if mode == Gather::None || tolerance <= 0.0 || budget == 0 {
+        regather_rims(gatherer, &mut d, (mode, rays, cache), visible_fraction);
+        d.mesh.vertex_radiance = d.values.iter().map(|g| g.radiance).collect();
+        return done;
+    }
     // The most the levels can add, reserved once: grown by doubling, the output's largest
     // arrays would hold up to twice their length at the flips (the bake's peak on a large
     // output). A split edge adds a vertex and one or two faces on each side. (A budget
@@ -638,6 +639,7 @@ pub fn refine(
         (done.flip_tests, done.flips) = (flipped.tests, flipped.flips);
     }
     drop(coarse_at);
+    regather_rims(gatherer, &mut d, (mode, rays, cache), visible_fraction);
     d.mesh.positions = std::mem::take(&mut d.sites)
         .iter()
         .map(|s| [s.position.x, s.position.y, s.position.z])
@@ -650,6 +652,75 @@ pub fn refine(
     (done.denoised, done.chord, done.midpoints) =
         (corrected.denoised, corrected.chord, corrected.midpoints);
     done
+}
+
+/// Gathers again, as `mode` gathers a vertex, each vertex on a covering face's outline or
+/// under it where surfaces meet ([`Gatherer::rim_gap`]), at the point where the rim's profile
+/// is its mean over the faces the vertex ended with ([`super::sites::rim_inset`] of their
+/// centroids' mean distance): the refinement has made those faces narrower than the patches
+/// the first gather knew where it split beside the rim, and the steeper part of the profile
+/// they then span is nearer the rim. Only the `full` and `cache` gathers (the others' light
+/// is not a point's).
+fn regather_rims(
+    gatherer: &Gatherer,
+    d: &mut Display,
+    (mode, rays, cache): (Gather, usize, Option<&Cache>),
+    visible_fraction: &[f64],
+) {
+    if !matches!(mode, Gather::Full | Gather::Cache) {
+        return;
+    }
+    let rims: HashMap<u32, usize> = (0..d.sites.len())
+        .filter(|&v| gatherer.rim_gap(&d.sites[v]) > 0.0)
+        .enumerate()
+        .map(|(i, v)| (v as u32, i))
+        .collect();
+    if rims.is_empty() {
+        return;
+    }
+    // Each rim vertex's summed distance to its faces' centroids, and their number.
+    let mut reach = vec![(0.0, 0u32); rims.len()];
+    for f in &d.mesh.faces {
+        let c = f.map(|v| d.sites[v as usize].position);
+        let centroid = (c[0] + c[1] + c[2]) / 3.0;
+        for (&v, &x) in f.iter().zip(&c) {
+            if let Some(&i) = rims.get(&v) {
+                reach[i].0 += x.distance(centroid);
+                reach[i].1 += 1;
+            }
+        }
+    }
+    let mut order: Vec<(u32, usize)> = rims.into_iter().collect();
+    order.sort_unstable();
+    let regathered = gatherer.comm.map_shared(
+        order.len(),
+        |k| {
+            let (v, i) = order[k];
+            let site = &d.sites[v as usize];
+            let (sum, n) = reach[i];
+            let spot = (n > 0)
+                .then(|| gatherer.spot_within(site, visible_fraction, Some(sum / n as f64)))
+                .flatten();
+            // Kept where the faces are as narrow as the rim (the point did not move).
+            let first = gatherer.spot(site, visible_fraction);
+            let (Some(spot), Some(first)) = (spot, first) else {
+                return d.values[v as usize];
+            };
+            if spot.x == first.x {
+                return d.values[v as usize];
+            }
+            let mut rng = gatherer.vertex_rng(v as usize);
+            match cache.and_then(|c| c.at(spot.x, spot.n)) {
+                Some(reflected) => gatherer.cached_vertex(&spot, reflected, &mut rng),
+                None => gatherer.full(&spot, rays, &mut rng),
+            }
+        },
+        Gathered::write,
+        Gathered::read,
+    );
+    for ((v, _), g) in order.into_iter().zip(regathered) {
+        d.values[v as usize] = g;
+    }
 }
 
 /// The departure of each edge's midpoint from its ends' mean in the cheap direct light
@@ -898,6 +969,8 @@ impl Display<'_> {
             patches,
             shared: a.shared && b.shared,
             mesh_vertex: u32::MAX,
+            // Along a covering face's outline, the midpoint is on it too.
+            gap: a.gap.min(b.gap),
         }
     }
 

@@ -6,11 +6,26 @@
 //! around it, at most [`NUDGE_MAX`] of the scene's extent where contact lines are mesh edges:
 //! at the vertex itself a neighbouring surface would be seen edge-on (form factor 0), though
 //! every point beside the vertex sees it fill part of the hemisphere.
+//!
+//! A face a thin gap in front of a surface (a leg's top 5 mm under a table top, a chair's back
+//! on its seat) covers it ([`Gatherer::covers`]): under it the light falls within a few gaps
+//! of the outline to a small share of the open light, a jump at the display's scale. The
+//! covered patches get vertices of their own at the outline
+//! ([`crate::bake::bake_sites_apart`]), and those vertices, on either side, are gathered where
+//! the rim's profile is its mean over their faces ([`rim_inset`]), first over the patches, and
+//! again over the faces the display refinement left ([`super::refine`]). Otherwise a vertex at
+//! the outline showed the rim's own light, about half the open value, across the whole
+//! footprint (a table's underside above each leg 1.5 times as bright as it is, the leg's top
+//! 1.8 times).
 
 use glam::DVec3;
 
+use rayon::prelude::*;
+
 use super::{Gatherer, LIFT};
 use crate::bake::Site;
+use crate::mesh::discontinuity::{MOUNTED, NEAR};
+use crate::scene::Scene;
 
 /// Where surfaces meet at a vertex, the gather point is moved this fraction of the way to the
 /// centroid of the most visible patch around it. Far enough to leave the steep part of the
@@ -50,7 +65,84 @@ pub(crate) struct Spot {
     pub(super) patch: u32,
 }
 
+/// How far from a covering face's outline (gap `g`) a vertex on it, or under the face, is
+/// gathered, on a face whose centroid is `to_centroid` away (scene units). Across the outline
+/// the light changes by about its whole value within a few g: under the face, the share of
+/// the open light that reaches a point x inside is the projected share of a slit of width g,
+/// f(x) = ½(1 − x/√(x² + g²)), and beside it the face hides as much ([`MOUNTED`]'s note). The
+/// display interpolates each side linearly from the vertex over its faces, about
+/// ℓ = 1.5 × `to_centroid` wide, so the value that keeps the profile's integral over them
+/// (∫ f dx = g/2, over a hat whose integral is ℓ/2) is g/ℓ, which f's far field g²/4x² takes
+/// at d = ½√(g·ℓ); at most half way to the centroid. (f itself takes g/ℓ nearer the rim,
+/// brighter: on the plate of the test `the_floor_under_a_plate_a_thin_gap_…`, the generated
+/// hall and the office, all three showed more error so.)
+pub(crate) fn rim_inset(g: f64, to_centroid: f64) -> f64 {
+    (0.5 * (g * 1.5 * to_centroid).sqrt()).min(0.5 * to_centroid)
+}
+
+/// A parallel face counts as covering a patch where its normals are within this angle's
+/// cosine of opposite (8°).
+const COVER_COS: f64 = 0.99;
+
 impl Gatherer<'_> {
+    /// Each patch's gap (scene units) under a face that covers it, 0 where none: the first
+    /// surface along the patch's normal from its centroid is the front of a parallel face
+    /// (normals within 8° of opposite), further than a touch (ten times the rays' lift) and
+    /// no further than the contact lines' rule for a mounted face, whose outline they project
+    /// onto the patch's plane: [`NEAR`] of the scene's extent, or [`MOUNTED`] of the narrower
+    /// one's width (the smallest altitude of its scene triangle: the input triangle for the
+    /// hierarchical display; for the matrix method's patches, the piece the contact lines cut,
+    /// where the rule is then the stricter). A blocker 10 cm over a 1 m receiver, its shadow's
+    /// penumbra 11 cm wide, is not a cover: the light under it does not come in through a
+    /// slit, and across its outline it changes no faster than the penumbra. A leg's top 5 mm under a
+    /// table top, a seat's back on its seat. Under it light enters only through the gap g, so
+    /// the radiance falls from about half its open value at the outline to near nothing a few
+    /// g inside ([`MOUNTED`]'s note): at the display's scale a jump, which
+    /// [`bake_sites_apart`](crate::bake::bake_sites_apart) keeps by giving the covered and the
+    /// open patches at an outline their own vertices. Emitting patches are never covered
+    /// (their own light is what they show). `scene` is the one the patches were made from.
+    pub fn covers(&self, scene: &Scene) -> Vec<f64> {
+        let p = self.patches;
+        let near = NEAR / LIFT * self.lift;
+        let touch = TOUCH_REACH / LIFT * self.lift;
+        let width = |q: u32| {
+            let t = &scene.triangles[p.source_triangle[q as usize] as usize];
+            let c = t.vertices.map(|v| scene.positions[v as usize]);
+            let longest = (0..3)
+                .map(|i| c[i].distance(c[(i + 1) % 3]))
+                .fold(0.0, f64::max);
+            (c[1] - c[0]).cross(c[2] - c[0]).length() / longest.max(f64::MIN_POSITIVE)
+        };
+        (0..p.len())
+            .into_par_iter()
+            .map(|q| {
+                let n = p.normal[q];
+                if p.emission[q].iter().any(|&e| e > 0.0) {
+                    return 0.0;
+                }
+                let from = p.centroid[q] + self.lift * n;
+                let Some(hit) = self.surfaces.closest(from, n, q as u32) else {
+                    return 0.0;
+                };
+                let gap = hit.t + self.lift;
+                let reach = near.max(MOUNTED * width(q as u32).min(width(hit.patch)));
+                let facing = p.normal[hit.patch as usize].dot(n) < -COVER_COS;
+                if facing && gap > touch && gap <= reach {
+                    gap
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// Gather covered vertices inside their cover ([`Gatherer::covers`]; `cover` indexed by
+    /// patch, as it returns).
+    pub fn with_covers(mut self, cover: Vec<f64>) -> Self {
+        self.cover = cover;
+        self
+    }
+
     /// The point a site is gathered at (see the module documentation: nudged into the most
     /// visible patch where surfaces meet), or `None` when it is buried. Where that point is
     /// buried, the point nudged into each patch around the vertex is tried in turn, the most
@@ -61,7 +153,38 @@ impl Gatherer<'_> {
     /// corners are buried so, the edges from them across the lit ceiling are never refined,
     /// and the ceiling between the lights and the walls shows dark.)
     pub(crate) fn spot(&self, site: &Site, visible_fraction: &[f64]) -> Option<Spot> {
+        self.spot_within(site, visible_fraction, None)
+    }
+
+    /// A site's gap under a covering face, scene units: the gap of the face whose outline
+    /// it lies on ([`Site::gap`]), or where surfaces meet at it (a leg's top at its sides), the
+    /// widest its patches are covered by ([`Gatherer::covers`]); 0 elsewhere.
+    pub(crate) fn rim_gap(&self, site: &Site) -> f64 {
+        if site.gap > 0.0 {
+            return f64::from(site.gap);
+        }
+        if !site.shared || self.cover.is_empty() {
+            return 0.0;
+        }
+        site.patches
+            .iter()
+            .map(|&q| self.cover[q as usize])
+            .fold(0.0, f64::max)
+    }
+
+    /// [`Gatherer::spot`], where a vertex on a covering face's outline or under it
+    /// ([`Gatherer::rim_gap`]) is gathered [`rim_inset`] of `reach` inside its patch: the mean
+    /// distance from the vertex to its faces' centroids, once the display refinement has
+    /// made them ([`refine`](super::refine) gathers such a vertex again then); by default,
+    /// to its patch's centroid.
+    pub(crate) fn spot_within(
+        &self,
+        site: &Site,
+        visible_fraction: &[f64],
+        reach: Option<f64>,
+    ) -> Option<Spot> {
         let p = self.patches;
+        let gap = self.rim_gap(site);
         // The most visible patch around the vertex (of equals, the last one listed): evaluate
         // from its side.
         let visible = |q: u32| visible_fraction.get(q as usize).copied().unwrap_or(1.0);
@@ -81,8 +204,22 @@ impl Gatherer<'_> {
             || self.touched(site.position, site.normal, best);
         let n = site.normal;
         let nudged = |q: u32| {
-            let d = NUDGE * (p.centroid[q as usize] - site.position);
-            let x = site.position + d * (self.nudge_max / d.length()).min(1.0);
+            let to_centroid = p.centroid[q as usize] - site.position;
+            let d = NUDGE * to_centroid;
+            let nudge = d * (self.nudge_max / d.length()).min(1.0);
+            let x = if gap > 0.0 {
+                // On a covering face's outline or under it: where the rim's profile is its
+                // mean over its faces ([`rim_inset`]), inside the patch, off the outline's
+                // plane by at least a touch as every gather point.
+                let length = to_centroid.length();
+                let touch = TOUCH_REACH / LIFT * self.lift;
+                let inset = rim_inset(gap, reach.unwrap_or(length))
+                    .min(0.5 * length)
+                    .max(touch);
+                site.position + to_centroid * (inset / length)
+            } else {
+                site.position + nudge
+            };
             (!self.buried(x, n, q)).then_some(Spot { x, n, patch: q })
         };
         if contact {

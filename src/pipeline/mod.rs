@@ -606,7 +606,7 @@ fn bake_stage(
 ) -> BakedMesh {
     let t = Instant::now();
     let display_crease = settings.crease_degrees.min(bake::FACET_DEGREES);
-    let (mut baked, sites) = bake::bake_sites(patches, radiance, display_crease);
+    let (mut baked, mut sites) = bake::bake_sites(patches, radiance, display_crease);
     baked.camera = scene.camera;
     baked.sky = settings.environment.sky();
     report.vertices = baked.positions.len();
@@ -621,11 +621,22 @@ fn bake_stage(
             radiance,
             &settings.environment,
             settings.form_factors.seed,
-        )
-        // The nudge bound needs the display refinement to follow the light beside a contact.
-        .with_contact_edges(report.contacts.is_some() && settings.gather_tolerance > 0.0)
-        .with_cache(mode == Gather::Cache)
-        .with_comm(comm);
+        );
+        // Patches under a face close in front of them show their own light, not the open
+        // side's: their vertices are apart at the outline.
+        let covers = gatherer.covers(scene);
+        if covers.iter().any(|&g| g > 0.0) {
+            (baked, sites) = bake::bake_sites_apart(patches, radiance, display_crease, &covers);
+            baked.camera = scene.camera;
+            baked.sky = settings.environment.sky();
+            report.vertices = baked.positions.len();
+        }
+        let gatherer = gatherer
+            // The nudge bound needs the display refinement to follow the light beside a contact.
+            .with_contact_edges(report.contacts.is_some() && settings.gather_tolerance > 0.0)
+            .with_cache(mode == Gather::Cache)
+            .with_covers(covers)
+            .with_comm(comm);
         // A display refinement vertex of the `cache` gather gathers in full, with the rays a
         // `full` gather of the output would give each vertex.
         let rays = settings.gather_rays.map_or_else(
