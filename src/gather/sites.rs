@@ -85,22 +85,23 @@ pub(crate) fn rim_inset(g: f64, to_centroid: f64) -> f64 {
 const COVER_COS: f64 = 0.99;
 
 impl Gatherer<'_> {
-    /// Each patch's gap (scene units) under a face that covers it, 0 where none: the first
-    /// surface along the patch's normal from its centroid is the front of a parallel face
-    /// (normals within 8° of opposite), further than a touch (ten times the rays' lift) and
-    /// no further than the contact lines' rule for a mounted face, whose outline they project
-    /// onto the patch's plane: [`NEAR`] of the scene's extent, or [`MOUNTED`] of the narrower
-    /// one's width (the smallest altitude of its scene triangle: the input triangle for the
-    /// hierarchical display; for the matrix method's patches, the piece the contact lines cut,
-    /// where the rule is then the stricter). A blocker 10 cm over a 1 m receiver, its shadow's
-    /// penumbra 11 cm wide, is not a cover: the light under it does not come in through a
-    /// slit, and across its outline it changes no faster than the penumbra. A leg's top 5 mm under a
-    /// table top, a seat's back on its seat. Under it light enters only through the gap g, so
+    /// Each patch's gap (scene units) under a face that covers it, 0 where none: a leg's top
+    /// 5 mm under its table top, a seat's back on its seat. The first surface along the
+    /// patch's normal from its centroid is the front of a parallel face (normals within 8° of
+    /// opposite), further than a touch (ten times the rays' lift) and no further than the
+    /// contact lines' rule for a mounted face, whose outline they project onto the patch's
+    /// plane: [`NEAR`] of the scene's extent, or [`MOUNTED`] of the narrower one's width (the
+    /// smallest altitude of its scene triangle: the input triangle for the hierarchical
+    /// display; for the matrix method's patches, the piece the contact lines cut, where the
+    /// rule is then the stricter). Under such a face light enters only through the gap g, so
     /// the radiance falls from about half its open value at the outline to near nothing a few
     /// g inside ([`MOUNTED`]'s note): at the display's scale a jump, which
     /// [`bake_sites_apart`](crate::bake::bake_sites_apart) keeps by giving the covered and the
-    /// open patches at an outline their own vertices. Emitting patches are never covered
-    /// (their own light is what they show). `scene` is the one the patches were made from.
+    /// open patches at an outline their own vertices. (A blocker 10 cm over a 1 m receiver,
+    /// its shadow's penumbra 11 cm wide, is no cover: the light under it does not come in
+    /// through a slit, and across its outline it changes no faster than the penumbra.)
+    /// Emitting patches are never covered (their own light is what they show). `scene` is the
+    /// one the patches were made from.
     pub fn covers(&self, scene: &Scene) -> Vec<f64> {
         let p = self.patches;
         let near = NEAR / LIFT * self.lift;
