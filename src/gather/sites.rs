@@ -105,7 +105,7 @@ impl Gatherer<'_> {
     pub fn covers(&self, scene: &Scene) -> Vec<f64> {
         let p = self.patches;
         let near = NEAR / LIFT * self.lift;
-        let touch = TOUCH_REACH / LIFT * self.lift;
+        let touch = self.touch_reach();
         let width = |q: u32| {
             let t = &scene.triangles[p.source_triangle[q as usize] as usize];
             let c = t.vertices.map(|v| scene.positions[v as usize]);
@@ -213,10 +213,9 @@ impl Gatherer<'_> {
                 // mean over its faces ([`rim_inset`]), inside the patch, off the outline's
                 // plane by at least a touch as every gather point.
                 let length = to_centroid.length();
-                let touch = TOUCH_REACH / LIFT * self.lift;
                 let inset = rim_inset(gap, reach.unwrap_or(length))
                     .min(0.5 * length)
-                    .max(touch);
+                    .max(self.touch_reach());
                 site.position + to_centroid * (inset / length)
             } else {
                 site.position + nudge
@@ -254,7 +253,7 @@ impl Gatherer<'_> {
     /// surface, as its own plane and its coplanar neighbours lie parallel to the rays.
     pub(super) fn touched(&self, x: DVec3, n: DVec3, patch: u32) -> bool {
         let (t, b) = n.any_orthonormal_pair();
-        let reach = TOUCH_REACH / LIFT * self.lift;
+        let reach = self.touch_reach();
         let ignore = self.surfaces.traced(patch);
         [t, b, (t + b).normalize(), (t - b).normalize()]
             .iter()
@@ -262,6 +261,11 @@ impl Gatherer<'_> {
                 let from = x + self.lift * n - reach * d;
                 self.surfaces.vis().blocked(from, d, 2.0 * reach, ignore)
             })
+    }
+
+    /// [`TOUCH_REACH`] in scene units: how far another surface may pass and still touch.
+    fn touch_reach(&self) -> f64 {
+        TOUCH_REACH / LIFT * self.lift
     }
 
     /// True when the first surface along `n` from `x` is seen from behind: `x` is buried

@@ -607,8 +607,6 @@ fn bake_stage(
     let t = Instant::now();
     let display_crease = settings.crease_degrees.min(bake::FACET_DEGREES);
     let (mut baked, mut sites) = bake::bake_sites(patches, radiance, display_crease);
-    baked.camera = scene.camera;
-    baked.sky = settings.environment.sky();
     report.vertices = baked.positions.len();
     report.seconds.bake = t.elapsed().as_secs_f64();
     let mode = gather_mode(scene, settings, sites.len());
@@ -627,9 +625,6 @@ fn bake_stage(
         let covers = gatherer.covers(scene);
         if covers.iter().any(|&g| g > 0.0) {
             (baked, sites) = bake::bake_sites_apart(patches, radiance, display_crease, &covers);
-            baked.camera = scene.camera;
-            baked.sky = settings.environment.sky();
-            report.vertices = baked.positions.len();
         }
         let gatherer = gatherer
             // The nudge bound needs the display refinement to follow the light beside a contact.
@@ -688,6 +683,8 @@ fn bake_stage(
         report.gather_cache = cache.map(|c| c.stats);
         report.seconds.gather = t.elapsed().as_secs_f64();
     }
+    baked.camera = scene.camera;
+    baked.sky = settings.environment.sky();
     // Values of rounding size below 0 (a fit's or a mean's sums that are 0 in exact
     // arithmetic) are shown as 0, not taken for a broken bake.
     baked.clamp_rounding();
