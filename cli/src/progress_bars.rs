@@ -40,6 +40,10 @@ struct Current {
     total: Option<u64>,
     done: u64,
     started: Instant,
+    /// When its first units were reported, and how many: the rate is measured from there,
+    /// so the set-up before a stage's first unit (the display refinement's screening of
+    /// every edge) is not taken for its pace.
+    first: Option<(Instant, u64)>,
     /// When its last log line was printed (logs without a terminal).
     logged: Instant,
     /// Its last status.
@@ -54,12 +58,21 @@ impl Current {
         match self.total {
             Some(total) if total > 0 && self.done > 0 => {
                 let f = (self.done as f64 / total as f64).min(1.0);
+                let left = total.saturating_sub(self.done) as f64;
+                // Units a second since the first report, or over the whole stage before a
+                // second report.
+                let rate = match self.first {
+                    Some((at, first)) if self.done > first && at.elapsed().as_secs_f64() > 0.0 => {
+                        (self.done - first) as f64 / at.elapsed().as_secs_f64()
+                    }
+                    _ => self.done as f64 / elapsed.max(f64::MIN_POSITIVE),
+                };
                 format!(
                     "{}: {:.0} % after {}, about {} left",
                     self.name,
                     100.0 * f,
                     duration(elapsed),
-                    duration(elapsed * (1.0 - f) / f)
+                    duration(left / rate)
                 )
             }
             _ if self.status.is_empty() => format!("{}: {} so far", self.name, duration(elapsed)),
@@ -118,6 +131,7 @@ impl Observer for Bars {
                 total,
                 done: 0,
                 started: Instant::now(),
+                first: None,
                 logged: Instant::now(),
                 status: String::new(),
             });
@@ -128,6 +142,7 @@ impl Observer for Bars {
         let line = self.current.lock().ok().and_then(|mut c| {
             let c = c.as_mut()?;
             c.done += done;
+            c.first.get_or_insert((Instant::now(), c.done));
             match &c.bar {
                 Some(bar) => {
                     bar.inc(done);
@@ -204,6 +219,7 @@ mod tests {
             total,
             done,
             started,
+            first: None,
             logged: started,
             status: status.into(),
         }
@@ -216,6 +232,11 @@ mod tests {
             stage(Some(200), 50, 30, "").line(),
             "gather: 25 % after 30 s, about 1.5 min left"
         );
+        // A stage whose first units came after a minute of set-up, 45 more in the 30 s
+        // since: the 150 left at 1.5 a second, 100 s (not the 270 s its whole time gives).
+        let mut s = stage(Some(200), 50, 90, "");
+        s.first = Some((Instant::now() - Duration::from_secs(30), 5));
+        assert_eq!(s.line(), "gather: 25 % after 1.5 min, about 1.7 min left");
         // A stage of unknown length says its status and its time so far.
         assert_eq!(
             stage(None, 0, 20, "sweep 3: residual 1.00e-3").line(),

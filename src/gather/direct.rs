@@ -249,6 +249,8 @@ impl Gatherer<'_> {
                 }
             }
         }
+        // The desk that hides one sample of a lamp hides most of the next.
+        let mut last = usize::MAX;
         for round in [first, max_rays.saturating_sub(first)] {
             for (k, _, share) in seen.iter_mut() {
                 if share.all > 0.0 && share.agree == [false, false] {
@@ -257,7 +259,7 @@ impl Gatherer<'_> {
                 let e = &self.emitters[*k];
                 e.cast_shadow_rays(x, n, round, rng, &mut targets, share, |y| {
                     let to = self.surfaces.point(y + self.lift * e.normal);
-                    self.surfaces.occluded(&from, &to, ignore)
+                    self.surfaces.occluded_after(&from, &to, ignore, &mut last)
                 });
                 penumbra |= share.penumbra();
             }
@@ -388,6 +390,7 @@ impl Gatherer<'_> {
         if cdf.is_empty() {
             return (sum, seen);
         }
+        let mut last = usize::MAX;
         for (at, p) in systematic(cdf, count, rng.next_f64()) {
             let k = keys.map_or(at, |keys| keys[at]);
             let e = &self.emitters[k];
@@ -401,7 +404,7 @@ impl Gatherer<'_> {
             let mut visible = false;
             kernel_samples(&e.corners, e.normal, x, n, 1, rng, targets, |y, _| {
                 let to = self.surfaces.point(y + self.lift * e.normal);
-                visible = !self.surfaces.occluded(from, &to, ignore);
+                visible = !self.surfaces.occluded_after(from, &to, ignore, &mut last);
             });
             seen.add(visible);
             if visible {
@@ -472,6 +475,7 @@ impl Gatherer<'_> {
     pub(crate) fn coarse_direct(&self, spot: &Spot, exact: &[u32]) -> Rgb {
         let from = self.surfaces.point(spot.x + self.lift * spot.n);
         let mut sum = [0.0; 3];
+        let mut last = usize::MAX;
         for &k in exact {
             let e = &self.emitters[k as usize];
             let Some(f) = e.form_factor(spot.x, spot.n) else {
@@ -482,7 +486,9 @@ impl Gatherer<'_> {
                 .filter(|b| {
                     let y = b[0] * e.corners[0] + b[1] * e.corners[1] + b[2] * e.corners[2];
                     let to = self.surfaces.point(y + self.lift * e.normal);
-                    !self.surfaces.occluded(&from, &to, spot.patch)
+                    !self
+                        .surfaces
+                        .occluded_after(&from, &to, spot.patch, &mut last)
                 })
                 .count();
             let v = seen as f64 / COARSE_POINTS.len() as f64;

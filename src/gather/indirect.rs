@@ -329,6 +329,7 @@ impl Gatherer<'_> {
         let from = self.surfaces.point(origin);
         let mut sum = [0.0; 3];
         let draws: Vec<usize> = bright.draws(count, rng.next_f64()).collect();
+        let mut last = usize::MAX;
         for h in draws {
             let [a, b, c] = self.patches.corners(h);
             let [wa, wb, wc] = triangle_barycentrics(rng.next_f64(), rng.next_f64());
@@ -348,7 +349,7 @@ impl Gatherer<'_> {
                 continue;
             }
             let to = self.surfaces.point(y + self.lift * ny);
-            if self.surfaces.occluded(&from, &to, ignore) {
+            if self.surfaces.occluded_after(&from, &to, ignore, &mut last) {
                 continue;
             }
             let w = mis.light(mis.bright * density, cos, rays_in(dir));

@@ -225,9 +225,11 @@ impl Surfaces {
 
     /// Whether the open segment between `from` and `to` is blocked by any surface other than
     /// the patch `ignore` (and the rest of its triangle, which the segment leaves at once).
-    pub fn occluded(&self, from: &Point, to: &Point, ignore: u32) -> bool {
+    /// The triangle that blocked the segment before is tested first
+    /// ([`Visibility::occluded_points_after`]; `last` starts at `usize::MAX`).
+    pub fn occluded_after(&self, from: &Point, to: &Point, ignore: u32, last: &mut usize) -> bool {
         self.vis
-            .occluded_points(from, to, [self.traced(ignore), NONE])
+            .occluded_points_after(from, to, [self.traced(ignore), NONE], last)
     }
 
     /// The first patch hit by the ray `origin + t·dir`, `t > 0`, other than those of the

@@ -298,10 +298,13 @@ pub fn element_direct(
                 continue;
             }
             drawn.draw(&shared, x, n, &mut rng);
+            let (from, mut last) = (occluders.point(x), usize::MAX);
             for &(i, f, count, p) in &drawn.picks {
                 let em = &shared[i].emitter;
                 let mut share = Share::default();
-                let occluded = |y| occluders.occluded(x, y, ignore);
+                let occluded = |y| {
+                    occluders.occluded_points_after(&from, &occluders.point(y), ignore, &mut last)
+                };
                 out.rays +=
                     em.cast_shadow_rays(x, n, count, &mut rng, &mut targets, &mut share, occluded);
                 // n_e / (N p_e): its expectation is 1, and over the emitters these weights
@@ -329,7 +332,11 @@ pub fn element_direct(
             let v = if shadows {
                 let mut share = Share::default();
                 let rays = em.element_shadow_rays(x, n);
-                let occluded = |y| occluders.occluded(x, y, ignore);
+                // The blocker of one shadow ray is tested first for the next (the same answers).
+                let (from, mut last) = (occluders.point(x), usize::MAX);
+                let occluded = |y| {
+                    occluders.occluded_points_after(&from, &occluders.point(y), ignore, &mut last)
+                };
                 out.rays +=
                     em.cast_shadow_rays(x, n, rays, &mut rng, &mut targets, &mut share, occluded);
                 share.visible().unwrap_or(1.0)

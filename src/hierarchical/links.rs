@@ -326,6 +326,8 @@ fn element_pair_estimate(
     let roots = [tree.elements[r].root, tree.elements[s].root];
     let corners = tree.corners(s);
     let (mut seen, mut all) = (0.0, 0.0);
+    // The blocker of one ray is tested first for the next (the same answers).
+    let mut last = usize::MAX;
     // The solid-angle strata in random order: picks come in rule order, so strata in order
     // would give each rule point the same part of the source every time, a bias.
     let strata = permutation(rays, rng);
@@ -353,7 +355,7 @@ fn element_pair_estimate(
             continue;
         }
         all += w;
-        if !vis.occluded(x, y, roots) {
+        if !vis.occluded_points_after(&vis.point(x), &vis.point(y), roots, &mut last) {
             seen += w;
         }
     }
@@ -513,6 +515,8 @@ fn cluster_pair_estimate(
         .iter()
         .map(|&(er, br)| (tree.point(er, br), tree.surface_normal(er, br)))
         .collect();
+    // The blocker of one ray is tested first for the next (the same answers).
+    let mut last = usize::MAX;
     for ((&(er, _), &(x, nx)), y) in xs.iter().zip(&at).zip(&ys) {
         let es = y.element;
         let y_at = tree.point(es, y.at);
@@ -523,7 +527,8 @@ fn cluster_pair_estimate(
         sums.f_unoccluded += g;
         sums.cast += 1;
         unoccluded[y.part as usize] += g;
-        let seen = !vis.occluded(x, y_at, [tree.elements[er].root, tree.elements[es].root]);
+        let roots = [tree.elements[er].root, tree.elements[es].root];
+        let seen = !vis.occluded_points_after(&vis.point(x), &vis.point(y_at), roots, &mut last);
         if seen {
             sums.f += g;
         }

@@ -283,30 +283,9 @@ impl<'a> LightBuffer<'a> {
     /// last occluder (the cache serves here too; the many-occluder rows of a furnished hall
     /// are blocked one segment in two, mostly by the triangle that blocked the one before).
     fn occluded_by_bvh(&self, p: &Point, q: &Point, both: [u32; 2]) -> bool {
-        let vis = self.vis;
-        let Some(ray) = vis.canonical_segment_ray(p, q) else {
-            return false;
-        };
-        let last = self.last.get();
-        if last != usize::MAX
-            && !vis.ignored(last, both)
-            && ray.intersect(&vis.tris[last], ray.t_lo, ray.t_hi).is_some()
-            && !vis.lets_through(last, &ray)
-        {
-            return true;
-        }
-        // The BVH calls the filter only for triangles the ray meets: one that passes blocks.
-        let blocker = std::cell::Cell::new(usize::MAX);
-        let blocked = vis.bvh.any_hit(&ray, |i| {
-            let blocks = !vis.ignored(i, both) && !vis.lets_through(i, &ray);
-            if blocks {
-                blocker.set(i);
-            }
-            blocks
-        });
-        if blocked {
-            self.last.set(blocker.get());
-        }
+        let mut last = self.last.get();
+        let blocked = self.vis.occluded_points_after(p, q, both, &mut last);
+        self.last.set(last);
         blocked
     }
 

@@ -492,6 +492,47 @@ impl Visibility {
         })
     }
 
+    /// [`Visibility::occluded_points`] testing first the triangle `last` (a triangle index, or
+    /// `usize::MAX` for none), and setting `last` to the blocker when the BVH finds one: the
+    /// "last occluder" cache of Haines & Greenberg's light buffer. Segments from one point to
+    /// the samples of one emitter, or of a row's neighbouring patches, are mostly blocked by
+    /// the triangle that blocked the one before. The same answer bit for bit: a blocked segment
+    /// is blocked whichever blocker is found first, and the triangle is tested with the BVH's
+    /// own watertight test and filters.
+    pub fn occluded_points_after(
+        &self,
+        p: &Point,
+        q: &Point,
+        ignore: [u32; 2],
+        last: &mut usize,
+    ) -> bool {
+        let Some(ray) = self.canonical_segment_ray(p, q) else {
+            return false;
+        };
+        if *last < self.tris.len()
+            && !self.ignored(*last, ignore)
+            && ray
+                .intersect(&self.tris[*last], ray.t_lo, ray.t_hi)
+                .is_some()
+            && !self.lets_through(*last, &ray)
+        {
+            return true;
+        }
+        // The BVH calls the filter only for triangles the ray meets: one that passes blocks.
+        let mut blocker = usize::MAX;
+        let blocked = self.bvh.each_hit(&ray, |i| {
+            let blocks = !self.ignored(i, ignore) && !self.lets_through(i, &ray);
+            if blocks {
+                blocker = i;
+            }
+            blocks
+        });
+        if blocked {
+            *last = blocker;
+        }
+        blocked
+    }
+
     /// Oracle for tests: [`Visibility::occluded`] answered by testing every triangle with the
     /// same ray and the same watertight test, without the BVH.
     pub fn occluded_brute_force(&self, p: DVec3, q: DVec3, ignore: [u32; 2]) -> bool {

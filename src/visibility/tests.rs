@@ -675,6 +675,53 @@ fn traversal_equals_brute_force_in_a_subdivided_room() {
     assert!(blocked > 150 && blocked < 1000, "{blocked} of 1500 blocked");
 }
 
+/// The last-occluder cache ([`Visibility::occluded_points_after`]) answers every segment as
+/// [`Visibility::occluded_points`] does, whatever triangle it remembers: runs of segments from
+/// one surface point to random points of another triangle (the shadow rays' pattern, where the
+/// cache hits), random segments between them, and a remembered triangle that the next
+/// segment ignores or that lies behind its end. So that the cached path is what is tested, at
+/// least a third of the runs' blocked segments must be answered by the remembered triangle
+/// (measured: about half; a run's first blocked segment is the BVH's, and in this room of
+/// boxes the blocker often changes along a run).
+#[test]
+fn the_last_occluder_cache_gives_the_single_rays_answers() {
+    let mut rng = Rng(sampling::Rng::new(&[41]));
+    let tris = room_with_boxes(&mut rng);
+    let vis = Visibility::build(&tris);
+    let mut last = usize::MAX;
+    let (mut blocked, mut by_last) = (0, 0);
+    for run in 0..150 {
+        let (i, j) = (rng.index(tris.len()), rng.index(tris.len()));
+        let p = vis.point(rng.on_triangle(&tris[i]));
+        if run % 5 == 0 {
+            last = j; // remembered, but ignored by the run's segments
+        }
+        for k in 0..16 {
+            let (q, ignore) = if k % 8 == 7 {
+                let (_, b, ig) = random_segments(&mut rng, &tris, 1)[0];
+                (vis.point(b), ig)
+            } else {
+                (vis.point(rng.on_triangle(&tris[j])), [i as u32, j as u32])
+            };
+            let before = last;
+            let cached = vis.occluded_points_after(&p, &q, ignore, &mut last);
+            assert_eq!(
+                cached,
+                vis.occluded_points(&p, &q, ignore),
+                "run {run}, segment {k}: remembered {before}"
+            );
+            if cached && k % 8 != 7 {
+                blocked += 1;
+                by_last += (last == before) as usize;
+            }
+        }
+    }
+    assert!(
+        blocked > 200 && 3 * by_last > blocked,
+        "{by_last} of {blocked} blocked segments by the remembered triangle"
+    );
+}
+
 /// The light buffer (many segments from one origin) answers every segment as
 /// [`Visibility::occluded_points`] does: random scenes of one, two and four 64-triangle words
 /// and one past [`light_buffer::MAX_TRIANGLES`] (the fallback), a closed grid box whose
