@@ -40,9 +40,9 @@ struct Current {
     total: Option<u64>,
     done: u64,
     started: Instant,
-    /// When its first units were reported, and how many: the rate is measured from there,
-    /// so the set-up before a stage's first unit (the display refinement's screening of
-    /// every edge) is not taken for its pace.
+    /// When its first units were reported, and the count then: the pace is measured from
+    /// there, so the set-up before a stage's first unit (the display refinement's screening
+    /// of every edge) is not taken for its pace.
     first: Option<(Instant, u64)>,
     /// When its last log line was printed (logs without a terminal).
     logged: Instant,
@@ -58,22 +58,22 @@ impl Current {
         match self.total {
             Some(total) if total > 0 && self.done > 0 => {
                 let f = (self.done as f64 / total as f64).min(1.0);
-                let left = total.saturating_sub(self.done) as f64;
-                // Units a second since the first report, or over the whole stage before a
-                // second report.
-                let rate = match self.first {
-                    Some((at, first)) if self.done > first && at.elapsed().as_secs_f64() > 0.0 => {
-                        (self.done - first) as f64 / at.elapsed().as_secs_f64()
-                    }
-                    _ => self.done as f64 / elapsed.max(f64::MIN_POSITIVE),
-                };
-                format!(
-                    "{}: {:.0} % after {}, about {} left",
+                let head = format!(
+                    "{}: {:.0} % after {}",
                     self.name,
                     100.0 * f,
-                    duration(elapsed),
-                    duration(left / rate)
-                )
+                    duration(elapsed)
+                );
+                // The pace is the units since the first report over the time since: until a
+                // second report there is none to tell the time left by.
+                match self.first {
+                    Some((at, first)) if self.done > first && at.elapsed().as_secs_f64() > 0.0 => {
+                        let rate = (self.done - first) as f64 / at.elapsed().as_secs_f64();
+                        let left = total.saturating_sub(self.done) as f64 / rate;
+                        format!("{head}, about {} left", duration(left))
+                    }
+                    _ => head,
+                }
             }
             _ if self.status.is_empty() => format!("{}: {} so far", self.name, duration(elapsed)),
             _ => format!(
@@ -219,7 +219,8 @@ mod tests {
             total,
             done,
             started,
-            first: None,
+            // Counted from the start (no set-up before the first unit).
+            first: Some((started, 0)),
             logged: started,
             status: status.into(),
         }
@@ -237,6 +238,9 @@ mod tests {
         let mut s = stage(Some(200), 50, 90, "");
         s.first = Some((Instant::now() - Duration::from_secs(30), 5));
         assert_eq!(s.line(), "gather: 25 % after 1.5 min, about 1.7 min left");
+        // Its first report alone gives no pace: how far, not the time left.
+        s.first = Some((Instant::now(), 50));
+        assert_eq!(s.line(), "gather: 25 % after 1.5 min");
         // A stage of unknown length says its status and its time so far.
         assert_eq!(
             stage(None, 0, 20, "sweep 3: residual 1.00e-3").line(),
