@@ -24,7 +24,7 @@ use rayon::prelude::*;
 
 use super::{Gatherer, LIFT};
 use crate::bake::Site;
-use crate::mesh::discontinuity::{MOUNTED, NEAR};
+use crate::mesh::discontinuity::mounted_gap;
 use crate::scene::Scene;
 
 /// Where surfaces meet at a vertex, the gather point is moved this fraction of the way to the
@@ -76,6 +76,8 @@ pub(crate) struct Spot {
 /// at d = ½√(g·ℓ); at most half way to the centroid. (f itself takes g/ℓ nearer the rim,
 /// brighter: on the plate of the test `the_floor_under_a_plate_a_thin_gap_…`, the generated
 /// hall and the office, all three showed more error so.)
+///
+/// [`MOUNTED`]: crate::mesh::discontinuity::MOUNTED
 pub(crate) fn rim_inset(g: f64, to_centroid: f64) -> f64 {
     (0.5 * (g * 1.5 * to_centroid).sqrt()).min(0.5 * to_centroid)
 }
@@ -89,11 +91,11 @@ impl Gatherer<'_> {
     /// 5 mm under its table top, a seat's back on its seat. The first surface along the
     /// patch's normal from its centroid is the front of a parallel face (normals within 8° of
     /// opposite), further than a touch (ten times the rays' lift) and no further than the
-    /// contact lines' rule for a mounted face, whose outline they project onto the patch's
-    /// plane: [`NEAR`] of the scene's extent, or [`MOUNTED`] of the narrower one's width (the
-    /// smallest altitude of its scene triangle: the input triangle for the hierarchical
-    /// display; for the matrix method's patches, the piece the contact lines cut, where the
-    /// rule is then the stricter). Under such a face light enters only through the gap g, so
+    /// contact lines' rule for a mounted face ([`mounted_gap`]), whose outline they project
+    /// onto the patch's plane: [`NEAR`] of the scene's extent, or [`MOUNTED`] of the narrower
+    /// one's width (the smallest altitude of its scene triangle: the input triangle for the
+    /// hierarchical display; for the matrix method's patches, the piece the contact lines
+    /// cut, where the rule is then the stricter). Under such a face light enters only through the gap g, so
     /// the radiance falls from about half its open value at the outline to near nothing a few
     /// g inside ([`MOUNTED`]'s note): at the display's scale a jump, which
     /// [`bake_sites_apart`](crate::bake::bake_sites_apart) keeps by giving the covered and the
@@ -102,18 +104,13 @@ impl Gatherer<'_> {
     /// through a slit, and across its outline it changes no faster than the penumbra.)
     /// Emitting patches are never covered (their own light is what they show). `scene` is the
     /// one the patches were made from.
+    ///
+    /// [`NEAR`]: crate::mesh::discontinuity::NEAR
+    /// [`MOUNTED`]: crate::mesh::discontinuity::MOUNTED
     pub fn covers(&self, scene: &Scene) -> Vec<f64> {
         let p = self.patches;
-        let near = NEAR / LIFT * self.lift;
         let touch = self.touch_reach();
-        let width = |q: u32| {
-            let t = &scene.triangles[p.source_triangle[q as usize] as usize];
-            let c = t.vertices.map(|v| scene.positions[v as usize]);
-            let longest = (0..3)
-                .map(|i| c[i].distance(c[(i + 1) % 3]))
-                .fold(0.0, f64::max);
-            (c[1] - c[0]).cross(c[2] - c[0]).length() / longest.max(f64::MIN_POSITIVE)
-        };
+        let source = |q: u32| p.source_triangle[q as usize] as usize;
         (0..p.len())
             .into_par_iter()
             .map(|q| {
@@ -126,7 +123,7 @@ impl Gatherer<'_> {
                     return 0.0;
                 };
                 let gap = hit.t + self.lift;
-                let reach = near.max(MOUNTED * width(q as u32).min(width(hit.patch)));
+                let reach = mounted_gap(scene, source(q as u32), source(hit.patch), self.extent());
                 let facing = p.normal[hit.patch as usize].dot(n) < -COVER_COS;
                 if facing && gap > touch && gap <= reach {
                     gap
@@ -206,8 +203,6 @@ impl Gatherer<'_> {
         let n = site.normal;
         let nudged = |q: u32| {
             let to_centroid = p.centroid[q as usize] - site.position;
-            let d = NUDGE * to_centroid;
-            let nudge = d * (self.nudge_max / d.length()).min(1.0);
             let x = if gap > 0.0 {
                 // On a covering face's outline or under it: where the rim's profile is its
                 // mean over its faces ([`rim_inset`]), inside the patch, off the outline's
@@ -218,7 +213,8 @@ impl Gatherer<'_> {
                     .max(self.touch_reach());
                 site.position + to_centroid * (inset / length)
             } else {
-                site.position + nudge
+                let d = NUDGE * to_centroid;
+                site.position + d * (self.nudge_max / d.length()).min(1.0)
             };
             (!self.buried(x, n, q)).then_some(Spot { x, n, patch: q })
         };

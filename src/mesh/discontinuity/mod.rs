@@ -120,6 +120,16 @@ pub struct ContactStats {
     pub triangles: usize,
 }
 
+/// The largest gap (scene units) at which the scene triangle `b`, parallel to the scene
+/// triangle `a` and in front of it, counts as mounted on it: [`NEAR`] × the scene's
+/// `extent`, or [`MOUNTED`] × the narrower one's width (its smallest altitude), the rule the
+/// contact lines are cut by.
+pub fn mounted_gap(scene: &Scene, a: usize, b: usize, extent: f64) -> f64 {
+    Face::new(scene, a)
+        .gaps(Some(&Face::new(scene, b)), extent)
+        .0
+}
+
 /// The contact segments on each scene triangle (see the module documentation; touching,
 /// crossing and mounted faces, not the near shadows), in scene coordinates on the triangle's
 /// plane; `None` when the scene has fewer than two triangles or no contact. In a two-sided
