@@ -58,8 +58,10 @@
 //! chair seen from the whole floor: nearly nothing), and their row sums fall to about 0.8:
 //! unnormalised, the generated hall's floor comes out dark, the ceiling it lights darker, and
 //! the whole solution biased low. Normalising gives the missing share the mean radiance of
-//! what the leaf does see, so beside a dark underside the leaf comes out a little bright
-//! (the hall's undersides, by a few per cent) rather than dark.
+//! what the leaf sees through its ancestors' links, whose form factors are the ones that
+//! miss it (`push_pull`'s `gathered`; not the mean of everything it sees, which counts the
+//! lamps its own links reach), so beside a dark underside the leaf comes out a little
+//! bright (the hall's undersides, by a few per cent) rather than dark.
 
 pub mod direct;
 pub mod links;
@@ -587,6 +589,9 @@ pub struct Hierarchy<'a> {
     /// Effective row sum of every element (0 where its root is not closed, unless
     /// [`Hierarchy::cap_rows`] and it is over 1), or empty when no row is normalised.
     row_sum: Vec<f64>,
+    /// Per element: Σ F over its own links alone (its part of `row_sum`; the rest is its
+    /// ancestors'), found with `row_sum`; empty when no row is normalised.
+    own_row_sum: Vec<f64>,
     /// The links changed since `row_sum` was found: the next sweep finds it again.
     rows_stale: bool,
     /// Open elements whose rows sum to more than 1 are normalised too: set where links were
@@ -692,6 +697,7 @@ impl<'a> Hierarchy<'a> {
             settings: *settings,
             seed,
             row_sum: Vec::new(),
+            own_row_sum: Vec::new(),
             rows_stale: false,
             cap_rows: false,
             closed_roots: Vec::new(),
@@ -961,6 +967,7 @@ impl<'a> Hierarchy<'a> {
         self.grandchild_shares = GrandchildShares::default();
         self.near = Vec::new();
         self.row_sum = Vec::new();
+        self.own_row_sum = Vec::new();
     }
 
     pub(super) fn finish_stats(&self) -> Stats {

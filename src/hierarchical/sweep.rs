@@ -154,9 +154,16 @@ impl Hierarchy<'_> {
     /// solve).
     pub(super) fn refresh_rows(&mut self) -> Option<(usize, f64)> {
         let any = self.link_count() > 0;
-        let down = self.pushed_row_sums();
+        let (ge, gc) = self.gather(false);
+        let own: Vec<f64> = ge.iter().map(|g| g[0]).collect();
+        let down = self.push_down(ge, gc);
         let worst = if any { self.worst_of(&down) } else { None };
         self.row_sum = self.effective(down);
+        self.own_row_sum = if self.row_sum.is_empty() {
+            Vec::new()
+        } else {
+            own
+        };
         self.rows_stale = false;
         worst
     }

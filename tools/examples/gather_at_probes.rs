@@ -6,7 +6,7 @@
 //! one gather's). `cargo run --release -p radiosity-tools --example gather_at_probes --
 //! PROBES.csv SCENE [RAYS] [SEED]` (defaults 4096 rays, seed 1; the scene's own lights, the
 //! bake's default settings, or `MAX_EDGE=X` and `METHOD=matrix|hierarchical` for the bake's
-//! `--max-edge` and `--method`: the two methods' solutions compared at the same probes;
+//! `--max-edge` and `--method`, `EPSILON=E` for its `--epsilon`: the two methods' solutions compared at the same probes;
 //! `SKY=L`, `SUN=AZIMUTH,ELEVATION,E` and `UP=x|y|z` for a grey `--sky`, the `--sun` and
 //! `--up`, as the `probes` example takes them).
 //! With `GATHER_DUMP=FILE`, each probe's reference, gathered luminance, its direct and
@@ -40,6 +40,9 @@ fn main() -> Result<()> {
     let mut settings = Settings::default();
     if let Some(edge) = radiosity_tools::positive_env("MAX_EDGE", "length")? {
         settings.max_edge = Some(edge);
+    }
+    if let Some(epsilon) = radiosity_tools::positive_env("EPSILON", "share of the power")? {
+        settings.hierarchical.epsilon = epsilon;
     }
     if let Some(m) = std::env::var_os("METHOD") {
         settings.method = match m.to_string_lossy().as_ref() {
