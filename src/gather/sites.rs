@@ -95,9 +95,9 @@ impl Gatherer<'_> {
     /// onto the patch's plane: [`NEAR`] of the scene's extent, or [`MOUNTED`] of the narrower
     /// one's width (the smallest altitude of its scene triangle: the input triangle for the
     /// hierarchical display; for the matrix method's patches, the piece the contact lines
-    /// cut, where the rule is then the stricter). Under such a face light enters only through the gap g, so
-    /// the radiance falls from about half its open value at the outline to near nothing a few
-    /// g inside ([`MOUNTED`]'s note): at the display's scale a jump, which
+    /// cut, where the rule is then the stricter). Under such a face light enters only through
+    /// the gap g, so the radiance falls from about half its open value at the outline to near
+    /// nothing a few g inside ([`MOUNTED`]'s note): at the display's scale a jump, which
     /// [`bake_sites_apart`](crate::bake::bake_sites_apart) keeps by giving the covered and the
     /// open patches at an outline their own vertices. (A blocker 10 cm over a 1 m receiver,
     /// its shadow's penumbra 11 cm wide, is no cover: the light under it does not come in

@@ -154,9 +154,7 @@ impl Hierarchy<'_> {
     /// solve).
     pub(super) fn refresh_rows(&mut self) -> Option<(usize, f64)> {
         let any = self.link_count() > 0;
-        let (ge, gc) = self.gather(false);
-        let own: Vec<f64> = ge.iter().map(|g| g[0]).collect();
-        let down = self.push_down(ge, gc);
+        let (own, down) = self.pushed_row_sums();
         let worst = if any { self.worst_of(&down) } else { None };
         self.row_sum = self.effective(down);
         self.own_row_sum = if self.row_sum.is_empty() {
@@ -168,10 +166,12 @@ impl Hierarchy<'_> {
         worst
     }
 
-    /// Σ F over each element's own links and its ancestors' (the same in every channel).
-    fn pushed_row_sums(&self) -> Vec<Rgb> {
+    /// Σ F over each element's own links alone (channel 0), and over its own links and its
+    /// ancestors' (the same in every channel).
+    fn pushed_row_sums(&self) -> (Vec<f64>, Vec<Rgb>) {
         let (ge, gc) = self.gather(false);
-        self.push_down(ge, gc)
+        let own = ge.iter().map(|g| g[0]).collect();
+        (own, self.push_down(ge, gc))
     }
 
     /// Each element's effective row sum, from its sum `down`: 0 (not normalised) for the
@@ -198,7 +198,7 @@ impl Hierarchy<'_> {
         if self.link_count() == 0 {
             return None;
         }
-        self.worst_of(&self.pushed_row_sums())
+        self.worst_of(&self.pushed_row_sums().1)
     }
 
     /// [`Hierarchy::worst_row`] of the sums `down` (`None` only without leaves).
