@@ -93,13 +93,14 @@ pub const COARSE_POINTS: [[f64; 3]; 4] = [
     [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
 ];
 
-/// With more emitters than this in the scene, the others' shadow rays draw emitters from the
-/// scene-wide distribution of their power (Le_max × area, one binary search a ray) instead of
+/// With more emitters than this in the scene, the others' shadow rays draw emitters by the
+/// light tree over them ([`LightTree`](crate::light::LightTree): a bound on each node's light
+/// at the point by its power, distance and orientation; Conty Estevez & Kulla 2018) instead of
 /// weights computed at the point for every emitter: the cost per point and per near hit stays
 /// O(log n) however many emitting triangles a scene has (a tessellated sky or a level's
-/// emissive textures: 10⁵ emitters would otherwise cost ~10 ms a point). Noisier (the power
-/// ignores distance and orientation), unbiased all the same.
-pub const MAX_WEIGHED_EMITTERS: usize = 256;
+/// emissive textures: 10⁵ emitters would otherwise cost ~10 ms a point). Noisier than the
+/// exact weights (the bound is loose for near nodes), unbiased all the same.
+pub const MAX_WEIGHED_EMITTERS: usize = 1024;
 
 /// An emitter beyond a point's exact ones is sampled by [`OTHER_LIGHT_SAMPLES`] when its radius
 /// is at most this fraction of its distance (a cone of half-angle under 15°), else left to the
@@ -323,18 +324,13 @@ impl Gatherer<'_> {
         e.radius <= SAMPLED_SPREAD * x.distance(e.centre)
     }
 
-    /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays: emitters
-    /// drawn with probability p_e ∝ w_e by systematic sampling, one point of each drawn
-    /// emitter (area-uniform over its part above the horizon), each ray adding
+    /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays:
+    /// emitters drawn with probability p_e by [`Gatherer::draw_others`], one point of each
+    /// drawn emitter (area-uniform over its part above the horizon), each ray adding
     /// Le_e F V / (count p_e) if the emitter is one of these others (see
-    /// [`OTHER_LIGHT_SAMPLES`]). The weights:
-    /// - with `count` ≥ 2 (a gathering point), w_e = max(Le_e) F(x → e), the exact unoccluded
-    ///   form factor, over the others only, so an unoccluded point gets their light exactly;
-    /// - with one ray (a near hit's point, of which a gather has many), the cheap bound
-    ///   w_e = max(Le_e) A_e / (π d²) of [`Gatherer::exact_emitters`], zero only where F is
-    ///   (behind the emitter, or the emitter wholly below the horizon);
-    /// - beyond [`MAX_WEIGHED_EMITTERS`] emitters, their power (Le_max × area) over all of
-    ///   them, a draw that is not one of the others adding nothing.
+    /// [`OTHER_LIGHT_SAMPLES`]). With `count` ≥ 2 (a gathering point) and up to
+    /// [`MAX_WEIGHED_EMITTERS`] emitters, p_e ∝ max(Le_e) F, so an unoccluded point gets their
+    /// light exactly; beyond, p_e follows a bound on it (the light tree).
     ///
     /// Unbiased up to V̄'s area (not G) weighting within one emitter, negligible for the
     /// emitters that are not the point's largest ([`SAMPLED_SPREAD`]). Also returns what the
@@ -356,43 +352,10 @@ impl Gatherer<'_> {
                 && self.sampled(e, x)
                 && (x - e.corners[0]).dot(e.normal) > 0.0
         };
-        // The cumulative weights to draw from, and the emitter at each position (all of them
-        // in order for the power).
-        let weighed: (Vec<f64>, Vec<usize>);
-        let (cdf, keys): (&[f64], Option<&[usize]>) = if self.emitters.len() > MAX_WEIGHED_EMITTERS
-        {
-            (&self.power_cdf, None)
-        } else {
-            let (mut cdf, mut keys, mut total) = (Vec::new(), Vec::new(), 0.0);
-            for (k, e) in self.emitters.iter().enumerate() {
-                if !is_other(k, e) {
-                    continue;
-                }
-                let w = if count >= 2 {
-                    point_to_polygon(x, n, &e.corners) * e.le.iter().copied().fold(0.0, f64::max)
-                } else if e.corners.iter().any(|&c| (c - x).dot(n) > 0.0) {
-                    let d = (x.distance(e.centre) - e.radius).max(1e-3 * e.radius);
-                    e.power / (PI * d * d)
-                } else {
-                    0.0
-                };
-                if w > 0.0 {
-                    total += w;
-                    cdf.push(total);
-                    keys.push(k);
-                }
-            }
-            weighed = (cdf, keys);
-            (&weighed.0, Some(&weighed.1))
-        };
         let mut sum = [0.0; 3];
         let mut seen = Seen::default();
-        if cdf.is_empty() {
-            return (sum, seen);
-        }
         let mut last = usize::MAX;
-        for (at, p) in systematic(cdf, count, rng.next_f64()) {
-            let k = keys.map_or(at, |keys| keys[at]);
+        for (k, p) in self.draw_others(x, n, exact, count, rng) {
             let e = &self.emitters[k];
             if !is_other(k, e) {
                 continue;
@@ -414,6 +377,82 @@ impl Gatherer<'_> {
             }
         }
         (sum, seen)
+    }
+
+    /// The `count` emitters [`Gatherer::others_direct`] casts its rays to at `x` (unit normal
+    /// `n`), each with the probability it was drawn with: systematic sampling (Kitagawa 1996)
+    /// over weights w_e, zero for the emitters `exact` and those not sampled at `x`
+    /// ([`SAMPLED_SPREAD`]) or facing away. Up to [`MAX_WEIGHED_EMITTERS`] emitters, w_e is
+    /// max(Le_e) F(x → e) (the exact unoccluded form factor) with `count` ≥ 2, or with one ray
+    /// the cheap bound max(Le_e) A_e / (π d²) of [`Gatherer::exact_emitters`]. Beyond, the
+    /// emitters are drawn by the light tree over them ([`crate::light::LightTree`]), its
+    /// leaves weighed the same way: for `count` ≥ 2 over the tree's draw less the
+    /// u-intervals of the exact emitters ([`crate::light::tree::Skip`]), so that no ray is
+    /// spent on them; with one ray, with the exact emitters' leaves weighed 0.
+    fn draw_others(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        exact: &[u32],
+        count: usize,
+        rng: &mut Rng,
+    ) -> Vec<(usize, f64)> {
+        let is_exact = |k: usize| exact.binary_search(&(k as u32)).is_ok();
+        // w_e for an emitter not left out by `exact`.
+        let weight = |k: usize| {
+            let e = &self.emitters[k];
+            if !self.sampled(e, x) || (x - e.corners[0]).dot(e.normal) <= 0.0 {
+                0.0
+            } else if count >= 2 {
+                point_to_polygon(x, n, &e.corners) * e.le_max()
+            } else if e.corners.iter().any(|&c| (c - x).dot(n) > 0.0) {
+                let d = (x.distance(e.centre) - e.radius).max(1e-3 * e.radius);
+                e.power / (PI * d * d)
+            } else {
+                0.0
+            }
+        };
+        if self.emitters.len() <= MAX_WEIGHED_EMITTERS {
+            let (mut cdf, mut keys, mut total) = (Vec::new(), Vec::new(), 0.0);
+            for k in 0..self.emitters.len() {
+                let w = if is_exact(k) { 0.0 } else { weight(k) };
+                if w > 0.0 {
+                    total += w;
+                    cdf.push(total);
+                    keys.push(k);
+                }
+            }
+            if cdf.is_empty() {
+                return Vec::new();
+            }
+            return systematic(&cdf, count, rng.next_f64())
+                .map(|(at, p)| (keys[at], p))
+                .collect();
+        }
+        // The tree's inner nodes bound Le·A·cos·cos/d², which is π·Le·F for a small far
+        // emitter: its leaves' weights in the same units.
+        let tree = &self.emitter_tree;
+        let u0 = rng.next_f64();
+        if count >= 2 {
+            let leaf = |k: usize| PI * weight(k);
+            let skip = tree.skip(exact.iter().map(|&k| k as usize), x, n, leaf);
+            let kept = skip.kept();
+            if kept <= 1e-12 {
+                return Vec::new();
+            }
+            (0..count)
+                .filter_map(|i| {
+                    let v = (i as f64 + u0) / count as f64 * kept;
+                    let (k, p) = tree.sample(x, n, skip.place(v), leaf)?;
+                    Some((k, p / kept))
+                })
+                .collect()
+        } else {
+            let leaf = |k: usize| if is_exact(k) { 0.0 } else { PI * weight(k) };
+            (0..count)
+                .filter_map(|i| tree.sample(x, n, (i as f64 + u0) / count as f64, leaf))
+                .collect()
+        }
     }
 
     /// Each patch's own direct light, Σ_e Le_e F V̄ averaged over its 7-point Gauss rule
@@ -515,15 +554,20 @@ impl Gatherer<'_> {
     /// Whether the hemisphere rays at `x` would bring some emitter's Le that `exact` and the
     /// other-light samples leave out: a large near emitter ([`SAMPLED_SPREAD`]) not among the
     /// exact ones (found through [`Gatherer::with_cache`]'s index beyond
-    /// [`MAX_WEIGHED_EMITTERS`] emitters).
+    /// [`MAX_WEIGHED_EMITTERS`] emitters; without it, there, taken to be so).
     pub(super) fn leaves_emitters_to_rays(&self, x: DVec3, exact: &[u32]) -> bool {
-        if self.emitters.len() > MAX_WEIGHED_EMITTERS {
-            return true;
+        let left = |k: usize| {
+            !self.sampled(&self.emitters[k], x) && exact.binary_search(&(k as u32)).is_err()
+        };
+        if self.emitters.len() <= MAX_WEIGHED_EMITTERS {
+            return (0..self.emitters.len()).any(left);
         }
-        self.emitters
-            .iter()
-            .enumerate()
-            .any(|(k, e)| !self.sampled(e, x) && exact.binary_search(&(k as u32)).is_err())
+        let Some(index) = &self.unsampled else {
+            return true;
+        };
+        let mut any = false;
+        index.near(x, |k| any |= left(k as usize));
+        any
     }
 
     /// Emitters whose direct light is computed exactly at each point: all of them, at most

@@ -193,9 +193,9 @@ const LIFT: f64 = 1e-6;
 pub struct Gatherer<'a> {
     /// The emitting scene triangles.
     emitters: Vec<Emitter>,
-    /// Cumulative [`Emitter::power`] over `emitters` (the scene-wide distribution the others'
-    /// rays draw from beyond [`MAX_WEIGHED_EMITTERS`]).
-    power_cdf: Vec<f64>,
+    /// The light tree over `emitters`, which the others' rays draw from beyond
+    /// [`MAX_WEIGHED_EMITTERS`] (empty below).
+    emitter_tree: LightTree,
     /// Index into `emitters` of each scene triangle, or [`NONE`].
     emitter_of: Vec<u32>,
     /// Each emitter's partner, if any: the other half of a convex quadrilateral of the same
@@ -269,13 +269,11 @@ impl<'a> Gatherer<'a> {
             emitters.push(Emitter::new(corners, normal.normalize(), sent));
         }
         let (lo, hi) = scene.bounds();
-        let power_cdf = emitters
-            .iter()
-            .scan(0.0, |sum, e| {
-                *sum += e.power;
-                Some(*sum)
-            })
-            .collect();
+        let emitter_tree = if emitters.len() > MAX_WEIGHED_EMITTERS {
+            LightTree::new(&emitters)
+        } else {
+            LightTree::default()
+        };
         let partner = direct::pair_emitters(&emitters);
         let surfaces = Surfaces::new(patches);
         let lift = LIFT * (hi - lo).length();
@@ -287,7 +285,7 @@ impl<'a> Gatherer<'a> {
         let groups = emitters.len() - partner.iter().flatten().count() / 2;
         Gatherer {
             emitters,
-            power_cdf,
+            emitter_tree,
             emitter_of,
             partner,
             groups,

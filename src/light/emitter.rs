@@ -127,6 +127,11 @@ impl Emitter {
         }
     }
 
+    /// The largest channel of its Le, W·sr⁻¹·m⁻².
+    pub fn le_max(&self) -> f64 {
+        self.le.iter().copied().fold(0.0, f64::max)
+    }
+
     /// F(x → e), the unoccluded form factor from the point `x` (unit normal `n`) to the
     /// emitter, or `None` where the emitter sends nothing toward `x`: `x` behind its plane,
     /// or the emitter wholly below `x`'s horizon.

@@ -8,7 +8,8 @@
 //!   factor F ([`crate::geometry::point_to_polygon`]) times the visible share V̄, by the visible
 //!   pieces of the emitter ([`crate::geometry::visible`]) or by kernel-weighted shadow rays;
 //! - the lights outside the mesh, the sky, the sun, point and spot lights ([`outside`]); of a
-//!   level's hundreds of lamps, one drawn for a point by a light tree ([`tree`]).
+//!   level's hundreds of lamps, or of a hall's hundreds of emitting triangles, one drawn for a
+//!   point by a light tree ([`tree`]).
 //!
 //! A point is a [`Receiver`]: where it is, its normal, the occluders its rays are traced
 //! against and how far above the surface they start. Shadow-ray counts are named constants

@@ -140,7 +140,9 @@ impl Environment {
         }
         debug_assert_eq!(tree.len(), self.lights.len(), "the tree of these lights");
         let mut d = self.sun_direct(at, 1, rng);
-        if let Some((k, p)) = tree.sample(&self.lights, at.origin(), at.n, rng.next_f64()) {
+        let (x, n) = (at.origin(), at.n);
+        if let Some((k, p)) = tree.sample(x, n, rng.next_f64(), |k| self.lights[k].potential(x, n))
+        {
             let l = self.point_direct(&self.lights[k], at);
             for (d, l) in d.iter_mut().zip(l) {
                 *d += l / p;
