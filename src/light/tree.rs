@@ -7,13 +7,14 @@
 //! where they emit to one side (triangles), bounds their front normals by a cone (axis, half
 //! angle θ_o). Seen from a point x with unit normal n, a node's importance is
 //!
-//!   W_node · cos⁺(θ − θ_u) · cos⁺(θ_e − θ_o − θ_u) / max(d², r²),
+//!   W_node · cos⁺(θ − θ_u) · cos⁺(θ_e − θ_o − θ_u) / d²   outside the box's bounding sphere,
+//!   W_node / max(d², r²/4)                                inside it,
 //!
 //! with d the distance from x to the box's centre c, r its half diagonal, θ the angle between
-//! n and the direction to c, θ_u = asin(r/d) the half-angle of the box's bounding sphere,
-//! θ_e the angle between the cone's axis and the direction from c to x (each cosine 1 where
-//! its angle is ≤ 0, or where x is inside the sphere; the second 1 for lights that shine every
-//! way), and 0 where the whole box lies behind the surface. A leaf's importance is given by
+//! n and the direction to c, θ_u = asin(r/d) the half-angle of the bounding sphere, θ_e the
+//! angle between the cone's axis and the direction from c to x (each cosine 1 where its angle
+//! is ≤ 0; the second 1 for lights that shine every way), and 0 where the whole box lies
+//! behind the surface. A leaf's importance is given by
 //! the caller (a point light's exact unoccluded share, an emitter's π·Le·F), 0 for a light
 //! that can bring nothing. A draw descends from the root, taking each child with the share of
 //! the two importances, so a light is drawn with probability p = the product of those shares,
@@ -35,11 +36,12 @@ use crate::color::luminance;
 use crate::light::Emitter;
 use crate::scene::lights::PointLight;
 
-/// Within a node's bounding sphere its importance is its power over the squared distance to its
-/// centre, the distance taken as at least this share of the radius (squared: a half). A
-/// point inside a large node (a hall's half that holds it) then weighs it by how near it is
-/// to its lights, not as one far away (over r², the radius, which gave the two halves of a
-/// hall nearly even shares at a point near its lamps).
+/// Within a node's bounding sphere its importance is its power over the squared distance to
+/// its centre, taken as at least this share of the squared radius (the distance at least half
+/// the radius). A point inside a large node (the half of a hall that holds it) then weighs it
+/// by how near it is to its lights, not as if it were a radius away, which gave the two halves
+/// of a hall nearly even shares at a point beside its lamps (on the generated hall of 10⁵
+/// triangles, 10.84 % RMS displayed against 10.29 %).
 const NEAR: f64 = 0.25;
 
 /// A light as the tree bounds it.
