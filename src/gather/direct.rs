@@ -328,6 +328,12 @@ impl Gatherer<'_> {
         e.radius <= SAMPLED_SPREAD * x.distance(e.centre)
     }
 
+    /// Whether the others' shadow rays at `x` may go to the emitter `e`: it is sampled there
+    /// ([`Gatherer::sampled`]) and `x` lies in front of it.
+    fn sampled_toward(&self, e: &Emitter, x: DVec3) -> bool {
+        self.sampled(e, x) && (x - e.corners[0]).dot(e.normal) > 0.0
+    }
+
     /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays:
     /// emitters drawn with probability p_e by [`Gatherer::draw_others`], one point of each
     /// drawn emitter (area-uniform over its part above the horizon), each ray adding
@@ -352,9 +358,7 @@ impl Gatherer<'_> {
         targets: &mut Vec<[f64; 3]>,
     ) -> (Rgb, Seen) {
         let is_other = |k: usize, e: &Emitter| {
-            exact.binary_search(&(k as u32)).is_err()
-                && self.sampled(e, x)
-                && (x - e.corners[0]).dot(e.normal) > 0.0
+            exact.binary_search(&(k as u32)).is_err() && self.sampled_toward(e, x)
         };
         let mut sum = [0.0; 3];
         let mut seen = Seen::default();
@@ -405,7 +409,7 @@ impl Gatherer<'_> {
         // w_e for an emitter not left out by `exact`.
         let weight = |k: usize| {
             let e = &self.emitters[k];
-            if !self.sampled(e, x) || (x - e.corners[0]).dot(e.normal) <= 0.0 {
+            if !self.sampled_toward(e, x) {
                 0.0
             } else if count >= 2 {
                 point_to_polygon(x, n, &e.corners) * e.le_max()

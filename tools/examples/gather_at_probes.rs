@@ -7,8 +7,8 @@
 //! PROBES.csv SCENE [RAYS] [SEED]` (defaults 4096 rays, seed 1; the scene's own lights, the
 //! bake's default settings, or `MAX_EDGE=X` and `METHOD=matrix|hierarchical` for the bake's
 //! `--max-edge` and `--method`, the two methods' solutions compared at the same probes;
-//! `EPSILON=E` for its `--epsilon`; `SKY=L`, `SUN=AZIMUTH,ELEVATION,E` and `UP=x|y|z` for a grey `--sky`, the `--sun` and
-//! `--up`, as the `probes` example takes them).
+//! `EPSILON=E` for its `--epsilon`; `SKY=L`, `SUN=AZIMUTH,ELEVATION,E` and `UP=x|y|z` for a
+//! grey `--sky`, the `--sun` and `--up`, as the `probes` example takes them).
 //! With `GATHER_DUMP=FILE`, each probe's reference, gathered luminance, its direct and
 //! indirect parts at both seeds go to FILE as CSV.
 
