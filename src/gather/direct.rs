@@ -106,6 +106,16 @@ pub const COARSE_POINTS: [[f64; 3]; 4] = [
 /// outputs"). Both are unbiased.
 pub const MAX_WEIGHED_EMITTERS: usize = 1024;
 
+/// [`MAX_WEIGHED_EMITTERS`] for a near hit's one ray to the others
+/// ([`super::NEAR_HIT`]): beyond this many emitters it draws from the light tree. Near hits
+/// are many (a furnished room's hemisphere rays meet chair seats and table undersides close by
+/// at most points), and weighing every emitter for each one's single ray cost the generated
+/// hall of 10⁵ (784 emitting triangles) a tenth of its bake; a draw from the tree costs a few
+/// dozen node weighings. The tree's looser importance leaves the display's error where it was
+/// on the hall of 10⁴ (82 emitting triangles, three seeds) in 0.93× the bake (BENCHMARKS.md
+/// "Large outputs"). Below this, weighing is cheap and the draws are the exact bound's.
+pub const MAX_WEIGHED_NEAR_HIT_EMITTERS: usize = 64;
+
 /// An emitter beyond a point's exact ones is sampled by [`OTHER_LIGHT_SAMPLES`] when its radius
 /// is at most this fraction of its distance (a cone of half-angle under 15°), else left to the
 /// hemisphere rays. One ray to a uniform point of a large near emitter weights its parts by
@@ -282,8 +292,10 @@ impl Gatherer<'_> {
             }
         }
         if others > 0 && exact.len() < self.emitters.len() {
+            let mut weighed = None;
             let mut estimate = |rays, rng: &mut Rng| {
-                self.others_direct(x, n, &from, ignore, exact, rays, rng, &mut targets)
+                let draw = (exact, rays, &mut weighed);
+                self.others_direct(x, n, &from, ignore, draw, rng, &mut targets)
             };
             // A gathering point's rays are as many as a pilot decides ([`OTHER_LIGHT_PILOT`]:
             // `others` where its rays agree, [`OTHER_LIGHT_MAX_SAMPLES`] where some met their
@@ -352,8 +364,7 @@ impl Gatherer<'_> {
         n: DVec3,
         from: &Point,
         ignore: u32,
-        exact: &[u32],
-        count: usize,
+        (exact, count, weighed): (&[u32], usize, &mut Option<Weighed>),
         rng: &mut Rng,
         targets: &mut Vec<[f64; 3]>,
     ) -> (Rgb, Seen) {
@@ -363,7 +374,7 @@ impl Gatherer<'_> {
         let mut sum = [0.0; 3];
         let mut seen = Seen::default();
         let mut last = usize::MAX;
-        for (k, p) in self.draw_others(x, n, exact, count, rng) {
+        for (k, p) in self.draw_others(x, n, exact, count, weighed, rng) {
             let e = &self.emitters[k];
             if !is_other(k, e) {
                 continue;
@@ -391,8 +402,9 @@ impl Gatherer<'_> {
     /// `n`), each with the probability it was drawn with: systematic sampling (Kitagawa 1996)
     /// over weights w_e, zero for the emitters `exact` and those not sampled at `x`
     /// ([`SAMPLED_SPREAD`]) or facing away. Up to [`MAX_WEIGHED_EMITTERS`] emitters, w_e is
-    /// max(Le_e) F(x → e) (the exact unoccluded form factor) with `count` ≥ 2, or with one ray
-    /// the cheap bound max(Le_e) A_e / (π d²) of [`Gatherer::exact_emitters`]. Beyond, the
+    /// max(Le_e) F(x → e) (the exact unoccluded form factor) with `count` ≥ 2, or up
+    /// to [`MAX_WEIGHED_NEAR_HIT_EMITTERS`] with one ray the cheap bound
+    /// max(Le_e) A_e / (π d²) of [`Gatherer::exact_emitters`]. Beyond, the
     /// emitters are drawn by the light tree over them ([`crate::light::LightTree`]), its
     /// leaves weighed the same way: for `count` ≥ 2 over the tree's draw less the
     /// u-intervals of the exact emitters ([`crate::light::tree::Skip`]), so that no ray is
@@ -403,6 +415,7 @@ impl Gatherer<'_> {
         n: DVec3,
         exact: &[u32],
         count: usize,
+        weighed: &mut Option<Weighed>,
         rng: &mut Rng,
     ) -> Vec<(usize, f64)> {
         let is_exact = |k: usize| exact.binary_search(&(k as u32)).is_ok();
@@ -420,21 +433,37 @@ impl Gatherer<'_> {
                 0.0
             }
         };
-        if self.emitters.len() <= MAX_WEIGHED_EMITTERS {
-            let (mut cdf, mut keys, mut total) = (Vec::new(), Vec::new(), 0.0);
-            for k in 0..self.emitters.len() {
-                let w = if is_exact(k) { 0.0 } else { weight(k) };
-                if w > 0.0 {
-                    total += w;
-                    cdf.push(total);
-                    keys.push(k);
+        let most = if count >= 2 {
+            MAX_WEIGHED_EMITTERS
+        } else {
+            MAX_WEIGHED_NEAR_HIT_EMITTERS
+        };
+        if self.emitters.len() <= most {
+            let weigh = || {
+                let (mut cdf, mut keys, mut total) = (Vec::new(), Vec::new(), 0.0);
+                for k in 0..self.emitters.len() {
+                    let w = if is_exact(k) { 0.0 } else { weight(k) };
+                    if w > 0.0 {
+                        total += w;
+                        cdf.push(total);
+                        keys.push(k);
+                    }
                 }
-            }
-            if cdf.is_empty() {
+                Weighed { cdf, keys }
+            };
+            // A gathering point's pilot and estimate draw by the same weights: found once.
+            let fresh;
+            let w = if count >= 2 {
+                &*weighed.get_or_insert_with(weigh)
+            } else {
+                fresh = weigh();
+                &fresh
+            };
+            if w.cdf.is_empty() {
                 return Vec::new();
             }
-            return systematic(&cdf, count, rng.next_f64())
-                .map(|(at, p)| (keys[at], p))
+            return systematic(&w.cdf, count, rng.next_f64())
+                .map(|(at, p)| (w.keys[at], p))
                 .collect();
         }
         // The tree's inner nodes bound Le·A·cos·cos/d², which is π·Le·F for a small far
@@ -675,6 +704,16 @@ pub fn emitters_cost(emitters: usize) -> usize {
         0
     };
     EXACT_EMITTER_COST * emitters.min(MAX_EXACT_EMITTERS) + others
+}
+
+/// The weights the others' shadow rays at one gathering point are drawn by
+/// ([`Gatherer::draw_others`], up to [`MAX_WEIGHED_EMITTERS`] emitters) as a running sum over
+/// the emitters they may go to: found once for the point's pilot and its estimate.
+pub(super) struct Weighed {
+    /// Running sums of the weights, increasing.
+    cdf: Vec<f64>,
+    /// The emitter of each sum.
+    keys: Vec<usize>,
 }
 
 /// What the shadow rays of [`Gatherer::others_direct`] met: whether any reached its emitter,

@@ -64,7 +64,8 @@ mod trace;
 pub use cache::{Cache, CacheStats};
 pub use direct::{
     emitters_cost, EXACT_EMITTER_COST, MAX_EXACT_EMITTERS, MAX_WEIGHED_EMITTERS,
-    OTHER_LIGHT_MAX_SAMPLES, OTHER_LIGHT_PILOT, OTHER_LIGHT_SAMPLES, SAMPLED_SPREAD,
+    MAX_WEIGHED_NEAR_HIT_EMITTERS, OTHER_LIGHT_MAX_SAMPLES, OTHER_LIGHT_PILOT, OTHER_LIGHT_SAMPLES,
+    SAMPLED_SPREAD,
 };
 pub use indirect::{
     EDGE_MAX_PER_STRATUM, EDGE_MIN_SIDE, EDGE_RAYS, NEAR_DEPTH, NEAR_HIT, NEAR_RAYS,
@@ -194,7 +195,8 @@ pub struct Gatherer<'a> {
     /// The emitting scene triangles.
     emitters: Vec<Emitter>,
     /// The light tree over `emitters`, which the others' rays draw from beyond
-    /// [`MAX_WEIGHED_EMITTERS`] (empty below).
+    /// [`MAX_WEIGHED_EMITTERS`] at a gathering point and [`MAX_WEIGHED_NEAR_HIT_EMITTERS`] at a
+    /// near hit (empty below both).
     emitter_tree: LightTree,
     /// Index into `emitters` of each scene triangle, or [`NONE`].
     emitter_of: Vec<u32>,
@@ -269,11 +271,12 @@ impl<'a> Gatherer<'a> {
             emitters.push(Emitter::new(corners, normal.normalize(), sent));
         }
         let (lo, hi) = scene.bounds();
-        let emitter_tree = if emitters.len() > MAX_WEIGHED_EMITTERS {
-            LightTree::new(&emitters)
-        } else {
-            LightTree::default()
-        };
+        let emitter_tree =
+            if emitters.len() > MAX_WEIGHED_EMITTERS.min(MAX_WEIGHED_NEAR_HIT_EMITTERS) {
+                LightTree::new(&emitters)
+            } else {
+                LightTree::default()
+            };
         let partner = direct::pair_emitters(&emitters);
         let surfaces = Surfaces::new(patches);
         let lift = LIFT * (hi - lo).length();

@@ -275,17 +275,10 @@ fn partly_hidden_other_lights_get_more_rays() {
     // Where nothing is hidden the test above shows the same estimate exact.
     let (scene, patches, _) = emitter_grid(true, 6);
     let radiance = vec![[0.0; 3]; patches.len()];
-    let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
-    let x = DVec3::new(0.5, 0.5, 0.0);
-    let receiver = g.surfaces.closest(x + 0.1 * DVec3::Z, -DVec3::Z, NONE);
-    let receiver = receiver.unwrap().patch;
+    let (g, x, receiver) = grid_point(&scene, &patches, &radiance);
     let exact = g.exact_emitters(x);
     let from = g.surfaces.point(x + g.lift * DVec3::Z);
-    let variance = |calls: Vec<f64>| {
-        let n = calls.len() as f64;
-        let mean = calls.iter().sum::<f64>() / n;
-        calls.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / (n - 1.0)
-    };
+    let variance = |calls: Vec<f64>| mean_variance_error(&calls).1;
     let adaptive = variance(
         (0..400)
             .map(|seed| g.direct(x, DVec3::Z, receiver, &mut Rng::new(&[seed]))[0])
@@ -301,8 +294,7 @@ fn partly_hidden_other_lights_get_more_rays() {
                     DVec3::Z,
                     &from,
                     receiver,
-                    &exact,
-                    OTHER_LIGHT_SAMPLES,
+                    (&exact, OTHER_LIGHT_SAMPLES, &mut None),
                     rng,
                     &mut targets,
                 );
@@ -330,17 +322,11 @@ fn many_partly_hidden_emitters_are_estimated_without_bias() {
         let (scene, patches, exact) = emitter_grid(blocked, m);
         assert_eq!(scene.triangles.len() > MAX_WEIGHED_EMITTERS + 2, m == 24);
         let radiance = vec![[0.0; 3]; patches.len()];
-        let g = Gatherer::new(&scene, &patches, &radiance, &Environment::default(), 1);
-        let x = DVec3::new(0.5, 0.5, 0.0);
-        let receiver = g.surfaces.closest(x + 0.1 * DVec3::Z, -DVec3::Z, NONE);
-        let receiver = receiver.unwrap().patch;
+        let (g, x, receiver) = grid_point(&scene, &patches, &radiance);
         let calls: Vec<f64> = (0..400)
             .map(|seed| g.direct(x, DVec3::Z, receiver, &mut Rng::new(&[seed]))[0])
             .collect();
-        let n = calls.len() as f64;
-        let mean = calls.iter().sum::<f64>() / n;
-        let var = calls.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / (n - 1.0);
-        let se = (var / n).sqrt();
+        let (mean, var, se) = mean_variance_error(&calls);
         assert!(
             var > 0.0,
             "the sampled emitters' light varies between calls"
@@ -350,6 +336,64 @@ fn many_partly_hidden_emitters_are_estimated_without_bias() {
             "{m}x{m}, blocked {blocked}: mean {mean} vs exact {exact} (standard error {se})"
         );
     }
+}
+
+#[test]
+fn a_near_hits_one_ray_to_the_other_emitters_is_unbiased() {
+    // A near hit's point (a gather ray that lands close by) gets one shadow ray per exact
+    // emitter and one to an emitter drawn among the others: by weights at the point up to
+    // MAX_WEIGHED_NEAR_HIT_EMITTERS emitters (the 4 x 4 grid: 32 triangles), by the light tree
+    // beyond (6 x 6: 72). With the blocker each square is wholly seen or wholly hidden from
+    // (1/2, 1/2, 0), so a ray's answer is exact and the mean over many calls must be the
+    // exact sum of Le F V. Bound: four standard errors of the mean over 4,000 calls (from the
+    // calls themselves, and rounding), a chance of failure below 1e-4 per case. A chance
+    // misreported by a tenth, or a tree that weighs half the emitters 0, fails by tens of
+    // standard errors (both checked).
+    for (blocked, m) in [(false, 4), (true, 4), (false, 6), (true, 6)] {
+        let (scene, patches, exact_sum) = emitter_grid(blocked, m);
+        assert_eq!(
+            scene.triangles.len() > MAX_WEIGHED_NEAR_HIT_EMITTERS,
+            m == 6
+        );
+        let radiance = vec![[0.0; 3]; patches.len()];
+        let (g, x, receiver) = grid_point(&scene, &patches, &radiance);
+        let exact = g.exact_emitters(x);
+        let calls: Vec<f64> = (0..4000)
+            .map(|seed| {
+                let rng = &mut Rng::new(&[seed]);
+                g.direct_from(x, DVec3::Z, receiver, &exact, (1, 1, 1), true, rng)
+                    .0[0]
+            })
+            .collect();
+        let (mean, _, se) = mean_variance_error(&calls);
+        // Plus rounding: where every other square is hidden the calls agree to it.
+        assert!(
+            (mean - exact_sum).abs() < 4.0 * se + 1e-12 * exact_sum,
+            "{m}x{m}, blocked {blocked}: mean {mean} vs exact {exact_sum} (standard error {se})"
+        );
+    }
+}
+
+/// The gatherer over [`emitter_grid`]'s patches lit by `radiance`, the point (1/2, 1/2, 0)
+/// on its receiver and the receiver's patch there.
+fn grid_point<'a>(
+    scene: &Scene,
+    patches: &'a Patches,
+    radiance: &'a [Rgb],
+) -> (Gatherer<'a>, DVec3, u32) {
+    let g = Gatherer::new(scene, patches, radiance, &Environment::default(), 1);
+    let x = DVec3::new(0.5, 0.5, 0.0);
+    let receiver = g.surfaces.closest(x + 0.1 * DVec3::Z, -DVec3::Z, NONE);
+    let receiver = receiver.expect("the receiver under the grid").patch;
+    (g, x, receiver)
+}
+
+/// The mean of `calls`, their sample variance and the standard error of the mean.
+fn mean_variance_error(calls: &[f64]) -> (f64, f64, f64) {
+    let n = calls.len() as f64;
+    let mean = calls.iter().sum::<f64>() / n;
+    let var = calls.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, var, (var / n).sqrt())
 }
 
 #[test]
