@@ -147,14 +147,7 @@ impl Gatherer<'_> {
         if self.groups <= MAX_EXACT_EMITTERS {
             return (0..self.emitters.len() as u32).collect();
         }
-        let own: Vec<f64> = self
-            .emitters
-            .iter()
-            .map(|e| {
-                let d = (x.distance(e.centre) - e.radius).max(1e-3 * e.radius);
-                e.power / (PI * d * d)
-            })
-            .collect();
+        let own: Vec<f64> = self.emitters.iter().map(|e| e.bound(x)).collect();
         // A paired half ranks by its quadrilateral's bound, the two halves' sum: it is
         // computed as one with its partner, and a large lamp of two triangles must not lose
         // its place to a smaller single triangle that outranks each half.
@@ -404,7 +397,7 @@ impl Gatherer<'_> {
     /// ([`SAMPLED_SPREAD`]) or facing away. Up to [`MAX_WEIGHED_EMITTERS`] emitters, w_e is
     /// max(Le_e) F(x → e) (the exact unoccluded form factor) with `count` ≥ 2, or up
     /// to [`MAX_WEIGHED_NEAR_HIT_EMITTERS`] with one ray the cheap bound
-    /// max(Le_e) A_e / (π d²) of [`Gatherer::exact_emitters`]. Beyond, the
+    /// max(Le_e) A_e / (π d²) ([`Emitter::bound`]). Beyond, the
     /// emitters are drawn by the light tree over them ([`crate::light::LightTree`]), its
     /// leaves weighed the same way: for `count` ≥ 2 over the tree's draw less the
     /// u-intervals of the exact emitters ([`crate::light::tree::Skip`]), so that no ray is
@@ -427,8 +420,7 @@ impl Gatherer<'_> {
             } else if count >= 2 {
                 point_to_polygon(x, n, &e.corners) * e.le_max()
             } else if e.corners.iter().any(|&c| (c - x).dot(n) > 0.0) {
-                let d = (x.distance(e.centre) - e.radius).max(1e-3 * e.radius);
-                e.power / (PI * d * d)
+                e.bound(x)
             } else {
                 0.0
             }

@@ -132,6 +132,15 @@ impl Emitter {
         self.le.iter().copied().fold(0.0, f64::max)
     }
 
+    /// A cheap bound on what it can send to the point `x`, max(Le)·A / (π d²) with d the
+    /// distance from `x` to its bounding sphere (at least a thousandth of its radius): at
+    /// least max(Le)·F(x → e) for a point outside the sphere, whatever the orientations. What
+    /// the exact emitters are ranked by, and a near hit's one ray drawn by.
+    pub fn bound(&self, x: DVec3) -> f64 {
+        let d = (x.distance(self.centre) - self.radius).max(1e-3 * self.radius);
+        self.power / (std::f64::consts::PI * d * d)
+    }
+
     /// F(x → e), the unoccluded form factor from the point `x` (unit normal `n`) to the
     /// emitter, or `None` where the emitter sends nothing toward `x`: `x` behind its plane,
     /// or the emitter wholly below `x`'s horizon.
