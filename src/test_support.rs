@@ -1,5 +1,5 @@
-//! Helpers shared by the library's unit tests: scratch directories and a small baked mesh
-//! with awkward values.
+//! Helpers shared by the library's unit tests: scratch directories, a small baked mesh
+//! with awkward values and the statistics of repeated random estimates.
 
 use crate::bake::BakedMesh;
 use crate::scene::SceneBuilder;
@@ -129,4 +129,12 @@ pub fn ceiling_with_mounted_light(
         ],
         light,
     );
+}
+
+/// The mean of `calls`, their sample variance and the standard error of the mean.
+pub fn mean_variance_error(calls: &[f64]) -> (f64, f64, f64) {
+    let n = calls.len() as f64;
+    let mean = calls.iter().sum::<f64>() / n;
+    let var = calls.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, var, (var / n).sqrt())
 }

@@ -8,6 +8,7 @@ use crate::color::luminance;
 use crate::geometry::point_to_polygon;
 use crate::pipeline::{self, Method, Settings};
 use crate::scene::SceneBuilder;
+use crate::test_support::mean_variance_error;
 use crate::validation::{closed_forms, scenes};
 use glam::DVec3;
 
@@ -386,14 +387,6 @@ fn grid_point<'a>(
     let receiver = g.surfaces.closest(x + 0.1 * DVec3::Z, -DVec3::Z, NONE);
     let receiver = receiver.expect("the receiver under the grid").patch;
     (g, x, receiver)
-}
-
-/// The mean of `calls`, their sample variance and the standard error of the mean.
-fn mean_variance_error(calls: &[f64]) -> (f64, f64, f64) {
-    let n = calls.len() as f64;
-    let mean = calls.iter().sum::<f64>() / n;
-    let var = calls.iter().map(|c| (c - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, var, (var / n).sqrt())
 }
 
 #[test]

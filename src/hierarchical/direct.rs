@@ -28,8 +28,13 @@
 //! when a few rays agree would take points in a thin penumbra for lit more often than not: a
 //! bias). In a scene of many emitters ([`ShadowRays::Shared`]) a point's
 //! [`ELEMENT_SHARED_SHADOW_RAYS`] are drawn over the emitters in proportion to Le·F instead,
-//! so that the rays follow the light and not the count of lights. The element's direct light
-//! is the rule's weighted mean of D over its unburied points.
+//! so that the rays follow the light and not the count of lights; in a scene of very many
+//! ([`ShadowRays::Tree`]: hundreds of lamps in a hall, thousands at 10⁶ triangles) they are
+//! drawn by the light tree over the emitters ([`LightTree`], Conty Estevez & Kulla 2018),
+//! whose chances follow a bound on each node's light, so that a point's cost grows as the
+//! logarithm of the lights. Each drawn emitter's term is weighted by its rays over N times
+//! its chance: unbiased either way, exact when unoccluded where the chances are ∝ Le·F. The
+//! element's direct light is the rule's weighted mean of D over its unburied points.
 
 use glam::DVec3;
 
@@ -39,7 +44,7 @@ use crate::color::Rgb;
 use crate::light::emitter::{
     ELEMENT_FEW_SHADOW_RAYS, ELEMENT_SHADOW_RAYS, ELEMENT_SHARED_SHADOW_RAYS,
 };
-use crate::light::{Emitter, Receiver, Share, SKY_RAYS};
+use crate::light::{Emitter, LightTree, Receiver, Share, SKY_RAYS};
 use crate::mesh::Patches;
 use crate::sampling::{systematic, Rng};
 use crate::scene::Environment;
@@ -54,21 +59,24 @@ use crate::visibility::Visibility;
 /// 10,786) qualify. Past it, [`DIRECT_BUDGET_MANY`].
 pub const DIRECT_BUDGET: usize = 2_000_000;
 
-/// Past [`DIRECT_BUDGET`], the elements still compute every emitter's direct light, with
-/// [`ELEMENT_SHARED_SHADOW_RAYS`] per rule point shared among the emitters
-/// ([`ShadowRays::Shared`]), while the emitters × max(roots, [`DIRECT_ROOTS_FLOOR`]) is at most
-/// this (the bound it had when each point cast 2 rays to every emitter: each point still
-/// weighs every emitter by its exact form factor, work that grows as emitters × elements).
-/// Otherwise the links carry all emission (a scene with many lights: every element would
-/// weigh every light). A furnished
-/// interior of 10⁵ triangles under a dozen ceiling panels (40 emitting triangles, 4·10⁶)
-/// qualifies; the generated hall at 4·10⁴ triangles (328 emitters) and more, and LibreQuake's
-/// levels of hundreds of emitting faces, do not.
+/// Past [`DIRECT_BUDGET`], the elements compute every emitter's direct light with
+/// [`ELEMENT_SHARED_SHADOW_RAYS`] per rule point shared among the emitters, drawn by their
+/// weights ([`ShadowRays::Shared`]) while the emitters × max(roots, [`DIRECT_ROOTS_FLOOR`]) is
+/// at most this (the bound it had when each point cast 2 rays to every emitter: each point
+/// weighs every emitter by its exact form factor, work that grows as emitters × elements),
+/// and beyond it drawn by the light tree over them ([`ShadowRays::Tree`]: a point's work
+/// grows as the logarithm of the emitters). A furnished interior of 10⁵ triangles under a
+/// dozen ceiling panels (40 emitting triangles, 4·10⁶) draws by the weights; the generated
+/// hall at 4·10⁴ triangles (328 emitters) and more, and LibreQuake's levels of hundreds of
+/// emitting faces, by the tree.
 ///
-/// Why it pays: carried by links, the panels' light is smeared over each link's receiver,
-/// and the floor under a desk reads as lit as the floor beside it; the second bounce then
-/// brightens the desk's underside and the floor under it again (the gather reads these
-/// patches). Computed at the elements, the desk's shadow is in the solution.
+/// Why the elements compute it: carried by links, the panels' light is smeared over each
+/// link's receiver, and the floor under a desk reads as lit as the floor beside it; the
+/// second bounce then brightens the desk's underside and the floor under it again (the
+/// gather reads these patches). Computed at the elements, the desk's shadow is in the
+/// solution. Carried by links, a hall's hundreds of lamps left its floor and its tables'
+/// undersides reading brighter than they are (BENCHMARKS.md, the many-emitters bullet),
+/// and the gather's indirect light inherited that.
 pub const DIRECT_BUDGET_MANY: usize = DIRECT_BUDGET * ELEMENT_SHADOW_RAYS / 2;
 
 /// See [`DIRECT_BUDGET`]: a scene of few roots still refines into many elements.
@@ -110,6 +118,39 @@ pub enum ShadowRays {
     /// A share of the point's [`ELEMENT_SHARED_SHADOW_RAYS`], drawn over every emitter so
     /// marked in proportion to Le·F.
     Shared,
+    /// A share of the point's [`ELEMENT_SHARED_SHADOW_RAYS`], drawn by the light tree over
+    /// every emitter so marked ([`LightTree`]; its leaves weighed by π·Le·F): past
+    /// [`DIRECT_BUDGET_MANY`], where weighing every emitter at every rule point would cost
+    /// emitters × elements.
+    Tree,
+}
+
+/// The emitters whose direct light the elements compute ([`chosen`]) and, where their rays
+/// are drawn by it ([`ShadowRays::Tree`]), the light tree over them (empty otherwise).
+#[derive(Clone, Debug, Default)]
+pub struct Emitters {
+    /// The emitters, ascending by their first root.
+    pub list: Vec<RootEmitter>,
+    /// The light tree over `list`'s emitters, its leaf k `list[k]`.
+    pub tree: LightTree,
+}
+
+impl Emitters {
+    /// `list` with the light tree over it if any of them draws by it.
+    pub fn new(list: Vec<RootEmitter>) -> Emitters {
+        let tree = if list.iter().any(|e| e.rays == ShadowRays::Tree) {
+            let lights: Vec<Emitter> = list.iter().map(|e| e.emitter.clone()).collect();
+            LightTree::new(&lights)
+        } else {
+            LightTree::default()
+        };
+        Emitters { list, tree }
+    }
+
+    /// True if the links carry all emission.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
 }
 
 impl RootEmitter {
@@ -201,24 +242,30 @@ fn tiled_triangle(roots: &Patches, group: &[usize]) -> Option<[DVec3; 3]> {
 }
 
 /// The emitting roots whose direct light the elements compute ([`DIRECT_BUDGET`],
-/// [`DIRECT_BUDGET_MANY`], [`MAX_EMITTING_AREA`]): all of them, or none; as the scene's
-/// emitting triangles ([`merged`]), each with the way it gets its shadow rays.
-pub fn chosen(roots: &Patches) -> Vec<RootEmitter> {
+/// [`DIRECT_BUDGET_MANY`], [`MAX_EMITTING_AREA`]): all of them, or none where they cover
+/// too much of the scene; as the scene's emitting triangles ([`merged`]), each with the way
+/// it gets its shadow rays, and the light tree over them where they are drawn by it.
+pub fn chosen(roots: &Patches) -> Emitters {
     let emitting: Vec<usize> = (0..roots.len())
         .filter(|&r| roots.emission[r].iter().any(|&x| x > 0.0) && roots.area[r] > 0.0)
         .collect();
     let emitting_area: f64 = emitting.iter().map(|&r| roots.area[r]).sum();
     let mut emitters = merged(roots, &emitting);
     let cost = emitters.len() * roots.len().max(DIRECT_ROOTS_FLOOR);
-    if cost > DIRECT_BUDGET_MANY || emitting_area > MAX_EMITTING_AREA * roots.total_area() {
-        return Vec::new();
+    if emitting_area > MAX_EMITTING_AREA * roots.total_area() {
+        return Emitters::default();
     }
-    if cost > DIRECT_BUDGET {
-        for e in &mut emitters {
-            e.rays = ShadowRays::Shared;
-        }
+    let rays = if cost > DIRECT_BUDGET_MANY {
+        ShadowRays::Tree
+    } else if cost > DIRECT_BUDGET {
+        ShadowRays::Shared
+    } else {
+        ShadowRays::Own
+    };
+    for e in &mut emitters {
+        e.rays = rays;
     }
-    emitters
+    Emitters::new(emitters)
 }
 
 /// The direct light of one element.
@@ -258,7 +305,7 @@ pub fn element_direct(
     tree: &Tree,
     occluders: &Visibility,
     shadows: bool,
-    emitters: &[RootEmitter],
+    emitters: &Emitters,
     outside: Outside,
     e: usize,
     buried: u16,
@@ -288,19 +335,15 @@ pub fn element_direct(
     // ([`Visibility::occluded`]): the emitter's own patches need no ignoring.
     let ignore = [root, crate::visibility::NONE];
     if shadows {
-        let shared: Vec<&RootEmitter> = emitters
-            .iter()
-            .filter(|em| em.rays == ShadowRays::Shared && own(em))
-            .collect();
         let mut drawn = Drawn::default();
         for (k, &(x, n)) in points.iter().enumerate() {
-            if weights[k] == 0.0 || shared.is_empty() {
+            if weights[k] == 0.0 {
                 continue;
             }
-            drawn.draw(&shared, x, n, &mut rng);
+            drawn.draw(emitters, &own, x, n, &mut rng);
             let (from, mut last) = (occluders.point(x), usize::MAX);
             for &(i, f, count, p) in &drawn.picks {
-                let em = &shared[i].emitter;
+                let em = &emitters.list[i].emitter;
                 let mut share = Share::default();
                 let occluded = |y| {
                     occluders.occluded_points_after(&from, &occluders.point(y), ignore, &mut last)
@@ -308,8 +351,9 @@ pub fn element_direct(
                 out.rays +=
                     em.cast_shadow_rays(x, n, count, &mut rng, &mut targets, &mut share, occluded);
                 // n_e / (N p_e): its expectation is 1, and over the emitters these weights
-                // make the unoccluded sum exact (Σ Le_max F_e n_e / (N p_e) = Σ Le_max F).
-                let weight = count as f64 / (ELEMENT_SHARED_SHADOW_RAYS as f64 * p);
+                // make the unoccluded sum exact where p_e ∝ Le_max F (Σ Le_max F_e n_e /
+                // (N p_e) = Σ Le_max F), unbiased where p_e is the tree's.
+                let weight = count as f64 / (drawn.rays as f64 * p);
                 let v = share.visible().unwrap_or(1.0);
                 for (value, le) in values[k].iter_mut().zip(em.le) {
                     *value += le * f * v * weight;
@@ -318,6 +362,7 @@ pub fn element_direct(
         }
     }
     for e_root in emitters
+        .list
         .iter()
         .filter(|em| own(em) && (em.rays == ShadowRays::Own || !shadows))
     {
@@ -390,31 +435,81 @@ pub fn element_direct(
     out
 }
 
-/// The draw of a rule point's [`ELEMENT_SHARED_SHADOW_RAYS`] over the emitters
-/// ([`ShadowRays::Shared`]): systematic sampling over the weights Le_max · F
-/// ([`systematic`]), so an emitter of probability p gets ⌊N p⌋ or ⌈N p⌉ rays, and at least
-/// one ray in the point's N goes to every emitter with p ≥ 1/N.
+/// Shadow rays per rule point drawn by the light tree ([`ShadowRays::Tree`]).
+pub const ELEMENT_TREE_SHADOW_RAYS: usize = 8;
+
+/// The draw of a rule point's [`ELEMENT_SHARED_SHADOW_RAYS`] over the emitters whose rays are
+/// shared ([`ShadowRays::Shared`], [`ShadowRays::Tree`]), those `own` rejects (the element's
+/// own) left out. Weighed: systematic sampling over the weights Le_max · F ([`systematic`]),
+/// so an emitter of probability p gets ⌊N p⌋ or ⌈N p⌉ rays, and at least one ray in the
+/// point's N goes to every emitter with p ≥ 1/N. By the tree: N descents of the light tree
+/// at the stratified numbers (i + u)/N, its leaves weighed π·Le_max·F (the units of its inner
+/// nodes' bound, [`LightTree`]), an emitter drawn by successive numbers given their count.
 #[derive(Default)]
 struct Drawn {
     /// Cumulative weights of the emitters that send light to the point.
     cdf: Vec<f64>,
     /// Those emitters: their index and form factor.
     keys: Vec<(usize, f64)>,
-    /// Each drawn emitter: its index, F, its rays and its probability.
+    /// Each drawn emitter: its index in the list, F, its rays and its probability.
     picks: Vec<(usize, f64, usize, f64)>,
+    /// The rays drawn, N.
+    rays: usize,
 }
 
 impl Drawn {
-    fn draw(&mut self, emitters: &[&RootEmitter], x: DVec3, n: DVec3, rng: &mut Rng) {
+    fn draw(
+        &mut self,
+        emitters: &Emitters,
+        own: &impl Fn(&RootEmitter) -> bool,
+        x: DVec3,
+        n: DVec3,
+        rng: &mut Rng,
+    ) {
         self.cdf.clear();
         self.keys.clear();
         self.picks.clear();
+        let list = &emitters.list;
+        self.rays = ELEMENT_SHARED_SHADOW_RAYS;
+        if !emitters.tree.is_empty() {
+            self.rays = ELEMENT_TREE_SHADOW_RAYS;
+            let rays = self.rays;
+            let leaf = |k: usize| {
+                let e = &list[k];
+                if e.rays != ShadowRays::Tree || !own(e) {
+                    return 0.0;
+                }
+                e.emitter
+                    .form_factor(x, n)
+                    .map_or(0.0, |f| std::f64::consts::PI * f * e.emitter.le_max())
+            };
+            let u = rng.next_f64();
+            for i in 0..rays {
+                let Some((k, p)) = emitters
+                    .tree
+                    .sample(x, n, (i as f64 + u) / rays as f64, leaf)
+                else {
+                    continue;
+                };
+                match self.picks.last_mut() {
+                    Some(last) if last.0 == k => last.2 += 1,
+                    _ => {
+                        let f = list[k].emitter.form_factor(x, n).unwrap_or(0.0);
+                        self.picks.push((k, f, 1, p));
+                    }
+                }
+            }
+            return;
+        }
         let mut total = 0.0;
-        for (i, e) in emitters.iter().enumerate() {
+        for (i, e) in list.iter().enumerate() {
+            if e.rays != ShadowRays::Shared || !own(e) {
+                continue;
+            }
             let Some(f) = e.emitter.form_factor(x, n) else {
                 continue;
             };
-            let w = f * e.emitter.le.iter().copied().fold(0.0, f64::max);
+            let w = f * e.emitter.le_max();
             if w > 0.0 {
                 total += w;
                 self.cdf.push(total);
@@ -425,7 +520,7 @@ impl Drawn {
             return;
         }
         let mut last = usize::MAX;
-        for (at, p) in systematic(&self.cdf, ELEMENT_SHARED_SHADOW_RAYS, rng.next_f64()) {
+        for (at, p) in systematic(&self.cdf, self.rays, rng.next_f64()) {
             if at == last {
                 self.picks.last_mut().expect("drawn before").2 += 1;
                 continue;

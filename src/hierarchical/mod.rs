@@ -115,7 +115,8 @@ pub struct Settings {
     /// takes 20 bytes; a bake sets it from `--max-memory`).
     pub max_links: u64,
     /// Compute the emitters' direct light at every element ([`direct`]) when the scene
-    /// qualifies ([`direct::chosen`]: few, small emitters); false: links carry all emission.
+    /// qualifies ([`direct::chosen`]: emitters that cover a small share of it); false: links
+    /// carry all emission.
     pub direct: bool,
     /// No refinement pass starts after this instant: refinement stops with a warning and the
     /// solve converges on the links it has (the time budget of a bake, `--max-time`).
@@ -224,8 +225,8 @@ pub struct Stats {
     pub direct_emitters: usize,
     /// Shadow rays per rule point of that direct light: per emitter, at most
     /// ([`direct::ShadowRays::Own`]), or shared among all the emitters past
-    /// [`direct::DIRECT_BUDGET`] ([`direct::ShadowRays::Shared`], `direct_rays_shared`); 0 when
-    /// links carry all emission.
+    /// [`direct::DIRECT_BUDGET`] ([`direct::ShadowRays::Shared`] and [`direct::ShadowRays::Tree`],
+    /// `direct_rays_shared`); 0 when links carry all emission.
     pub direct_shadow_rays: usize,
     /// Whether the `direct_shadow_rays` of a rule point are shared among the emitters.
     pub direct_rays_shared: bool,
@@ -602,7 +603,7 @@ pub struct Hierarchy<'a> {
     closed_roots: Vec<bool>,
     /// The emitters whose direct light the elements compute themselves ([`direct`]); empty
     /// when the links carry all emission.
-    emitters: Vec<direct::RootEmitter>,
+    emitters: direct::Emitters,
     /// Per root: its emission reaches other elements through their own direct light
     /// ([`direct`]), so links carry only its reflected radiance.
     exact: Vec<bool>,
@@ -706,7 +707,7 @@ impl<'a> Hierarchy<'a> {
             emitters: if settings.direct {
                 direct::chosen(roots)
             } else {
-                Vec::new()
+                direct::Emitters::default()
             },
             exact: vec![false; roots.len()],
             direct: Vec::new(),
@@ -730,16 +731,21 @@ impl<'a> Hierarchy<'a> {
             stats: Stats::default(),
         };
         h.convex = convex;
-        for r in h.emitters.iter().flat_map(|e| &e.roots) {
+        for r in h.emitters.list.iter().flat_map(|e| &e.roots) {
             h.exact[*r as usize] = true;
         }
-        h.stats.direct_emitters = h.emitters.len();
-        h.stats.direct_rays_shared =
-            h.emitters.first().map(|e| e.rays) == Some(direct::ShadowRays::Shared);
-        h.stats.direct_shadow_rays = match h.emitters.first().map(|e| e.rays) {
+        h.stats.direct_emitters = h.emitters.list.len();
+        let rays = h.emitters.list.first().map(|e| e.rays);
+        h.stats.direct_rays_shared = matches!(
+            rays,
+            Some(direct::ShadowRays::Shared | direct::ShadowRays::Tree)
+        );
+        h.stats.direct_shadow_rays = match rays {
             None => 0,
             Some(direct::ShadowRays::Own) => crate::light::emitter::ELEMENT_SHADOW_RAYS,
-            Some(direct::ShadowRays::Shared) => crate::light::emitter::ELEMENT_SHARED_SHADOW_RAYS,
+            Some(direct::ShadowRays::Shared | direct::ShadowRays::Tree) => {
+                crate::light::emitter::ELEMENT_SHARED_SHADOW_RAYS
+            }
         };
         h.update_new_elements();
         h.epsilon = settings.epsilon * h.emitted_power();

@@ -196,6 +196,9 @@ pub struct Pilot {
     /// Rays the elements' direct light is estimated to take (emitters in the mesh, the sky,
     /// the sun and the lamps; [`super::direct`]).
     pub direct_rays: f64,
+    /// Whether the emitters' share of those rays is drawn by the light tree
+    /// ([`super::direct::ShadowRays::Tree`]: each ray with a descent of the tree).
+    pub direct_by_tree: bool,
     /// Wall-clock seconds the pilot took (measured, so not reproducible).
     pub seconds: f64,
 }
@@ -240,6 +243,7 @@ pub fn pilot_on(
         links: 0.0,
         elements: n as f64,
         direct_rays: 0.0,
+        direct_by_tree: !h.emitters.tree.is_empty(),
         seconds: 0.0,
     };
     if h.emitted_power() <= 0.0 || h.tree.root().is_none() {

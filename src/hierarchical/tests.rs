@@ -7,6 +7,7 @@ use glam::DVec3;
 use super::*;
 use crate::mesh;
 use crate::scene::SceneBuilder;
+use crate::test_support::mean_variance_error;
 use crate::validation::scenes;
 
 /// A closed unit box, inward, Le = 1 and ρ = 0.5 everywhere.
@@ -629,7 +630,8 @@ fn direct_at_the_tiny_triangle(
         vis: &vis,
         lift: 0.0,
     };
-    direct::element_direct(&tree, &vis, true, emitters, outside, receiver, 0, seed)
+    let emitters = direct::Emitters::new(emitters.to_vec());
+    direct::element_direct(&tree, &vis, true, &emitters, outside, receiver, 0, seed)
 }
 
 /// The direct light an element computes for itself ([`direct::element_direct`]) is Le times
@@ -637,15 +639,20 @@ fn direct_at_the_tiny_triangle(
 /// four Howell B-3 corners (the element is 1e-4 across, so its rule points see the same F
 /// to 1e-8; tolerance 1e-6). Behind an opaque square, every shadow ray is blocked: exactly 0.
 /// Both hold with rays of each emitter's own and with rays shared among the emitters (drawn
-/// in proportion to their light, the weights n_e / (N p_e) sum the unoccluded light exactly).
+/// in proportion to their light, the weights n_e / (N p_e) sum the unoccluded light exactly;
+/// drawn by a light tree of two leaves, whose chances are the leaves' exact weights, too).
 #[test]
 fn direct_light_at_an_element_is_exact_and_shadowed() {
     let f =
         4.0 * crate::validation::closed_forms::point_to_parallel_rectangle_corner(0.5, 0.5, 1.0);
-    for (blocked, rays) in [false, true]
-        .into_iter()
-        .flat_map(|b| [direct::ShadowRays::Own, direct::ShadowRays::Shared].map(|r| (b, r)))
-    {
+    for (blocked, rays) in [false, true].into_iter().flat_map(|b| {
+        [
+            direct::ShadowRays::Own,
+            direct::ShadowRays::Shared,
+            direct::ShadowRays::Tree,
+        ]
+        .map(|r| (b, r))
+    }) {
         let roots = under_a_square_light(blocked, 10.0);
         let emitters: Vec<direct::RootEmitter> = (0..roots.len())
             .filter(|&r| roots.emission[r][0] > 0.0)
@@ -809,7 +816,7 @@ fn leaves_split_where_their_direct_light_varies() {
         ..Settings::default()
     };
     let mut h = Hierarchy::new(&roots, &s, &Default::default(), 1);
-    assert!(!h.emitters.is_empty(), "the light qualifies");
+    assert!(!h.emitters.list.is_empty(), "the light qualifies");
     refine(&mut h);
     assert!(h.direct_splits().is_empty(), "no leaf left to split");
     let shadow_edge = h
@@ -1105,23 +1112,79 @@ fn a_floor_under_a_light_of_many_triangles(n: usize) -> Patches {
 /// Which emitters' direct light the elements compute, and how they cast its shadow rays
 /// ([`direct::chosen`]), follows the emitters × max(roots, [`direct::DIRECT_ROOTS_FLOOR`]):
 /// under [`direct::DIRECT_BUDGET`] (50 emitters × the floor of 10⁴ roots) rays of their own;
-/// past it up to [`direct::DIRECT_BUDGET_MANY`] (450 emitters) rays shared among them; past
-/// that (1,250) none, the links carrying all emission.
+/// past it up to [`direct::DIRECT_BUDGET_MANY`] (450 emitters) rays shared among them, drawn
+/// by their weights; past that (1,250) drawn by the light tree over them, which is built then
+/// only.
 #[test]
-fn many_emitters_share_their_shadow_rays_then_get_none() {
-    use direct::ShadowRays::{Own, Shared};
-    for (n, want) in [(5, Some(Own)), (15, Some(Shared)), (25, None)] {
+fn many_emitters_share_their_shadow_rays_then_draw_them_by_a_tree() {
+    use direct::ShadowRays::{Own, Shared, Tree};
+    for (n, rays) in [(5, Own), (15, Shared), (25, Tree)] {
         let roots = a_floor_under_a_light_of_many_triangles(n);
         assert!(roots.len() < direct::DIRECT_ROOTS_FLOOR);
         let chosen = direct::chosen(&roots);
-        match want {
-            Some(rays) => {
-                assert_eq!(chosen.len(), 2 * n * n, "{n} × {n}: one emitter a triangle");
-                assert!(chosen.iter().all(|e| e.rays == rays), "{n} × {n}");
-            }
-            None => assert!(chosen.is_empty(), "{n} × {n}: the links carry it"),
-        }
+        assert_eq!(
+            chosen.list.len(),
+            2 * n * n,
+            "{n} × {n}: one emitter a triangle"
+        );
+        assert!(chosen.list.iter().all(|e| e.rays == rays), "{n} × {n}");
+        let tree = if rays == Tree { 2 * n * n } else { 0 };
+        assert_eq!(chosen.tree.len(), tree, "{n} × {n}: the tree's lights");
     }
+}
+
+/// Shadow rays drawn by the light tree ([`direct::ShadowRays::Tree`]) weigh what each drawn
+/// emitter sends by n_e / (N p_e) with p_e the tree's chance, which follows its nodes' bound,
+/// not Le·F: a single estimate is not exact, but it is unbiased. At a point off the centre of
+/// a light of 18 triangles of two brightnesses (each its own emitter, of unequal F there),
+/// with nothing in between, the mean of 400 estimates is Σ Le F (rays of each emitter's own,
+/// exact here) within four of its standard errors (from the estimates' own spread: a chance
+/// off by a tenth for one emitter moves the mean by about its share of the light, several
+/// per cent, far more than that), and the estimates must vary (or the test would not tell
+/// the tree's chances from the weights').
+#[test]
+fn tree_drawn_shadow_rays_keep_an_elements_direct_light_unbiased() {
+    let mut b = SceneBuilder::new();
+    let bright = b.material("bright", [0.0; 3], [3.0; 3]);
+    let dim = b.material("dim", [0.0; 3], [1.0; 3]);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    a_light_of_quads(
+        &mut b,
+        3,
+        |i, j| if (i + j) % 2 == 0 { bright } else { dim },
+    );
+    let (s, at) = (1e-4, DVec3::new(0.35, -0.2, 0.0));
+    let v = [
+        DVec3::new(-s, -s, 0.0),
+        DVec3::new(s, -s, 0.0),
+        DVec3::new(0.0, s, 0.0),
+    ]
+    .map(|p| b.vertex(p + at));
+    b.triangle(v, grey);
+    let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
+    let with = |rays| -> Vec<direct::RootEmitter> {
+        (0..roots.len())
+            .filter(|&r| roots.emission[r][0] > 0.0)
+            .map(|r| direct::RootEmitter {
+                rays,
+                ..direct::RootEmitter::of(&roots, r)
+            })
+            .collect()
+    };
+    let want = direct_at_the_tiny_triangle(&roots, &with(direct::ShadowRays::Own), 1).mean[0];
+    let estimates: Vec<f64> = (0..400)
+        .map(|seed| {
+            let d = direct_at_the_tiny_triangle(&roots, &with(direct::ShadowRays::Tree), seed);
+            assert!(d.rays > 0);
+            d.mean[0]
+        })
+        .collect();
+    let (mean, variance, error) = mean_variance_error(&estimates);
+    assert!(variance > 0.0, "the estimates do not vary");
+    assert!(
+        (mean - want).abs() <= 4.0 * error,
+        "mean {mean} against {want} (standard error {error})"
+    );
 }
 
 /// With shared shadow rays ([`direct::ShadowRays::Shared`]) a point's direct light is noisy

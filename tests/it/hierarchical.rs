@@ -470,9 +470,10 @@ fn determinism_across_thread_counts() {
 /// 1.00 from 10⁴ to 10⁶ in BENCHMARKS.md). Below 10⁴ triangles it is not: the minimum area
 /// then still splits most of the few roots, leaves per triangle fall as the hall grows, and
 /// the exponent reads 1.5 — growth in links per leaf that stops once the roots dominate.
-/// Links carry all emission in both runs: the smaller hall would otherwise have its direct
-/// light computed at the elements (82 emitting roots) and the larger not (328, over the
-/// budget), and the test would compare two methods.
+/// Links carry all emission in both runs: the smaller hall would otherwise have its elements'
+/// direct light by rays of each emitter's own (82 emitting roots) and the larger by rays
+/// drawn from the light tree (328, past the budget), with different leaves to split, and
+/// the test would compare two methods.
 #[test]
 fn links_grow_linearly_with_elements() {
     let mut points = Vec::new();

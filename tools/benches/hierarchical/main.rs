@@ -387,8 +387,9 @@ fn growth(args: &Args) -> Result<String> {
     let mut md = format!(
         "The generated hall (`radiosity generate hall --triangles N`), hierarchical, ε = {eps:.0e}, \
          minimum area {min_area:.0e}, links carrying all emission and no final gather at every \
-         size (the hall of 10⁴ triangles would otherwise have its direct light computed at the \
-         elements and be gathered, the larger ones neither: the fit would mix methods); time \
+         size (the hall of 10⁴ triangles would otherwise have its direct light by rays of each \
+         emitter's own and be gathered, the larger ones by rays drawn from the light tree and \
+         not: the fit would mix methods); time \
          and peak memory of the whole solve and bake, load excluded.\n\n\
          | triangles | leaves | elements | links | links/leaf | rays | sweeps | seconds | peak MiB |\n\
          |---|---|---|---|---|---|---|---|---|\n"
