@@ -43,6 +43,7 @@ use super::tree::Tree;
 use crate::color::Rgb;
 use crate::light::emitter::{
     ELEMENT_FEW_SHADOW_RAYS, ELEMENT_SHADOW_RAYS, ELEMENT_SHARED_SHADOW_RAYS,
+    ELEMENT_TREE_SHADOW_RAYS,
 };
 use crate::light::{Emitter, LightTree, Receiver, Share, SKY_RAYS};
 use crate::mesh::Patches;
@@ -118,7 +119,7 @@ pub enum ShadowRays {
     /// A share of the point's [`ELEMENT_SHARED_SHADOW_RAYS`], drawn over every emitter so
     /// marked in proportion to Le·F.
     Shared,
-    /// A share of the point's [`ELEMENT_SHARED_SHADOW_RAYS`], drawn by the light tree over
+    /// A share of the point's [`ELEMENT_TREE_SHADOW_RAYS`], drawn by the light tree over
     /// every emitter so marked ([`LightTree`]; its leaves weighed by π·Le·F): past
     /// [`DIRECT_BUDGET_MANY`], where weighing every emitter at every rule point would cost
     /// emitters × elements.
@@ -328,6 +329,7 @@ pub fn element_direct(
         ELEMENT_SHADOW_RAYS,
         ELEMENT_FEW_SHADOW_RAYS,
         ELEMENT_SHARED_SHADOW_RAYS,
+        ELEMENT_TREE_SHADOW_RAYS,
     ];
     let mut targets = Vec::with_capacity(most.into_iter().max().unwrap_or(0));
     let own = |em: &RootEmitter| em.roots.binary_search(&root).is_err();
@@ -435,11 +437,8 @@ pub fn element_direct(
     out
 }
 
-/// Shadow rays per rule point drawn by the light tree ([`ShadowRays::Tree`]).
-pub const ELEMENT_TREE_SHADOW_RAYS: usize = 8;
-
-/// The draw of a rule point's [`ELEMENT_SHARED_SHADOW_RAYS`] over the emitters whose rays are
-/// shared ([`ShadowRays::Shared`], [`ShadowRays::Tree`]), those `own` rejects (the element's
+/// The draw of a rule point's N shadow rays ([`ELEMENT_SHARED_SHADOW_RAYS`] by the weights,
+/// [`ELEMENT_TREE_SHADOW_RAYS`] by the tree) over the emitters whose rays are shared ([`ShadowRays::Shared`], [`ShadowRays::Tree`]), those `own` rejects (the element's
 /// own) left out. Weighed: systematic sampling over the weights Le_max · F ([`systematic`]),
 /// so an emitter of probability p gets ⌊N p⌋ or ⌈N p⌉ rays, and at least one ray in the
 /// point's N goes to every emitter with p ≥ 1/N. By the tree: N descents of the light tree

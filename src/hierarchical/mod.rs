@@ -743,9 +743,8 @@ impl<'a> Hierarchy<'a> {
         h.stats.direct_shadow_rays = match rays {
             None => 0,
             Some(direct::ShadowRays::Own) => crate::light::emitter::ELEMENT_SHADOW_RAYS,
-            Some(direct::ShadowRays::Shared | direct::ShadowRays::Tree) => {
-                crate::light::emitter::ELEMENT_SHARED_SHADOW_RAYS
-            }
+            Some(direct::ShadowRays::Shared) => crate::light::emitter::ELEMENT_SHARED_SHADOW_RAYS,
+            Some(direct::ShadowRays::Tree) => crate::light::emitter::ELEMENT_TREE_SHADOW_RAYS,
         };
         h.update_new_elements();
         h.epsilon = settings.epsilon * h.emitted_power();

@@ -14,7 +14,7 @@
 //! | a vertex of the `cache` gather ([`crate::gather::cache`]) | [`GATHER_SHADOW_RAYS`], up to [`CACHE_MAX_SHADOW_RAYS`] in a penumbra, as above |
 //! | a display-refinement midpoint ([`mod@crate::gather::refine`]) | [`GATHER_SHADOW_RAYS`], up to [`MIDPOINT_SHADOW_RAYS`] |
 //! | a near hit's point of a gather ray | [`NEAR_HIT_SHADOW_RAYS`] |
-//! | a rule point of a hierarchical element ([`crate::hierarchical::direct`]) | [`ELEMENT_SHADOW_RAYS`], or [`ELEMENT_FEW_SHADOW_RAYS`] where the kernel is nearly even; in a scene of many emitters, [`ELEMENT_SHARED_SHADOW_RAYS`] a point shared among all of them |
+//! | a rule point of a hierarchical element ([`crate::hierarchical::direct`]) | [`ELEMENT_SHADOW_RAYS`], or [`ELEMENT_FEW_SHADOW_RAYS`] where the kernel is nearly even; in a scene of many emitters, [`ELEMENT_SHARED_SHADOW_RAYS`] a point shared among all of them; of very many, [`ELEMENT_TREE_SHADOW_RAYS`] a point drawn by the light tree |
 //!
 //! V̄ = Σ G_k V_k / Σ G_k over points y_k of the part of e above x's horizon, drawn uniformly
 //! by area and stratified ([`crate::sampling::kernel_samples`]), G the point-pair kernel
@@ -85,6 +85,17 @@ pub const ELEMENT_FEW_SHADOW_RAYS: usize = 4;
 /// triangles, a sky) 16 rays display the error of two per emitter (80 a point) for a fifth
 /// of the rays (BENCHMARKS.md "Large outputs: the `cache` gather").
 pub const ELEMENT_SHARED_SHADOW_RAYS: usize = 16;
+
+/// Shadow rays per rule point of a hierarchical element in a scene of very many emitters
+/// ([`crate::hierarchical::direct::DIRECT_BUDGET_MANY`]), each to an emitter drawn by the
+/// light tree over them ([`crate::light::LightTree`]) at stratified numbers, weighted by
+/// 1/(N p_e): unbiased, but not exact where unoccluded, as the tree's chances follow a bound
+/// on each node's light, not Le·F. Each ray costs a descent of the tree (two nodes weighed a
+/// level), so fewer than [`ELEMENT_SHARED_SHADOW_RAYS`]: on the generated hall of 10⁵
+/// triangles (784 emitting triangles) 8 rays gather its probes to the error of 16 within one
+/// gather's noise, where 16 take the hall of 10⁶'s solve 1.17× as long (BENCHMARKS.md, the
+/// many-emitters bullet).
+pub const ELEMENT_TREE_SHADOW_RAYS: usize = 8;
 
 /// See [`ELEMENT_FEW_SHADOW_RAYS`].
 pub const EVEN_KERNEL: f64 = 1.25;
