@@ -230,6 +230,9 @@ pub struct Stats {
     pub direct_shadow_rays: usize,
     /// Whether the `direct_shadow_rays` of a rule point are shared among the emitters.
     pub direct_rays_shared: bool,
+    /// Whether those shared rays are drawn by the light tree over the emitters
+    /// ([`direct::ShadowRays::Tree`]) rather than by their weights Le·F.
+    pub direct_rays_by_tree: bool,
     /// Rays of the leaves' final gather ([`regather`]), all its steps; 0 when it did not run.
     pub regather_rays: u64,
     /// Seconds of the leaves' final gather.
@@ -740,6 +743,7 @@ impl<'a> Hierarchy<'a> {
             rays,
             Some(direct::ShadowRays::Shared | direct::ShadowRays::Tree)
         );
+        h.stats.direct_rays_by_tree = rays == Some(direct::ShadowRays::Tree);
         h.stats.direct_shadow_rays = match rays {
             None => 0,
             Some(direct::ShadowRays::Own) => crate::light::emitter::ELEMENT_SHADOW_RAYS,

@@ -1130,6 +1130,18 @@ fn many_emitters_share_their_shadow_rays_then_draw_them_by_a_tree() {
         assert!(chosen.list.iter().all(|e| e.rays == rays), "{n} × {n}");
         let tree = if rays == Tree { 2 * n * n } else { 0 };
         assert_eq!(chosen.tree.len(), tree, "{n} × {n}: the tree's lights");
+        // The solve reports it (`-v` and the report say how the elements were lit).
+        let h = Hierarchy::new(&roots, &Settings::default(), &Default::default(), 1);
+        let st = &h.stats;
+        assert_eq!(st.direct_emitters, 2 * n * n);
+        assert_eq!(st.direct_rays_shared, rays != Own, "{n} × {n}");
+        assert_eq!(st.direct_rays_by_tree, rays == Tree, "{n} × {n}");
+        let per_point = match rays {
+            Own => crate::light::emitter::ELEMENT_SHADOW_RAYS,
+            Shared => crate::light::emitter::ELEMENT_SHARED_SHADOW_RAYS,
+            Tree => crate::light::emitter::ELEMENT_TREE_SHADOW_RAYS,
+        };
+        assert_eq!(st.direct_shadow_rays, per_point, "{n} × {n}");
     }
 }
 

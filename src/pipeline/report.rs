@@ -290,7 +290,28 @@ pub fn hierarchical_note(s: &crate::hierarchical::Stats, solution: &Solution) ->
         solution.iterations,
         solution.residual,
         if s.closed_scene { ", closed scene" } else { "" }
-    ) + &ranks_note(s)
+    ) + &direct_note(s)
+        + &ranks_note(s)
+}
+
+/// How a hierarchical solve lit its elements by the emitters in the mesh: at the elements'
+/// own rule points ([`crate::hierarchical::direct`]), with which shadow rays, or by links.
+fn direct_note(s: &crate::hierarchical::Stats) -> String {
+    if s.direct_emitters == 0 {
+        return "; links carry all emission".to_string();
+    }
+    let (most, rays) = if s.direct_rays_by_tree {
+        ("", "drawn by the light tree")
+    } else if s.direct_rays_shared {
+        ("", "drawn by their light")
+    } else {
+        ("up to ", "to each")
+    };
+    format!(
+        "; the elements compute the direct light of {} emitting triangles, {most}{} shadow rays \
+         a rule point {rays}",
+        s.direct_emitters, s.direct_shadow_rays
+    )
 }
 
 /// What the ranks of a solve over several processes held and exchanged (empty for one).
