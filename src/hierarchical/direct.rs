@@ -126,6 +126,18 @@ pub enum ShadowRays {
     Tree,
 }
 
+impl ShadowRays {
+    /// A rule point's shadow rays: at most, to each emitter ([`ShadowRays::Own`]), or in all,
+    /// shared among the emitters.
+    pub fn per_point(self) -> usize {
+        match self {
+            ShadowRays::Own => ELEMENT_SHADOW_RAYS,
+            ShadowRays::Shared => ELEMENT_SHARED_SHADOW_RAYS,
+            ShadowRays::Tree => ELEMENT_TREE_SHADOW_RAYS,
+        }
+    }
+}
+
 /// The emitters whose direct light the elements compute ([`chosen`]) and, where their rays
 /// are drawn by it ([`ShadowRays::Tree`]), the light tree over them (empty otherwise).
 #[derive(Clone, Debug, Default)]
@@ -469,9 +481,8 @@ impl Drawn {
         self.keys.clear();
         self.picks.clear();
         let list = &emitters.list;
-        self.rays = ELEMENT_SHARED_SHADOW_RAYS;
         if !emitters.tree.is_empty() {
-            self.rays = ELEMENT_TREE_SHADOW_RAYS;
+            self.rays = ShadowRays::Tree.per_point();
             let rays = self.rays;
             let leaf = |k: usize| {
                 let e = &list[k];
@@ -500,6 +511,7 @@ impl Drawn {
             }
             return;
         }
+        self.rays = ShadowRays::Shared.per_point();
         let mut total = 0.0;
         for (i, e) in list.iter().enumerate() {
             if e.rays != ShadowRays::Shared || !own(e) {

@@ -744,12 +744,7 @@ impl<'a> Hierarchy<'a> {
             Some(direct::ShadowRays::Shared | direct::ShadowRays::Tree)
         );
         h.stats.direct_rays_by_tree = rays == Some(direct::ShadowRays::Tree);
-        h.stats.direct_shadow_rays = match rays {
-            None => 0,
-            Some(direct::ShadowRays::Own) => crate::light::emitter::ELEMENT_SHADOW_RAYS,
-            Some(direct::ShadowRays::Shared) => crate::light::emitter::ELEMENT_SHARED_SHADOW_RAYS,
-            Some(direct::ShadowRays::Tree) => crate::light::emitter::ELEMENT_TREE_SHADOW_RAYS,
-        };
+        h.stats.direct_shadow_rays = rays.map_or(0, direct::ShadowRays::per_point);
         h.update_new_elements();
         h.epsilon = settings.epsilon * h.emitted_power();
         h.stats.epsilon_absolute = h.epsilon;

@@ -634,6 +634,41 @@ fn direct_at_the_tiny_triangle(
     direct::element_direct(&tree, &vis, true, &emitters, outside, receiver, 0, seed)
 }
 
+/// Each emitting root of `roots` as an emitter of its own, casting its shadow rays as `rays`.
+fn root_emitters(roots: &Patches, rays: direct::ShadowRays) -> Vec<direct::RootEmitter> {
+    (0..roots.len())
+        .filter(|&r| roots.emission[r][0] > 0.0)
+        .map(|r| direct::RootEmitter {
+            rays,
+            ..direct::RootEmitter::of(roots, r)
+        })
+        .collect()
+}
+
+/// A light of 18 triangles of two brightnesses (3 × 3 quads at height 1, Le 3 and 1 in a
+/// checkerboard, each triangle its own root) over the tiny triangle of
+/// [`direct_at_the_tiny_triangle`] off its centre, where the triangles' F are unequal.
+fn a_checkered_light_over_a_tiny_triangle() -> Patches {
+    let mut b = SceneBuilder::new();
+    let bright = b.material("bright", [0.0; 3], [3.0; 3]);
+    let dim = b.material("dim", [0.0; 3], [1.0; 3]);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    a_light_of_quads(
+        &mut b,
+        3,
+        |i, j| if (i + j) % 2 == 0 { bright } else { dim },
+    );
+    let (s, at) = (1e-4, DVec3::new(0.35, -0.2, 0.0));
+    let v = [
+        DVec3::new(-s, -s, 0.0),
+        DVec3::new(s, -s, 0.0),
+        DVec3::new(0.0, s, 0.0),
+    ]
+    .map(|p| b.vertex(p + at));
+    b.triangle(v, grey);
+    mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap()
+}
+
 /// The direct light an element computes for itself ([`direct::element_direct`]) is Le times
 /// the exact point-to-polygon form factor: under the centre of a unit square at height 1,
 /// four Howell B-3 corners (the element is 1e-4 across, so its rule points see the same F
@@ -654,13 +689,7 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
         .map(|r| (b, r))
     }) {
         let roots = under_a_square_light(blocked, 10.0);
-        let emitters: Vec<direct::RootEmitter> = (0..roots.len())
-            .filter(|&r| roots.emission[r][0] > 0.0)
-            .map(|r| direct::RootEmitter {
-                rays,
-                ..direct::RootEmitter::of(&roots, r)
-            })
-            .collect();
+        let emitters = root_emitters(&roots, rays);
         assert_eq!(emitters.len(), 2);
         let d = direct_at_the_tiny_triangle(&roots, &emitters, 1);
         let want = if blocked { 0.0 } else { 2.0 * f };
@@ -686,33 +715,8 @@ fn direct_light_at_an_element_is_exact_and_shadowed() {
 /// tens of per cent. The rays drawn are the point's 16 at each of its 7 rule points.
 #[test]
 fn shared_shadow_rays_sum_an_unoccluded_lights_triangles_exactly() {
-    let mut b = SceneBuilder::new();
-    let bright = b.material("bright", [0.0; 3], [3.0; 3]);
-    let dim = b.material("dim", [0.0; 3], [1.0; 3]);
-    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
-    a_light_of_quads(
-        &mut b,
-        3,
-        |i, j| if (i + j) % 2 == 0 { bright } else { dim },
-    );
-    let (s, at) = (1e-4, DVec3::new(0.35, -0.2, 0.0));
-    let v = [
-        DVec3::new(-s, -s, 0.0),
-        DVec3::new(s, -s, 0.0),
-        DVec3::new(0.0, s, 0.0),
-    ]
-    .map(|p| b.vertex(p + at));
-    b.triangle(v, grey);
-    let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
-    let with = |rays| -> Vec<direct::RootEmitter> {
-        (0..roots.len())
-            .filter(|&r| roots.emission[r][0] > 0.0)
-            .map(|r| direct::RootEmitter {
-                rays,
-                ..direct::RootEmitter::of(&roots, r)
-            })
-            .collect()
-    };
+    let roots = a_checkered_light_over_a_tiny_triangle();
+    let with = |rays| root_emitters(&roots, rays);
     let own = direct_at_the_tiny_triangle(&roots, &with(direct::ShadowRays::Own), 1);
     assert_eq!(with(direct::ShadowRays::Own).len(), 18);
     for seed in 0..5 {
@@ -1136,12 +1140,7 @@ fn many_emitters_share_their_shadow_rays_then_draw_them_by_a_tree() {
         assert_eq!(st.direct_emitters, 2 * n * n);
         assert_eq!(st.direct_rays_shared, rays != Own, "{n} × {n}");
         assert_eq!(st.direct_rays_by_tree, rays == Tree, "{n} × {n}");
-        let per_point = match rays {
-            Own => crate::light::emitter::ELEMENT_SHADOW_RAYS,
-            Shared => crate::light::emitter::ELEMENT_SHARED_SHADOW_RAYS,
-            Tree => crate::light::emitter::ELEMENT_TREE_SHADOW_RAYS,
-        };
-        assert_eq!(st.direct_shadow_rays, per_point, "{n} × {n}");
+        assert_eq!(st.direct_shadow_rays, rays.per_point(), "{n} × {n}");
     }
 }
 
@@ -1156,33 +1155,8 @@ fn many_emitters_share_their_shadow_rays_then_draw_them_by_a_tree() {
 /// the tree's chances from the weights').
 #[test]
 fn tree_drawn_shadow_rays_keep_an_elements_direct_light_unbiased() {
-    let mut b = SceneBuilder::new();
-    let bright = b.material("bright", [0.0; 3], [3.0; 3]);
-    let dim = b.material("dim", [0.0; 3], [1.0; 3]);
-    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
-    a_light_of_quads(
-        &mut b,
-        3,
-        |i, j| if (i + j) % 2 == 0 { bright } else { dim },
-    );
-    let (s, at) = (1e-4, DVec3::new(0.35, -0.2, 0.0));
-    let v = [
-        DVec3::new(-s, -s, 0.0),
-        DVec3::new(s, -s, 0.0),
-        DVec3::new(0.0, s, 0.0),
-    ]
-    .map(|p| b.vertex(p + at));
-    b.triangle(v, grey);
-    let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
-    let with = |rays| -> Vec<direct::RootEmitter> {
-        (0..roots.len())
-            .filter(|&r| roots.emission[r][0] > 0.0)
-            .map(|r| direct::RootEmitter {
-                rays,
-                ..direct::RootEmitter::of(&roots, r)
-            })
-            .collect()
-    };
+    let roots = a_checkered_light_over_a_tiny_triangle();
+    let with = |rays| root_emitters(&roots, rays);
     let want = direct_at_the_tiny_triangle(&roots, &with(direct::ShadowRays::Own), 1).mean[0];
     let estimates: Vec<f64> = (0..400)
         .map(|seed| {
@@ -1232,13 +1206,7 @@ fn shared_shadow_rays_keep_an_elements_direct_light_unbiased() {
     .map(|p| b.vertex(p));
     b.triangle(v, grey);
     let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
-    let emitters: Vec<direct::RootEmitter> = (0..roots.len())
-        .filter(|&r| roots.emission[r][0] > 0.0)
-        .map(|r| direct::RootEmitter {
-            rays: direct::ShadowRays::Shared,
-            ..direct::RootEmitter::of(&roots, r)
-        })
-        .collect();
+    let emitters = root_emitters(&roots, direct::ShadowRays::Shared);
     let estimates: Vec<f64> = (0..200)
         .map(|seed| direct_at_the_tiny_triangle(&roots, &emitters, seed).mean[0])
         .collect();

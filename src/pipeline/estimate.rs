@@ -286,6 +286,11 @@ impl Estimate {
                         let (links, grown) = (p.links * k, (p.elements - roots as f64) * k);
                         let direct_rays =
                             p.direct_rays * (roots as f64 + grown) / p.elements.max(1.0);
+                        let per_direct_ray = if p.direct_by_tree {
+                            PILOTED_SECONDS_PER_TREE_DIRECT_RAY
+                        } else {
+                            PILOTED_SECONDS_PER_DIRECT_RAY
+                        };
                         let leaves = roots + (0.75 * grown) as usize;
                         let regather_rays = (crate::hierarchical::regather::STEPS
                             * leaves
@@ -299,11 +304,7 @@ impl Estimate {
                                 + PILOTED_BYTES_PER_ELEMENT * (roots as f64 + grown)
                                 + (PILOTED_BYTES_PER_LINK * links).max(gathered_bytes),
                             PILOTED_SECONDS_PER_LINK * links
-                                + if p.direct_by_tree {
-                                    PILOTED_SECONDS_PER_TREE_DIRECT_RAY
-                                } else {
-                                    PILOTED_SECONDS_PER_DIRECT_RAY
-                                } * direct_rays
+                                + per_direct_ray * direct_rays
                                 + PILOTED_SECONDS_PER_REGATHER_RAY * regather_rays,
                         )
                     }
