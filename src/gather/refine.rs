@@ -93,35 +93,48 @@ use crate::sampling::Rng;
 pub const DEFAULT_TOLERANCE: f64 = 0.02;
 
 /// New vertices, at most, when each gets `rays` hemisphere rays and a direct light that costs
-/// `direct` more ([`super::Gatherer::direct_cost_per_point`], in hemisphere rays): as many as
-/// twice the gather's own budget of rays pays for ([`super::AUTO_RAY_BUDGET`]), so that the
-/// refinement adds at most about twice as many rays again, whatever the scene's size and its
-/// number of lights. `direct` is what the direct light costs (the exact emitters' visible
-/// pieces, [`super::EXACT_EMITTER_COST`] each, rather than shadow rays per emitter): counted
-/// too high, it would stop a many-light scene's refinement far short. The Cornell box uses
-/// the whole budget, and its displayed error still falls from half this budget to all of it
-/// (the point-wise benchmark): the bound is one of cost, not of accuracy.
+/// `direct` more ([`super::Gatherer::direct_cost_per_point`], in hemisphere rays), after the
+/// `full` or `direct` gather: as many as twice that gather's own budget of rays pays for
+/// ([`super::AUTO_RAY_BUDGET`]), so that the refinement adds at most about twice as many rays
+/// again, whatever the scene's size and its number of lights ([`budget_of`]). `direct` is what
+/// the direct light costs (the exact emitters' visible pieces, [`super::EXACT_EMITTER_COST`]
+/// each, rather than shadow rays per emitter): counted too high, it would stop a many-light
+/// scene's refinement far short. The Cornell box uses the whole budget, and its displayed
+/// error still falls from half this budget to all of it (the point-wise benchmark): the bound
+/// is one of cost, not of accuracy.
 pub fn budget(rays: usize, direct: usize) -> usize {
-    2 * super::AUTO_RAY_BUDGET / (rays + direct).max(1)
+    budget_of(super::AUTO_RAY_BUDGET, rays, direct)
+}
+
+/// New vertices, at most, after a gather whose own budget is `gather_rays` hemisphere rays:
+/// as many as twice that pays for at `rays` hemisphere rays and `direct` (in hemisphere rays)
+/// each ([`budget`]).
+pub fn budget_of(gather_rays: usize, rays: usize, direct: usize) -> usize {
+    2 * gather_rays / (rays + direct).max(1)
 }
 
 /// New vertices, at most, of the display refinement after a `mode` gather of `vertices`
-/// output vertices: [`budget`], and for the `cache` gather at most [`CACHE_REFINE_SHARE`] ×
-/// `vertices` as well. The bake and its estimate both ask here.
+/// output vertices: [`budget`]; for the `cache` gather, twice what its own records' rays
+/// ([`super::cache::RAY_BUDGET`], twice the `full` gather's) pay for, the same rule, and at
+/// most [`CACHE_REFINE_SHARE`] × `vertices` as well. The bake and its estimate both ask here.
 ///
 /// The `cache` gather's cost is not its hemisphere rays but the direct light it computes
 /// exactly at every vertex (an emitter's visible pieces against its occluders, many on a
 /// furnished scene), and the refinement computes the same at each new vertex and at each of its
 /// [`CACHE_TESTS_PER_NEW_VERTEX`] midpoint tests. Bounding the new vertices by a share of the
 /// output bounds the refinement's direct-light evaluations by the gather's own, on any scene,
-/// whatever one costs: [`budget`] alone, which prices the direct light by a fixed
+/// whatever one costs: the rays' bound alone, which prices the direct light by a fixed
 /// [`super::EXACT_EMITTER_COST`], let the refinement of a furnished office of 10⁵ triangles
-/// cost 4.6× the gather at its vertices.
+/// cost 4.6× the gather at its vertices. The share binds on the offices; the rays' bound
+/// binds where a point's direct light costs more (the generated hall of 10⁵ triangles, 784
+/// emitting triangles), and there, bounded by the `full` gather's rays instead of the
+/// records', its display showed 8.71 % RMS against 7.04 % with twice the vertices, for 1.2×
+/// the bake, where a path tracer's error falls only to 0.91× (BENCHMARKS.md "Large outputs").
 pub fn budget_for(mode: Gather, rays: usize, direct: usize, vertices: usize) -> usize {
-    let most = budget(rays, direct);
     match mode {
-        Gather::Cache => most.min((CACHE_REFINE_SHARE * vertices as f64) as usize),
-        _ => most,
+        Gather::Cache => budget_of(super::cache::RAY_BUDGET, rays, direct)
+            .min((CACHE_REFINE_SHARE * vertices as f64) as usize),
+        _ => budget(rays, direct),
     }
 }
 

@@ -959,8 +959,13 @@ fn a_plate_over_a_floor_casts_its_contact_shadow_through_the_gather() {
 #[test]
 fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
     assert_eq!(refine::budget_for(Gather::Cache, 64, 32, 100_000), 50_000);
+    // Past the share, the records' rays bound it: twice those of the `full` gather, twice
+    // its vertices.
+    let records = refine::budget_of(super::cache::RAY_BUDGET, 1024, 0);
+    assert_eq!(refine::budget_for(Gather::Cache, 1024, 0, 10_000_000), records);
+    assert!(records >= 2 * refine::budget(1024, 0), "{records}");
     assert_eq!(
-        refine::budget_for(Gather::Cache, 1024, 0, 10_000_000),
+        refine::budget_for(Gather::Full, 1024, 0, 100),
         refine::budget(1024, 0)
     );
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
