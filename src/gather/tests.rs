@@ -962,7 +962,10 @@ fn the_cache_gathers_display_refinement_is_bounded_by_the_output() {
     // Past the share, the records' rays bound it: twice those of the `full` gather, twice
     // its vertices.
     let records = refine::budget_of(super::cache::RAY_BUDGET, 1024, 0);
-    assert_eq!(refine::budget_for(Gather::Cache, 1024, 0, 10_000_000), records);
+    assert_eq!(
+        refine::budget_for(Gather::Cache, 1024, 0, 10_000_000),
+        records
+    );
     assert!(records >= 2 * refine::budget(1024, 0), "{records}");
     assert_eq!(
         refine::budget_for(Gather::Full, 1024, 0, 100),
