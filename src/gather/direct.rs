@@ -142,32 +142,47 @@ impl Gatherer<'_> {
     /// [`MAX_EXACT_EMITTERS`] with the largest bound (ties to the lower index), each with its
     /// partner if it has one (`pair_emitters`: the two halves of a quadrilateral count as
     /// one, and their visible pieces are computed as one polygon's, for little more than a
-    /// triangle's cost).
+    /// triangle's cost). From 64 emitters on (`brightest::INDEX_FROM`), the largest bounds
+    /// are found by a tree over the emitters (`gather::brightest`), not by weighing every
+    /// one at every point: the same emitters, in time that grows about as their logarithm.
     pub fn exact_emitters(&self, x: DVec3) -> Vec<u32> {
         if self.groups <= MAX_EXACT_EMITTERS {
             return (0..self.emitters.len() as u32).collect();
         }
-        let own: Vec<f64> = self.emitters.iter().map(|e| e.bound(x)).collect();
         // A paired half ranks by its quadrilateral's bound, the two halves' sum: it is
         // computed as one with its partner, and a large lamp of two triangles must not lose
         // its place to a smaller single triangle that outranks each half.
-        let mut bounds: Vec<(f64, u32)> = own
-            .iter()
-            .enumerate()
-            .map(|(k, &b)| {
-                let partner = self.partner[k].map_or(0.0, |(j, _)| own[j as usize]);
-                (b + partner, k as u32)
-            })
-            .collect();
-        let by_bound = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
         // The first MAX_EXACT_EMITTERS groups by bound lie among the first twice as many
         // emitters (a group's members share its bound and are at most two).
-        let top = (2 * MAX_EXACT_EMITTERS).min(bounds.len());
-        bounds.select_nth_unstable_by(top - 1, by_bound);
-        bounds[..top].sort_unstable_by(by_bound);
+        let top = (2 * MAX_EXACT_EMITTERS).min(self.emitters.len());
+        let ranked: Vec<(f64, u32)> = match &self.brightest {
+            // Many emitters: those of the largest bounds found by their tree, the same.
+            Some(tree) => {
+                let own = |k: u32| self.emitters[k as usize].bound(x);
+                let key = |k: u32| own(k) + self.partner[k as usize].map_or(0.0, |(j, _)| own(j));
+                tree.top(x, top, key)
+            }
+            None => {
+                let own: Vec<f64> = self.emitters.iter().map(|e| e.bound(x)).collect();
+                let mut bounds: Vec<(f64, u32)> = own
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &b)| {
+                        let partner = self.partner[k].map_or(0.0, |(j, _)| own[j as usize]);
+                        (b + partner, k as u32)
+                    })
+                    .collect();
+                let by_bound =
+                    |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+                bounds.select_nth_unstable_by(top - 1, by_bound);
+                bounds.truncate(top);
+                bounds.sort_unstable_by(by_bound);
+                bounds
+            }
+        };
         let mut chosen: Vec<u32> = Vec::with_capacity(top);
         let mut groups = 0;
-        for &(_, k) in &bounds[..top] {
+        for &(_, k) in &ranked {
             if groups == MAX_EXACT_EMITTERS {
                 break;
             }

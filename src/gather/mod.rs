@@ -51,6 +51,7 @@ use sites::Spot;
 use trace::Surfaces;
 
 mod bright;
+mod brightest;
 pub mod cache;
 mod direct;
 pub mod flip;
@@ -207,6 +208,9 @@ pub struct Gatherer<'a> {
     partner: Vec<Option<(u32, [DVec3; 4])>>,
     /// Emitters counted with a partner as one.
     groups: usize,
+    /// The emitters by where their bounds are large, from [`brightest::INDEX_FROM`] of them
+    /// ([`Gatherer::exact_emitters`]).
+    brightest: Option<brightest::Brightest>,
     patches: &'a Patches,
     radiance: &'a [Rgb],
     /// The patches as traced ([`trace`]).
@@ -286,12 +290,17 @@ impl<'a> Gatherer<'a> {
             None
         };
         let groups = emitters.len() - partner.iter().flatten().count() / 2;
+        let brightest = (emitters.len() >= brightest::INDEX_FROM).then(|| {
+            let partners: Vec<Option<u32>> = partner.iter().map(|p| p.map(|(j, _)| j)).collect();
+            brightest::Brightest::new(&emitters, &partners)
+        });
         Gatherer {
             emitters,
             emitter_tree,
             emitter_of,
             partner,
             groups,
+            brightest,
             patches,
             radiance,
             surfaces,
