@@ -18,7 +18,7 @@ use glam::DVec3;
 use crate::light::Emitter;
 
 /// Emitters from which a scene's exact emitters are found by the tree: below, weighing them
-/// all costs no more than the search.
+/// all is cheap next to a point's direct light.
 pub const INDEX_FROM: usize = 64;
 
 /// Emitters in a leaf, at most.

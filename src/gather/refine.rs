@@ -128,8 +128,8 @@ pub fn budget_of(gather_rays: usize, rays: usize, direct: usize) -> usize {
 /// cost 4.6× the gather at its vertices. The share binds on the offices; the rays' bound
 /// binds where a point's direct light costs more (the generated hall of 10⁵ triangles, 784
 /// emitting triangles), and there, bounded by the `full` gather's rays instead of the
-/// records', its display showed 8.71 % RMS against 7.04 % with twice the vertices, for 1.2×
-/// the bake, where a path tracer's error falls only to 0.91× (BENCHMARKS.md "Large outputs").
+/// records', its display showed 8.71 % RMS against 6.85 % with twice the vertices, for 1.27×
+/// the bake, where a path tracer's error falls only to 0.89× (BENCHMARKS.md "Large outputs").
 pub fn budget_for(mode: Gather, rays: usize, direct: usize, vertices: usize) -> usize {
     match mode {
         Gather::Cache => budget_of(super::cache::RAY_BUDGET, rays, direct)
