@@ -155,22 +155,14 @@ impl Gatherer<'_> {
         // The first MAX_EXACT_EMITTERS groups by bound lie among the first twice as many
         // emitters (a group's members share its bound and are at most two).
         let top = (2 * MAX_EXACT_EMITTERS).min(self.emitters.len());
+        let own = |k: u32| self.emitters[k as usize].bound(x);
+        let key = |k: u32| own(k) + self.partner[k as usize].map_or(0.0, |(j, _)| own(j));
         let ranked: Vec<(f64, u32)> = match &self.brightest {
-            // Many emitters: those of the largest bounds found by their tree, the same.
-            Some(tree) => {
-                let own = |k: u32| self.emitters[k as usize].bound(x);
-                let key = |k: u32| own(k) + self.partner[k as usize].map_or(0.0, |(j, _)| own(j));
-                tree.top(x, top, key)
-            }
+            // Many emitters: those of the largest keys found by their tree, the same.
+            Some(tree) => tree.top(x, top, key),
             None => {
-                let own: Vec<f64> = self.emitters.iter().map(|e| e.bound(x)).collect();
-                let mut bounds: Vec<(f64, u32)> = own
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &b)| {
-                        let partner = self.partner[k].map_or(0.0, |(j, _)| own[j as usize]);
-                        (b + partner, k as u32)
-                    })
+                let mut bounds: Vec<(f64, u32)> = (0..self.emitters.len() as u32)
+                    .map(|k| (key(k), k))
                     .collect();
                 let by_bound =
                     |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
