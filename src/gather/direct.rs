@@ -439,7 +439,9 @@ impl Gatherer<'_> {
         };
         if self.emitters.len() <= most {
             let weigh = || {
-                let (mut cdf, mut keys, mut total) = (Vec::new(), Vec::new(), 0.0);
+                let most = self.emitters.len();
+                let (mut cdf, mut keys) = (Vec::with_capacity(most), Vec::with_capacity(most));
+                let mut total = 0.0;
                 for k in 0..self.emitters.len() {
                     let w = if is_exact(k) { 0.0 } else { weight(k) };
                     if w > 0.0 {

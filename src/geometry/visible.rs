@@ -101,7 +101,12 @@ pub fn visible_form_factor(
         emitter.reverse();
     }
     let sliver = SLIVER * area(&emitter);
-    let mut pieces: Vec<Vec<DVec2>> = vec![emitter];
+    let mut pieces = Pieces::default();
+    pieces.push(&emitter);
+    // The buffers every occluder reuses: its clipped corners, its shadow, what is left.
+    let mut next = Pieces::default();
+    let mut scratch = Scratch::default();
+    let mut shadow: Vec<DVec2> = Vec::with_capacity(12);
 
     let (mut a, mut b) = (Vec::with_capacity(12), Vec::with_capacity(12));
     let mut tried = 0;
@@ -141,13 +146,11 @@ pub fn visible_form_factor(
             return false;
         }
         // Its shadow on e's plane, from x: p = x + s(y − x) with s = (dx − d_p)/dx ≥ margin/dx.
-        let mut shadow: Vec<DVec2> = b
-            .iter()
-            .map(|&p| {
-                let s = (dx - e_normal.dot(p - e[0])) / dx;
-                to_2d(x + (p - x) / s)
-            })
-            .collect();
+        shadow.clear();
+        shadow.extend(b.iter().map(|&p| {
+            let s = (dx - e_normal.dot(p - e[0])) / dx;
+            to_2d(x + (p - x) / s)
+        }));
         let signed = area(&shadow);
         if signed.abs() <= sliver {
             return true;
@@ -155,7 +158,8 @@ pub fn visible_form_factor(
         if signed < 0.0 {
             shadow.reverse();
         }
-        pieces = subtract(std::mem::take(&mut pieces), &shadow, sliver);
+        subtract(&pieces, &shadow, sliver, &mut next, &mut scratch);
+        std::mem::swap(&mut pieces, &mut next);
         if pieces.len() > MAX_PIECES {
             too_complex = true;
             return false;
@@ -166,15 +170,61 @@ pub fn visible_form_factor(
         return None;
     }
     let to_3d = |p: DVec2| e[0] + p.x * u + p.y * v;
+    let mut corners: Vec<DVec3> = Vec::with_capacity(12);
     Some(
         pieces
             .iter()
             .map(|piece| {
-                let corners: Vec<DVec3> = piece.iter().map(|&p| to_3d(p)).collect();
+                corners.clear();
+                corners.extend(piece.iter().map(|&p| to_3d(p)));
                 point_to_convex_polygon(x, n, &corners)
             })
             .sum(),
     )
+}
+
+/// Convex polygons stored end to end, piece k at `points[ends[k - 1]..ends[k]]` (from 0 for
+/// the first): the visible part of an emitter, cut and cut again without a vector per piece.
+#[derive(Default)]
+struct Pieces {
+    points: Vec<DVec2>,
+    ends: Vec<usize>,
+}
+
+impl Pieces {
+    fn len(&self) -> usize {
+        self.ends.len()
+    }
+
+    fn is_empty(&self) -> bool {
+        self.ends.is_empty()
+    }
+
+    fn clear(&mut self) {
+        self.points.clear();
+        self.ends.clear();
+    }
+
+    fn push(&mut self, piece: &[DVec2]) {
+        self.points.extend_from_slice(piece);
+        self.ends.push(self.points.len());
+    }
+
+    fn iter(&self) -> impl Iterator<Item = &[DVec2]> {
+        (0..self.ends.len()).map(|k| {
+            let start = k.checked_sub(1).map_or(0, |j| self.ends[j]);
+            &self.points[start..self.ends[k]]
+        })
+    }
+}
+
+/// [`subtract`]'s working polygons, kept from one occluder to the next.
+#[derive(Default)]
+struct Scratch {
+    corners: Vec<DVec2>,
+    outside: Vec<DVec2>,
+    inside: Vec<DVec2>,
+    rest: Vec<DVec2>,
 }
 
 /// A hole's edge shorter than this share of its extent is no edge ([`subtract`]).
@@ -192,19 +242,27 @@ fn area(p: &[DVec2]) -> f64 {
 }
 
 /// The convex pieces `pieces` (counter-clockwise) less the convex polygon `hole`
-/// (counter-clockwise), as convex pieces: for each edge of the hole in turn, the part of what
-/// is left outside that edge is kept and the part inside goes on to the next edge; what is
-/// inside every edge is the hole's. Pieces of area at most `sliver` are dropped.
+/// (counter-clockwise), as convex pieces, into `out` (cleared first): for each edge of the hole
+/// in turn, the part of what is left outside that edge is kept and the part inside goes on to
+/// the next edge; what is inside every edge is the hole's. Pieces of area at most `sliver` are
+/// dropped.
 ///
 /// The hole's edges shorter than [`SHORT_EDGE`] of its extent are passed over (their ends
 /// merged): a clipped occluder repeats a corner that lies on a clipping plane, and the
 /// "outside" of an edge of no length is a half-plane of arbitrary direction, which would keep
 /// as seen a part of the emitter the hole covers (a wall strip beside a window, seen by a
 /// point on the wall it meets, let through up to all of the light behind it).
-fn subtract(pieces: Vec<Vec<DVec2>>, hole: &[DVec2], sliver: f64) -> Vec<Vec<DVec2>> {
+fn subtract(pieces: &Pieces, hole: &[DVec2], sliver: f64, out: &mut Pieces, scratch: &mut Scratch) {
+    out.clear();
+    let Scratch {
+        corners,
+        outside,
+        inside,
+        rest,
+    } = scratch;
     let (lo, hi) = bounds(hole);
     let short = SHORT_EDGE * (hi - lo).max_element();
-    let mut corners: Vec<DVec2> = Vec::with_capacity(hole.len());
+    corners.clear();
     for &p in hole {
         if corners.last().is_none_or(|q| q.distance(p) > short) {
             corners.push(p);
@@ -214,33 +272,32 @@ fn subtract(pieces: Vec<Vec<DVec2>>, hole: &[DVec2], sliver: f64) -> Vec<Vec<DVe
         corners.pop();
     }
     if corners.len() < 3 {
-        return pieces;
+        pieces.iter().for_each(|piece| out.push(piece));
+        return;
     }
     let hole = &corners[..];
-    let mut out = Vec::with_capacity(pieces.len() + 2);
-    let (mut outside, mut inside) = (Vec::new(), Vec::new());
-    for piece in pieces {
-        let (plo, phi) = bounds(&piece);
+    for piece in pieces.iter() {
+        let (plo, phi) = bounds(piece);
         if plo.x >= hi.x || plo.y >= hi.y || phi.x <= lo.x || phi.y <= lo.y {
             out.push(piece);
             continue;
         }
-        let mut rest = piece;
+        rest.clear();
+        rest.extend_from_slice(piece);
         for k in 0..hole.len() {
             let (a, b) = (hole[k], hole[(k + 1) % hole.len()]);
             let along = b - a;
-            clip_polygon(&rest, |p| -along.perp_dot(p - a), &mut outside);
-            if outside.len() >= 3 && area(&outside) > sliver {
-                out.push(outside.clone());
+            clip_polygon(rest, |p| -along.perp_dot(p - a), outside);
+            if outside.len() >= 3 && area(outside) > sliver {
+                out.push(outside);
             }
-            clip_polygon(&rest, |p| along.perp_dot(p - a), &mut inside);
-            std::mem::swap(&mut rest, &mut inside);
-            if rest.len() < 3 || area(&rest) <= sliver {
+            clip_polygon(rest, |p| along.perp_dot(p - a), inside);
+            std::mem::swap(rest, inside);
+            if rest.len() < 3 || area(rest) <= sliver {
                 break;
             }
         }
     }
-    out
 }
 
 /// The bounding box of a 2-D polygon.
