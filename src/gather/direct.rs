@@ -55,10 +55,11 @@ const VISIBLE_TIE: f64 = 1e-9;
 pub const MAX_EXACT_EMITTERS: usize = 8;
 
 /// Shadow rays at a point for the emitters beyond its [`MAX_EXACT_EMITTERS`]: each ray goes to
-/// an emitter drawn with probability ∝ Le_max · F(x → e) (the exact unoccluded form factor;
-/// systematic sampling over the emitters' cumulative weights, Kitagawa 1996), so the estimate
-/// Σ Le F V̂ / (N p) carries only the noise of visibility: a point that sees all of them
-/// unoccluded gets their light exactly. Next-event estimation over many lights (Shirley, Wang
+/// an emitter drawn with probability ∝ Le_max · F(x → e) (the unoccluded form factor, its
+/// differential form for the far ones, [`Emitter::form_factor_weight`]; systematic sampling
+/// over the emitters' cumulative weights, Kitagawa 1996), so the estimate Σ Le F V̂ / (N p)
+/// carries little but the noise of visibility: a point that sees all of them unoccluded gets
+/// their light to within the differential form's O((r/d)²). Next-event estimation over many lights (Shirley, Wang
 /// & Zimmerman, "Monte Carlo techniques for direct lighting calculations", TOG 1996).
 /// Without them only a hemisphere ray that happened to hit such an emitter would bring its
 /// Le: in a scene of many small bright lights (the generated hall) that noise would be most
@@ -351,8 +352,9 @@ impl Gatherer<'_> {
     /// drawn emitter (area-uniform over its part above the horizon), each ray adding
     /// Le_e F V / (count p_e) if the emitter is one of these others (see
     /// [`OTHER_LIGHT_SAMPLES`]). With `count` ≥ 2 (a gathering point) and up to
-    /// [`MAX_WEIGHED_EMITTERS`] emitters, p_e ∝ max(Le_e) F, so an unoccluded point gets their
-    /// light exactly; beyond, p_e follows a bound on it (the light tree).
+    /// [`MAX_WEIGHED_EMITTERS`] emitters, p_e ∝ max(Le_e) F (the far ones' F in its
+    /// differential form, [`Emitter::form_factor_weight`]), so an unoccluded point gets their
+    /// light all but exactly; beyond, p_e follows a bound on it (the light tree).
     ///
     /// Unbiased up to V̄'s area (not G) weighting within one emitter, negligible for the
     /// emitters that are not the point's largest ([`SAMPLED_SPREAD`]). Also returns what the
@@ -402,7 +404,8 @@ impl Gatherer<'_> {
     /// `n`), each with the probability it was drawn with: systematic sampling (Kitagawa 1996)
     /// over weights w_e, zero for the emitters `exact` and those not sampled at `x`
     /// ([`SAMPLED_SPREAD`]) or facing away. Up to [`MAX_WEIGHED_EMITTERS`] emitters, w_e is
-    /// max(Le_e) F(x → e) (the exact unoccluded form factor) with `count` ≥ 2, or up
+    /// max(Le_e) F(x → e) (the unoccluded form factor, [`Emitter::form_factor_weight`]: its
+    /// differential form beyond [`crate::light::emitter::FAR_RADII`] radii) with `count` ≥ 2, or up
     /// to [`MAX_WEIGHED_NEAR_HIT_EMITTERS`] with one ray the cheap bound
     /// max(Le_e) A_e / (π d²) ([`Emitter::bound`]). Beyond, the
     /// emitters are drawn by the light tree over them ([`crate::light::LightTree`]), its
@@ -425,7 +428,7 @@ impl Gatherer<'_> {
             if !self.sampled_toward(e, x) {
                 0.0
             } else if count >= 2 {
-                point_to_polygon(x, n, &e.corners) * e.le_max()
+                e.form_factor_weight(x, n) * e.le_max()
             } else if e.corners.iter().any(|&c| (c - x).dot(n) > 0.0) {
                 e.bound(x)
             } else {

@@ -115,7 +115,13 @@ pub struct Emitter {
     /// The largest channel of Le times its area (W·sr⁻¹ per channel's largest): how much it
     /// can light the scene, what many-light sampling draws by.
     pub power: f64,
+    /// Its area, scene units².
+    pub area: f64,
 }
+
+/// [`Emitter::form_factor_weight`] takes the differential form beyond this many radii of the
+/// emitter's bounding sphere: there it is within about (1/this)² of the exact F.
+pub const FAR_RADII: f64 = 8.0;
 
 impl Emitter {
     /// The triangle `corners` emitting `le` from the side of its unit front `normal` (given,
@@ -135,6 +141,7 @@ impl Emitter {
             centre,
             radius,
             power: 0.5 * cross.length() * le_max,
+            area: 0.5 * cross.length(),
         }
     }
 
@@ -150,6 +157,28 @@ impl Emitter {
     pub fn bound(&self, x: DVec3) -> f64 {
         let d = (x.distance(self.centre) - self.radius).max(1e-3 * self.radius);
         self.power / (std::f64::consts::PI * d * d)
+    }
+
+    /// F(x → e) to weigh the emitter by at the point `x` (unit normal `n`), not to value it:
+    /// the point-to-differential-area form A cosθ_x cosθ_e / (π d²) at its centroid where `x`
+    /// lies beyond [`FAR_RADII`] radii of it and every corner is above x's horizon (Cohen &
+    /// Wallace, *Radiosity and Realistic Image Synthesis* §4.9: exact to O((r/d)²) there), else
+    /// the exact F ([`point_to_polygon`], a contour integral). Positive wherever F is (all
+    /// corners above the horizon, `x` in front), so a draw by it, whose estimate divides the
+    /// exact F by the draw's probability, stays unbiased; 0 behind the emitter's plane.
+    pub fn form_factor_weight(&self, x: DVec3, n: DVec3) -> f64 {
+        if (x - self.corners[0]).dot(self.normal) <= 0.0 {
+            return 0.0;
+        }
+        let d = self.centre - x;
+        let d2 = d.length_squared();
+        if d2 > (FAR_RADII * self.radius).powi(2)
+            && self.corners.iter().all(|&c| (c - x).dot(n) > 0.0)
+        {
+            let cos_e = -self.normal.dot(d);
+            return self.area * n.dot(d) * cos_e / (std::f64::consts::PI * d2 * d2);
+        }
+        point_to_polygon(x, n, &self.corners)
     }
 
     /// F(x → e), the unoccluded form factor from the point `x` (unit normal `n`) to the
@@ -334,6 +363,65 @@ mod tests {
         assert_eq!(
             e.element_shadow_rays(DVec3::new(3.0, 0.0, 0.9), -DVec3::X),
             ELEMENT_SHADOW_RAYS
+        );
+    }
+
+    #[test]
+    fn the_weight_is_the_form_factor_near_and_its_differential_form_far() {
+        // Random receivers around the unit emitter: within FAR_RADII radii the weight is the
+        // exact F; beyond, with every corner above the horizon, within 3/FAR_RADII² of it
+        // away from grazing (the differential form's error is O((r/d)²), r/d < 1/FAR_RADII)
+        // and within half of it near grazing; wherever F > 0 the weight is too (a draw by it
+        // must reach every emitter that sends light), and behind the emitter's plane it is 0.
+        let e = emitter();
+        let mut rng = Rng::new(&[3]);
+        let mut unit = || loop {
+            let v = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 2.0 - 1.0;
+            if (1e-6..=1.0).contains(&v.length_squared()) {
+                break v.normalize();
+            }
+        };
+        let mut distances = Rng::new(&[4]);
+        let (mut far, mut near) = (0, 0);
+        for _ in 0..20_000 {
+            let (dir, n) = (unit(), unit());
+            let r = 40.0 * distances.next_f64();
+            let x = e.centre + r * dir;
+            let exact = point_to_polygon(x, n, &e.corners);
+            let w = e.form_factor_weight(x, n);
+            if (x - e.corners[0]).dot(e.normal) <= 0.0 {
+                assert_eq!(w, 0.0, "{x} {n}");
+                continue;
+            }
+            assert!(
+                w >= 0.0 && (exact <= 0.0 || w > 0.0),
+                "{x} {n}: {w} against {exact}"
+            );
+            let above = e.corners.iter().all(|&c| (c - x).dot(n) > 0.0);
+            if r > FAR_RADII * e.radius && above {
+                far += 1;
+                // The weight only sets the draw's probabilities (not the estimate's mean): a
+                // ratio near 1 keeps an unoccluded point's estimate nearly noiseless. Near
+                // grazing (the centroid's cos θ_x small) the differential form's error grows as
+                // (r/d)² / cos θ_x, so the tight bound holds only away from it.
+                let cos_x = n.dot((e.centre - x).normalize());
+                let bound = if cos_x >= 0.25 {
+                    3.0 / (FAR_RADII * FAR_RADII)
+                } else {
+                    0.5
+                };
+                assert!(
+                    (w - exact).abs() <= bound * exact,
+                    "{x} {n}: {w} against {exact}"
+                );
+            } else {
+                near += 1;
+                assert_eq!(w, exact);
+            }
+        }
+        assert!(
+            far > 1000 && near > 1000,
+            "both forms tried: {far} far, {near} near"
         );
     }
 }
