@@ -442,10 +442,10 @@ impl Gatherer<'_> {
         };
         if self.emitters.len() <= most {
             let weigh = || {
-                let most = self.emitters.len();
-                let (mut cdf, mut keys) = (Vec::with_capacity(most), Vec::with_capacity(most));
+                let all = self.emitters.len();
+                let (mut cdf, mut keys) = (Vec::with_capacity(all), Vec::with_capacity(all));
                 let mut total = 0.0;
-                for k in 0..self.emitters.len() {
+                for k in 0..all {
                     let w = if is_exact(k) { 0.0 } else { weight(k) };
                     if w > 0.0 {
                         total += w;

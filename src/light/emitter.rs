@@ -134,14 +134,15 @@ impl Emitter {
             .map(|c| c.distance(centre))
             .fold(0.0, f64::max);
         let le_max = le.iter().copied().fold(0.0, f64::max);
+        let area = 0.5 * cross.length();
         Emitter {
             corners,
             normal,
             le,
             centre,
             radius,
-            power: 0.5 * cross.length() * le_max,
-            area: 0.5 * cross.length(),
+            power: area * le_max,
+            area,
         }
     }
 
@@ -167,18 +168,17 @@ impl Emitter {
     /// corners above the horizon, `x` in front), so a draw by it, whose estimate divides the
     /// exact F by the draw's probability, stays unbiased; 0 behind the emitter's plane.
     pub fn form_factor_weight(&self, x: DVec3, n: DVec3) -> f64 {
-        if (x - self.corners[0]).dot(self.normal) <= 0.0 {
-            return 0.0;
-        }
         let d = self.centre - x;
         let d2 = d.length_squared();
-        if d2 > (FAR_RADII * self.radius).powi(2)
+        let in_front = (x - self.corners[0]).dot(self.normal) > 0.0;
+        if in_front
+            && d2 > (FAR_RADII * self.radius).powi(2)
             && self.corners.iter().all(|&c| (c - x).dot(n) > 0.0)
         {
             let cos_e = -self.normal.dot(d);
             return self.area * n.dot(d) * cos_e / (std::f64::consts::PI * d2 * d2);
         }
-        point_to_polygon(x, n, &self.corners)
+        self.form_factor(x, n).unwrap_or(0.0)
     }
 
     /// F(x → e), the unoccluded form factor from the point `x` (unit normal `n`) to the
