@@ -27,13 +27,16 @@
 //! kernel is nearly even over the emitter, not adapted to what the first rays see (stopping
 //! when a few rays agree would take points in a thin penumbra for lit more often than not: a
 //! bias). In a scene of many emitters ([`ShadowRays::Shared`]) a point's
-//! [`ELEMENT_SHARED_SHADOW_RAYS`] are drawn over the emitters in proportion to Le·F instead,
-//! so that the rays follow the light and not the count of lights; in a scene of very many
+//! [`ELEMENT_SHARED_SHADOW_RAYS`] are drawn over the emitters in proportion to Le·F instead
+//! (F's differential form beyond [`crate::light::emitter::FAR_RADII`] radii,
+//! [`crate::light::Emitter::form_factor_weight`]), so that the rays follow the light and not
+//! the count of lights; in a scene of very many
 //! ([`ShadowRays::Tree`]: hundreds of lamps in a hall, thousands at 10⁶ triangles) they are
 //! drawn by the light tree over the emitters ([`LightTree`], Conty Estevez & Kulla 2018),
 //! whose chances follow a bound on each node's light, so that a point's cost grows as the
-//! logarithm of the lights. Each drawn emitter's term is weighted by its rays over N times
-//! its chance: unbiased either way, exact when unoccluded where the chances are ∝ Le·F. The
+//! logarithm of the lights. Each drawn emitter's term (its exact F) is weighted by its rays
+//! over N times its chance: unbiased either way, exact when unoccluded where the chances are
+//! ∝ Le·F (every emitter within [`crate::light::emitter::FAR_RADII`] radii). The
 //! element's direct light is the rule's weighted mean of D over its unburied points.
 
 use glam::DVec3;
@@ -451,17 +454,19 @@ pub fn element_direct(
 
 /// The draw of a rule point's N shadow rays ([`ELEMENT_SHARED_SHADOW_RAYS`] by the weights,
 /// [`ELEMENT_TREE_SHADOW_RAYS`] by the tree) over the emitters whose rays are shared ([`ShadowRays::Shared`], [`ShadowRays::Tree`]), those `own` rejects (the element's
-/// own) left out. Weighed: systematic sampling over the weights Le_max · F ([`systematic`]),
+/// own) left out. Weighed: systematic sampling over the weights Le_max · F
+/// ([`systematic`]; F by [`crate::light::Emitter::form_factor_weight`], its differential form
+/// for the far emitters, the exact F only for those drawn),
 /// so an emitter of probability p gets ⌊N p⌋ or ⌈N p⌉ rays, and at least one ray in the
 /// point's N goes to every emitter with p ≥ 1/N. By the tree: N descents of the light tree
-/// at the stratified numbers (i + u)/N, its leaves weighed π·Le_max·F (the units of its inner
+/// at the stratified numbers (i + u)/N, its leaves weighed π·Le_max·F (F as above; the units of its inner
 /// nodes' bound, [`LightTree`]), an emitter drawn by successive numbers given their count.
 #[derive(Default)]
 struct Drawn {
     /// Cumulative weights of the emitters that send light to the point.
     cdf: Vec<f64>,
-    /// Those emitters: their index and form factor.
-    keys: Vec<(usize, f64)>,
+    /// Those emitters' indices.
+    keys: Vec<usize>,
     /// Each drawn emitter: its index in the list, F, its rays and its probability.
     picks: Vec<(usize, f64, usize, f64)>,
     /// The rays drawn, N.
@@ -489,9 +494,7 @@ impl Drawn {
                 if e.rays != ShadowRays::Tree || !own(e) {
                     return 0.0;
                 }
-                e.emitter
-                    .form_factor(x, n)
-                    .map_or(0.0, |f| std::f64::consts::PI * f * e.emitter.le_max())
+                std::f64::consts::PI * e.emitter.form_factor_weight(x, n) * e.emitter.le_max()
             };
             let u = rng.next_f64();
             for i in 0..rays {
@@ -517,14 +520,11 @@ impl Drawn {
             if e.rays != ShadowRays::Shared || !own(e) {
                 continue;
             }
-            let Some(f) = e.emitter.form_factor(x, n) else {
-                continue;
-            };
-            let w = f * e.emitter.le_max();
+            let w = e.emitter.form_factor_weight(x, n) * e.emitter.le_max();
             if w > 0.0 {
                 total += w;
                 self.cdf.push(total);
-                self.keys.push((i, f));
+                self.keys.push(i);
             }
         }
         if self.keys.is_empty() {
@@ -537,7 +537,8 @@ impl Drawn {
                 continue;
             }
             last = at;
-            let (i, f) = self.keys[at];
+            let i = self.keys[at];
+            let f = emitters.list[i].emitter.form_factor(x, n).unwrap_or(0.0);
             self.picks.push((i, f, 1, p));
         }
     }

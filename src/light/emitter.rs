@@ -75,12 +75,14 @@ pub const ELEMENT_FEW_SHADOW_RAYS: usize = 4;
 
 /// Shadow rays per rule point of a hierarchical element in a scene of many emitters
 /// ([`crate::hierarchical::direct::DIRECT_BUDGET`]), shared among all of them: each ray goes
-/// to an emitter drawn with probability ∝ Le_max · F (the exact unoccluded form factor;
-/// systematic sampling, Kitagawa 1996), and the estimate Σ_e Le_e F_e V̄_e · n_e / (N p_e)
-/// carries only the noise of visibility (Shirley, Wang & Zimmerman, "Monte Carlo techniques
-/// for direct lighting calculations", TOG 1996, as the gather's other lights,
-/// [`crate::gather`]). A point that sees every emitter (of one chromaticity) unoccluded gets
-/// their light exactly; in a penumbra the rays go where the light comes from, not two to
+/// to an emitter drawn with probability ∝ Le_max · F (the unoccluded form factor, its
+/// differential form beyond [`FAR_RADII`] radii: [`Emitter::form_factor_weight`];
+/// systematic sampling, Kitagawa 1996), and the estimate Σ_e Le_e F_e V̄_e · n_e / (N p_e),
+/// F_e exact, carries only the noise of visibility and of those weights (Shirley, Wang &
+/// Zimmerman, "Monte Carlo techniques for direct lighting calculations", TOG 1996, as the
+/// gather's other lights, [`crate::gather`]). A point that sees every emitter (of one
+/// chromaticity) unoccluded gets their light exactly where they are near, and within the
+/// weights' error where some are far; in a penumbra the rays go where the light comes from, not two to
 /// each emitter however faint. On the generated office of 10⁵ triangles (40 emitting
 /// triangles, a sky) 16 rays display the error of two per emitter (80 a point) for a fifth
 /// of the rays (BENCHMARKS.md "Large outputs: the `cache` gather").
@@ -166,7 +168,9 @@ impl Emitter {
     /// Wallace, *Radiosity and Realistic Image Synthesis* §4.9: exact to O((r/d)²) there), else
     /// the exact F ([`point_to_polygon`], a contour integral). Positive wherever F is (all
     /// corners above the horizon, `x` in front), so a draw by it, whose estimate divides the
-    /// exact F by the draw's probability, stays unbiased; 0 behind the emitter's plane.
+    /// exact F by the draw's probability, stays unbiased; 0 behind the emitter's plane. What
+    /// the gather's other emitters ([`crate::gather`]) and the hierarchical elements' shared
+    /// shadow rays ([`crate::hierarchical::direct`]) are drawn by.
     pub fn form_factor_weight(&self, x: DVec3, n: DVec3) -> f64 {
         let d = self.centre - x;
         let d2 = d.length_squared();
