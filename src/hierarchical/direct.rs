@@ -453,14 +453,15 @@ pub fn element_direct(
 }
 
 /// The draw of a rule point's N shadow rays ([`ELEMENT_SHARED_SHADOW_RAYS`] by the weights,
-/// [`ELEMENT_TREE_SHADOW_RAYS`] by the tree) over the emitters whose rays are shared ([`ShadowRays::Shared`], [`ShadowRays::Tree`]), those `own` rejects (the element's
-/// own) left out. Weighed: systematic sampling over the weights Le_max · F
-/// ([`systematic`]; F by [`crate::light::Emitter::form_factor_weight`], its differential form
-/// for the far emitters, the exact F only for those drawn),
-/// so an emitter of probability p gets ⌊N p⌋ or ⌈N p⌉ rays, and at least one ray in the
-/// point's N goes to every emitter with p ≥ 1/N. By the tree: N descents of the light tree
-/// at the stratified numbers (i + u)/N, its leaves weighed π·Le_max·F (F as above; the units of its inner
-/// nodes' bound, [`LightTree`]), an emitter drawn by successive numbers given their count.
+/// [`ELEMENT_TREE_SHADOW_RAYS`] by the tree) over the emitters whose rays are shared
+/// ([`ShadowRays::Shared`], [`ShadowRays::Tree`]), those `own` rejects (the element's own)
+/// left out. Weighed: systematic sampling over the weights Le_max · F ([`systematic`]; F by
+/// [`crate::light::Emitter::form_factor_weight`], its differential form for the far
+/// emitters, the exact F computed only for those drawn), so an emitter of probability p gets
+/// ⌊N p⌋ or ⌈N p⌉ rays, and at least one ray in the point's N goes to every emitter with
+/// p ≥ 1/N. By the tree: N descents of the light tree at the stratified numbers (i + u)/N,
+/// its leaves weighed π·Le_max·F (F as above; the units of its inner nodes' bound,
+/// [`LightTree`]), an emitter drawn by successive numbers given their count.
 #[derive(Default)]
 struct Drawn {
     /// Cumulative weights of the emitters that send light to the point.
