@@ -59,8 +59,9 @@ pub const MAX_EXACT_EMITTERS: usize = 8;
 /// differential form for the far ones, [`Emitter::form_factor_weight`]; systematic sampling
 /// over the emitters' cumulative weights, Kitagawa 1996), so the estimate Σ Le F V̂ / (N p)
 /// carries little but the noise of visibility: a point that sees all of them unoccluded gets
-/// their light to within the differential form's O((r/d)²). Next-event estimation over many lights (Shirley, Wang
-/// & Zimmerman, "Monte Carlo techniques for direct lighting calculations", TOG 1996).
+/// their light to within the differential form's O((r/d)²). Next-event estimation over many
+/// lights (Shirley, Wang & Zimmerman, "Monte Carlo techniques for direct lighting
+/// calculations", TOG 1996).
 /// Without them only a hemisphere ray that happened to hit such an emitter would bring its
 /// Le: in a scene of many small bright lights (the generated hall) that noise would be most
 /// of the gather's error even at four times the rays, and with these samples what is left
@@ -405,8 +406,8 @@ impl Gatherer<'_> {
     /// over weights w_e, zero for the emitters `exact` and those not sampled at `x`
     /// ([`SAMPLED_SPREAD`]) or facing away. Up to [`MAX_WEIGHED_EMITTERS`] emitters, w_e is
     /// max(Le_e) F(x → e) (the unoccluded form factor, [`Emitter::form_factor_weight`]: its
-    /// differential form beyond [`crate::light::emitter::FAR_RADII`] radii) with `count` ≥ 2, or up
-    /// to [`MAX_WEIGHED_NEAR_HIT_EMITTERS`] with one ray the cheap bound
+    /// differential form beyond [`crate::light::emitter::FAR_RADII`] radii) with `count` ≥ 2,
+    /// or up to [`MAX_WEIGHED_NEAR_HIT_EMITTERS`] with one ray the cheap bound
     /// max(Le_e) A_e / (π d²) ([`Emitter::bound`]). Beyond, the
     /// emitters are drawn by the light tree over them ([`crate::light::LightTree`]), its
     /// leaves weighed the same way: for `count` ≥ 2 over the tree's draw less the

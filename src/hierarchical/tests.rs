@@ -747,13 +747,14 @@ fn shared_shadow_rays_sum_an_unoccluded_lights_triangles_exactly() {
 fn shared_shadow_rays_drawn_by_far_weights_stay_unbiased() {
     let (roots, at) = (a_checkered_light_over_a_tiny_triangle(9), TINY_AT);
     let with = |rays| root_emitters(&roots, rays);
-    assert_eq!(with(direct::ShadowRays::Own).len(), 162);
-    let far = with(direct::ShadowRays::Own).iter().all(|e| {
+    let own = with(direct::ShadowRays::Own);
+    assert_eq!(own.len(), 162);
+    let far = own.iter().all(|e| {
         e.emitter.centre.distance(at) > crate::light::emitter::FAR_RADII * e.emitter.radius
     });
     assert!(far, "every triangle of the light is far from the point");
     // How far the draw's weights are from F there (so that the test is not of exact weights).
-    let off = with(direct::ShadowRays::Own)
+    let off = own
         .iter()
         .map(|e| {
             let f = e.emitter.form_factor(at, DVec3::Z).unwrap();
@@ -761,7 +762,7 @@ fn shared_shadow_rays_drawn_by_far_weights_stay_unbiased() {
         })
         .fold(0.0, f64::max);
     assert!(off > 2e-3, "the weights are F to {off}");
-    let exact = direct_at_the_tiny_triangle(&roots, &with(direct::ShadowRays::Own), 1).mean;
+    let exact = direct_at_the_tiny_triangle(&roots, &own, 1).mean;
     let seeds = 64;
     let mut mean = [0.0; 3];
     for seed in 0..seeds {

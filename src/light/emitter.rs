@@ -82,8 +82,8 @@ pub const ELEMENT_FEW_SHADOW_RAYS: usize = 4;
 /// Zimmerman, "Monte Carlo techniques for direct lighting calculations", TOG 1996, as the
 /// gather's other lights, [`crate::gather`]). A point that sees every emitter (of one
 /// chromaticity) unoccluded gets their light exactly where they are near, and within the
-/// weights' error where some are far; in a penumbra the rays go where the light comes from, not two to
-/// each emitter however faint. On the generated office of 10⁵ triangles (40 emitting
+/// weights' error where some are far; in a penumbra the rays go where the light comes from,
+/// not two to each emitter however faint. On the generated office of 10⁵ triangles (40 emitting
 /// triangles, a sky) 16 rays display the error of two per emitter (80 a point) for a fifth
 /// of the rays (BENCHMARKS.md "Large outputs: the `cache` gather").
 pub const ELEMENT_SHARED_SHADOW_RAYS: usize = 16;
