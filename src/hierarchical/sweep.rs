@@ -140,7 +140,7 @@ impl Hierarchy<'_> {
             for i in run(ne + c) {
                 let l = &self.links[i];
                 let d = t.sphere(l.source).0 - t.clusters[c].centre;
-                cg.add(&t.clusters[c], d, value(i, l));
+                cg.add(&t.clusters[c], d, l.f as f64, value(i, l));
             }
         });
         // Over several ranks, each node's gather from the rank holding its links.

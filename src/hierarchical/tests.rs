@@ -551,7 +551,8 @@ fn clusters_push_light_to_the_faces_that_face_it() {
     ] {
         let mut g = ClusterGather::default();
         let v = [1.0, 2.0, 0.5];
-        g.add(root, d, v);
+        // A form factor below the box's mean cosine toward any d (at least 1/3 here).
+        g.add(root, d, 0.1, v);
         let d = d.normalize();
         let total: f64 = roots.area.iter().sum();
         let mean_cos: f64 = (0..roots.len())
@@ -578,6 +579,51 @@ fn clusters_push_light_to_the_faces_that_face_it() {
                 "{mean:?} {area}"
             );
         }
+    }
+}
+
+/// A link whose form factor F is at least the cluster's mean cosine toward it (in the bins'
+/// separable form) is pushed to every face alike: shared by cosine, the faces that face it
+/// would take F / mean ≥ 1 each, more than their whole hemisphere. A floor of 1 m² (facing
+/// +z) and a 1 cm² strip beside it facing +x: toward +x the mean cosine is 1e-4, and a link
+/// of F = 0.2 from there, shared by cosine, would give the strip a row of 2,000.
+#[test]
+fn a_link_that_would_give_a_face_more_than_its_hemisphere_is_pushed_alike() {
+    let mut b = SceneBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3]);
+    let corners = |c: [[f64; 3]; 4]| c.map(DVec3::from);
+    b.quad(
+        corners([[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]),
+        grey,
+    );
+    let h = 0.01;
+    b.quad(
+        corners([[1., 0., 0.], [1., h, 0.], [1., h, h], [1., 0., h]]),
+        grey,
+    );
+    let roots = mesh::subdivide(&b.build().unwrap(), 10.0, 30.0).unwrap();
+    let tree = Tree::new(&roots);
+    let root = &tree.clusters[0];
+    assert!(
+        root.cone_cos < super::ORIENTED_CONE_COS,
+        "the cluster is pushed by orientation"
+    );
+    let strip = (0..roots.len())
+        .find(|&i| roots.normal[i].x > 0.99)
+        .unwrap();
+    let mean = h * h / (1.0 + h * h);
+    // Below the mean: by cosine, the strip takes F / mean and the floor nothing (to rounding:
+    // the strip and the floor lie along the axes, where the bins are exact).
+    let f = 0.5 * mean;
+    let mut g = ClusterGather::default();
+    g.add(root, DVec3::X, f, [f; 3]);
+    assert!((g.at(roots.normal[strip])[0] - 0.5).abs() < 1e-9);
+    assert_eq!(g.at(DVec3::Z)[0], 0.0);
+    // At F = 0.2: every face takes 0.2, the area-mean the link says, and none more than 1.
+    let mut g = ClusterGather::default();
+    g.add(root, DVec3::X, 0.2, [0.2; 3]);
+    for n in [roots.normal[strip], DVec3::Z] {
+        assert!((g.at(n)[0] - 0.2).abs() < 1e-12, "{n}: {:?}", g.at(n));
     }
 }
 
