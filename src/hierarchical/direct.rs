@@ -505,13 +505,7 @@ impl Drawn {
                 else {
                     continue;
                 };
-                match self.picks.last_mut() {
-                    Some(last) if last.0 == k => last.2 += 1,
-                    _ => {
-                        let f = list[k].emitter.form_factor(x, n).unwrap_or(0.0);
-                        self.picks.push((k, f, 1, p));
-                    }
-                }
+                Self::pick(&mut self.picks, list, k, p, x, n);
             }
             return;
         }
@@ -531,16 +525,29 @@ impl Drawn {
         if self.keys.is_empty() {
             return;
         }
-        let mut last = usize::MAX;
         for (at, p) in systematic(&self.cdf, self.rays, rng.next_f64()) {
-            if at == last {
-                self.picks.last_mut().expect("drawn before").2 += 1;
-                continue;
+            Self::pick(&mut self.picks, list, self.keys[at], p, x, n);
+        }
+    }
+
+    /// Counts a ray drawn to emitter `k` of `list` with chance `p` in `picks`
+    /// ([`Drawn::picks`]): one more for the last pick if it is `k` (both draws give an
+    /// emitter's rays in a row), else a new pick with its exact F at `x` (unit normal `n`),
+    /// computed once per emitter drawn.
+    fn pick(
+        picks: &mut Vec<(usize, f64, usize, f64)>,
+        list: &[RootEmitter],
+        k: usize,
+        p: f64,
+        x: DVec3,
+        n: DVec3,
+    ) {
+        match picks.last_mut() {
+            Some(last) if last.0 == k => last.2 += 1,
+            _ => {
+                let f = list[k].emitter.form_factor(x, n).unwrap_or(0.0);
+                picks.push((k, f, 1, p));
             }
-            last = at;
-            let i = self.keys[at];
-            let f = emitters.list[i].emitter.form_factor(x, n).unwrap_or(0.0);
-            self.picks.push((i, f, 1, p));
         }
     }
 }
