@@ -454,7 +454,7 @@ impl Gatherer<'_> {
                         keys.push(k);
                     }
                 }
-                Weighed { cdf, keys }
+                Weighed::Sums { cdf, keys }
             };
             // A gathering point's pilot and estimate draw by the same weights: found once.
             let fresh;
@@ -464,11 +464,14 @@ impl Gatherer<'_> {
                 fresh = weigh();
                 &fresh
             };
-            if w.cdf.is_empty() {
+            let Weighed::Sums { cdf, keys } = w else {
+                unreachable!("a point's draws all weigh its emitters, or all take the tree");
+            };
+            if cdf.is_empty() {
                 return Vec::new();
             }
-            return systematic(&w.cdf, count, rng.next_f64())
-                .map(|(at, p)| (w.keys[at], p))
+            return systematic(cdf, count, rng.next_f64())
+                .map(|(at, p)| (keys[at], p))
                 .collect();
         }
         // The tree's inner nodes bound Le·A·cos·cos/d², which is π·Le·F for a small far
@@ -477,7 +480,13 @@ impl Gatherer<'_> {
         let u0 = rng.next_f64();
         if count >= 2 {
             let leaf = |k: usize| PI * weight(k);
-            let skip = tree.skip(exact.iter().map(|&k| k as usize), x, n, leaf);
+            // The pilot's and the estimate's draws leave out the same intervals: found once.
+            let w = weighed.get_or_insert_with(|| {
+                Weighed::Tree(tree.skip(exact.iter().map(|&k| k as usize), x, n, leaf))
+            });
+            let Weighed::Tree(skip) = &*w else {
+                unreachable!("a point's draws all weigh its emitters, or all take the tree");
+            };
             let kept = skip.kept();
             if kept <= 1e-12 {
                 return Vec::new();
@@ -711,14 +720,19 @@ pub fn emitters_cost(emitters: usize) -> usize {
     EXACT_EMITTER_COST * emitters.min(MAX_EXACT_EMITTERS) + others
 }
 
-/// The weights the others' shadow rays at one gathering point are drawn by
-/// ([`Gatherer::draw_others`], up to [`MAX_WEIGHED_EMITTERS`] emitters) as a running sum over
-/// the emitters they may go to: found once for the point's pilot and its estimate.
-pub(super) struct Weighed {
-    /// Running sums of the weights, increasing.
-    cdf: Vec<f64>,
-    /// The emitter of each sum.
-    keys: Vec<usize>,
+/// What the others' shadow rays at one gathering point are drawn by
+/// ([`Gatherer::draw_others`]): found once for the point's pilot and its estimate.
+pub(super) enum Weighed {
+    /// Up to [`MAX_WEIGHED_EMITTERS`] emitters, the weights as a running sum over the emitters
+    /// the rays may go to.
+    Sums {
+        /// Running sums of the weights, increasing.
+        cdf: Vec<f64>,
+        /// The emitter of each sum.
+        keys: Vec<usize>,
+    },
+    /// Beyond, the light tree's draw less the exact emitters' u-intervals.
+    Tree(crate::light::tree::Skip),
 }
 
 /// What the shadow rays of [`Gatherer::others_direct`] met: whether any reached its emitter,
