@@ -27,6 +27,9 @@
 //! [`trace_for_frame`] gives the probes only their share of a frame of more points, as a
 //! renderer of one view would. Every estimate is keyed by (seed, probe, batch), so
 //! a fixed seed gives the same numbers for any thread count.
+//!
+//! [`spread`] splits the error of several bakes made with other seeds and the same settings
+//! into what a seed decides and what every seed shows.
 
 use std::path::Path;
 use std::time::Instant;
@@ -477,9 +480,10 @@ pub struct Score {
     pub reference_noise: f64,
 }
 
-/// Scores `shown` (one value per probe, `None` where nothing is shown) against the probes'
-/// reference radiance (see the module documentation).
-pub fn score(probes: &[Probe], shown: &[Option<Rgb>]) -> Score {
+/// The relative errors e = (Y_shown − Y_ref) / Y_ref at the probes the score counts (see
+/// [`scored`]; nothing shown counts as black, e = −1), the number of those shown nothing,
+/// and the sum of the references' squared relative standard errors there.
+fn errors(probes: &[Probe], shown: &[Option<Rgb>]) -> (Vec<f64>, usize, f64) {
     assert_eq!(probes.len(), shown.len(), "one shown value per probe");
     let counted = scored(&probes.iter().map(|p| p.radiance).collect::<Vec<_>>());
     let mut errors = Vec::new();
@@ -496,6 +500,13 @@ pub fn score(probes: &[Probe], shown: &[Option<Rgb>]) -> Score {
         errors.push((y - y_ref) / y_ref);
         noise2 += (p.std_error / y_ref).powi(2);
     }
+    (errors, missing, noise2)
+}
+
+/// Scores `shown` (one value per probe, `None` where nothing is shown) against the probes'
+/// reference radiance (see the module documentation).
+pub fn score(probes: &[Probe], shown: &[Option<Rgb>]) -> Score {
+    let (errors, missing, noise2) = errors(probes, shown);
     let n = errors.len();
     if n == 0 {
         return Score::default();
@@ -514,6 +525,57 @@ pub fn score(probes: &[Probe], shown: &[Option<Rgb>]) -> Score {
         bias,
         reference_noise: (noise2 / n as f64).sqrt(),
     }
+}
+
+/// How the errors of K bakes of one scene, made with the same settings and different seeds,
+/// split at the probes ([`spread`]). With e_k the relative error of bake k at a probe and ē
+/// their mean there: varying² is the sample variance Σ_k (e_k − ē)² / (K − 1), pooled (its
+/// mean over the probes), and shared² the mean of ē² less what of varying² is left in a
+/// mean of K, varying² / K. For one bake, shared² + varying² is about its RMS²: the error a
+/// seed decides (Monte Carlo noise, and which edges the display's refinement splits) and
+/// the error every seed shows (the gather's bias, the display's resolution where every seed
+/// refines alike). Relative, as [`Score`]'s.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct Spread {
+    /// Bakes compared.
+    pub bakes: usize,
+    /// Probes scored (as [`Score::scored`]).
+    pub scored: usize,
+    /// RMS of a bake's departure from the bakes' mean at a probe (the pooled standard
+    /// deviation).
+    pub varying: f64,
+    /// RMS of the error the bakes share (0 where the mean's error is all leftover variation).
+    pub shared: f64,
+}
+
+/// [`Spread`] of the `bakes` (each one shown value per probe, as [`score`] takes), or `None`
+/// for fewer than two.
+pub fn spread(probes: &[Probe], bakes: &[Vec<Option<Rgb>>]) -> Option<Spread> {
+    let k = bakes.len();
+    if k < 2 {
+        return None;
+    }
+    let errors: Vec<Vec<f64>> = bakes.iter().map(|b| errors(probes, b).0).collect();
+    let n = errors[0].len();
+    if n == 0 {
+        return Some(Spread {
+            bakes: k,
+            ..Spread::default()
+        });
+    }
+    let (mut variance, mut mean2) = (0.0, 0.0);
+    for i in 0..n {
+        let mean = errors.iter().map(|e| e[i]).sum::<f64>() / k as f64;
+        variance += errors.iter().map(|e| (e[i] - mean).powi(2)).sum::<f64>() / (k - 1) as f64;
+        mean2 += mean * mean;
+    }
+    let (variance, mean2) = (variance / n as f64, mean2 / n as f64);
+    Some(Spread {
+        bakes: k,
+        scored: n,
+        varying: variance.sqrt(),
+        shared: (mean2 - variance / k as f64).max(0.0).sqrt(),
+    })
 }
 
 /// Columns of the probes' CSV.
@@ -733,6 +795,47 @@ mod tests {
         let s = score(&probes, &none);
         assert_eq!(s.missing, 200);
         assert!((s.rms - 1.0).abs() < 1e-12 && (s.bias + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn spread_splits_known_shared_and_varying_errors() {
+        // Two bakes whose errors at each group of four probes are s ± d with every pair of
+        // signs of d (shared s, alternating in sign between groups; d the seed's): the pooled
+        // sample variance of the pairs is d² exactly, and their means' mean square s² + d²/2,
+        // so varying = d and shared = s. A dark probe (left out) and one bake alone change
+        // nothing or give nothing.
+        let (s, d) = (0.03, 0.02);
+        let probe = |y: f64| Probe {
+            triangle: 0,
+            position: DVec3::ZERO,
+            normal: DVec3::Z,
+            radiance: [y; 3],
+            std_error: 0.0,
+            paths: 1,
+        };
+        let mut probes = Vec::new();
+        let mut bakes = vec![Vec::new(), Vec::new()];
+        for group in 0..5 {
+            let shared = if group % 2 == 0 { s } else { -s };
+            for (a, b) in [(d, d), (d, -d), (-d, d), (-d, -d)] {
+                probes.push(probe(1.0));
+                bakes[0].push(Some([1.0 + shared + a; 3]));
+                bakes[1].push(Some([1.0 + shared + b; 3]));
+            }
+        }
+        probes.push(probe(0.01));
+        bakes[0].push(Some([3.0; 3]));
+        bakes[1].push(None);
+        let split = spread(&probes, &bakes).expect("two bakes");
+        assert_eq!((split.bakes, split.scored), (2, 20));
+        assert!((split.varying - d).abs() < 1e-12, "{split:?}");
+        assert!((split.shared - s).abs() < 1e-12, "{split:?}");
+        // Each bake's own RMS² is s² + d² here: what the two parts add up to.
+        for b in &bakes {
+            let rms = score(&probes, b).rms;
+            assert!((rms * rms - s * s - d * d).abs() < 1e-12, "{rms}");
+        }
+        assert!(spread(&probes, &bakes[..1]).is_none());
     }
 
     #[test]

@@ -12,6 +12,9 @@
 //! frame of N pixels in S seconds, read at the probes' pixels (each pixel's paths are
 //! independent of the others', so the probes are a sample of such a frame's points;
 //! Mitsuba's 256 × 256 frame at equal time, BENCHMARKS.md, is N = 65,536).
+//! With `SCORE_SEEDS=1` and two or more bakes of one scene made with the same settings and
+//! different seeds, a last line splits their error into what a seed decides and what they
+//! all share ([`pointwise::Spread`]).
 
 use std::path::Path;
 
@@ -37,8 +40,13 @@ fn main() -> Result<()> {
     let (probes, bakes) = args
         .split_first()
         .context("usage: score PROBES.csv BAKE.ply…")?;
+    let seeds = std::env::var_os("SCORE_SEEDS").is_some();
+    if seeds && bakes.len() < 2 {
+        anyhow::bail!("SCORE_SEEDS: give two or more bakes (other seeds, the same settings)");
+    }
     let probes = pointwise::read_csv(Path::new(probes))?;
     println!("| bake | scored | RMS | median | 90th pct | bias |\n|---|---|---|---|---|---|");
+    let mut all_shown = Vec::new();
     for bake in bakes {
         let path = Path::new(bake);
         let display = Display::from_read_back(&ply::read(path)?, path)?;
@@ -58,6 +66,18 @@ fn main() -> Result<()> {
             std::fs::write(&dump, csv).with_context(|| format!("writing {dump:?}"))?;
         }
         row(bake, &pointwise::score(&probes, &shown));
+        all_shown.push(shown);
+    }
+    if seeds {
+        let split = pointwise::spread(&probes, &all_shown).context("two or more bakes")?;
+        println!(
+            "between the {} bakes ({} probes): {:.2} % RMS varies with the seed, {:.2} % is \
+             shared",
+            split.bakes,
+            split.scored,
+            100.0 * split.varying,
+            100.0 * split.shared
+        );
     }
     if let Some(scene) = std::env::var_os("TRACE") {
         if let Some(seconds) = radiosity_tools::positive_env("TRACE_SECONDS", "number")? {
