@@ -259,12 +259,19 @@ pub const MAX_BEND: f64 = 0.5;
 /// linear part and value cancel in a departure from its chord. Kept for every vertex at once,
 /// so in single precision (64 bytes, not the whole quadratic's 256): the bend it gives is
 /// bounded by [`MAX_BEND`] · τ of the light, and its rounding, 10⁻⁷ of the bend, is far below
-/// anything shown.
+/// anything shown. The coefficients stay in the fit's own units (lengths over its `scale`,
+/// about the ring's size), where they are of the order of the light whatever the scene's
+/// units: per squared scene unit they would leave single precision's range in a scene
+/// measured in units 10¹⁹ times its size or its ten-thousandth (the bends infinite or
+/// zero, the display wrong; the test `a_bend_is_the_same_at_every_scale`).
 struct Bend {
     /// The tangent frame (t, u) the quadratic was fitted in.
     frame: [[f32; 3]; 2],
-    /// The coefficients of ½x², xy and ½y² per channel, (x, y) in scene units along (t, u):
-    /// W·sr⁻¹·m⁻² per squared scene unit.
+    /// The fit's unit of length, scene units (a positive, finite, normal `f32` for any scene
+    /// whose coordinates are).
+    scale: f32,
+    /// The coefficients of ½x², xy and ½y² per channel, (x, y) along (t, u) in units of
+    /// `scale`: W·sr⁻¹·m⁻².
     second: [[f32; 3]; 3],
 }
 
@@ -272,10 +279,10 @@ impl Bend {
     /// The second-order part of the coefficients `x` of [`fit`] (N = 6) fitted in `frame` in
     /// units of `scale`.
     fn of((t, u): Frame, scale: f64, x: &[[f64; 3]; 6]) -> Bend {
-        let per_unit = 1.0 / (scale * scale);
         Bend {
             frame: [t, u].map(|a| a.as_vec3().to_array()),
-            second: std::array::from_fn(|i| x[2 + i].map(|c| (c * per_unit) as f32)),
+            scale: scale as f32,
+            second: std::array::from_fn(|i| x[2 + i].map(|c| c as f32)),
         }
     }
 
@@ -285,6 +292,7 @@ impl Bend {
     /// value cancel).
     fn along(&self, d: DVec3) -> Rgb {
         let [t, u] = self.frame.map(|a| DVec3::from(a.map(f64::from)));
+        let d = d / f64::from(self.scale);
         let (x, y) = (d.dot(t), d.dot(u));
         let row = [0.5 * x * x, x * y, 0.5 * y * y];
         std::array::from_fn(|k| {
@@ -663,6 +671,31 @@ mod tests {
                     (got[k] - want).abs() <= 1e-6 * want.abs(),
                     "{k}: {} against {want}",
                     got[k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_bend_is_the_same_at_every_scale() {
+        // The same quadratic fitted in a scene measured in units 10⁻³⁰ to 10³⁰ times as
+        // large (its fit's scale and the segment scaled alike): the same bend, to single
+        // precision's rounding. Per squared scene unit the coefficients would overflow or
+        // vanish in `f32` at the ends of that range.
+        let frame = DVec3::new(0.3, -1.0, 0.2)
+            .normalize()
+            .any_orthonormal_pair();
+        let x: [[f64; 3]; 6] = std::array::from_fn(|i| [0.8, 1.1, -0.6].map(|c| c * i as f64));
+        let d = DVec3::new(0.4, 0.9, -0.2);
+        let want = Bend::of(frame, 0.7, &x).along(d);
+        assert!(want.iter().all(|w| w.abs() > 1e-3), "{want:?}");
+        for k in (-30..=30).step_by(5) {
+            let s = 10f64.powi(k);
+            let got = Bend::of(frame, 0.7 * s, &x).along(d * s);
+            for c in 0..3 {
+                assert!(
+                    (got[c] - want[c]).abs() <= 1e-6 * want[c].abs(),
+                    "10^{k}: {got:?} against {want:?}"
                 );
             }
         }
