@@ -261,6 +261,10 @@ pub fn load(path: &Path) -> Result<Scene> {
             message: "the mesh is empty: no faces with 3 or more vertices".into(),
         });
     }
+    let far = far_from_origin(&positions);
+    if let Some(far) = &far {
+        warnings.push(format!("{}: {far}", path.display()));
+    }
     let face_lines: Vec<usize> = fans.iter().map(|&(f, _)| scan.faces[f].0).collect();
     let mut scene = finish(
         Some(path.to_path_buf()),
@@ -270,9 +274,49 @@ pub fn load(path: &Path) -> Result<Scene> {
         (textures, uv_maps),
         (warnings, details),
         Some(face_lines),
-    )?;
+    )
+    // A scene the rounding has flattened fails as degenerate: the reason goes with it.
+    .map_err(|e| match (e, far) {
+        (Error::Input { path, message }, Some(far)) => Error::Input {
+            path,
+            message: format!("{message}; {far}"),
+        },
+        (e, _) => e,
+    })?;
     scene.camera = scan.camera;
     Ok(scene)
+}
+
+/// Rounding of the coordinates, as a share of the scene's size, above which a load warns
+/// ([`far_from_origin`]): a ten-thousandth of a room is a millimetre.
+pub const FAR_ROUNDING: f64 = 1e-4;
+
+/// What to tell the user when the OBJ's coordinates lie so far from the origin for the
+/// scene's size that reading them in single precision (as `tobj` reads them, 24 bits:
+/// steps of 2⁻²³ |x| at most) rounds them by more than [`FAR_ROUNDING`] of its bounding
+/// box's diagonal (a building in map coordinates, 5·10⁵ m from the origin and 50 m across,
+/// rounds to about 3 cm); `None` when it does not.
+fn far_from_origin(positions: &[DVec3]) -> Option<String> {
+    let (lo, hi) = positions.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let extent = (hi - lo).length();
+    let largest = lo.abs().max(hi.abs()).max_element();
+    let step = largest * f64::from(f32::EPSILON);
+    (extent.is_finite() && step > FAR_ROUNDING * extent).then(|| {
+        let share = if step < extent {
+            format!("{:.2} % of the scene", 100.0 * step / extent)
+        } else {
+            "as much as the scene's size, or more".to_string()
+        };
+        format!(
+            "its coordinates lie far from the origin for its size (up to {largest:.4e}, the \
+             scene {extent:.4e} across as read): an OBJ's numbers are read in single \
+             precision, which rounds them here in steps of up to {step:.1e} ({share}), so its \
+             shape may not be the file's; moved near the origin, the model keeps it"
+        )
+    })
 }
 
 /// A `usemtl` statement: the name, its line, and how many `mtllib` lines precede it.
@@ -512,6 +556,48 @@ mod tests {
     }
 
     const TRIANGLE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+
+    #[test]
+    fn coordinates_far_from_the_origin_for_the_scene_s_size_warn() {
+        // A unit square a million units from the origin: single precision rounds there in
+        // steps of 2⁻⁴, 4 % of its diagonal, which the load says; the same square at the
+        // origin, or a thousand units away (steps of 6e-5, 4e-5 of it), says nothing.
+        let square = |o: f64| {
+            format!(
+                "v {o} {o} 0\nv {} {o} 0\nv {} {} 0\nv {o} {} 0\nf 1 2 3 4\n",
+                o + 1.0,
+                o + 1.0,
+                o + 1.0,
+                o + 1.0
+            )
+        };
+        let far = load_text("obj-far", &square(1e6), &[]).unwrap();
+        let said: Vec<&String> = far
+            .warnings
+            .iter()
+            .filter(|w| w.contains("far from the origin"))
+            .collect();
+        assert_eq!(said.len(), 1, "{:?}", far.warnings);
+        assert!(said[0].contains("scene.obj") && said[0].contains("single precision"));
+        // A billion units away, single precision flattens every face: the error says why.
+        let flat = load_text("obj-flat", &square(1e9), &[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            flat.contains("non-zero area") && flat.contains("far from the origin"),
+            "{flat}"
+        );
+        for o in [0.0, 1e3] {
+            let near = load_text("obj-near", &square(o), &[]).unwrap();
+            assert!(
+                near.warnings
+                    .iter()
+                    .all(|w| !w.contains("far from the origin")),
+                "{o}: {:?}",
+                near.warnings
+            );
+        }
+    }
 
     fn normal(s: &Scene, t: usize) -> DVec3 {
         let [a, b, c] = s.triangles[t].vertices.map(|v| s.positions[v as usize]);
