@@ -34,11 +34,7 @@ pub fn occluders(patches: &Patches) -> Vec<bool> {
     if (reps.len() as f64) * (positions.len() as f64) > 4e9 {
         return vec![true; n];
     }
-    let (lo, hi) = positions
-        .iter()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
+    let (lo, hi) = crate::geometry::bounds(positions.iter().copied());
     let tol = 1e-6 * (hi - lo).length();
     let supporting: std::collections::HashMap<u32, bool> = reps
         .par_iter()

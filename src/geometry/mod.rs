@@ -6,7 +6,8 @@
 //! past occluding triangles and its exact form factor ([`visible`]), the winding key that
 //! recognises a triangle's reverse ([`winding`]), the unit icosphere the scene generators and
 //! the Mitsuba reader's spheres share ([`icosphere`]), and the faces of an axis-aligned box
-//! the generators and the speed workload share ([`box_faces`]).
+//! the generators and the speed workload share ([`box_faces`]), and the bounding box of points
+//! ([`bounds`]).
 //!
 //! It imports no other module of the crate; [`crate::sampling`] (random numbers, quadrature and
 //! sampling rules) stands beside it on the ground floor. Neither imports a stage, and the
@@ -88,6 +89,15 @@ pub fn icosphere(level: u32) -> (Vec<DVec3>, Vec<[usize; 3]>) {
         f = next;
     }
     (v, f)
+}
+
+/// The axis-aligned bounding box of `points` as (min, max); of none, the empty box (+∞, −∞).
+pub fn bounds(points: impl IntoIterator<Item = DVec3>) -> (DVec3, DVec3) {
+    points
+        .into_iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        })
 }
 
 /// The six faces of the axis-aligned box [lo, hi], each counter-clockwise seen from outside,

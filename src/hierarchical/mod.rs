@@ -716,12 +716,7 @@ impl<'a> Hierarchy<'a> {
             direct: Vec::new(),
             env: env.clone(),
             lift: 1e-6 * {
-                let (lo, hi) = roots
-                    .positions
-                    .iter()
-                    .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-                        (lo.min(*p), hi.max(*p))
-                    });
+                let (lo, hi) = crate::geometry::bounds(roots.positions.iter().copied());
                 (hi - lo).length()
             },
             convex: false,

@@ -216,7 +216,8 @@ impl Tree {
         let mut stack = vec![(0usize, order.len(), 0usize)];
         while let Some((lo, hi, c)) = stack.pop() {
             let items = &mut order[lo..hi];
-            let (bmin, bmax) = bounds(items.iter().flat_map(|&i| patches.corners(i as usize)));
+            let (bmin, bmax) =
+                crate::geometry::bounds(items.iter().flat_map(|&i| patches.corners(i as usize)));
             let area: f64 = items.iter().map(|&i| patches.area[i as usize]).sum();
             let max_reflectance = items
                 .iter()
@@ -249,7 +250,8 @@ impl Tree {
                     self.root_parent[i as usize] = c as u32;
                 }
             } else {
-                let (cmin, cmax) = bounds(items.iter().map(|&i| patches.centroid[i as usize]));
+                let (cmin, cmax) =
+                    crate::geometry::bounds(items.iter().map(|&i| patches.centroid[i as usize]));
                 let axis = (cmax - cmin).max_position();
                 let mid = items.len() / 2;
                 items.select_nth_unstable_by(mid, |&a, &b| {
@@ -581,13 +583,6 @@ pub fn axis_weights(n: DVec3) -> [f64; 6] {
         (-n.y).max(0.0),
         (-n.z).max(0.0),
     ]
-}
-
-/// Axis-aligned bounds of points.
-fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
-    points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-        (lo.min(p), hi.max(p))
-    })
 }
 
 fn circumradius(p: [DVec3; 3], centroid: DVec3) -> f64 {

@@ -456,12 +456,7 @@ pub fn patch_light(patches: &Patches, env: &Environment, seed: u64) -> Vec<Rgb> 
     }
     let corners: Vec<[DVec3; 3]> = (0..patches.len()).map(|i| patches.corners(i)).collect();
     let vis = Visibility::build(&corners).with_transmittance(&patches.transmittance());
-    let (lo, hi) = patches
-        .positions
-        .iter()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
+    let (lo, hi) = crate::geometry::bounds(patches.positions.iter().copied());
     let lift = 1e-6 * (hi - lo).length();
     let rule = gauss_rule(7).expect("the 7-point rule exists");
     (0..patches.len())

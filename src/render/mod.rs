@@ -111,12 +111,7 @@ pub const COVERAGE_GRID: u32 = 24;
 /// its opening, a z-up level is seen level with `Up::Z`, and a roofless room is not seen from
 /// above however much floor it has.
 pub fn best_framing(triangles: &[[DVec3; 3]], up: Up) -> Camera {
-    let (lo, hi) = triangles
-        .iter()
-        .flatten()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
+    let (lo, hi) = crate::geometry::bounds(triangles.iter().flatten().copied());
     let framings = Camera::framings(lo, hi, up);
     if triangles.is_empty() {
         return framings[0];

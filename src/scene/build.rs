@@ -105,13 +105,12 @@ pub(crate) fn finish(
         .collect();
 
     // 3. Drop zero-area triangles, relative to the scale of the used geometry.
-    let (lo, hi) = triangles
-        .iter()
-        .flat_map(|t| t.vertices)
-        .map(|v| positions[v as usize])
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p), hi.max(p))
-        });
+    let (lo, hi) = crate::geometry::bounds(
+        triangles
+            .iter()
+            .flat_map(|t| t.vertices)
+            .map(|v| positions[v as usize]),
+    );
     let threshold = ZERO_AREA_RELATIVE * (hi - lo).length_squared();
     let total = triangles.len();
     let keep: Vec<bool> = triangles

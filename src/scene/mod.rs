@@ -290,11 +290,7 @@ impl Scene {
     /// Axis-aligned bounding box of all positions as (min, max). An empty scene gives the
     /// empty box (+∞, −∞).
     pub fn bounds(&self) -> (DVec3, DVec3) {
-        self.positions
-            .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
-                (lo.min(p), hi.max(p))
-            })
+        crate::geometry::bounds(self.positions.iter().copied())
     }
 
     /// Each triangle's corners, in triangle order (scene units).

@@ -424,10 +424,7 @@ impl Display {
             .map(|f| f.map(|v| self.positions[v as usize]))
             .collect();
         let vis = Visibility::build(&corners);
-        let (lo, hi) = self.positions.iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), &p| (lo.min(p), hi.max(p)),
-        );
+        let (lo, hi) = crate::geometry::bounds(self.positions.iter().copied());
         let delta = 1e-6 * (hi - lo).length().max(f64::MIN_POSITIVE);
         probes
             .par_iter()
@@ -797,6 +794,18 @@ mod tests {
         assert!((s.rms - 1.0).abs() < 1e-12 && (s.bias + 1.0).abs() < 1e-12);
     }
 
+    /// A probe of luminance `y` (grey), its reference exact.
+    fn probe(y: f64) -> Probe {
+        Probe {
+            triangle: 0,
+            position: DVec3::ZERO,
+            normal: DVec3::Z,
+            radiance: [y; 3],
+            std_error: 0.0,
+            paths: 1,
+        }
+    }
+
     #[test]
     fn spread_splits_known_shared_and_varying_errors() {
         // Two bakes whose errors at each group of four probes are s ± d with every pair of
@@ -805,14 +814,6 @@ mod tests {
         // so varying = d and shared = s. A dark probe (left out) and one bake alone change
         // nothing or give nothing.
         let (s, d) = (0.03, 0.02);
-        let probe = |y: f64| Probe {
-            triangle: 0,
-            position: DVec3::ZERO,
-            normal: DVec3::Z,
-            radiance: [y; 3],
-            std_error: 0.0,
-            paths: 1,
-        };
         let mut probes = Vec::new();
         let mut bakes = vec![Vec::new(), Vec::new()];
         for group in 0..5 {
@@ -842,14 +843,6 @@ mod tests {
     fn score_statistics_on_known_errors() {
         // Ten probes of luminance 1 shown with errors 0, 1, …, 9 % (one probe at 0.05 of the
         // mean is dark and left out): RMS √(Σk²/10) %, median 4 %, 90th percentile 8 %.
-        let probe = |y: f64| Probe {
-            triangle: 0,
-            position: DVec3::ZERO,
-            normal: DVec3::Z,
-            radiance: [y; 3],
-            std_error: 0.0,
-            paths: 1,
-        };
         let mut probes: Vec<Probe> = (0..10).map(|_| probe(1.0)).collect();
         let mut shown: Vec<Option<Rgb>> =
             (0..10).map(|k| Some([1.0 + 0.01 * k as f64; 3])).collect();

@@ -297,10 +297,7 @@ pub const FAR_ROUNDING: f64 = 1e-4;
 /// box's diagonal (a building in map coordinates, 5·10⁵ m from the origin and 50 m across,
 /// rounds to about 3 cm); `None` when it does not.
 fn far_from_origin(positions: &[DVec3]) -> Option<String> {
-    let (lo, hi) = positions.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    );
+    let (lo, hi) = crate::geometry::bounds(positions.iter().copied());
     let extent = (hi - lo).length();
     let largest = lo.abs().max(hi.abs()).max_element();
     let step = largest * f64::from(f32::EPSILON);

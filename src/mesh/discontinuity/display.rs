@@ -197,10 +197,7 @@ struct SegmentGrid {
 
 impl SegmentGrid {
     fn new(segs: &[[DVec3; 2]]) -> SegmentGrid {
-        let (lo, hi) = segs.iter().flatten().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), &p| (lo.min(p), hi.max(p)),
-        );
+        let (lo, hi) = crate::geometry::bounds(segs.iter().flatten().copied());
         let extent = hi - lo;
         let mut order = [0, 1, 2];
         order.sort_by(|&a, &b| extent[b].total_cmp(&extent[a]));
