@@ -262,8 +262,8 @@ pub const MAX_BEND: f64 = 0.5;
 /// anything shown. The coefficients stay in the fit's own units (lengths over its `scale`,
 /// about the ring's size), where they are of the order of the light whatever the scene's
 /// units: per squared scene unit they would leave single precision's range in a scene
-/// measured in units 10¹⁹ times its size or its ten-thousandth (the bends infinite or
-/// zero, the display wrong; the test `a_bend_is_the_same_at_every_scale`).
+/// measured in units 10¹⁹ times its size or 10⁻²⁰ of it (the bends infinite or zero, the
+/// display wrong; the test `a_bend_is_the_same_at_every_scale`).
 struct Bend {
     /// The tangent frame (t, u) the quadratic was fitted in.
     frame: [[f32; 3]; 2],

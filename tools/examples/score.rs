@@ -66,7 +66,9 @@ fn main() -> Result<()> {
             std::fs::write(&dump, csv).with_context(|| format!("writing {dump:?}"))?;
         }
         row(bake, &pointwise::score(&probes, &shown));
-        all_shown.push(shown);
+        if seeds {
+            all_shown.push(shown);
+        }
     }
     if seeds {
         let split = pointwise::spread(&probes, &all_shown).context("two or more bakes")?;
