@@ -45,7 +45,9 @@ def read_ply(path):
             sys.exit(f"{path}: only binary little-endian PLY is read (bake without --ascii)")
         nv = int(header.split(b"element vertex ")[1].split()[0])
         nf = int(header.split(b"element face ")[1].split()[0])
-        vertex = np.dtype([("p", "<f4", 3), ("c", "u1", 3), ("l", "<f4", 3)])
+        # Positions are doubles where single precision would round them (far from the origin).
+        position = "<f8" if b"property double x" in header else "<f4"
+        vertex = np.dtype([("p", position, 3), ("c", "u1", 3), ("l", "<f4", 3)])
         face = np.dtype([("n", "u1"), ("i", "<i4", 3), ("l", "<f4", 3)])
         v = np.frombuffer(f.read(nv * vertex.itemsize), dtype=vertex)
         faces = np.frombuffer(f.read(nf * face.itemsize), dtype=face)

@@ -46,9 +46,12 @@ def read_ply(path):
     end = data.index(b"end_header\n") + len(b"end_header\n")
     header = data[:end].decode("ascii").splitlines()
     nv = next(int(l.split()[2]) for l in header if l.startswith("element vertex"))
+    # Positions are doubles where single precision would round them (far from the origin).
+    fmt = "<dddBBBfff" if "property double x" in header else "<fffBBBfff"
+    size = struct.calcsize(fmt)
     out = []
     for k in range(nv):
-        x, y, z, r, g, b, lr, lg, lb = struct.unpack_from("<fffBBBfff", data, end + 27 * k)
+        x, y, z, r, g, b, lr, lg, lb = struct.unpack_from(fmt, data, end + size * k)
         out.append(((x, y, z), (r, g, b), (lr, lg, lb)))
     return out
 

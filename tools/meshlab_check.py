@@ -47,7 +47,7 @@ def read_ply(path):
             vprops.append((w[1], w[2]))
     colours = []
     if binary:
-        fmt = "<" + "".join({"float": "f", "uchar": "B"}[t] for t, _ in vprops)
+        fmt = "<" + "".join({"float": "f", "double": "d", "uchar": "B"}[t] for t, _ in vprops)
         size = struct.calcsize(fmt)
         names = [n for _, n in vprops]
         ir, ig, ib = names.index("red"), names.index("green"), names.index("blue")

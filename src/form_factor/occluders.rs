@@ -209,6 +209,17 @@ mod tests {
         }
     }
 
+    /// Whether `p` lies on the closed triangle `t`, within `tolerance` (scene units).
+    fn lies_on(p: DVec3, t: [DVec3; 3], tolerance: f64) -> bool {
+        let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+        n != DVec3::ZERO
+            && n.dot(p - t[0]).abs() <= tolerance
+            && (0..3).all(|k| {
+                let (u, v) = (t[k], t[(k + 1) % 3]);
+                n.dot((v - u).cross(p - u)) >= -tolerance * (v - u).length()
+            })
+    }
+
     /// The answers of the coarse occluders against those of the occluding patches, on
     /// random segments between random patches: points inside, on edges and at corners, so
     /// that segments run along shared edges, graze the blocks' faces and end on the occluders
@@ -217,6 +228,10 @@ mod tests {
     fn compare(scene: &Scene, max_edge: f64, segments: usize) -> (usize, usize, usize) {
         let patches = mesh::subdivide(scene, max_edge, 0.0).unwrap();
         let n = patches.len();
+        let extent = {
+            let (lo, hi) = scene.bounds();
+            (hi - lo).length()
+        };
         let corners: Vec<_> = (0..n).map(|i| patches.corners(i)).collect();
         let vis = Visibility::build(&corners);
         let mask = occluders(&patches);
@@ -269,16 +284,25 @@ mod tests {
             cast += 1;
             blocked += a as usize;
             if a != b {
-                // Only allowed where the patches' answer came from the ends' own triangles: a
-                // segment grazing the face it ends on can meet a neighbouring patch of that
-                // face within the f32 rounding of their corners (see `MIN_DISTANCE_REL`),
-                // which the ignored whole triangle cannot do.
-                // (Their twins, the same surfaces' other sides, are ignored with them.)
+                // Only allowed where the patches' answer came from the triangles the segment
+                // ends on: a segment grazing a face it ends on can meet a neighbouring patch
+                // of that face within the f32 rounding of their corners (see
+                // `MIN_DISTANCE_REL`), which the whole triangle cannot do. Those are the
+                // ends' own triangles (and their twins, the same surfaces' other sides), and
+                // any other an end lies on: a segment ending at a block's corner ends on
+                // every face that meets there.
+                let tolerance = 1e-9 * extent;
                 let own: Vec<u32> = [i, j]
                     .into_iter()
                     .flat_map(|k| [k as u32, patches.twin[k]])
                     .filter(|&k| k != crate::scene::NO_TWIN)
                     .map(|k| patches.source_triangle[k as usize])
+                    .chain((0..scene.triangles.len() as u32).filter(|&t| {
+                        let c = scene.triangles[t as usize]
+                            .vertices
+                            .map(|v| scene.positions[v as usize]);
+                        lies_on(x, c, tolerance) || lies_on(y, c, tolerance)
+                    }))
                     .collect();
                 let keep: Vec<bool> = (0..n)
                     .map(|k| mask[k] && !own.contains(&patches.source_triangle[k]))

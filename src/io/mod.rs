@@ -176,8 +176,9 @@ pub fn write(path: &Path, mesh: &BakedMesh, format: Format, exposure: f64) -> Re
 /// What [`ply::read`] and [`obj::read`] give back from one of our files.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadBack {
-    /// Vertex positions as stored (`f32`), scene units.
-    pub positions: Vec<[f32; 3]>,
+    /// Vertex positions as stored (`f32`, or `f64` where [`needs_double`] said so), scene
+    /// units.
+    pub positions: Vec<[f64; 3]>,
     /// 8-bit sRGB vertex colours as MeshLab sees them (for OBJ, ⌊c · 255⌋ like MeshLab).
     pub colours: Vec<[u8; 3]>,
     /// Vertex radiance, W·sr⁻¹·m⁻² per RGB channel (PLY only; `None` for OBJ).
@@ -192,6 +193,26 @@ pub struct ReadBack {
     pub sky: Option<crate::scene::Sky>,
 }
 
+/// Rounding of a written position, as a share of the mesh's bounding-box diagonal, above
+/// which the writers store positions in double precision. Single precision keeps a mesh near
+/// the origin to about 10⁻⁷ of its size, but one far from the origin for its size only to
+/// 2⁻²⁴ of that distance: a building in map coordinates, 5.6·10⁶ m north and 50 m across, to
+/// 0.25 m.
+pub const SINGLE_PRECISION_ROUNDING: f64 = 1e-6;
+
+/// Whether storing `positions` (scene units) in single precision would move a coordinate by
+/// more than [`SINGLE_PRECISION_ROUNDING`] of their bounding box's diagonal: then the PLY
+/// writer declares them `double` and the OBJ writer prints them in f64's shortest round-trip
+/// form, and files of meshes near the origin keep their single-precision layout.
+pub fn needs_double(positions: &[[f64; 3]]) -> bool {
+    let (lo, hi) = crate::geometry::bounds(positions.iter().map(|&p| glam::DVec3::from(p)));
+    let tolerance = SINGLE_PRECISION_ROUNDING * (hi - lo).length();
+    positions
+        .iter()
+        .flatten()
+        .any(|&c| (c - f64::from(c as f32)).abs() > tolerance)
+}
+
 impl ReadBack {
     /// The baked mesh a PLY written by [`write()`] holds (positions and radiance widened to
     /// f64, with its camera and sky); `None` for a file without radiance (an OBJ, or a PLY from
@@ -200,7 +221,7 @@ impl ReadBack {
         let (vertex_radiance, face_radiance) = (self.vertex_radiance?, self.face_radiance?);
         let f64s = |v: Vec<[f32; 3]>| v.into_iter().map(|x| x.map(f64::from)).collect();
         Some(BakedMesh {
-            positions: f64s(self.positions),
+            positions: self.positions,
             vertex_radiance: f64s(vertex_radiance),
             faces: self.faces,
             face_radiance: f64s(face_radiance),

@@ -402,11 +402,7 @@ impl Display {
         };
         let widen = |r: &[f32; 3]| r.map(|c| c as f64);
         Ok(Display {
-            positions: back
-                .positions
-                .iter()
-                .map(|p| DVec3::from(p.map(|c| c as f64)))
-                .collect(),
+            positions: back.positions.iter().map(|&p| DVec3::from(p)).collect(),
             faces: back.faces.clone(),
             vertex_radiance: v.iter().map(widen).collect(),
             face_radiance: f.iter().map(widen).collect(),

@@ -42,7 +42,7 @@ fn bake_cornell_to_ply_and_obj_and_read_back() {
     assert!(brightest >= 17.0, "{brightest}");
     // Colour bleeding: the white blocks' and floor's vertices near the red wall (x ≈ 550) are
     // redder than those near the green wall (x ≈ 0): compare mean red/green ratios.
-    let ratio = |sel: &dyn Fn(f32) -> bool| {
+    let ratio = |sel: &dyn Fn(f64) -> bool| {
         let (mut r, mut g) = (0.0, 0.0);
         for (v, rad) in p.positions.iter().zip(vr) {
             if v[1] < 1.0 && sel(v[0]) {
@@ -244,7 +244,7 @@ fn generated_sphere_bakes_to_the_closed_form() {
     let p = ply::read(&ply_path).unwrap();
     let fr = p.face_radiance.unwrap();
     let area = |f: &[u32; 3]| {
-        let [a, b, c] = f.map(|v| glam::Vec3::from_array(p.positions[v as usize]).as_dvec3());
+        let [a, b, c] = f.map(|v| glam::DVec3::from_array(p.positions[v as usize]));
         0.5 * (b - a).cross(c - a).length()
     };
     // Emitting faces carry Le = 1 plus their reflection: radiance ≥ 1.

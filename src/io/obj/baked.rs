@@ -35,14 +35,24 @@ pub fn component_to_u8(c: f64) -> u8 {
     (c * 255.0).floor().clamp(0.0, 255.0) as u8
 }
 
+/// The header comment of a file whose positions are written in double precision.
+const DOUBLE_COMMENT: &str = "positions in scene units, double precision";
+
 /// Writes `mesh` as OBJ to `w` with colours sRGB(radiance · `exposure`): a comment header
 /// (units, exposure, the scene's camera as `# camera: …` when it has one, counts), `v x y z r g b`
-/// per vertex (positions as `f32` in Rust's shortest round-trip plain decimal form), then `f a b c`
+/// per vertex (positions as `f32`, or `f64` where single precision would round them
+/// ([`crate::io::needs_double`]), in Rust's shortest round-trip plain decimal form), then `f a b c`
 /// per face with 1-based indices. Expects a validated mesh.
 pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64) -> io::Result<()> {
+    let double = crate::io::needs_double(&mesh.positions);
     let mut comments = vec![
         "radiosity: baked radiance as vertex colours".to_string(),
-        "positions in scene units".into(),
+        if double {
+            DOUBLE_COMMENT
+        } else {
+            "positions in scene units"
+        }
+        .into(),
         "colours = sRGB(radiance * exposure), radiance linear in W sr^-1 m^-2".into(),
         format!("exposure {exposure}"),
     ];
@@ -58,10 +68,16 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64) -> io::Res
         mesh.faces.len()
     ));
     let vertex = |w: &mut W, i: usize| {
-        let [x, y, z] = mesh.positions[i].map(|c| c as f32);
+        if double {
+            let [x, y, z] = mesh.positions[i];
+            write!(w, "{x} {y} {z}")?;
+        } else {
+            let [x, y, z] = mesh.positions[i].map(|c| c as f32);
+            write!(w, "{x} {y} {z}")?;
+        }
         let [red, green, blue] =
             radiance_to_srgb8(mesh.vertex_radiance[i], exposure).map(colour_component);
-        write!(w, "{x} {y} {z} {red:.6} {green:.6} {blue:.6}")
+        write!(w, " {red:.6} {green:.6} {blue:.6}")
     };
     super::write_obj(
         w,
@@ -92,6 +108,7 @@ pub fn read(path: &Path) -> Result<ReadBack> {
         sky: None,
     };
     let mut camera = CameraLine::default();
+    let mut double = false;
     // Faces with the line they came from, checked against the vertex count at the end.
     let mut face_lines = Vec::new();
     for (i, line) in text.lines().enumerate() {
@@ -100,6 +117,7 @@ pub fn read(path: &Path) -> Result<ReadBack> {
         match t.first() {
             None => {}
             Some(s) if s.starts_with('#') => {
+                double |= line.trim_start()[1..].trim() == DOUBLE_COMMENT;
                 camera
                     .read(&line.trim_start()[1..], n)
                     .map_err(|why| parse_err(n, why))?;
@@ -117,10 +135,15 @@ pub fn read(path: &Path) -> Result<ReadBack> {
                         .filter(|v| v.is_finite())
                         .ok_or_else(|| parse_err(n, format!("`{}` is not a finite number", t[k])))
                 };
-                // Positions were written as f32 in shortest form: parse straight to f32.
-                let pos = |k: usize| -> Result<f32> {
-                    num(k)?;
-                    Ok(t[k].parse::<f32>().expect("already parsed as f64"))
+                // Positions were written as f32 in shortest form (parsed straight to f32, the
+                // same number) or, as the header says, as f64.
+                let pos = |k: usize| -> Result<f64> {
+                    let x = num(k)?;
+                    Ok(if double {
+                        x
+                    } else {
+                        f64::from(t[k].parse::<f32>().expect("already parsed as f64"))
+                    })
                 };
                 out.positions.push([pos(1)?, pos(2)?, pos(3)?]);
                 out.colours.push([
@@ -200,8 +223,22 @@ mod tests {
         let exposure = mesh.auto_exposure() * 0.8;
         write(&path, &mesh, Format::Obj, exposure).unwrap();
         let back = read(&path).unwrap();
-        let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.map(|c| c as f32)).collect();
+        let positions: Vec<[f64; 3]> = mesh
+            .positions
+            .iter()
+            .map(|p| p.map(|c| f64::from(c as f32)))
+            .collect();
         assert_eq!(back.positions, positions);
+        // Moved to map coordinates (5.6e6 units out), the positions are written and read
+        // back in double precision, exactly.
+        let mut far = mesh.clone();
+        for (i, p) in far.positions.iter_mut().enumerate() {
+            let i = i as f64;
+            *p = [5.0e5 + 0.1 + 0.01 * i, 5.6e6 + 0.3 + 0.013 * i, 0.017 * i];
+        }
+        assert!(crate::io::needs_double(&far.positions));
+        write(&path, &far, Format::Obj, exposure).unwrap();
+        assert_eq!(read(&path).unwrap().positions, far.positions);
         let colours = srgb_colours(&mesh, exposure);
         assert_eq!(back.colours, colours);
         assert_eq!(back.faces, mesh.faces);

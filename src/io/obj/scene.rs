@@ -212,7 +212,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         positions.extend(
             mesh.positions
                 .chunks_exact(3)
-                .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))),
+                .map(|p| DVec3::new(p[0], p[1], p[2])),
         );
         let material = match mesh.material_id {
             Some(id) => id,
@@ -292,15 +292,18 @@ pub fn load(path: &Path) -> Result<Scene> {
 pub const FAR_ROUNDING: f64 = 1e-4;
 
 /// What to tell the user when the OBJ's coordinates lie so far from the origin for the
-/// scene's size that reading them in single precision (as `tobj` reads them, 24 bits:
-/// steps of 2⁻²³ |x| at most) rounds them by more than [`FAR_ROUNDING`] of its bounding
-/// box's diagonal (a building in map coordinates, 5·10⁵ m from the origin and 50 m across,
-/// rounds to about 3 cm); `None` when it does not.
+/// scene's size that reading them in double precision (as `tobj` reads them with its
+/// `use_f64` feature, 53 bits: steps of 2⁻⁵² |x| at most) rounds them by more than
+/// [`FAR_ROUNDING`] of its bounding box's diagonal (a metre-sized model 10¹² m out); `None`
+/// when it does not. A building in map coordinates (5.6·10⁶ m out, 50 m across) is read to
+/// 10⁻⁹ m, and bakes as it would at the origin: the ray casting works in coordinates
+/// centred on the scene ([`crate::visibility`]), and the outputs keep the positions in
+/// double precision ([`crate::io::needs_double`]).
 fn far_from_origin(positions: &[DVec3]) -> Option<String> {
     let (lo, hi) = crate::geometry::bounds(positions.iter().copied());
     let extent = (hi - lo).length();
     let largest = lo.abs().max(hi.abs()).max_element();
-    let step = largest * f64::from(f32::EPSILON);
+    let step = largest * f64::EPSILON;
     (extent.is_finite() && step > FAR_ROUNDING * extent).then(|| {
         let share = if step < extent {
             format!("{:.2} % of the scene", 100.0 * step / extent)
@@ -309,7 +312,7 @@ fn far_from_origin(positions: &[DVec3]) -> Option<String> {
         };
         format!(
             "its coordinates lie far from the origin for its size (up to {largest:.4e}, the \
-             scene {extent:.4e} across as read): an OBJ's numbers are read in single \
+             scene {extent:.4e} across as read): an OBJ's numbers are read in double \
              precision, which rounds them here in steps of up to {step:.1e} ({share}), so its \
              shape may not be the file's; moved near the origin, the model keeps it"
         )
@@ -556,9 +559,9 @@ mod tests {
 
     #[test]
     fn coordinates_far_from_the_origin_for_the_scene_s_size_warn() {
-        // A unit square a million units from the origin: single precision rounds there in
-        // steps of 2⁻⁴, 4 % of its diagonal, which the load says; the same square at the
-        // origin, or a thousand units away (steps of 6e-5, 4e-5 of it), says nothing.
+        // A unit square 10¹³ units from the origin: double precision rounds there in steps
+        // of 2⁻⁹, 0.1 % of its diagonal, which the load says; the same square at the origin,
+        // or at map coordinates (5.6·10⁶ away: steps of 10⁻⁹), says nothing.
         let square = |o: f64| {
             format!(
                 "v {o} {o} 0\nv {} {o} 0\nv {} {} 0\nv {o} {} 0\nf 1 2 3 4\n",
@@ -568,23 +571,23 @@ mod tests {
                 o + 1.0
             )
         };
-        let far = load_text("obj-far", &square(1e6), &[]).unwrap();
+        let far = load_text("obj-far", &square(1e13), &[]).unwrap();
         let said: Vec<&String> = far
             .warnings
             .iter()
             .filter(|w| w.contains("far from the origin"))
             .collect();
         assert_eq!(said.len(), 1, "{:?}", far.warnings);
-        assert!(said[0].contains("scene.obj") && said[0].contains("single precision"));
-        // A billion units away, single precision flattens every face: the error says why.
-        let flat = load_text("obj-flat", &square(1e9), &[])
+        assert!(said[0].contains("scene.obj") && said[0].contains("double precision"));
+        // 10¹⁷ units away, double precision flattens every face: the error says why.
+        let flat = load_text("obj-flat", &square(1e17), &[])
             .unwrap_err()
             .to_string();
         assert!(
             flat.contains("non-zero area") && flat.contains("far from the origin"),
             "{flat}"
         );
-        for o in [0.0, 1e3] {
+        for o in [0.0, 1e3, 5.6e6] {
             let near = load_text("obj-near", &square(o), &[]).unwrap();
             assert!(
                 near.warnings
@@ -621,17 +624,13 @@ mod tests {
         assert!((m("glass").transmittance - 0.75).abs() < 1e-7);
         assert!(
             (m("tinted").transmittance - 0.3).abs() < 1e-7,
-            "read as f32"
+            "read from the MTL"
         );
         assert!(
             (m("both").transmittance - 0.2).abs() < 1e-7,
             "d wins over Tr"
         );
-        assert_eq!(
-            m("tinted").reflectance,
-            [f64::from(0.4f32); 3],
-            "ρ stays the material's"
-        );
+        assert_eq!(m("tinted").reflectance, [0.4; 3], "ρ stays the material's");
         assert_eq!(m("air").transmittance, 1.0);
         assert_eq!(s.triangles.len(), 4, "the clear face is left out");
         let w = s.warnings.join("\n");

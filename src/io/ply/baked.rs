@@ -1,5 +1,6 @@
 //! PLY 1.0 output (binary little-endian or ASCII) and a reader for exactly our own files.
-//! Per vertex: `float x y z`, `uchar red green blue` (the 8-bit sRGB colours MeshLab shows)
+//! Per vertex: `float x y z` (`double` where single precision would round them,
+//! [`crate::io::needs_double`]), `uchar red green blue` (the 8-bit sRGB colours MeshLab shows)
 //! and `float radiance_r/g/b` (linear W·sr⁻¹·m⁻², which MeshLab drops but plyfile/trimesh
 //! keep); per face: `list uchar int vertex_indices` and `float radiance_r/g/b`. The header
 //! records the exposure in a comment, and the scene's camera (`comment camera: EX EY EZ TX TY
@@ -23,7 +24,7 @@ use crate::{Error, Result};
 const COMMENT_UNITS: &str =
     "comment radiosity: baked radiance, W sr^-1 m^-2, linear; colours = sRGB(radiance * exposure)";
 
-/// Vertex properties, in order, exactly as written.
+/// Vertex properties, in order, exactly as written when the positions are single precision.
 const VERTEX_PROPERTIES: [&str; 9] = [
     "property float x",
     "property float y",
@@ -36,6 +37,22 @@ const VERTEX_PROPERTIES: [&str; 9] = [
     "property float radiance_b",
 ];
 
+/// The position properties, when they are written in double precision.
+const DOUBLE_POSITIONS: [&str; 3] = [
+    "property double x",
+    "property double y",
+    "property double z",
+];
+
+/// The vertex properties as written, positions in double precision if `double`.
+fn vertex_properties(double: bool) -> [&'static str; 9] {
+    let mut properties = VERTEX_PROPERTIES;
+    if double {
+        properties[..3].copy_from_slice(&DOUBLE_POSITIONS);
+    }
+    properties
+}
+
 /// Face properties, in order, exactly as written.
 const FACE_PROPERTIES: [&str; 4] = [
     "property list uchar int vertex_indices",
@@ -44,13 +61,16 @@ const FACE_PROPERTIES: [&str; 4] = [
     "property float radiance_b",
 ];
 
-/// Bytes per binary vertex record: 3 × f32 position, 3 × u8 colour, 3 × f32 radiance.
-const VERTEX_BYTES: usize = 12 + 3 + 12;
+/// Bytes per binary vertex record: 3 × f32 (or f64, if `double`) position, 3 × u8 colour,
+/// 3 × f32 radiance.
+const fn vertex_bytes(double: bool) -> usize {
+    3 * if double { 8 } else { 4 } + 3 + 12
+}
 /// Bytes per binary face record: u8 count (3), 3 × i32 index, 3 × f32 radiance.
 const FACE_BYTES: usize = 1 + 12 + 12;
 
-/// Writes `mesh` as PLY to `w` with colours sRGB(radiance · `exposure`). Positions and
-/// radiance are stored as `f32`; ASCII numbers use Rust's shortest round-trip decimal form
+/// Writes `mesh` as PLY to `w` with colours sRGB(radiance · `exposure`). Radiance is stored
+/// as `f32`, positions too unless [`crate::io::needs_double`] asks for `f64`; ASCII numbers use Rust's shortest round-trip decimal form
 /// (plain decimal, no exponent), so they read back to the same `f32`. Expects a validated mesh.
 pub fn write_to(
     w: &mut impl Write,
@@ -73,8 +93,9 @@ pub fn write_to(
     if let Some(sky) = &mesh.sky {
         writeln!(w, "comment {} {}", lights::SKY_KEYWORD, sky.to_text())?;
     }
+    let double = crate::io::needs_double(&mesh.positions);
     writeln!(w, "element vertex {}", mesh.positions.len())?;
-    for p in VERTEX_PROPERTIES {
+    for p in vertex_properties(double) {
         writeln!(w, "{p}")?;
     }
     writeln!(w, "element face {}", mesh.faces.len())?;
@@ -87,22 +108,36 @@ pub fn write_to(
     let faces = mesh.faces.iter().zip(&mesh.face_radiance);
     if ascii {
         for (p, r) in vertices {
-            let [x, y, z] = p.map(|c| c as f32);
             let [red, green, blue] = radiance_to_srgb8(*r, exposure);
             let [rr, rg, rb] = r.map(|c| c as f32);
-            writeln!(w, "{x} {y} {z} {red} {green} {blue} {rr} {rg} {rb}")?;
+            if double {
+                let [x, y, z] = *p;
+                write!(w, "{x} {y} {z}")?;
+            } else {
+                let [x, y, z] = p.map(|c| c as f32);
+                write!(w, "{x} {y} {z}")?;
+            }
+            writeln!(w, " {red} {green} {blue} {rr} {rg} {rb}")?;
         }
         for (f, r) in faces {
             let [rr, rg, rb] = r.map(|c| c as f32);
             writeln!(w, "3 {} {} {} {rr} {rg} {rb}", f[0], f[1], f[2])?;
         }
     } else {
-        let mut record = [0u8; VERTEX_BYTES];
+        let mut buffer = [0u8; vertex_bytes(true)];
+        let record = &mut buffer[..vertex_bytes(double)];
+        let at = record.len() - 15;
         for (p, r) in vertices {
-            put_f32s(&mut record[0..12], p.map(|c| c as f32));
-            record[12..15].copy_from_slice(&radiance_to_srgb8(*r, exposure));
-            put_f32s(&mut record[15..27], r.map(|c| c as f32));
-            w.write_all(&record)?;
+            if double {
+                for (k, c) in p.iter().enumerate() {
+                    record[8 * k..8 * k + 8].copy_from_slice(&c.to_le_bytes());
+                }
+            } else {
+                put_f32s(&mut record[0..12], p.map(|c| c as f32));
+            }
+            record[at..at + 3].copy_from_slice(&radiance_to_srgb8(*r, exposure));
+            put_f32s(&mut record[at + 3..], r.map(|c| c as f32));
+            w.write_all(record)?;
         }
         let mut record = [0u8; FACE_BYTES];
         record[0] = 3;
@@ -157,18 +192,24 @@ pub fn read(path: &Path) -> Result<ReadBack> {
     Ok(back)
 }
 
-/// What a header declaring exactly our layout promises: the record counts.
+/// What a header declaring exactly our layout promises: the record counts, and whether the
+/// positions are double precision.
 struct Layout {
     vertices: usize,
     faces: usize,
+    double: bool,
 }
 
 impl Layout {
     /// Checks that `header` declares our two elements with our properties, in order; the
     /// first difference is an error at its header line.
     fn of(path: &Path, header: &Header) -> Result<Layout> {
-        let ours: [(&str, &[&str]); 2] =
-            [("vertex", &VERTEX_PROPERTIES), ("face", &FACE_PROPERTIES)];
+        let double = header.elements.first().is_some_and(|vertex| {
+            let declared = |k: usize| vertex.properties.get(k).map(|p| p.declaration());
+            (0..3).all(|k| declared(k).as_deref() == Some(DOUBLE_POSITIONS[k]))
+        });
+        let vertex = vertex_properties(double);
+        let ours: [(&str, &[&str]); 2] = [("vertex", &vertex), ("face", &FACE_PROPERTIES)];
         let mut counts = [0; 2];
         for (k, (name, properties)) in ours.iter().enumerate() {
             let Some(element) = header.elements.get(k) else {
@@ -220,6 +261,7 @@ impl Layout {
         Ok(Layout {
             vertices: counts[0],
             faces: counts[1],
+            double,
         })
     }
 }
@@ -278,7 +320,21 @@ fn read_ascii_body(path: &Path, header: &Header, layout: &Layout, body: &[u8]) -
             t[k].parse::<u8>()
                 .map_err(|_| parse_err(n, format!("vertex {i}: `{}` is not a colour byte", t[k])))
         };
-        out.positions.push([f(0)?, f(1)?, f(2)?]);
+        // Positions as written: f32 in shortest form (parsed straight to f32), or f64.
+        let position = |k: usize| -> Result<f64> {
+            if layout.double {
+                t[k].parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| {
+                        parse_err(n, format!("vertex {i}: `{}` is not a finite number", t[k]))
+                    })
+            } else {
+                f(k).map(f64::from)
+            }
+        };
+        out.positions
+            .push([position(0)?, position(1)?, position(2)?]);
         out.colours.push([b(3)?, b(4)?, b(5)?]);
         vertex_radiance.push([f(6)?, f(7)?, f(8)?]);
     }
@@ -334,7 +390,8 @@ fn read_binary_body(
         path: path.to_path_buf(),
         message,
     };
-    let expected = layout.vertices.checked_mul(VERTEX_BYTES).and_then(|v| {
+    let vertex_bytes = vertex_bytes(layout.double);
+    let expected = layout.vertices.checked_mul(vertex_bytes).and_then(|v| {
         layout
             .faces
             .checked_mul(FACE_BYTES)
@@ -352,21 +409,26 @@ fn read_binary_body(
     let f32s = |b: &[u8]| -> [f32; 3] {
         std::array::from_fn(|k| f32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap()))
     };
-    let (vertex_bytes, face_bytes) = body.split_at(layout.vertices * VERTEX_BYTES);
+    let (vertex_records, face_bytes) = body.split_at(layout.vertices * vertex_bytes);
 
     let mut positions = Vec::with_capacity(layout.vertices);
     let mut colours = Vec::with_capacity(layout.vertices);
     let mut vertex_radiance = Vec::with_capacity(layout.vertices);
-    for (i, rec) in vertex_bytes.chunks_exact(VERTEX_BYTES).enumerate() {
-        let p = f32s(&rec[0..12]);
-        let r = f32s(&rec[15..27]);
-        if !p.iter().chain(&r).all(|v| v.is_finite()) {
+    let at = vertex_bytes - 15;
+    for (i, rec) in vertex_records.chunks_exact(vertex_bytes).enumerate() {
+        let p: [f64; 3] = if layout.double {
+            std::array::from_fn(|k| f64::from_le_bytes(rec[8 * k..8 * k + 8].try_into().unwrap()))
+        } else {
+            f32s(&rec[0..12]).map(f64::from)
+        };
+        let r = f32s(&rec[at + 3..]);
+        if !(p.iter().all(|v| v.is_finite()) && r.iter().all(|v| v.is_finite())) {
             return Err(input_err(format!(
                 "vertex {i}: non-finite position or radiance"
             )));
         }
         positions.push(p);
-        colours.push([rec[12], rec[13], rec[14]]);
+        colours.push([rec[at], rec[at + 1], rec[at + 2]]);
         vertex_radiance.push(r);
     }
     let mut faces = Vec::with_capacity(layout.faces);
@@ -419,6 +481,37 @@ mod tests {
         v.iter().map(|p| p.map(|c| c as f32)).collect()
     }
 
+    /// The positions as a single-precision file stores them.
+    fn single(v: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        v.iter().map(|p| p.map(|c| f64::from(c as f32))).collect()
+    }
+
+    #[test]
+    fn positions_far_from_the_origin_are_written_in_double_precision() {
+        // The sample mesh's vertices a few units apart, near the origin and then at map
+        // coordinates (5.6e6 units out): there single precision would round them in steps
+        // of 0.5, so the file declares doubles and gives them back exactly, in either format.
+        let dir = TestDir::new("ply-far");
+        let mut mesh = sample_mesh(203, 157);
+        let near = |i: usize| [0.01 * i as f64, 0.013 * i as f64, 0.017 * i as f64];
+        mesh.positions = (0..mesh.positions.len()).map(near).collect();
+        assert!(!crate::io::needs_double(&mesh.positions));
+        for p in &mut mesh.positions {
+            *p = [p[0] + 5.0e5 + 0.1, p[1] + 5.6e6 + 0.3, p[2]];
+        }
+        assert!(crate::io::needs_double(&mesh.positions));
+        for ascii in [false, true] {
+            let path = dir.path().join("far.ply");
+            write(&path, &mesh, Format::Ply { ascii }, 1.0).unwrap();
+            let text = String::from_utf8_lossy(&std::fs::read(&path).unwrap()).into_owned();
+            assert!(text.contains("property double x\nproperty double y\nproperty double z\n"));
+            let back = read(&path).unwrap();
+            assert_eq!(back.positions, mesh.positions, "ascii {ascii}");
+            assert_eq!(back.vertex_radiance, Some(f32s(&mesh.vertex_radiance)));
+            assert_eq!(back.faces, mesh.faces);
+        }
+    }
+
     fn round_trip(ascii: bool) {
         let dir = TestDir::new("ply");
         let path = dir.path().join("mesh.ply");
@@ -426,7 +519,7 @@ mod tests {
         let exposure = mesh.auto_exposure();
         write(&path, &mesh, Format::Ply { ascii }, exposure).unwrap();
         let back = read(&path).unwrap();
-        assert_eq!(back.positions, f32s(&mesh.positions));
+        assert_eq!(back.positions, single(&mesh.positions));
         let colours = srgb_colours(&mesh, exposure);
         assert_eq!(back.colours, colours);
         // The sample exercises both ends of the curve.
@@ -472,7 +565,10 @@ mod tests {
             property float radiance_b\n\
             end_header\n";
         assert!(bytes.starts_with(expected.as_bytes()));
-        assert_eq!(bytes.len(), expected.len() + 2 * VERTEX_BYTES + FACE_BYTES);
+        assert_eq!(
+            bytes.len(),
+            expected.len() + 2 * vertex_bytes(false) + FACE_BYTES
+        );
 
         let mut ascii = Vec::new();
         write_to(&mut ascii, &mesh, 0.5, true).unwrap();
