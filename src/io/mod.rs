@@ -118,7 +118,8 @@ impl Scene {
 /// Output file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
-    /// PLY 1.0: `uchar` sRGB colours for MeshLab plus `float` radiance per vertex and per face;
+    /// PLY 1.0: `uchar` sRGB colours for MeshLab plus `float` radiance per vertex and per face
+    /// (positions `float`, or `double` far from the origin for their size);
     /// `binary_little_endian` unless `ascii`.
     Ply { ascii: bool },
     /// Wavefront OBJ with `v x y z r g b` vertex colours (no radiance values).

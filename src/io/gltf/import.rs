@@ -25,6 +25,7 @@
 
 use std::path::{Path, PathBuf};
 
+use glam::{DMat4, DQuat, DVec3};
 use gltf::accessor::{DataType, Dimensions};
 
 use crate::{Error, Result};
@@ -34,11 +35,13 @@ use crate::{Error, Result};
 /// bounded here instead (2^24).
 pub const MAX_ZERO_FILLED: usize = 1 << 24;
 
-/// What [`import`] gives: the document, its buffers' bytes and its decoded images.
+/// What [`import`] gives: the document, its buffers' bytes, its decoded images and each
+/// node's local transform in double precision ([`local_transforms`]).
 pub(super) type Imported = (
     gltf::Document,
     Vec<gltf::buffer::Data>,
     Vec<gltf::image::Data>,
+    Vec<Option<DMat4>>,
 );
 
 /// `kind index`, with `('name')` when the item has a name: how every message names an item.
@@ -61,6 +64,7 @@ pub(super) fn import(path: &Path) -> Result<Imported> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let bytes =
         glb_extent(&bytes).map_err(|why| input(format!("not a readable glTF 2.0 file: {why}")))?;
+    let transforms = local_transforms(bytes);
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(unreadable)?;
     let root = document.into_json();
@@ -102,7 +106,58 @@ pub(super) fn import(path: &Path) -> Result<Imported> {
         }
     }
     let images = gltf::import_images(&document, Some(base), &buffers).map_err(unreadable)?;
-    Ok((document, buffers, images))
+    Ok((document, buffers, images, transforms))
+}
+
+/// Each node's local transform (glTF §3.5.3: its `matrix`, or T·R·S from its `translation`,
+/// `rotation` and `scale`) from the file's JSON as written, in double precision: the `gltf`
+/// crate reads them as `f32`, which rounds a translation to map coordinates (a building
+/// 5.6·10⁶ m north) in steps of 0.5 m. `None` for a node whose numbers are not there as the
+/// specification has them (the crate's reading then stands), and none at all for JSON this
+/// cannot read (the crate reports what is wrong with it).
+fn local_transforms(bytes: &[u8]) -> Vec<Option<DMat4>> {
+    // A GLB's JSON is its first chunk: length and type after the 12-byte header.
+    let json = if bytes.starts_with(b"glTF") {
+        let word = |at: usize| {
+            bytes
+                .get(at..at + 4)
+                .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]) as usize)
+        };
+        match (word(12), word(16)) {
+            (Some(length), Some(0x4E4F_534A)) => bytes.get(20..20 + length),
+            _ => None,
+        }
+    } else {
+        Some(bytes)
+    };
+    let Some(root) = json.and_then(|j| serde_json::from_slice::<serde_json::Value>(j).ok()) else {
+        return Vec::new();
+    };
+    let numbers = |node: &serde_json::Value, key: &str, n: usize| -> Option<Option<Vec<f64>>> {
+        match node.get(key) {
+            None => Some(None),
+            Some(v) => {
+                let values: Option<Vec<f64>> = v.as_array()?.iter().map(|x| x.as_f64()).collect();
+                values.filter(|v| v.len() == n).map(Some)
+            }
+        }
+    };
+    let local = |node: &serde_json::Value| -> Option<DMat4> {
+        if let Some(m) = numbers(node, "matrix", 16)? {
+            return Some(DMat4::from_cols_slice(&m));
+        }
+        let t = numbers(node, "translation", 3)?.unwrap_or(vec![0.0; 3]);
+        let r = numbers(node, "rotation", 4)?.unwrap_or(vec![0.0, 0.0, 0.0, 1.0]);
+        let s = numbers(node, "scale", 3)?.unwrap_or(vec![1.0; 3]);
+        Some(DMat4::from_scale_rotation_translation(
+            DVec3::from_slice(&s),
+            DQuat::from_slice(&r),
+            DVec3::from_slice(&t),
+        ))
+    };
+    root.get("nodes")
+        .and_then(|n| n.as_array())
+        .map_or_else(Vec::new, |nodes| nodes.iter().map(local).collect())
 }
 
 /// The bytes of the file the crate may read: a GLB (magic `glTF`) up to the length its header

@@ -72,12 +72,13 @@ pub fn load(path: &Path) -> Result<Scene> {
         path: path.to_path_buf(),
         message,
     };
-    let (doc, buffers, images) = import::import(path)?;
+    let (doc, buffers, images, transforms) = import::import(path)?;
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| input("the file has no scene".into()))?;
     let mut loader = Loader {
+        transforms: &transforms,
         buffers: &buffers,
         images: &images,
         positions: Vec::new(),
@@ -171,6 +172,8 @@ pub fn load(path: &Path) -> Result<Scene> {
 
 /// The state of a glTF scene walk.
 struct Loader<'a> {
+    /// Each node's local transform as written, in double precision (where it could be read).
+    transforms: &'a [Option<DMat4>],
     buffers: &'a [gltf::buffer::Data],
     images: &'a [gltf::image::Data],
     positions: Vec<DVec3>,
@@ -221,12 +224,23 @@ impl Loader<'_> {
                      (one parent each, no cycles, a scene lists only roots and each once)"
                 ));
             }
-            let local =
-                DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+            // The file's own numbers in double precision; the crate's f32 where they cannot be
+            // read so.
+            let local = self
+                .transforms
+                .get(node.index())
+                .copied()
+                .flatten()
+                .unwrap_or_else(|| {
+                    DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)))
+                });
             let world = parent * local;
-            if !world.is_finite() {
+            // Finite in f32's range, as every position must be (an OBJ's limit too).
+            let within = |x: &f64| x.abs() <= f64::from(f32::MAX);
+            if !world.to_cols_array().iter().all(within) {
                 return Err(format!(
-                    "{name}: its transform (with its parents') is not finite"
+                    "{name}: its transform (with its parents') is not finite (or past single \
+                     precision's range, 3.4e38)"
                 ));
             }
             self.node(&node, world, &name)?;
@@ -306,7 +320,7 @@ impl Loader<'_> {
         for (k, p) in positions.enumerate() {
             let local = DVec3::from_array(p.map(f64::from));
             let q = world.transform_point3(local);
-            if !q.is_finite() {
+            if !q.to_array().iter().all(|x| x.abs() <= f64::from(f32::MAX)) {
                 let a = label(
                     "accessor",
                     position_accessor.index(),
@@ -315,7 +329,7 @@ impl Loader<'_> {
                 return Err(if local.is_finite() {
                     format!(
                         "{node}: its transform takes vertex {k} of {owner} ({local}) to a \
-                         non-finite position"
+                         non-finite position (or one past single precision's range, 3.4e38)"
                     )
                 } else {
                     format!("{owner}: {a} (POSITION): element {k} is not finite ({local})")
@@ -671,26 +685,46 @@ const UNSIGNED_INT: u32 = 5125;
 const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 
-/// A position of the scene (up axis `up`) in glTF's frame (+Y up, right-handed).
-pub fn to_gltf(p: [f64; 3], up: Up) -> [f32; 3] {
+/// A position of the scene (up axis `up`) in glTF's frame (+Y up, right-handed), in double
+/// precision.
+pub fn to_gltf_f64(p: [f64; 3], up: Up) -> [f64; 3] {
     let [x, y, z] = p;
-    let q = match up {
+    match up {
         Up::Y => [x, y, z],
         // +Z up → +Y up: a rotation of −90° about +X.
         Up::Z => [x, z, -y],
         // +X up → +Y up: a rotation of +90° about +Z.
         Up::X => [-y, x, z],
-    };
-    q.map(|c| c as f32)
+    }
+}
+
+/// A position of the scene (up axis `up`) in glTF's frame, as its `f32` accessor stores it.
+pub fn to_gltf(p: [f64; 3], up: Up) -> [f32; 3] {
+    to_gltf_f64(p, up).map(|c| c as f32)
 }
 
 /// Writes `mesh` as GLB to `w` (colours at `exposure`; positions turned so that `up` is +Y).
+/// glTF stores positions in single precision; where that would round them
+/// ([`crate::io::needs_double`]: a mesh in map coordinates), they are stored about the centre
+/// of their bounds and the node that holds them is translated there (a translation is a JSON
+/// number, read in double precision), as the specification advises for large offsets.
 pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64, up: Up) -> io::Result<()> {
     let n = mesh.positions.len();
     let mut bin: Vec<u8> = Vec::with_capacity(n * 36 + mesh.faces.len() * 12);
+    let offset = if crate::io::needs_double(&mesh.positions) {
+        let (lo, hi) = crate::geometry::bounds(
+            mesh.positions
+                .iter()
+                .map(|&p| glam::DVec3::from(to_gltf_f64(p, up))),
+        );
+        ((lo + hi) / 2.0).to_array()
+    } else {
+        [0.0; 3]
+    };
     let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
     for p in &mesh.positions {
-        let q = to_gltf(*p, up);
+        let g = to_gltf_f64(*p, up);
+        let q: [f32; 3] = std::array::from_fn(|c| (g[c] - offset[c]) as f32);
         for c in 0..3 {
             lo[c] = lo[c].min(q[c]);
             hi[c] = hi[c].max(q[c]);
@@ -722,6 +756,10 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64, up: Up) ->
     let mut position = vec3(0);
     position["min"] = json!(lo);
     position["max"] = json!(hi);
+    let mut node = json!({"mesh": 0, "name": "baked"});
+    if offset != [0.0; 3] {
+        node["translation"] = json!(offset);
+    }
     let document = json!({
         "asset": {
             "version": "2.0",
@@ -730,7 +768,7 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64, up: Up) ->
         "extensionsUsed": ["KHR_materials_unlit"],
         "scene": 0,
         "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0, "name": "baked"}],
+        "nodes": [node],
         "meshes": [{
             "name": "baked",
             "primitives": [{
@@ -842,6 +880,30 @@ mod tests {
         assert_eq!(second, [1.0, 2.0, 0.0], "unclamped radiance");
         let material = prim.material();
         assert!(material.unlit());
+    }
+
+    #[test]
+    fn a_mesh_in_map_coordinates_keeps_its_positions_through_a_glb() {
+        // The quad 5.6e6 units out: written about its centre under a translated node (glTF's
+        // accessors are f32, which would round it in steps of 0.5), and read back (the
+        // node's translation as written, in double precision; the `gltf` crate's own is
+        // f32) to within f32's rounding of the quad's own size.
+        let dir = crate::test_support::TestDir::new("gltf-far");
+        let path = dir.path().join("far.glb");
+        let mut mesh = quad();
+        let offset = [5.0e5 + 0.123, 17.25, -5.6e6 - 0.456];
+        for p in &mut mesh.positions {
+            *p = std::array::from_fn(|c| p[c] + offset[c]);
+        }
+        crate::io::write(&path, &mesh, crate::io::Format::Glb { up: Up::Y }, 1.0).unwrap();
+        let scene = load(&path).unwrap();
+        assert_eq!(scene.positions.len(), mesh.positions.len());
+        for p in &mesh.positions {
+            let nearest = (scene.positions.iter())
+                .map(|q| (*q - DVec3::from(*p)).length())
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest <= 1e-6, "{p:?}: {nearest}");
+        }
     }
 
     /// A GLB with a floor (two triangles, material "clay": base colour (0.8, 0.6, 0.4),
