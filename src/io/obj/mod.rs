@@ -34,8 +34,10 @@ pub(super) fn read_text(path: &Path) -> Result<String> {
     })
 }
 
-/// Parses a number the way `tobj` does (as f32, its default `Float`), so a value that
-/// overflows f32 is caught as non-finite by the caller; a malformed one is an error at `line`.
+/// Parses a number as f32 to check its range: a value past single precision's (|x| > 3.4e38;
+/// `tobj` reads it in double precision, but every position and material value must fit the
+/// outputs' and the visibility's f32) is caught as non-finite by the caller; a malformed one
+/// is an error at `line`.
 pub(super) fn parse_number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
     s.parse::<f32>()
         .map_err(|_| parse_error(path, line, format!("{what}: malformed number '{s}'")))
