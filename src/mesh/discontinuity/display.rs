@@ -9,7 +9,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::face::Face;
-use super::{bits, points_on_edges, ContactStats, TOUCH};
+use super::{bits, merge_edge_points, points_on_edges, shared_point, ContactStats, TOUCH};
 use crate::mesh::Patches;
 use crate::scene::{NO_TWIN, ZERO_AREA_RELATIVE};
 
@@ -89,35 +89,7 @@ pub(super) fn split_patches_binned(
             }
         }
     }
-    // Both patches on an edge find the points where segments cross it, each in its own frame:
-    // the same point up to rounding. One point stands for each cluster within `touch`, and
-    // segment ends move to it, so the two sides share it exactly.
-    for points in on_edge.values_mut() {
-        points.sort_by(|p, q| {
-            p.to_array()
-                .partial_cmp(&q.to_array())
-                .unwrap_or(std::cmp::Ordering::Equal)
-        });
-        let mut kept: Vec<DVec3> = Vec::with_capacity(points.len());
-        for &p in points.iter() {
-            if kept.iter().all(|k| k.distance(p) > touch) {
-                kept.push(p);
-            }
-        }
-        *points = kept;
-    }
-    let shared = |i: usize, face: &Face, p: DVec3| -> DVec3 {
-        let Some(e) = face.edge_through(p, touch) else {
-            return p;
-        };
-        let v = patches.triangles[i];
-        let (a, b) = (v[e], v[(e + 1) % 3]);
-        on_edge
-            .get(&(a.min(b), a.max(b)))
-            .and_then(|pts| pts.iter().find(|k| k.distance(p) <= touch))
-            .copied()
-            .unwrap_or(p)
-    };
+    merge_edge_points(&mut on_edge, touch);
     let mut stats = ContactStats {
         triangles: n,
         ..ContactStats::default()
@@ -146,7 +118,9 @@ pub(super) fn split_patches_binned(
         }
         let v = patches.triangles[i];
         let edge_points = points_on_edges(&on_edge, v);
-        let segs: Vec<[DVec3; 2]> = segs.iter().map(|s| s.map(|p| shared(i, face, p))).collect();
+        let segs: Vec<[DVec3; 2]> = (segs.iter())
+            .map(|s| s.map(|p| shared_point(&on_edge, v, face, p, touch)))
+            .collect();
         let pieces = if segs.is_empty() && edge_points.is_empty() {
             None
         } else {

@@ -319,6 +319,7 @@ fn split_one_sided(scene: &Scene) -> (Scene, ContactStats, Vec<u32>) {
             }
         }
     }
+    merge_edge_points(&mut on_edge, TOUCH * extent);
 
     // Re-triangulate the faces with segments or extra edge points.
     let mut positions = scene.positions.clone();
@@ -338,7 +339,10 @@ fn split_one_sided(scene: &Scene) -> (Scene, ContactStats, Vec<u32>) {
             source.push(a as u32);
             continue;
         }
-        let pieces = faces[a].triangulate(&segments[a], &edge_points, false);
+        let segs: Vec<[DVec3; 2]> = (segments[a].iter())
+            .map(|s| s.map(|p| shared_point(&on_edge, v, &faces[a], p, TOUCH * extent)))
+            .collect();
+        let pieces = faces[a].triangulate(&segs, &edge_points, false);
         let Some(pieces) = pieces else {
             triangles.push(*tri); // the triangulation failed: keep the face whole
             source.push(a as u32);
@@ -368,6 +372,48 @@ fn split_one_sided(scene: &Scene) -> (Scene, ContactStats, Vec<u32>) {
     out.positions = positions;
     out.triangles = triangles;
     (out, stats, source)
+}
+
+/// Both faces on an edge find the points where segments cross it, each in its own frame: the
+/// same point up to rounding (a contact line across a quad's diagonal, found from each of its
+/// triangles, lands 10⁻⁹ of the scene apart). One point stands for each cluster within
+/// `touch` (scene units), and [`shared_point`] moves the segments' ends to it, so the two
+/// sides share it exactly rather than leaving a sliver between their two points.
+fn merge_edge_points(on_edge: &mut HashMap<(u32, u32), Vec<DVec3>>, touch: f64) {
+    for points in on_edge.values_mut() {
+        points.sort_by(|p, q| {
+            p.to_array()
+                .partial_cmp(&q.to_array())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let mut kept: Vec<DVec3> = Vec::with_capacity(points.len());
+        for &p in points.iter() {
+            if kept.iter().all(|k| k.distance(p) > touch) {
+                kept.push(p);
+            }
+        }
+        *points = kept;
+    }
+}
+
+/// The point standing for `p` on the edge of `face` (vertex indices `v`) it lies on, after
+/// [`merge_edge_points`]; `p` itself if it lies on none.
+fn shared_point(
+    on_edge: &HashMap<(u32, u32), Vec<DVec3>>,
+    v: [u32; 3],
+    face: &Face,
+    p: DVec3,
+    touch: f64,
+) -> DVec3 {
+    let Some(e) = face.edge_through(p, touch) else {
+        return p;
+    };
+    let (a, b) = (v[e], v[(e + 1) % 3]);
+    on_edge
+        .get(&(a.min(b), a.max(b)))
+        .and_then(|pts| pts.iter().find(|k| k.distance(p) <= touch))
+        .copied()
+        .unwrap_or(p)
 }
 
 /// The points registered on the edges of the triangle `v` (by its vertex indices, in

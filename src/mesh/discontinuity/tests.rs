@@ -698,3 +698,25 @@ fn sun_lines_follow_a_sun_patch_through_a_pane() {
         "a shut window casts no sun patch"
     );
 }
+
+#[test]
+fn a_contact_line_across_a_shared_edge_leaves_no_sliver() {
+    // The shipped Cornell box: the light's outline on the ceiling crosses the diagonal its
+    // two triangles share, and each triangle finds the crossing in its own frame, 2e-6 mm
+    // apart. Both must take one point, or a sliver of that width lies between the two: no
+    // triangle of the cut scene thinner than TOUCH × its extent. (Vertices of different
+    // surfaces may lie that close: a block's corner and the floor's point under it.)
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/cornell_box.obj");
+    let scene = Scene::load(&path).unwrap();
+    let (split, stats) = split_contacts(&scene);
+    split.validate().unwrap();
+    assert!(stats.faces_split > 0);
+    let (lo, hi) = split.bounds();
+    let touch = TOUCH * (hi - lo).length();
+    for t in &split.triangles {
+        let [a, b, c] = t.vertices.map(|v| split.positions[v as usize]);
+        let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+        let height = (b - a).cross(c - a).length() / longest;
+        assert!(height > touch, "{a} {b} {c}: {height} thin");
+    }
+}
