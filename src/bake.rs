@@ -295,7 +295,7 @@ impl BakedMesh {
                 self.positions.len()
             ));
         }
-        let fits_f32 = |v: f64| v.is_finite() && v.abs() <= f32::MAX as f64;
+        let fits_f32 = crate::io::fits_f32;
         for (i, p) in self.positions.iter().enumerate() {
             if !p.iter().all(|&c| fits_f32(c)) {
                 return bad(format!("vertex {i} position {p:?} is not a finite f32"));

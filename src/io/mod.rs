@@ -214,6 +214,30 @@ pub fn needs_double(positions: &[[f64; 3]]) -> bool {
         .any(|&c| (c - f64::from(c as f32)).abs() > tolerance)
 }
 
+/// Whether `x` is finite and within f32's range (|x| ≤ 3.4e38), as every position and
+/// radiance a file stores must be: the baked mesh's check, and the glTF loader's of its
+/// transforms and the positions they give (an OBJ's numbers are checked so as they are read).
+pub fn fits_f32(x: f64) -> bool {
+    x.abs() <= f64::from(f32::MAX)
+}
+
+/// Writes `p` as `x y z` in Rust's shortest round-trip plain decimal form: of its `f64`
+/// values if `double` ([`needs_double`]), else of its `f32` values, which read back as f32
+/// to the same numbers. The PLY (ASCII) and OBJ writers' positions.
+pub(crate) fn write_position(
+    w: &mut impl std::io::Write,
+    p: [f64; 3],
+    double: bool,
+) -> std::io::Result<()> {
+    if double {
+        let [x, y, z] = p;
+        write!(w, "{x} {y} {z}")
+    } else {
+        let [x, y, z] = p.map(|c| c as f32);
+        write!(w, "{x} {y} {z}")
+    }
+}
+
 impl ReadBack {
     /// The baked mesh a PLY written by [`write()`] holds (positions and radiance widened to
     /// f64, with its camera and sky); `None` for a file without radiance (an OBJ, or a PLY from

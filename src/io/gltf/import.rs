@@ -124,7 +124,9 @@ fn local_transforms(bytes: &[u8]) -> Vec<Option<DMat4>> {
                 .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]) as usize)
         };
         match (word(12), word(16)) {
-            (Some(length), Some(0x4E4F_534A)) => bytes.get(20..20 + length),
+            (Some(length), Some(chunk)) if chunk == super::CHUNK_JSON as usize => {
+                bytes.get(20..20 + length)
+            }
             _ => None,
         }
     } else {

@@ -235,9 +235,11 @@ impl Loader<'_> {
                     DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)))
                 });
             let world = parent * local;
-            // Finite in f32's range, as every position must be (an OBJ's limit too).
-            let within = |x: &f64| x.abs() <= f64::from(f32::MAX);
-            if !world.to_cols_array().iter().all(within) {
+            if !world
+                .to_cols_array()
+                .iter()
+                .all(|&x| crate::io::fits_f32(x))
+            {
                 return Err(format!(
                     "{name}: its transform (with its parents') is not finite (or past single \
                      precision's range, 3.4e38)"
@@ -320,7 +322,7 @@ impl Loader<'_> {
         for (k, p) in positions.enumerate() {
             let local = DVec3::from_array(p.map(f64::from));
             let q = world.transform_point3(local);
-            if !q.to_array().iter().all(|x| x.abs() <= f64::from(f32::MAX)) {
+            if !q.to_array().iter().all(|&x| crate::io::fits_f32(x)) {
                 let a = label(
                     "accessor",
                     position_accessor.index(),

@@ -41,8 +41,8 @@ const DOUBLE_COMMENT: &str = "positions in scene units, double precision";
 /// Writes `mesh` as OBJ to `w` with colours sRGB(radiance · `exposure`): a comment header
 /// (units, exposure, the scene's camera as `# camera: …` when it has one, counts), `v x y z r g b`
 /// per vertex (positions as `f32`, or `f64` where single precision would round them
-/// ([`crate::io::needs_double`]), in Rust's shortest round-trip plain decimal form), then `f a b c`
-/// per face with 1-based indices. Expects a validated mesh.
+/// ([`crate::io::needs_double`]), in Rust's shortest round-trip plain decimal form), then
+/// `f a b c` per face with 1-based indices. Expects a validated mesh.
 pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64) -> io::Result<()> {
     let double = crate::io::needs_double(&mesh.positions);
     let mut comments = vec![
@@ -68,13 +68,7 @@ pub fn write_to<W: Write>(w: &mut W, mesh: &BakedMesh, exposure: f64) -> io::Res
         mesh.faces.len()
     ));
     let vertex = |w: &mut W, i: usize| {
-        if double {
-            let [x, y, z] = mesh.positions[i];
-            write!(w, "{x} {y} {z}")?;
-        } else {
-            let [x, y, z] = mesh.positions[i].map(|c| c as f32);
-            write!(w, "{x} {y} {z}")?;
-        }
+        crate::io::write_position(w, mesh.positions[i], double)?;
         let [red, green, blue] =
             radiance_to_srgb8(mesh.vertex_radiance[i], exposure).map(colour_component);
         write!(w, " {red:.6} {green:.6} {blue:.6}")

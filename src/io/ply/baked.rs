@@ -70,8 +70,9 @@ const fn vertex_bytes(double: bool) -> usize {
 const FACE_BYTES: usize = 1 + 12 + 12;
 
 /// Writes `mesh` as PLY to `w` with colours sRGB(radiance · `exposure`). Radiance is stored
-/// as `f32`, positions too unless [`crate::io::needs_double`] asks for `f64`; ASCII numbers use Rust's shortest round-trip decimal form
-/// (plain decimal, no exponent), so they read back to the same `f32`. Expects a validated mesh.
+/// as `f32`, positions too unless [`crate::io::needs_double`] asks for `f64`; ASCII numbers
+/// use Rust's shortest round-trip decimal form (plain decimal, no exponent), so they read back
+/// to the same values. Expects a validated mesh.
 pub fn write_to(
     w: &mut impl Write,
     mesh: &BakedMesh,
@@ -110,13 +111,7 @@ pub fn write_to(
         for (p, r) in vertices {
             let [red, green, blue] = radiance_to_srgb8(*r, exposure);
             let [rr, rg, rb] = r.map(|c| c as f32);
-            if double {
-                let [x, y, z] = *p;
-                write!(w, "{x} {y} {z}")?;
-            } else {
-                let [x, y, z] = p.map(|c| c as f32);
-                write!(w, "{x} {y} {z}")?;
-            }
+            crate::io::write_position(w, *p, double)?;
             writeln!(w, " {red} {green} {blue} {rr} {rg} {rb}")?;
         }
         for (f, r) in faces {
