@@ -228,6 +228,14 @@ pub struct BakedMesh {
     pub sky: Option<Sky>,
 }
 
+/// Whether `x` is finite and within f32's range (|x| ≤ 3.4e38), as every position and
+/// radiance of a [`BakedMesh`] must be ([`BakedMesh::validate`]); the glTF loader holds its
+/// transforms and the positions they give to it too (an OBJ's numbers are checked so as they
+/// are read).
+pub fn fits_f32(x: f64) -> bool {
+    x.abs() <= f64::from(f32::MAX)
+}
+
 impl BakedMesh {
     /// The exposure the colours are taken at unless one is given: [`color::auto_exposure`]
     /// over the vertex radiance, each vertex weighted by the area it stands for
@@ -295,7 +303,6 @@ impl BakedMesh {
                 self.positions.len()
             ));
         }
-        let fits_f32 = crate::io::fits_f32;
         for (i, p) in self.positions.iter().enumerate() {
             if !p.iter().all(|&c| fits_f32(c)) {
                 return bad(format!("vertex {i} position {p:?} is not a finite f32"));

@@ -214,13 +214,6 @@ pub fn needs_double(positions: &[[f64; 3]]) -> bool {
         .any(|&c| (c - f64::from(c as f32)).abs() > tolerance)
 }
 
-/// Whether `x` is finite and within f32's range (|x| ≤ 3.4e38), as every position and
-/// radiance a file stores must be: the baked mesh's check, and the glTF loader's of its
-/// transforms and the positions they give (an OBJ's numbers are checked so as they are read).
-pub fn fits_f32(x: f64) -> bool {
-    x.abs() <= f64::from(f32::MAX)
-}
-
 /// Writes `p` as `x y z` in Rust's shortest round-trip plain decimal form: of its `f64`
 /// values if `double` ([`needs_double`]), else of its `f32` values, which read back as f32
 /// to the same numbers. The PLY (ASCII) and OBJ writers' positions.

@@ -238,7 +238,7 @@ impl Loader<'_> {
             if !world
                 .to_cols_array()
                 .iter()
-                .all(|&x| crate::io::fits_f32(x))
+                .all(|&x| crate::bake::fits_f32(x))
             {
                 return Err(format!(
                     "{name}: its transform (with its parents') is not finite (or past single \
@@ -322,7 +322,7 @@ impl Loader<'_> {
         for (k, p) in positions.enumerate() {
             let local = DVec3::from_array(p.map(f64::from));
             let q = world.transform_point3(local);
-            if !q.to_array().iter().all(|&x| crate::io::fits_f32(x)) {
+            if !q.to_array().iter().all(|&x| crate::bake::fits_f32(x)) {
                 let a = label(
                     "accessor",
                     position_accessor.index(),
