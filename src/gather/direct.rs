@@ -23,9 +23,9 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::sites::Spot;
-use super::Gatherer;
-use crate::color::Rgb;
+use super::sites::{Spot, StarFace};
+use super::{Gathered, Gatherer};
+use crate::color::{luminance, Rgb};
 use crate::geometry::kernel::point_to_polygon;
 use crate::geometry::visible;
 use crate::light::emitter::{GATHER_MAX_SHADOW_RAYS, GATHER_SHADOW_RAYS};
@@ -126,6 +126,65 @@ pub const MAX_WEIGHED_NEAR_HIT_EMITTERS: usize = 64;
 /// this split does (the test `full_gather_in_the_furnace_is_le_over_one_minus_rho`).
 pub const SAMPLED_SPREAD: f64 = 0.25;
 
+/// The least luminance [`SharpStar::shown`] weighs a point by, as a fraction of the
+/// brightest point's: a contrast of 100:1, past which a display's dark shades (8 bits, after
+/// tone mapping) tell nothing apart.
+pub const SHARP_STAR_FLOOR: f64 = 0.01;
+
+/// The sun's and the point lights' reflected light over a display vertex's faces
+/// ([`Gatherer::rim_direct`]): per point, its weight (the vertex's hat function there times
+/// twice its face's area) and the light (radiance units).
+#[derive(Clone, Debug)]
+pub(crate) struct SharpStar {
+    pub(super) points: Vec<(f64, Rgb)>,
+}
+
+impl SharpStar {
+    /// `gathered` (its value without the sharp lights) with the sharp lights' part that its
+    /// vertex shows: the value s that minimises the squared *relative* error of the linear
+    /// interpolation over the vertex's faces, Σ w_k ((s − L_k)/Y_k)², L_k the gathered value
+    /// plus the sharp light at point k and Y_k its luminance: s = Σ (w_k/Y_k²) L_k /
+    /// Σ (w_k/Y_k²), per channel. Not the plain mean: where a band 6 mm wide along a
+    /// leg's top is sunlit and the rest lies dark under the table top, the mean would show the
+    /// whole top at a fifth of the sun's light, several times its dark value, where a viewer
+    /// sees it dark but for the band (a relative error, as the eye weighs light; the display's
+    /// fit weighs its midpoints so too, [`super::local_fit`]). Where the light is the same
+    /// at every point, s is that value. Y_k is floored at [`SHARP_STAR_FLOOR`] of the
+    /// brightest point's: a point in full shadow with no other light (Y_k = 0) would otherwise
+    /// weigh infinitely, or, left out, leave the lit points alone to decide.
+    pub(crate) fn shown(&self, mut gathered: Gathered) -> Gathered {
+        let base = gathered.radiance;
+        let light = |sharp: &Rgb| -> Rgb { std::array::from_fn(|c| base[c] + sharp[c]) };
+        let brightest = self
+            .points
+            .iter()
+            .map(|(_, sharp)| luminance(light(sharp)))
+            .fold(0.0, f64::max);
+        let floor = SHARP_STAR_FLOOR * brightest;
+        let (mut num, mut den) = ([0.0; 3], 0.0);
+        for &(w, sharp) in &self.points {
+            let l = light(&sharp);
+            let y = luminance(l).max(floor);
+            if w <= 0.0 || y <= 0.0 {
+                continue;
+            }
+            let k = w / (y * y);
+            for c in 0..3 {
+                num[c] += k * l[c];
+            }
+            den += k;
+        }
+        if den > 0.0 {
+            for c in 0..3 {
+                let sharp = (num[c] / den - base[c]).max(0.0);
+                gathered.direct[c] += sharp;
+                gathered.radiance[c] += sharp;
+            }
+        }
+        gathered
+    }
+}
+
 impl Gatherer<'_> {
     /// Σ_e Le_e F(x → e) V̄(x, e): the irradiance from the emitters at the point `x` (unit
     /// normal `n`) divided by π, per channel (radiance units). `ignore` is the patch `x` lies
@@ -206,8 +265,48 @@ impl Gatherer<'_> {
         n: DVec3,
         ignore: u32,
         exact: &[u32],
-        (first, max_rays, others): (usize, usize, usize),
+        rays: (usize, usize, usize),
         one_light: bool,
+        rng: &mut Rng,
+    ) -> (Rgb, bool) {
+        let (mut sum, penumbra) = self.emitters_direct(x, n, ignore, exact, rays, rng);
+        if self.env.has_sharp() {
+            for (s, o) in sum
+                .iter_mut()
+                .zip(self.sharp_direct(x, n, ignore, one_light, rng))
+            {
+                *s += o;
+            }
+        }
+        (sum, penumbra)
+    }
+
+    /// The part of [`Gatherer::direct_from`] from the point and spot lights and the sun
+    /// outside the mesh (radiance units, before ρ).
+    fn sharp_direct(&self, x: DVec3, n: DVec3, ignore: u32, one_light: bool, rng: &mut Rng) -> Rgb {
+        let at = Receiver {
+            vis: self.surfaces.vis(),
+            x,
+            n,
+            ignore: self.surfaces.traced(ignore),
+            lift: self.lift,
+        };
+        if one_light {
+            self.env.sharp_direct_sampled(&self.light_tree, &at, rng)
+        } else {
+            self.env.sharp_direct_shown(&at, rng)
+        }
+    }
+
+    /// The part of [`Gatherer::direct_from`] from the mesh's emitters (radiance units, before
+    /// ρ), and whether some exact emitter is partly hidden.
+    pub(super) fn emitters_direct(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        ignore: u32,
+        exact: &[u32],
+        (first, max_rays, others): (usize, usize, usize),
         rng: &mut Rng,
     ) -> (Rgb, bool) {
         let mut targets = Vec::with_capacity(max_rays.max(first));
@@ -309,23 +408,6 @@ impl Gatherer<'_> {
             };
             let (other, _) = estimate(rays, rng);
             for (s, o) in sum.iter_mut().zip(other) {
-                *s += o;
-            }
-        }
-        if self.env.has_sharp() {
-            let at = Receiver {
-                vis: self.surfaces.vis(),
-                x,
-                n,
-                ignore: self.surfaces.traced(ignore),
-                lift: self.lift,
-            };
-            let sun = if one_light {
-                self.env.sharp_direct_sampled(&self.light_tree, &at, rng)
-            } else {
-                self.env.sharp_direct_shown(&at, rng)
-            };
-            for (s, o) in sum.iter_mut().zip(sun) {
                 *s += o;
             }
         }
@@ -549,6 +631,74 @@ impl Gatherer<'_> {
         );
         let rho = self.patches.reflectance[spot.patch as usize];
         (std::array::from_fn(|c| rho[c] * direct[c]), penumbra, exact)
+    }
+
+    /// [`Gatherer::reflected_direct`] for a vertex on a covering face's outline or under it
+    /// ([`Gatherer::rim_gap`]), gathered at `spot` inside its faces `faces`, without the sun's
+    /// and the point lights' light where it is to be shown by [`SharpStar::shown`]: then
+    /// also their reflected light at [`COARSE_POINTS`] of each face, weighed by the vertex's
+    /// hat function there. Under a gap g, a directional light reaches only a band g·cot θ wide
+    /// along the outline on its side (θ its elevation over the face): a point inside the faces,
+    /// wherever it is put, sees the band's full light or none of it, and the vertex shows that
+    /// across its faces. Where the sharp lights are too many for their cheap estimate to count
+    /// them all ([`Environment::coarse_counts_all`]), or every point is buried, this is
+    /// [`Gatherer::reflected_direct`] and no star.
+    ///
+    /// [`Environment::coarse_counts_all`]: crate::scene::Environment::coarse_counts_all
+    pub(crate) fn rim_direct(
+        &self,
+        spot: &Spot,
+        faces: &[StarFace],
+        max_rays: usize,
+        rng: &mut Rng,
+    ) -> ((Rgb, bool, Vec<u32>), Option<SharpStar>) {
+        let rho = self.patches.reflectance[spot.patch as usize];
+        let star = (self.env.has_sharp() && self.env.coarse_counts_all())
+            .then(|| self.star_sharp(spot.n, faces, rho))
+            .flatten();
+        if star.is_none() {
+            return (self.reflected_direct(spot, max_rays, rng), None);
+        }
+        let exact = self.exact_emitters(spot.x);
+        let (direct, penumbra) = self.emitters_direct(
+            spot.x,
+            spot.n,
+            spot.patch,
+            &exact,
+            (GATHER_SHADOW_RAYS, max_rays, OTHER_LIGHT_SAMPLES),
+            rng,
+        );
+        let direct = std::array::from_fn(|c| rho[c] * direct[c]);
+        ((direct, penumbra, exact), star)
+    }
+
+    /// The sharp lights' cheap estimate ([`Environment::coarse_sharp_direct`]) times `rho` at
+    /// [`COARSE_POINTS`] of each of `faces` (normal `n`), with the weight of their shared
+    /// vertex's hat function there; `None` where every point is buried.
+    ///
+    /// [`Environment::coarse_sharp_direct`]: crate::scene::Environment::coarse_sharp_direct
+    fn star_sharp(&self, n: DVec3, faces: &[StarFace], rho: Rgb) -> Option<SharpStar> {
+        let mut points = Vec::with_capacity(faces.len() * COARSE_POINTS.len());
+        for f in faces {
+            let area = f.doubled_area();
+            for b in COARSE_POINTS {
+                let x = b[0] * f.corners[0] + b[1] * f.corners[1] + b[2] * f.corners[2];
+                if self.buried(x, n, f.patch) {
+                    continue;
+                }
+                let at = Receiver {
+                    vis: self.surfaces.vis(),
+                    x,
+                    n,
+                    ignore: self.surfaces.traced(f.patch),
+                    lift: self.lift,
+                };
+                let d = self.env.coarse_sharp_direct(&at);
+                points.push((b[f.vertex] * area, std::array::from_fn(|c| rho[c] * d[c])));
+            }
+        }
+        let star = SharpStar { points };
+        (star.points.iter().any(|p| p.0 > 0.0)).then_some(star)
     }
 
     /// A cheap, deterministic estimate of the reflected direct light at `spot` from the

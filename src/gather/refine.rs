@@ -81,6 +81,7 @@ use std::collections::{HashMap, HashSet};
 use super::flip::Coarse;
 use super::indirect::COARSE_RAYS;
 use super::local_fit::{self, Midpoint};
+use super::sites::StarFace;
 use super::{Cache, Gather, Gathered, Gatherer};
 use crate::bake::{BakedMesh, Site, SitePatches};
 use crate::color::{luminance, Rgb};
@@ -691,15 +692,12 @@ fn regather_rims(
     if rims.is_empty() {
         return;
     }
-    // Each rim vertex's summed distance to its faces' centroids, and their number.
-    let mut reach = vec![(0.0, 0u32); rims.len()];
-    for f in &d.mesh.faces {
-        let c = f.map(|v| d.sites[v as usize].position);
-        let centroid = (c[0] + c[1] + c[2]) / 3.0;
-        for (&v, &x) in f.iter().zip(&c) {
-            if let Some(&i) = rims.get(&v) {
-                reach[i].0 += x.distance(centroid);
-                reach[i].1 += 1;
+    // Each rim vertex's faces (their indices).
+    let mut star_faces: Vec<Vec<u32>> = vec![Vec::new(); rims.len()];
+    for (k, f) in d.mesh.faces.iter().enumerate() {
+        for v in f {
+            if let Some(&i) = rims.get(v) {
+                star_faces[i].push(k as u32);
             }
         }
     }
@@ -710,9 +708,20 @@ fn regather_rims(
         |k| {
             let (v, i) = order[k];
             let site = &d.sites[v as usize];
-            let (sum, n) = reach[i];
-            let spot = (n > 0)
-                .then(|| gatherer.spot_within(site, visible_fraction, Some(sum / n as f64)))
+            let faces: Vec<StarFace> = star_faces[i]
+                .iter()
+                .map(|&k| {
+                    let f = d.mesh.faces[k as usize];
+                    StarFace {
+                        corners: f.map(|c| d.sites[c as usize].position),
+                        vertex: f.iter().position(|&c| c == v).unwrap_or(0),
+                        patch: d.face_patch[k as usize],
+                    }
+                })
+                .collect();
+            let reach = faces.iter().map(StarFace::reach).sum::<f64>() / faces.len().max(1) as f64;
+            let spot = (!faces.is_empty())
+                .then(|| gatherer.spot_within(site, visible_fraction, Some(reach)))
                 .flatten();
             // Kept where the faces are as narrow as the rim (the point did not move).
             let first = gatherer.spot(site, visible_fraction);
@@ -723,9 +732,20 @@ fn regather_rims(
                 return d.values[v as usize];
             }
             let mut rng = gatherer.vertex_rng(v as usize);
-            match cache.and_then(|c| c.at(spot.x, spot.n)) {
-                Some(reflected) => gatherer.cached_vertex(&spot, reflected, &mut rng),
-                None => gatherer.full(&spot, rays, &mut rng),
+            let reflected = cache.and_then(|c| c.at(spot.x, spot.n));
+            let max_rays = if reflected.is_some() {
+                CACHE_MAX_SHADOW_RAYS
+            } else {
+                GATHER_MAX_SHADOW_RAYS
+            };
+            let (direct, sharp) = gatherer.rim_direct(&spot, &faces, max_rays, &mut rng);
+            let gathered = match reflected {
+                Some(reflected) => gatherer.cached_vertex_lit(&spot, reflected, direct, &mut rng),
+                None => gatherer.full_lit(&spot, rays, direct, &mut rng),
+            };
+            match sharp {
+                Some(star) => star.shown(gathered),
+                None => gathered,
             }
         },
         Gathered::write,

@@ -82,6 +82,29 @@ pub(crate) fn rim_inset(g: f64, to_centroid: f64) -> f64 {
     (0.5 * (g * 1.5 * to_centroid).sqrt()).min(0.5 * to_centroid)
 }
 
+/// One face of a display vertex's star (the faces around it): its corners (scene
+/// coordinates), which of them is the vertex, and the patch it lies on.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StarFace {
+    pub corners: [DVec3; 3],
+    pub vertex: usize,
+    pub patch: u32,
+}
+
+impl StarFace {
+    /// Twice the face's area (scene units²).
+    pub(super) fn doubled_area(&self) -> f64 {
+        let [a, b, c] = self.corners;
+        (b - a).cross(c - a).length()
+    }
+
+    /// The distance from the vertex to the face's centroid (scene units).
+    pub(super) fn reach(&self) -> f64 {
+        let [a, b, c] = self.corners;
+        self.corners[self.vertex].distance((a + b + c) / 3.0)
+    }
+}
+
 /// A parallel face counts as covering a patch where its normals are within this angle's
 /// cosine of opposite (8°).
 const COVER_COS: f64 = 0.99;
