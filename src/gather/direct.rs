@@ -281,16 +281,22 @@ impl Gatherer<'_> {
         (sum, penumbra)
     }
 
-    /// The part of [`Gatherer::direct_from`] from the point and spot lights and the sun
-    /// outside the mesh (radiance units, before ρ).
-    fn sharp_direct(&self, x: DVec3, n: DVec3, ignore: u32, one_light: bool, rng: &mut Rng) -> Rgb {
-        let at = Receiver {
+    /// The point `x` (unit normal `n`) on patch `patch` as the lights outside the mesh see it:
+    /// its rays ignore the patch and start the gather's lift above it.
+    fn receiver(&self, x: DVec3, n: DVec3, patch: u32) -> Receiver<'_> {
+        Receiver {
             vis: self.surfaces.vis(),
             x,
             n,
-            ignore: self.surfaces.traced(ignore),
+            ignore: self.surfaces.traced(patch),
             lift: self.lift,
-        };
+        }
+    }
+
+    /// The part of [`Gatherer::direct_from`] from the point and spot lights and the sun
+    /// outside the mesh (radiance units, before ρ).
+    fn sharp_direct(&self, x: DVec3, n: DVec3, ignore: u32, one_light: bool, rng: &mut Rng) -> Rgb {
+        let at = self.receiver(x, n, ignore);
         if one_light {
             self.env.sharp_direct_sampled(&self.light_tree, &at, rng)
         } else {
@@ -686,13 +692,7 @@ impl Gatherer<'_> {
                 if self.buried(x, n, f.patch) {
                     continue;
                 }
-                let at = Receiver {
-                    vis: self.surfaces.vis(),
-                    x,
-                    n,
-                    ignore: self.surfaces.traced(f.patch),
-                    lift: self.lift,
-                };
+                let at = self.receiver(x, n, f.patch);
                 let d = self.env.coarse_sharp_direct(&at);
                 points.push((b[f.vertex] * area, std::array::from_fn(|c| rho[c] * d[c])));
             }
@@ -737,13 +737,7 @@ impl Gatherer<'_> {
             }
         }
         if self.env.has_sharp() {
-            let at = Receiver {
-                vis: self.surfaces.vis(),
-                x: spot.x,
-                n: spot.n,
-                ignore: self.surfaces.traced(spot.patch),
-                lift: self.lift,
-            };
+            let at = self.receiver(spot.x, spot.n, spot.patch);
             for (s, d) in sum.iter_mut().zip(self.env.coarse_sharp_direct(&at)) {
                 *s += d;
             }
