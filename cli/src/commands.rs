@@ -22,6 +22,15 @@ pub fn bake(args: &BakeArgs, quiet: bool, comm: &dyn Exchange) -> Result<u8, Fai
     for path in args.report.iter().chain(&args.png) {
         io::check_output_dir(path)?;
     }
+    // No output may replace an input (the scene, its lights file) or another output.
+    let inputs: Vec<&std::path::Path> = std::iter::once(args.input.as_path())
+        .chain(args.scene.solve.lights.as_deref())
+        .collect();
+    let outputs: Vec<(&str, &std::path::Path)> = std::iter::once(("output", args.output.as_path()))
+        .chain(args.report.as_deref().map(|p| ("report", p)))
+        .chain(args.png.as_deref().map(|p| ("png", p)))
+        .collect();
+    io::check_distinct(&inputs, &outputs)?;
     if args.png.is_some() {
         args.scene.view.check(1.0)?;
     }

@@ -17,7 +17,7 @@ pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// The library's setting names and the flags that set them.
-pub const FLAGS: [(&str, &str); 40] = [
+pub const FLAGS: [(&str, &str); 42] = [
     ("method", "--method"),
     ("hierarchical.epsilon", "--epsilon"),
     ("hierarchical.min_area", "--min-area"),
@@ -52,6 +52,8 @@ pub const FLAGS: [(&str, &str); 40] = [
     ("reflectance", "--reflectance"),
     ("emission", "--emission"),
     ("output", "--output"),
+    ("report", "--report"),
+    ("png", "--png"),
     ("cache", "--cache"),
     ("gather", "--gather"),
     ("discontinuities", "--discontinuities"),

@@ -37,6 +37,63 @@ pub fn check_output_dir(path: &Path) -> Result<()> {
     }
 }
 
+/// Checks, before any work, that no output names an input file or another output:
+/// `radiosity bake room.obj -o room.obj` would replace the scene with its own bake, and a
+/// report or picture named as the baked mesh would replace it. Paths are compared as the
+/// files they name (symbolic links and `..` resolved; an output not yet on disk by its
+/// directory's and its name); inputs that do not exist are left to their readers.
+/// `outputs` pairs each path with the setting that names it (`output`, `report`, `png`).
+/// [`Error::Setting`] naming the output's setting and both paths otherwise.
+pub fn check_distinct(inputs: &[&Path], outputs: &[(&str, &Path)]) -> Result<()> {
+    let inputs: Vec<_> = inputs
+        .iter()
+        .filter_map(|p| Some((fs::canonicalize(p).ok()?, *p)))
+        .collect();
+    let mut seen: Vec<(std::path::PathBuf, &str, &Path)> = Vec::new();
+    for &(name, path) in outputs {
+        let Some(file) = file_identity(path) else {
+            continue; // no such directory: check_output_dir says so
+        };
+        let clash = |message: String| Error::Setting {
+            name: name.to_string(),
+            message,
+        };
+        if let Some((_, input)) = inputs.iter().find(|(f, _)| *f == file) {
+            return Err(clash(format!(
+                "{} is the input {}: writing it would replace what is read; name another file",
+                path.display(),
+                input.display()
+            )));
+        }
+        if let Some((_, other, earlier)) = seen.iter().find(|(f, _, _)| *f == file) {
+            let earlier = match *earlier == path {
+                true => String::new(),
+                false => format!(" ({})", earlier.display()),
+            };
+            return Err(clash(format!(
+                "{} is also the {other}{earlier}: one would replace the other; name another \
+                 file",
+                path.display(),
+            )));
+        }
+        seen.push((file, name, path));
+    }
+    Ok(())
+}
+
+/// The file `path` names, for comparing paths: its canonical form if it exists, else its
+/// directory's canonical form joined with its name; `None` if neither can be had.
+fn file_identity(path: &Path) -> Option<std::path::PathBuf> {
+    if let Ok(file) = fs::canonicalize(path) {
+        return Some(file);
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    Some(fs::canonicalize(dir).ok()?.join(path.file_name()?))
+}
+
 /// Buffer size for writers: large enough that 100k+ vertices cost few system calls.
 const WRITE_BUFFER: usize = 1 << 16;
 

@@ -16,7 +16,7 @@ pub mod ply;
 
 use std::path::Path;
 
-pub use atomic::{check_output_dir, write_atomic};
+pub use atomic::{check_distinct, check_output_dir, write_atomic};
 
 use crate::bake::BakedMesh;
 use crate::scene::{Camera, Scene};
@@ -344,5 +344,49 @@ mod tests {
         assert!(text.contains(&*path.to_string_lossy()), "{text}");
         assert!(text.contains("does not exist"), "{text}");
         assert_eq!(dir.entries(), Vec::<String>::new());
+    }
+    /// An output is refused where it names an input (by any spelling: a symbolic link, `..`)
+    /// or an earlier output, and passes where the files differ; outputs not yet on disk are
+    /// compared by their directory and name.
+    #[test]
+    fn an_output_that_would_replace_an_input_or_another_output_is_refused() {
+        let dir = TestDir::new("distinct");
+        let scene = dir.path().join("room.obj");
+        std::fs::write(&scene, "v 0 0 0\n").unwrap();
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let respelled = dir.path().join("sub").join("..").join("room.obj");
+        let (ply, json) = (dir.path().join("out.ply"), dir.path().join("out.json"));
+        let refused = |inputs: &[&Path], outputs: &[(&str, &Path)], name: &str, needle: &str| {
+            match super::check_distinct(inputs, outputs) {
+                Err(Error::Setting { name: n, message }) => {
+                    assert_eq!(n, name);
+                    assert!(message.contains(needle), "{message}");
+                }
+                other => panic!("expected a refusal of {name}, got {other:?}"),
+            }
+        };
+        refused(
+            &[&scene],
+            &[("output", &respelled)],
+            "output",
+            "is the input",
+        );
+        let again = dir.path().join("sub").join("..").join("out.ply");
+        refused(
+            &[&scene],
+            &[("output", &ply), ("report", &again)],
+            "report",
+            "also the output",
+        );
+        #[cfg(unix)]
+        {
+            let link = dir.path().join("link.obj");
+            std::os::unix::fs::symlink(&scene, &link).unwrap();
+            refused(&[&link], &[("output", &scene)], "output", "is the input");
+        }
+        super::check_distinct(&[&scene], &[("output", &ply), ("report", &json)]).unwrap();
+        // An input that does not exist is its reader's to report.
+        super::check_distinct(&[&dir.path().join("gone.obj")], &[("output", &ply)]).unwrap();
+        assert_eq!(std::fs::read_to_string(&scene).unwrap(), "v 0 0 0\n");
     }
 }

@@ -103,6 +103,7 @@ pub fn run_on(
         format => format,
     };
     io::check_output_dir(output)?;
+    io::check_distinct(&[input], &[("output", output)])?;
 
     let t = Instant::now();
     // The scene as loaded is dropped once prepared (the bake reads the prepared copy).

@@ -144,6 +144,39 @@ fn file_problems_name_the_file() {
         assert!(!err.contains("panicked"));
         assert_eq!(listing(&f.dir), before);
     }
+    // An output that would replace the scene (by another spelling of its path) or another
+    // output: refused before any work, every file on disk as it was.
+    let lights = f.write("lights.json", r#"{"sky": [1, 1, 1]}"#);
+    let (ply, report) = (f.path("out.ply"), f.path("sub/../out.ply"));
+    let spelled = f.path("sub/../valid.obj");
+    std::fs::create_dir(f.dir.join("sub")).unwrap();
+    for (args, needles) in [
+        (
+            vec!["-o", &spelled],
+            ["--output", "is the input", "valid.obj"],
+        ),
+        (
+            vec!["-o", &ply, "--report", &report],
+            ["--report", "also the output", "out.ply"],
+        ),
+        (
+            vec!["-o", &ply, "--png", &ply],
+            ["--png", "also the output", "out.ply"],
+        ),
+        (
+            vec!["-o", &ply, "--lights", &lights, "--report", &lights],
+            ["--report", "is the input", "lights.json"],
+        ),
+    ] {
+        let before = listing(&f.dir);
+        let bytes = std::fs::read(&input).unwrap();
+        let o = radiosity(&[&["bake", input.as_str()], args.as_slice()].concat());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(needles.iter().all(|n| err.contains(n)), "{err}");
+        assert_eq!(listing(&f.dir), before);
+        assert_eq!(std::fs::read(&input).unwrap(), bytes);
+    }
     // The MTL named by mtllib is there but not text: an error at the mtllib line.
     std::fs::write(f.dir.join("bad.mtl"), [0xffu8, 0xfe, 0x00]).unwrap();
     let obj = f.write("badmtl.obj", &VALID.replace("m.mtl", "bad.mtl"));
