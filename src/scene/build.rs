@@ -54,9 +54,14 @@ pub(crate) fn finish(
         });
     }
     if triangles.is_empty() {
+        // What loading passed over is likely why (a Mitsuba shape type not read).
+        let mut message = String::from("the mesh is empty: no triangles");
+        if !warnings.is_empty() {
+            message += &format!(" (while loading: {})", warnings.join("; "));
+        }
         return Err(Error::Input {
             path: source_path(&source),
-            message: "the mesh is empty: no triangles".into(),
+            message,
         });
     }
     let raw = Scene {

@@ -315,6 +315,19 @@ fn malformed_xml_and_bad_numbers_name_file_and_line() {
     assert!(e.to_string().contains("'one'"), "{e}");
 }
 
+/// A scene of shapes the reader does not take has no triangles: the error says which
+/// elements were passed over, not only that the mesh is empty.
+#[test]
+fn a_scene_of_unread_shapes_is_an_error_naming_them() {
+    let e = load_xml(r#"<scene version="3.0.0"><shape type="teapot"/></scene>"#).unwrap_err();
+    assert!(matches!(e, Error::Input { .. }), "{e:?}");
+    let text = e.to_string();
+    assert!(
+        text.contains("the mesh is empty") && text.contains("<shape> 'teapot' ×1"),
+        "{text}"
+    );
+}
+
 #[test]
 fn elements_not_read_are_named_in_one_warning() {
     let s = load_xml(
