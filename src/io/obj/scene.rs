@@ -15,7 +15,8 @@
 //! 2. `tobj::load_obj_buf` (what `tobj::load_obj` calls after opening the file) parses that
 //!    copy with `LoadOptions { single_index: false, triangulate: true, ignore_points: true,
 //!    ignore_lines: true }`; polygons are fan-triangulated (convex polygons only).
-//! 3. Each `mtllib` is read by our own loader callback, relative to the OBJ's directory,
+//! 3. Each `mtllib` is read by our own loader callback, relative to the OBJ's directory (its
+//!    files: `mtllib a.mtl b.mtl` names two, unless one file has that name with its space),
 //!    which scans the MTL text the same way (keeping `newmtl`, `Kd`, `Ke`; a single-value
 //!    `Kd r` means `r r r`, as the MTL spec says, and is expanded because `tobj` would panic
 //!    on it) and records any failure. `tobj` keeps only the last material error and drops
@@ -60,6 +61,26 @@ const LOAD_OPTIONS: tobj::LoadOptions = tobj::LoadOptions {
     ignore_lines: true,
 };
 
+/// The MTL files of one `mtllib` line, relative to the OBJ's directory `dir`: the line's
+/// whole text as one file name if there is such a file (a name with spaces), else its
+/// names split at white space (the OBJ specification's `mtllib a.mtl b.mtl`) when any of
+/// them exists, else the whole text (reported as missing).
+fn library_files(dir: &Path, name: &Path) -> Vec<PathBuf> {
+    let whole = dir.join(name);
+    if whole.exists() {
+        return vec![whole];
+    }
+    let parts: Vec<PathBuf> = name
+        .to_str()
+        .map(|s| s.split_whitespace().map(|p| dir.join(p)).collect())
+        .unwrap_or_default();
+    if parts.len() > 1 && parts.iter().any(|p| p.exists()) {
+        parts
+    } else {
+        vec![whole]
+    }
+}
+
 /// Loads an OBJ file and the MTL files it references into a welded, cleaned and validated
 /// [`Scene`]. Errors name the file and, where there is one, the line (1-based).
 pub fn load(path: &Path) -> Result<Scene> {
@@ -75,31 +96,41 @@ pub fn load(path: &Path) -> Result<Scene> {
     let loader = |name: &Path| -> tobj::MTLLoadResult {
         let k = libraries.borrow().len();
         let line = scan.mtllib_lines.get(k).copied().unwrap_or(0);
-        let mtl = dir.join(name);
-        if !mtl.exists() {
-            // Shared without its library, as models often are: a warning, and the faces of
-            // its materials get the default one (below).
-            libraries.borrow_mut().push(HashSet::new());
-            missing.borrow_mut().push((line, mtl));
-            return Ok((Vec::new(), Default::default()));
-        }
-        let result = read_mtl(path, line, &mtl).and_then(|(text, found)| {
-            extras
-                .borrow_mut()
-                .extend(found.into_iter().map(|e| (mtl.clone(), e)));
-            tobj::load_mtl_buf(&mut Cursor::new(text.as_bytes())).map_err(|e| tobj_failure(&mtl, e))
-        });
-        match result {
-            Ok((materials, map)) => {
-                libraries.borrow_mut().push(map.keys().cloned().collect());
-                Ok((materials, map))
+        let mut materials = Vec::new();
+        let mut names: Vec<(String, usize)> = Vec::new();
+        for mtl in library_files(dir, name) {
+            if !mtl.exists() {
+                // Shared without its library, as models often are: a warning, and the faces
+                // of its materials get the default one (below).
+                missing.borrow_mut().push((line, mtl));
+                continue;
             }
-            Err(e) => {
-                libraries.borrow_mut().push(HashSet::new());
-                first_error.borrow_mut().get_or_insert(e);
-                Err(tobj::LoadError::GenericFailure)
+            let result = read_mtl(path, line, &mtl).and_then(|(text, found)| {
+                extras
+                    .borrow_mut()
+                    .extend(found.into_iter().map(|e| (mtl.clone(), e)));
+                tobj::load_mtl_buf(&mut Cursor::new(text.as_bytes()))
+                    .map_err(|e| tobj_failure(&mtl, e))
+            });
+            match result {
+                // Several libraries on one line: the later one's materials after the
+                // earlier's, a name defined twice taking the later definition.
+                Ok((found, map)) => {
+                    let offset = materials.len();
+                    materials.extend(found);
+                    names.extend(map.into_iter().map(|(n, i)| (n, i + offset)));
+                }
+                Err(e) => {
+                    libraries.borrow_mut().push(HashSet::new());
+                    first_error.borrow_mut().get_or_insert(e);
+                    return Err(tobj::LoadError::GenericFailure);
+                }
             }
         }
+        libraries
+            .borrow_mut()
+            .push(names.iter().map(|(n, _)| n.clone()).collect());
+        Ok((materials, names.into_iter().collect()))
     };
     let loaded = tobj::load_obj_buf(
         &mut Cursor::new(scan.normalised.as_bytes()),
@@ -602,6 +633,47 @@ mod tests {
     fn normal(s: &Scene, t: usize) -> DVec3 {
         let [a, b, c] = s.triangles[t].vertices.map(|v| s.positions[v as usize]);
         (b - a).cross(c - a).normalize()
+    }
+
+    /// `mtllib a.mtl b.mtl` names two libraries (the OBJ specification's form): both are
+    /// read, a missing one is the usual warning; a library whose name has a space is read as
+    /// one file.
+    #[test]
+    fn one_mtllib_line_may_name_several_libraries_or_one_with_spaces() {
+        let obj = format!(
+            "mtllib a.mtl b.mtl\n{TRIANGLE}v 0 0 1\nusemtl red\nf 1 2 3\nusemtl lamp\nf 1 2 4\n"
+        );
+        let libraries = [
+            ("a.mtl", "newmtl red\nKd 0.6 0.1 0.1\n"),
+            ("b.mtl", "newmtl lamp\nKd 0.2\nKe 5 5 5\n"),
+        ];
+        let s = load_text("obj-two-libraries", &obj, &libraries).unwrap();
+        assert_eq!(m_of(&s, "red").reflectance, [0.6, 0.1, 0.1]);
+        assert_eq!(m_of(&s, "lamp").emission, [5.0; 3]);
+        assert!(
+            s.warnings.iter().all(|w| !w.contains("not found")),
+            "{:?}",
+            s.warnings
+        );
+
+        let obj = obj.replace("b.mtl", "gone.mtl");
+        let s = load_text("obj-one-library-gone", &obj, &libraries[..1]).unwrap();
+        assert_eq!(m_of(&s, "red").reflectance, [0.6, 0.1, 0.1]);
+        let w = s.warnings.join("\n");
+        assert!(w.contains("gone.mtl (mtllib at line 1)"), "{w}");
+
+        let obj = format!("mtllib my lib.mtl\n{TRIANGLE}usemtl red\nf 1 2 3\n");
+        let s = load_text(
+            "obj-spaced-library",
+            &obj,
+            &[("my lib.mtl", libraries[0].1)],
+        )
+        .unwrap();
+        assert_eq!(m_of(&s, "red").reflectance, [0.6, 0.1, 0.1]);
+    }
+
+    fn m_of<'a>(s: &'a Scene, name: &str) -> &'a Material {
+        s.materials.iter().find(|m| m.name == name).unwrap()
     }
 
     #[test]
