@@ -6,12 +6,14 @@
 //! How a file is read:
 //! 1. We scan the OBJ text ourselves first, because `tobj` reports errors without a line
 //!    number and silently accepts some mistakes (faces with fewer than 3 vertices, NaN or
-//!    overflowing coordinates). The scan checks every line we use and hands `tobj` a
-//!    normalised copy with the same line numbering: `v x y z [w]` (vertex colours dropped),
-//!    `f` with absolute 1-based position indices only (texture and normal indices dropped:
-//!    radiosity uses neither), `o`/`g`/`usemtl`/`mtllib` with single spaces; every other
-//!    line (`vt`, `vn`, `l`, `p`, `s`, comments, unknown statements) becomes empty. Dropping
-//!    `l` matters: `tobj` would turn a polyline of 3+ points into triangles.
+//!    overflowing coordinates), and does not join a line ending in `\` to the next (the
+//!    OBJ specification's continuation). The scan joins them, checks every line we use and
+//!    hands `tobj` a normalised copy with the same line numbering: `v x y z [w]` (vertex
+//!    colours dropped), `f` with absolute 1-based position indices only (texture and normal
+//!    indices dropped: radiosity uses neither), `o`/`g`/`usemtl`/`mtllib` with single
+//!    spaces; every other line (`vt`, `vn`, `l`, `p`, `s`, comments, unknown statements)
+//!    becomes empty. Dropping `l` matters: `tobj` would turn a polyline of 3+ points into
+//!    triangles.
 //! 2. `tobj::load_obj_buf` (what `tobj::load_obj` calls after opening the file) parses that
 //!    copy with `LoadOptions { single_index: false, triangulate: true, ignore_points: true,
 //!    ignore_lines: true }`; polygons are fan-triangulated (convex polygons only).
@@ -405,6 +407,32 @@ fn face_index(
     Ok(absolute)
 }
 
+/// The OBJ text's statements: each with its first line's number (1-based), its text with
+/// continuation lines joined (a line ending in `\\` goes on in the next, as the OBJ
+/// specification allows), and how many more lines it took.
+fn logical_lines(text: &str) -> impl Iterator<Item = (usize, std::borrow::Cow<'_, str>, usize)> {
+    let mut lines = text.lines().enumerate();
+    std::iter::from_fn(move || {
+        let (i, first) = lines.next()?;
+        let Some(head) = first.trim_end().strip_suffix('\\') else {
+            return Some((i + 1, std::borrow::Cow::Borrowed(first), 0));
+        };
+        let (mut joined, mut continued) = (head.to_string(), 0);
+        for (_, next) in lines.by_ref() {
+            continued += 1;
+            joined.push(' ');
+            match next.trim_end().strip_suffix('\\') {
+                Some(more) => joined.push_str(more),
+                None => {
+                    joined.push_str(next);
+                    break;
+                }
+            }
+        }
+        Some((i + 1, std::borrow::Cow::Owned(joined), continued))
+    })
+}
+
 /// Checks every OBJ statement the loader uses and produces the normalised copy for `tobj`
 /// (see the module documentation). The first offending line is an [`Error::Parse`].
 fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
@@ -416,9 +444,8 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
     let mut uvs: Vec<glam::DVec2> = Vec::new();
     let mut camera = CameraLine::default();
     let mut vertices = 0usize;
-    for (i, raw) in text.lines().enumerate() {
-        let ln = i + 1;
-        let line = raw.trim();
+    for (ln, joined, continued) in logical_lines(text) {
+        let line = joined.trim();
         let mut words = line.split_whitespace();
         let keyword = words.next().unwrap_or("");
         let rest: Vec<&str> = words.collect();
@@ -543,6 +570,8 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
             _ => {}
         }
         out.push('\n');
+        // The lines a continuation took stay, empty, so that the copy keeps the numbering.
+        (0..continued).for_each(|_| out.push('\n'));
     }
     Ok(ObjScan {
         normalised: out,
@@ -990,6 +1019,18 @@ mod tests {
         assert_eq!(s.materials[0].reflectance, [0.5; 3]);
         assert!(!s.has_emitters());
         assert!((normal(&s, 0) - DVec3::Z).length() < 1e-12);
+    }
+
+    /// A statement continued over lines ending in `\\` (the OBJ specification's form) is one
+    /// statement, and the lines after it keep their numbers in messages.
+    #[test]
+    fn continued_lines_are_one_statement_and_keep_the_numbering() {
+        let dir = TestDir::new("continued");
+        let obj = "v 0 0 \\\n 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 \\\n  2 \\\n  3\nf 1 2 4\n";
+        let s = Scene::load(&dir.write("scene.obj", obj)).unwrap();
+        assert_eq!((s.triangles.len(), s.positions.len()), (2, 4));
+        let e = Scene::load(&dir.write("bad.obj", format!("{obj}f 1 2 9\n"))).unwrap_err();
+        assert_parse(&e, "bad.obj", 10, &["vertex index 9 out of range"]);
     }
 
     #[test]
