@@ -625,17 +625,26 @@ impl Gatherer<'_> {
         max_rays: usize,
         rng: &mut Rng,
     ) -> (Rgb, bool, Vec<u32>) {
+        self.reflected_direct_with(spot, max_rays, true, rng)
+    }
+
+    /// [`Gatherer::reflected_direct`], the sun's and the point lights' part included only if
+    /// `sharp` (the emitters' part draws the same rays either way, first).
+    fn reflected_direct_with(
+        &self,
+        spot: &Spot,
+        max_rays: usize,
+        sharp: bool,
+        rng: &mut Rng,
+    ) -> (Rgb, bool, Vec<u32>) {
         let exact = self.exact_emitters(spot.x);
-        let (direct, penumbra) = self.direct_from(
-            spot.x,
-            spot.n,
-            spot.patch,
-            &exact,
-            (GATHER_SHADOW_RAYS, max_rays, OTHER_LIGHT_SAMPLES),
-            false,
-            rng,
-        );
-        let rho = self.patches.reflectance[spot.patch as usize];
+        let (x, n, patch) = (spot.x, spot.n, spot.patch);
+        let rays = (GATHER_SHADOW_RAYS, max_rays, OTHER_LIGHT_SAMPLES);
+        let (direct, penumbra) = match sharp {
+            true => self.direct_from(x, n, patch, &exact, rays, false, rng),
+            false => self.emitters_direct(x, n, patch, &exact, rays, rng),
+        };
+        let rho = self.patches.reflectance[patch as usize];
         (std::array::from_fn(|c| rho[c] * direct[c]), penumbra, exact)
     }
 
@@ -662,20 +671,9 @@ impl Gatherer<'_> {
         let star = (self.env.has_sharp() && self.env.coarse_counts_all())
             .then(|| self.star_sharp(spot.n, faces, rho))
             .flatten();
-        if star.is_none() {
-            return (self.reflected_direct(spot, max_rays, rng), None);
-        }
-        let exact = self.exact_emitters(spot.x);
-        let (direct, penumbra) = self.emitters_direct(
-            spot.x,
-            spot.n,
-            spot.patch,
-            &exact,
-            (GATHER_SHADOW_RAYS, max_rays, OTHER_LIGHT_SAMPLES),
-            rng,
-        );
-        let direct = std::array::from_fn(|c| rho[c] * direct[c]);
-        ((direct, penumbra, exact), star)
+        // The star shows the sharp lights' part: the point's own leaves it out.
+        let direct = self.reflected_direct_with(spot, max_rays, star.is_none(), rng);
+        (direct, star)
     }
 
     /// The sharp lights' cheap estimate ([`Environment::coarse_sharp_direct`]) times `rho` at
