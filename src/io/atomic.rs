@@ -22,10 +22,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 /// Checks, before any work, that `path`'s directory exists, so a long run does not end in an
 /// error it could have reported at once. [`Error::Io`] naming `path` otherwise.
 pub fn check_output_dir(path: &Path) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = directory_of(path);
     if dir.is_dir() {
         Ok(())
     } else {
@@ -87,11 +84,19 @@ fn file_identity(path: &Path) -> Option<std::path::PathBuf> {
     if let Ok(file) = fs::canonicalize(path) {
         return Some(file);
     }
-    let dir = match path.parent() {
+    Some(
+        fs::canonicalize(directory_of(path))
+            .ok()?
+            .join(path.file_name()?),
+    )
+}
+
+/// The directory `path` is in: its parent, or `.` for a bare file name.
+fn directory_of(path: &Path) -> &Path {
+    match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
-    };
-    Some(fs::canonicalize(dir).ok()?.join(path.file_name()?))
+    }
 }
 
 /// Buffer size for writers: large enough that 100k+ vertices cost few system calls.
@@ -112,10 +117,7 @@ pub(crate) fn write_atomically(
             io::Error::new(io::ErrorKind::InvalidInput, "output path has no file name"),
         )
     })?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = directory_of(path);
     let mut tmp_name = OsString::from(".");
     tmp_name.push(name);
     tmp_name.push(format!(
