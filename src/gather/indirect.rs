@@ -7,7 +7,8 @@
 //! - **Near hits**: a hit closer than the hit patch's size ([`NEAR_HIT`]: a concave corner)
 //!   brings instead the radiance at the hit point, one bounce further (its direct light by
 //!   [`NEAR_HIT_SHADOW_RAYS`] per emitter, its indirect by [`NEAR_RAYS`] reading the patches,
-//!   or, if that ray's hit is near too, the radiance there: [`NEAR_DEPTH`] near hits deep).
+//!   or, if that ray's hit is near too, the radiance there: [`NEAR_DEPTH`] near hits deep;
+//!   past that, a hit in a slot by Russian roulette, [`SLOT_HIT`]).
 //! - **Rays beside edges**: where the first rays show an edge of the incident light (a bright
 //!   surface seen through a doorway, an occluder's outline), [`EDGE_RAYS`] more rays go into
 //!   the strata beside it, each stratum's share chosen from its neighbours' rays only, so the
@@ -81,6 +82,19 @@ pub const NEAR_RAYS: usize = 1;
 /// millimetres between table tops and legs, seats and backs); each further level adds gather
 /// time, more of it the deeper, and helps little.
 pub const NEAR_DEPTH: u32 = 2;
+
+/// A near hit at the end of a chain ([`NEAR_DEPTH`] followed) closer than this share of the
+/// hit patch's size is in a slot (a leg's top a few millimetres under a table top, a seat's
+/// underside over its frame): there a chain bounces between the two faces many times before
+/// it leaves, and the patch mean it would read overstates the light in the slot many times
+/// over. Such a hit is followed further by Russian roulette (Arvo & Kirk, "Particle
+/// transport and image synthesis", SIGGRAPH 1990): with probability [`ROULETTE`], its value
+/// divided by it, else nothing, so the chain's expected value is that of following it to its
+/// end, at an expected cost of one more level a chain.
+pub const SLOT_HIT: f64 = 0.25;
+
+/// The probability of following a slot's hit one level more ([`SLOT_HIT`]).
+pub const ROULETTE: f64 = 0.5;
 
 /// Rays of [`Gatherer::coarse_indirect`]: 4 × 4 strata, as many as a display test's own
 /// ([`super::refine::TEST_RAYS`]).
@@ -540,10 +554,29 @@ impl Gatherer<'_> {
                 || self.sampled(&self.emitters[e as usize], x));
         let (l, le) = (self.radiance[h], self.patches.emission[h]);
         let y = x + self.lift * n + hit.t * dir;
-        if near_bounces > 0 && hit.t < NEAR_HIT * self.patches.area[h].sqrt() {
+        let size = self.patches.area[h].sqrt();
+        if near_bounces > 0 && hit.t < NEAR_HIT * size {
             // A near hit (a concave corner): the patch's mean is not the radiance at the
             // hit point; evaluate it there, one bounce further (see NEAR_HIT).
             let reflected = self.reflected_at_hit(y, h, exact, near_bounces - 1, rng);
+            return (
+                Ray::Brought(
+                    std::array::from_fn(|c| (if counted { 0.0 } else { le[c] }) + reflected[c]),
+                    0.0,
+                ),
+                hit.t,
+            );
+        }
+        if near_bounces == 0 && self.roulette > 0.0 && hit.t < SLOT_HIT * size {
+            // The chain's end in a slot (see SLOT_HIT): the hit point's reflected light by
+            // Russian roulette, followed with probability q and divided by it, else none;
+            // the emitted part as always.
+            let q = self.roulette;
+            let reflected = if rng.next_f64() < q {
+                self.reflected_at_hit(y, h, exact, 0, rng).map(|l| l / q)
+            } else {
+                [0.0; 3]
+            };
             return (
                 Ray::Brought(
                     std::array::from_fn(|c| (if counted { 0.0 } else { le[c] }) + reflected[c]),

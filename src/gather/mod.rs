@@ -69,7 +69,8 @@ pub use direct::{
     SAMPLED_SPREAD,
 };
 pub use indirect::{
-    EDGE_MAX_PER_STRATUM, EDGE_MIN_SIDE, EDGE_RAYS, NEAR_DEPTH, NEAR_HIT, NEAR_RAYS,
+    EDGE_MAX_PER_STRATUM, EDGE_MIN_SIDE, EDGE_RAYS, NEAR_DEPTH, NEAR_HIT, NEAR_RAYS, ROULETTE,
+    SLOT_HIT,
 };
 pub use refine::{refine, Plan, Refined};
 pub use sites::{NUDGE, NUDGE_MAX};
@@ -225,6 +226,9 @@ pub struct Gatherer<'a> {
     /// More hemisphere rays beside edges of the incident light, as a share of a gather's rays
     /// ([`EDGE_RAYS`]; [`Gatherer::with_edge_rays`]).
     edge_rays: f64,
+    /// The probability of following a slot's near hit past [`NEAR_DEPTH`] ([`ROULETTE`];
+    /// [`Gatherer::with_slot_roulette`]).
+    roulette: f64,
     /// The lights outside the mesh ([`crate::light::outside`]): the sun and the point lights are
     /// part of the direct term, the sky comes through the hemisphere rays that leave the scene.
     env: Environment,
@@ -308,6 +312,7 @@ impl<'a> Gatherer<'a> {
             lift,
             seed,
             edge_rays: EDGE_RAYS,
+            roulette: ROULETTE,
             env: env.clone(),
             light_tree: LightTree::new(&env.lights),
             cache: false,
@@ -350,6 +355,18 @@ impl<'a> Gatherer<'a> {
     pub fn with_edge_rays(mut self, share: f64) -> Self {
         debug_assert!(share >= 0.0 && share.is_finite());
         self.edge_rays = share;
+        self
+    }
+
+    /// The probability in [0, 1) with which a near hit in a slot at the end of a chain is
+    /// followed one level more ([`ROULETTE`] unless set; 0 = the chain ends at [`NEAR_DEPTH`]
+    /// reading the patch's mean, as a measure of what the roulette buys).
+    pub fn with_slot_roulette(mut self, probability: f64) -> Self {
+        assert!(
+            (0.0..1.0).contains(&probability),
+            "roulette probability {probability}"
+        );
+        self.roulette = probability;
         self
     }
 
