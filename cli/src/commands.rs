@@ -22,9 +22,15 @@ pub fn bake(args: &BakeArgs, quiet: bool, comm: &dyn Exchange) -> Result<u8, Fai
     for path in args.report.iter().chain(&args.png) {
         io::check_output_dir(path)?;
     }
-    // No output may replace an input (the scene, its lights file) or another output.
+    // No output may replace an input (the scene, its lights file, an OBJ's material
+    // libraries and texture images) or another output.
+    let companions = match args.input.extension() {
+        Some(e) if e.eq_ignore_ascii_case("obj") => io::obj::companion_files(&args.input),
+        _ => Vec::new(),
+    };
     let inputs: Vec<&std::path::Path> = std::iter::once(args.input.as_path())
         .chain(args.scene.solve.lights.as_deref())
+        .chain(companions.iter().map(|p| p.as_path()))
         .collect();
     let outputs: Vec<(&str, &std::path::Path)> = std::iter::once(("output", args.output.as_path()))
         .chain(args.report.as_deref().map(|p| ("report", p)))

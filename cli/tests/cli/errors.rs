@@ -149,6 +149,14 @@ fn file_problems_name_the_file() {
     let lights = f.write("lights.json", r#"{"sky": [1, 1, 1]}"#);
     let (ply, report) = (f.path("out.ply"), f.path("sub/../out.ply"));
     let spelled = f.path("sub/../valid.obj");
+    // The scene's material library, and a texture image it names (the material unused).
+    let mtl = f.path("m.mtl");
+    let texture = f.path("wood.png");
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 150, 100]))
+        .save(&texture)
+        .unwrap();
+    let textured = format!("{MTL}newmtl wood\nKd 1 1 1\nmap_Kd wood.png\n");
+    std::fs::write(f.dir.join("m.mtl"), textured).unwrap();
     std::fs::create_dir(f.dir.join("sub")).unwrap();
     for (args, needles) in [
         (
@@ -167,6 +175,14 @@ fn file_problems_name_the_file() {
             vec!["-o", &ply, "--lights", &lights, "--report", &lights],
             ["--report", "is the input", "lights.json"],
         ),
+        (
+            vec!["-o", &ply, "--report", &mtl],
+            ["--report", "is the input", "m.mtl"],
+        ),
+        (
+            vec!["-o", &ply, "--png", &texture],
+            ["--png", "is the input", "wood.png"],
+        ),
     ] {
         let before = listing(&f.dir);
         let bytes = std::fs::read(&input).unwrap();
@@ -177,6 +193,7 @@ fn file_problems_name_the_file() {
         assert_eq!(listing(&f.dir), before);
         assert_eq!(std::fs::read(&input).unwrap(), bytes);
     }
+    std::fs::write(f.dir.join("m.mtl"), MTL).unwrap();
     // The MTL named by mtllib is there but not text: an error at the mtllib line.
     std::fs::write(f.dir.join("bad.mtl"), [0xffu8, 0xfe, 0x00]).unwrap();
     let obj = f.write("badmtl.obj", &VALID.replace("m.mtl", "bad.mtl"));

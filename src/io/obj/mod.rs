@@ -11,7 +11,7 @@ mod scene;
 
 pub use baked::{colour_component, component_to_u8, read, write_to};
 pub use save::save;
-pub use scene::load;
+pub use scene::{companion_files, load};
 
 use std::io::{self, Write};
 use std::path::Path;

@@ -83,6 +83,41 @@ fn library_files(dir: &Path, name: &Path) -> Vec<PathBuf> {
     }
 }
 
+/// The files an OBJ's scene reads beside it: the MTL files its `mtllib` lines name and the
+/// texture images (`map_Kd`) those name, as [`load`] finds them, those that exist. A cheap
+/// scan (no image decoded), so the outputs can be checked against them before any work;
+/// what cannot be read is left to [`load`] to report.
+pub fn companion_files(path: &Path) -> Vec<PathBuf> {
+    let Ok(text) = read_text(path) else {
+        return Vec::new();
+    };
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut files = Vec::new();
+    for (line, joined, _) in logical_lines(&text) {
+        let Some(name) = joined.trim().strip_prefix("mtllib") else {
+            continue;
+        };
+        if !name.starts_with(char::is_whitespace) {
+            continue;
+        }
+        for mtl in library_files(dir, Path::new(name.trim())) {
+            let Ok((_, extras)) = super::mtl::read_mtl(path, line, &mtl) else {
+                continue;
+            };
+            let mtl_dir = mtl.parent().unwrap_or(Path::new(""));
+            files.extend(
+                extras
+                    .iter()
+                    .filter_map(|e| e.texture.as_ref())
+                    .map(|(file, _)| mtl_dir.join(file.replace('\\', "/"))),
+            );
+            files.push(mtl);
+        }
+    }
+    files.retain(|f| f.exists());
+    files
+}
+
 /// Loads an OBJ file and the MTL files it references into a welded, cleaned and validated
 /// [`Scene`]. Errors name the file and, where there is one, the line (1-based).
 pub fn load(path: &Path) -> Result<Scene> {
