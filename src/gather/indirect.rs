@@ -555,28 +555,23 @@ impl Gatherer<'_> {
         let (l, le) = (self.radiance[h], self.patches.emission[h]);
         let y = x + self.lift * n + hit.t * dir;
         let size = self.patches.area[h].sqrt();
-        if near_bounces > 0 && hit.t < NEAR_HIT * size {
+        let reflected = if near_bounces > 0 && hit.t < NEAR_HIT * size {
             // A near hit (a concave corner): the patch's mean is not the radiance at the
             // hit point; evaluate it there, one bounce further (see NEAR_HIT).
-            let reflected = self.reflected_at_hit(y, h, exact, near_bounces - 1, rng);
-            return (
-                Ray::Brought(
-                    std::array::from_fn(|c| (if counted { 0.0 } else { le[c] }) + reflected[c]),
-                    0.0,
-                ),
-                hit.t,
-            );
-        }
-        if near_bounces == 0 && self.roulette > 0.0 && hit.t < SLOT_HIT * size {
+            Some(self.reflected_at_hit(y, h, exact, near_bounces - 1, rng))
+        } else if near_bounces == 0 && self.roulette > 0.0 && hit.t < SLOT_HIT * size {
             // The chain's end in a slot (see SLOT_HIT): the hit point's reflected light by
-            // Russian roulette, followed with probability q and divided by it, else none;
-            // the emitted part as always.
+            // Russian roulette, followed with probability q and divided by it, else none.
             let q = self.roulette;
-            let reflected = if rng.next_f64() < q {
-                self.reflected_at_hit(y, h, exact, 0, rng).map(|l| l / q)
-            } else {
-                [0.0; 3]
-            };
+            Some(match rng.next_f64() < q {
+                true => self.reflected_at_hit(y, h, exact, 0, rng).map(|l| l / q),
+                false => [0.0; 3],
+            })
+        } else {
+            None
+        };
+        if let Some(reflected) = reflected {
+            // The emitted part as always, the reflected part from the hit point.
             return (
                 Ray::Brought(
                     std::array::from_fn(|c| (if counted { 0.0 } else { le[c] }) + reflected[c]),

@@ -269,6 +269,14 @@ pub(super) fn apply_transmittance(
     }
 }
 
+/// The file of a `map_Kd` named `file` in the MTL file `mtl`: relative to the MTL's
+/// directory, a backslash read as a slash (files written on Windows separate folders so).
+pub(super) fn texture_path(mtl: &Path, file: &str) -> std::path::PathBuf {
+    mtl.parent()
+        .unwrap_or(Path::new(""))
+        .join(file.replace('\\', "/"))
+}
+
 /// Applies what the MTL files had beyond `Kd` and `Ke` to the converted `materials`:
 /// `extras` holds each material's [`Extras`] with its MTL file (the last definition of a name
 /// wins; texture paths are relative to the MTL's directory). A texture's mean colour
@@ -292,10 +300,8 @@ pub(super) fn apply_extras(
         let Some((mtl, e)) = extras.iter().rev().find(|(_, e)| e.name == m.name) else {
             continue;
         };
-        let dir = mtl.parent().unwrap_or(Path::new(""));
         if let Some((file, line)) = &e.texture {
-            // Files written on Windows separate folders with backslashes.
-            let path = dir.join(file.replace('\\', "/"));
+            let path = texture_path(mtl, file);
             let index = read.entry(path.clone()).or_insert_with(|| {
                 read_texture(&path).map(|t| {
                     textures.push(t);

@@ -104,12 +104,11 @@ pub fn companion_files(path: &Path) -> Vec<PathBuf> {
             let Ok((_, extras)) = super::mtl::read_mtl(path, line, &mtl) else {
                 continue;
             };
-            let mtl_dir = mtl.parent().unwrap_or(Path::new(""));
             files.extend(
                 extras
                     .iter()
                     .filter_map(|e| e.texture.as_ref())
-                    .map(|(file, _)| mtl_dir.join(file.replace('\\', "/"))),
+                    .map(|(file, _)| super::mtl::texture_path(&mtl, file)),
             );
             files.push(mtl);
         }
