@@ -477,11 +477,20 @@ pub struct Score {
 /// [`scored`]; nothing shown counts as black, e = −1), the number of those shown nothing,
 /// and the sum of the references' squared relative standard errors there.
 fn errors(probes: &[Probe], shown: &[Option<Rgb>]) -> (Vec<f64>, usize, f64) {
-    assert_eq!(probes.len(), shown.len(), "one shown value per probe");
     let counted = scored(&probes.iter().map(|p| p.radiance).collect::<Vec<_>>());
+    errors_where(probes, shown, &counted)
+}
+
+/// [`errors`] at the probes `counted` picks.
+fn errors_where(
+    probes: &[Probe],
+    shown: &[Option<Rgb>],
+    counted: &[bool],
+) -> (Vec<f64>, usize, f64) {
+    assert_eq!(probes.len(), shown.len(), "one shown value per probe");
     let mut errors = Vec::new();
     let (mut missing, mut noise2) = (0, 0.0);
-    for ((p, s), _) in probes.iter().zip(shown).zip(&counted).filter(|(_, &c)| c) {
+    for ((p, s), _) in probes.iter().zip(shown).zip(counted).filter(|(_, &c)| c) {
         let y_ref = luminance(p.radiance);
         let y = match s {
             Some(rgb) => luminance(*rgb),
@@ -499,7 +508,12 @@ fn errors(probes: &[Probe], shown: &[Option<Rgb>]) -> (Vec<f64>, usize, f64) {
 /// Scores `shown` (one value per probe, `None` where nothing is shown) against the probes'
 /// reference radiance (see the module documentation).
 pub fn score(probes: &[Probe], shown: &[Option<Rgb>]) -> Score {
-    let (errors, missing, noise2) = errors(probes, shown);
+    summary(errors(probes, shown))
+}
+
+/// The [`Score`] of the relative errors, the probes shown nothing and the references' summed
+/// squared relative standard errors ([`errors`]).
+fn summary((errors, missing, noise2): (Vec<f64>, usize, f64)) -> Score {
     let n = errors.len();
     if n == 0 {
         return Score::default();
@@ -518,6 +532,76 @@ pub fn score(probes: &[Probe], shown: &[Option<Rgb>]) -> Score {
         bias,
         reference_noise: (noise2 / n as f64).sqrt(),
     }
+}
+
+/// The score of one class of probes ([`by_class`]).
+#[derive(Debug, Clone)]
+pub struct ClassScore {
+    /// Which probes: "facing up", "facing down", "sideways" (the normal within 25° of `up`,
+    /// of −`up`, or neither), "bright", "mid", "dim" (the reference's luminance above all
+    /// probes' mean, between 0.3 × it and it, at most 0.3 × it).
+    pub class: &'static str,
+    /// Its score, of the probes of the class that [`score`] counts (the same threshold: a
+    /// tenth of all probes' mean).
+    pub score: Score,
+    /// Its share of the squared error summed over all counted probes (the classes of one
+    /// kind, facing or brightness, add up to 1).
+    pub share: f64,
+}
+
+/// The classes of [`by_class`], by facing and by brightness.
+const CLASSES: [&str; 6] = [
+    "facing up",
+    "facing down",
+    "sideways",
+    "bright",
+    "mid",
+    "dim",
+];
+
+/// The score broken down by where the probes face (relative to the unit vector `up`) and
+/// how bright their reference is: where a bake's error lies (the floor, ceilings and
+/// undersides, walls and furniture's sides; lit or dim surfaces), each class with its share
+/// of the squared error ([`ClassScore`]).
+pub fn by_class(probes: &[Probe], shown: &[Option<Rgb>], up: DVec3) -> Vec<ClassScore> {
+    let reference: Vec<Rgb> = probes.iter().map(|p| p.radiance).collect();
+    let counted = scored(&reference);
+    let mean_y =
+        reference.iter().map(|&l| luminance(l)).sum::<f64>() / reference.len().max(1) as f64;
+    // cos 25°: a floor's or a sloped roof's probe is "up", a wall's "sideways".
+    const FACING: f64 = 0.9;
+    let of = |p: &Probe, class: &str| {
+        let (facing, y) = (p.normal.dot(up), luminance(p.radiance));
+        match class {
+            "facing up" => facing > FACING,
+            "facing down" => facing < -FACING,
+            "sideways" => facing.abs() <= FACING,
+            "bright" => y > mean_y,
+            "mid" => y > 0.3 * mean_y && y <= mean_y,
+            _ => y <= 0.3 * mean_y,
+        }
+    };
+    let squared = |e: &[f64]| e.iter().map(|e| e * e).sum::<f64>();
+    let total = squared(&errors_where(probes, shown, &counted).0);
+    CLASSES
+        .iter()
+        .map(|&class| {
+            let picked: Vec<bool> = (probes.iter().zip(&counted))
+                .map(|(p, &c)| c && of(p, class))
+                .collect();
+            let found = errors_where(probes, shown, &picked);
+            let share = if total > 0.0 {
+                squared(&found.0) / total
+            } else {
+                0.0
+            };
+            ClassScore {
+                class,
+                score: summary(found),
+                share,
+            }
+        })
+        .collect()
 }
 
 /// How the errors of K bakes of one scene, made with the same settings and different seeds,
@@ -833,6 +917,44 @@ mod tests {
             assert!((rms * rms - s * s - d * d).abs() < 1e-12, "{rms}");
         }
         assert!(spread(&probes, &bakes[..1]).is_none());
+    }
+
+    #[test]
+    fn the_score_by_class_splits_the_squared_error() {
+        // Four probes facing up (luminance 1, errors +2 %), four facing down (luminance 0.15,
+        // errors −4 %), two sideways (luminance 1, errors 0 and +6 %) and a dark one (left
+        // out): mean luminance 0.60 over the 11, so the up and sideways ones are bright, the
+        // down ones dim (below 0.18). Squared errors 16, 64 and 36 (×10⁻⁴) of 116.
+        let mut probes = Vec::new();
+        let mut shown = Vec::new();
+        let mut add = |y: f64, normal: DVec3, e: f64| {
+            probes.push(Probe { normal, ..probe(y) });
+            shown.push(Some([y * (1.0 + e); 3]));
+        };
+        (0..4).for_each(|_| add(1.0, DVec3::Z, 0.02));
+        (0..4).for_each(|_| add(0.15, -DVec3::Z, -0.04));
+        add(1.0, DVec3::X, 0.0);
+        add(1.0, DVec3::Y, 0.06);
+        add(0.01, DVec3::Z, 5.0);
+        let classes = by_class(&probes, &shown, DVec3::Z);
+        let get = |name: &str| classes.iter().find(|c| c.class == name).unwrap();
+        let (up, down, side) = (get("facing up"), get("facing down"), get("sideways"));
+        assert_eq!(
+            (up.score.scored, down.score.scored, side.score.scored),
+            (4, 4, 2)
+        );
+        assert!((up.score.rms - 0.02).abs() < 1e-12 && (up.share - 16.0 / 116.0).abs() < 1e-12);
+        assert!(
+            (down.score.bias + 0.04).abs() < 1e-12 && (down.share - 64.0 / 116.0).abs() < 1e-12
+        );
+        assert!((side.score.rms - 0.0018f64.sqrt()).abs() < 1e-12);
+        let (bright, mid, dim) = (get("bright"), get("mid"), get("dim"));
+        assert_eq!(
+            (bright.score.scored, mid.score.scored, dim.score.scored),
+            (6, 0, 4)
+        );
+        assert!((bright.share + mid.share + dim.share - 1.0).abs() < 1e-12);
+        assert!((dim.share - down.share).abs() < 1e-12);
     }
 
     #[test]

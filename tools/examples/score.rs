@@ -14,7 +14,9 @@
 //! Mitsuba's 256 × 256 frame at equal time, BENCHMARKS.md, is N = 65,536).
 //! With `SCORE_SEEDS=1` and two or more bakes of one scene made with the same settings and
 //! different seeds, a last line splits their error into what a seed decides and what they
-//! all share ([`pointwise::Spread`]).
+//! all share ([`pointwise::Spread`]). With `SCORE_CLASSES=x|y|z` (the scene's up axis), each
+//! bake's score is broken down as well, by where the probes face and how bright they are,
+//! with each class's share of the squared error ([`pointwise::by_class`]).
 
 use std::path::Path;
 
@@ -45,6 +47,13 @@ fn main() -> Result<()> {
         anyhow::bail!("SCORE_SEEDS: give two or more bakes (other seeds, the same settings)");
     }
     let probes = pointwise::read_csv(Path::new(probes))?;
+    let classes = match std::env::var("SCORE_CLASSES").ok().as_deref() {
+        None => None,
+        Some("x") => Some(glam::DVec3::X),
+        Some("y") => Some(glam::DVec3::Y),
+        Some("z") => Some(glam::DVec3::Z),
+        Some(other) => anyhow::bail!("SCORE_CLASSES={other}: the up axis, x, y or z"),
+    };
     println!("| bake | scored | RMS | median | 90th pct | bias |\n|---|---|---|---|---|---|");
     let mut all_shown = Vec::new();
     for bake in bakes {
@@ -66,6 +75,16 @@ fn main() -> Result<()> {
             std::fs::write(&dump, csv).with_context(|| format!("writing {dump:?}"))?;
         }
         row(bake, &pointwise::score(&probes, &shown));
+        if let Some(up) = &classes {
+            for c in pointwise::by_class(&probes, &shown, *up) {
+                let what = format!(
+                    "{bake}: {}, {:.1} % of the error²",
+                    c.class,
+                    100.0 * c.share
+                );
+                row(&what, &c.score);
+            }
+        }
         if seeds {
             all_shown.push(shown);
         }
