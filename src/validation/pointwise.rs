@@ -534,13 +534,69 @@ fn summary((errors, missing, noise2): (Vec<f64>, usize, f64)) -> Score {
     }
 }
 
+/// A class of probes ([`by_class`]): by where they face, or by how bright they are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Class {
+    /// The normal within about 25° of up (cos > [`Class::FACING`]): floors, table tops.
+    FacingUp,
+    /// The normal within about 25° of down: ceilings, undersides.
+    FacingDown,
+    /// Neither: walls, furniture's sides.
+    Sideways,
+    /// The reference's luminance above all probes' mean.
+    Bright,
+    /// Between 0.3 × the mean and the mean.
+    Mid,
+    /// At most 0.3 × the mean (and above the tenth of it that [`score`] counts).
+    Dim,
+}
+
+impl Class {
+    /// Every class: the three facings, then the three brightnesses.
+    pub const ALL: [Class; 6] = [
+        Class::FacingUp,
+        Class::FacingDown,
+        Class::Sideways,
+        Class::Bright,
+        Class::Mid,
+        Class::Dim,
+    ];
+
+    /// The cosine between the normal and up (or down) beyond which a probe faces up (down):
+    /// a floor's or a gently sloped roof's probe faces up, a wall's sideways.
+    pub const FACING: f64 = 0.9;
+
+    /// Its name in a table.
+    pub fn name(self) -> &'static str {
+        match self {
+            Class::FacingUp => "facing up",
+            Class::FacingDown => "facing down",
+            Class::Sideways => "sideways",
+            Class::Bright => "bright",
+            Class::Mid => "mid",
+            Class::Dim => "dim",
+        }
+    }
+
+    /// Whether a probe whose normal has the cosine `facing` with up, and whose reference has
+    /// the luminance `y`, is of this class, the probes' mean luminance being `mean_y`.
+    fn holds(self, facing: f64, y: f64, mean_y: f64) -> bool {
+        match self {
+            Class::FacingUp => facing > Class::FACING,
+            Class::FacingDown => facing < -Class::FACING,
+            Class::Sideways => facing.abs() <= Class::FACING,
+            Class::Bright => y > mean_y,
+            Class::Mid => y > 0.3 * mean_y && y <= mean_y,
+            Class::Dim => y <= 0.3 * mean_y,
+        }
+    }
+}
+
 /// The score of one class of probes ([`by_class`]).
 #[derive(Debug, Clone)]
 pub struct ClassScore {
-    /// Which probes: "facing up", "facing down", "sideways" (the normal within 25° of `up`,
-    /// of −`up`, or neither), "bright", "mid", "dim" (the reference's luminance above all
-    /// probes' mean, between 0.3 × it and it, at most 0.3 × it).
-    pub class: &'static str,
+    /// Which probes.
+    pub class: Class,
     /// Its score, of the probes of the class that [`score`] counts (the same threshold: a
     /// tenth of all probes' mean).
     pub score: Score,
@@ -549,45 +605,22 @@ pub struct ClassScore {
     pub share: f64,
 }
 
-/// The classes of [`by_class`], by facing and by brightness.
-const CLASSES: [&str; 6] = [
-    "facing up",
-    "facing down",
-    "sideways",
-    "bright",
-    "mid",
-    "dim",
-];
-
 /// The score broken down by where the probes face (relative to the unit vector `up`) and
-/// how bright their reference is: where a bake's error lies (the floor, ceilings and
-/// undersides, walls and furniture's sides; lit or dim surfaces), each class with its share
-/// of the squared error ([`ClassScore`]).
+/// how bright their reference is ([`Class`]): where a bake's error lies (the floor, ceilings
+/// and undersides, walls and furniture's sides; lit or dim surfaces), each class with its
+/// share of the squared error ([`ClassScore`]).
 pub fn by_class(probes: &[Probe], shown: &[Option<Rgb>], up: DVec3) -> Vec<ClassScore> {
     let reference: Vec<Rgb> = probes.iter().map(|p| p.radiance).collect();
     let counted = scored(&reference);
     let mean_y =
         reference.iter().map(|&l| luminance(l)).sum::<f64>() / reference.len().max(1) as f64;
-    // cos 25°: a floor's or a sloped roof's probe is "up", a wall's "sideways".
-    const FACING: f64 = 0.9;
-    let of = |p: &Probe, class: &str| {
-        let (facing, y) = (p.normal.dot(up), luminance(p.radiance));
-        match class {
-            "facing up" => facing > FACING,
-            "facing down" => facing < -FACING,
-            "sideways" => facing.abs() <= FACING,
-            "bright" => y > mean_y,
-            "mid" => y > 0.3 * mean_y && y <= mean_y,
-            _ => y <= 0.3 * mean_y,
-        }
-    };
     let squared = |e: &[f64]| e.iter().map(|e| e * e).sum::<f64>();
     let total = squared(&errors_where(probes, shown, &counted).0);
-    CLASSES
-        .iter()
-        .map(|&class| {
+    Class::ALL
+        .into_iter()
+        .map(|class| {
             let picked: Vec<bool> = (probes.iter().zip(&counted))
-                .map(|(p, &c)| c && of(p, class))
+                .map(|(p, &c)| c && class.holds(p.normal.dot(up), luminance(p.radiance), mean_y))
                 .collect();
             let found = errors_where(probes, shown, &picked);
             let share = if total > 0.0 {
@@ -937,8 +970,12 @@ mod tests {
         add(1.0, DVec3::Y, 0.06);
         add(0.01, DVec3::Z, 5.0);
         let classes = by_class(&probes, &shown, DVec3::Z);
-        let get = |name: &str| classes.iter().find(|c| c.class == name).unwrap();
-        let (up, down, side) = (get("facing up"), get("facing down"), get("sideways"));
+        let get = |class: Class| classes.iter().find(|c| c.class == class).unwrap();
+        let (up, down, side) = (
+            get(Class::FacingUp),
+            get(Class::FacingDown),
+            get(Class::Sideways),
+        );
         assert_eq!(
             (up.score.scored, down.score.scored, side.score.scored),
             (4, 4, 2)
@@ -948,7 +985,7 @@ mod tests {
             (down.score.bias + 0.04).abs() < 1e-12 && (down.share - 64.0 / 116.0).abs() < 1e-12
         );
         assert!((side.score.rms - 0.0018f64.sqrt()).abs() < 1e-12);
-        let (bright, mid, dim) = (get("bright"), get("mid"), get("dim"));
+        let (bright, mid, dim) = (get(Class::Bright), get(Class::Mid), get(Class::Dim));
         assert_eq!(
             (bright.score.scored, mid.score.scored, dim.score.scored),
             (6, 0, 4)

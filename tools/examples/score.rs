@@ -79,7 +79,7 @@ fn main() -> Result<()> {
             for c in pointwise::by_class(&probes, &shown, *up) {
                 let what = format!(
                     "{bake}: {}, {:.1} % of the error²",
-                    c.class,
+                    c.class.name(),
                     100.0 * c.share
                 );
                 row(&what, &c.score);
