@@ -24,10 +24,7 @@ pub fn bake(args: &BakeArgs, quiet: bool, comm: &dyn Exchange) -> Result<u8, Fai
     }
     // No output may replace an input (the scene, its lights file, an OBJ's material
     // libraries and texture images) or another output.
-    let companions = match args.input.extension() {
-        Some(e) if e.eq_ignore_ascii_case("obj") => io::obj::companion_files(&args.input),
-        _ => Vec::new(),
-    };
+    let companions = io::companion_files(&args.input);
     let inputs: Vec<&std::path::Path> = std::iter::once(args.input.as_path())
         .chain(args.scene.solve.lights.as_deref())
         .chain(companions.iter().map(|p| p.as_path()))

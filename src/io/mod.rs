@@ -80,6 +80,18 @@ pub(crate) fn parse_error(path: &Path, line: usize, message: impl Into<String>) 
     }
 }
 
+/// The files a scene file's reader reads beside it, those that exist: for an `.obj` (any
+/// case, as [`Scene::load`] dispatches) its material libraries and their texture images
+/// ([`obj::companion_files`]); none for the other formats. An output must not replace them.
+pub fn companion_files(path: &Path) -> Vec<std::path::PathBuf> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if ext.eq_ignore_ascii_case("obj") {
+        obj::companion_files(path)
+    } else {
+        Vec::new()
+    }
+}
+
 impl Scene {
     /// Loads a scene file, dispatching on the extension: `.obj` (any case) goes to
     /// [`obj::load`], `.ply` to [`ply::load`], `.gltf` and `.glb` to [`gltf::load`], `.xml`
