@@ -72,13 +72,8 @@ fn main() -> Result<()> {
             irradiance: [e; 3],
         });
     }
-    if let Some(up) = std::env::var_os("UP") {
-        settings.environment.up = match up.to_string_lossy().as_ref() {
-            "x" => radiosity::scene::Up::X,
-            "y" => radiosity::scene::Up::Y,
-            "z" => radiosity::scene::Up::Z,
-            other => anyhow::bail!("UP={other}: not x, y or z"),
-        };
+    if let Some(up) = radiosity_tools::up_env("UP")? {
+        settings.environment.up = up;
     }
     settings.environment.validate()?;
     // The gatherer reads the scene the solve's patches came from: where the matrix method

@@ -17,6 +17,7 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use radiosity::scene::{Environment, Scene, Sun, Up};
 use radiosity::validation::pointwise::{self, ReferenceSettings};
+use radiosity::Choice;
 
 fn main() -> Result<()> {
     let usage =
@@ -50,12 +51,8 @@ fn main() -> Result<()> {
                 });
             }
             "--up" => {
-                env.up = match value()?.as_str() {
-                    "x" => Up::X,
-                    "y" => Up::Y,
-                    "z" => Up::Z,
-                    other => bail!("--up: x, y or z, not {other}"),
-                }
+                let v = value()?;
+                env.up = Up::from_name(&v).with_context(|| format!("--up: x, y or z, not {v}"))?
             }
             "--seed" => seed = value()?.parse().context("--seed: a whole number")?,
             "--refilter" => refilter = Some(value()?),

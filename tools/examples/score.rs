@@ -47,13 +47,7 @@ fn main() -> Result<()> {
         anyhow::bail!("SCORE_SEEDS: give two or more bakes (other seeds, the same settings)");
     }
     let probes = pointwise::read_csv(Path::new(probes))?;
-    let classes = match std::env::var("SCORE_CLASSES").ok().as_deref() {
-        None => None,
-        Some("x") => Some(glam::DVec3::X),
-        Some("y") => Some(glam::DVec3::Y),
-        Some("z") => Some(glam::DVec3::Z),
-        Some(other) => anyhow::bail!("SCORE_CLASSES={other}: the up axis, x, y or z"),
-    };
+    let classes = radiosity_tools::up_env("SCORE_CLASSES")?.map(|up| up.axis());
     println!("| bake | scored | RMS | median | 90th pct | bias |\n|---|---|---|---|---|---|");
     let mut all_shown = Vec::new();
     for bake in bakes {

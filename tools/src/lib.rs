@@ -35,6 +35,20 @@ pub fn positive_env(name: &str, what: &str) -> Result<Option<f64>> {
     Ok(Some(x))
 }
 
+/// The environment variable `name` as an axis, `x`, `y` or `z` (the scene's up, as
+/// `--up` takes it: [`radiosity::scene::Up`]'s names), `None` where it is unset; an error
+/// naming it and its value otherwise.
+pub fn up_env(name: &str) -> Result<Option<radiosity::scene::Up>> {
+    use radiosity::Choice;
+    let Some(value) = std::env::var_os(name) else {
+        return Ok(None);
+    };
+    let value = value.to_string_lossy();
+    let up = radiosity::scene::Up::from_name(&value)
+        .with_context(|| format!("{name}={value}: not an axis (x, y or z)"))?;
+    Ok(Some(up))
+}
+
 /// What every harness's command line has: `--quick` (a smaller sweep), `--out DIR` (where the
 /// results go) and `--help`; `cargo bench` adds `--bench`, which is ignored. Every other word is
 /// kept, in order, in `other` for the harness to read (sections, internal options).
