@@ -39,7 +39,7 @@
 
 use std::collections::HashMap;
 
-use super::refine::{coarse_direct_at, complete_coarse, face_edges, Edge};
+use super::coarse::{coarse_direct_at, complete_coarse, face_edges, Coarse, Edge};
 use super::{Gathered, Gatherer};
 use crate::bake::Site;
 use crate::color::luminance;
@@ -53,43 +53,6 @@ pub const MARGIN: f64 = 0.5;
 
 /// Rounds of flips, at most: a turned diagonal makes new quadrilaterals around it.
 pub const ROUNDS: usize = 3;
-
-/// Each display vertex's cheap direct light and the key of its exact emitters
-/// (the refinement's `coarse_direct_at`), once computed; `None` where it is buried. Indexed
-/// by vertex (`coarse[&v]`, which panics for a vertex not yet computed): most of a large
-/// output's vertices are, and a hash map of them would take twice the bytes.
-#[derive(Debug, Default)]
-pub(super) struct Coarse(Vec<Option<Option<(u64, crate::color::Rgb)>>>);
-
-impl Coarse {
-    /// Whether vertex `v`'s estimate has been computed.
-    pub(super) fn contains_key(&self, v: &u32) -> bool {
-        self.0.get(*v as usize).is_some_and(Option::is_some)
-    }
-
-    /// Sets the estimates of `found` (vertex, estimate).
-    pub(super) fn extend(
-        &mut self,
-        found: impl IntoIterator<Item = (u32, Option<(u64, crate::color::Rgb)>)>,
-    ) {
-        for (v, c) in found {
-            if self.0.len() <= v as usize {
-                self.0.resize(v as usize + 1, None);
-            }
-            self.0[v as usize] = Some(c);
-        }
-    }
-}
-
-impl std::ops::Index<&u32> for Coarse {
-    type Output = Option<(u64, crate::color::Rgb)>;
-
-    fn index(&self, v: &u32) -> &Self::Output {
-        self.0[*v as usize]
-            .as_ref()
-            .expect("a display vertex's cheap direct light is computed before it is read")
-    }
-}
 
 /// The faces on each output edge, in the order they were added: a pair inline (16 bytes an
 /// edge, no allocation of its own: the map of a large output's every edge is the largest

@@ -981,7 +981,7 @@ mod tests {
         let mut edges: Vec<[u32; 2]> = mesh
             .faces
             .iter()
-            .flat_map(|&t| super::super::refine::face_edges(t))
+            .flat_map(|&t| super::super::coarse::face_edges(t))
             .map(|(a, b)| [a, b])
             .collect();
         edges.sort_unstable();

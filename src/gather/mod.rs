@@ -22,6 +22,8 @@
 //! | openings | `openings` | where the sky comes into an enclosed scene, found by a pilot of rays, reached by rays too, weighed likewise |
 //! | rays against the patches | `trace` | the scene triangles the patches tile, and the patch hit on a grid |
 //! | display refinement | [`mod@refine`] | output edges split where the light departs from linear ([`refine::DEFAULT_TOLERANCE`]) |
+//! | the cheap direct light | `coarse` | the display's edges; a correlated estimate at vertices and midpoints that orders the tests and screens the flips |
+//! | flips | [`flip`] | diagonals of coplanar triangles turned to follow the direct light |
 //! | the values shown | [`local_fit`] | noise fitted away, the chord correction, the tested midpoints' least squares |
 //!
 //! `direct` mode keeps the solution's indirect light: at each patch, the solved radiance less
@@ -53,6 +55,7 @@ use trace::Surfaces;
 mod bright;
 mod brightest;
 pub mod cache;
+mod coarse;
 mod direct;
 pub mod flip;
 mod indirect;

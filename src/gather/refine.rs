@@ -78,7 +78,7 @@
 
 use std::collections::{HashMap, HashSet};
 
-use super::flip::Coarse;
+use super::coarse::{coarse_direct_at, complete_coarse, edge, face_edges, Coarse, Edge};
 use super::indirect::COARSE_RAYS;
 use super::local_fit::{self, Midpoint};
 use super::sites::StarFace;
@@ -253,18 +253,6 @@ pub struct Refined {
     /// candidates ran out.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub out_of_time: bool,
-}
-
-/// An undirected edge between output vertices (lower index first).
-pub(super) type Edge = (u32, u32);
-
-fn edge(a: u32, b: u32) -> Edge {
-    (a.min(b), a.max(b))
-}
-
-/// The three edges of a face.
-pub(super) fn face_edges(face: [u32; 3]) -> [Edge; 3] {
-    std::array::from_fn(|k| edge(face[k], face[(k + 1) % 3]))
 }
 
 /// The output mesh being refined, with what the gather found at each vertex.
@@ -787,58 +775,6 @@ fn coarse_departures(
         |x, w| w.f64(*x),
         |r| r.f64(),
     )
-}
-
-/// The cheap direct light at a display vertex or midpoint `site`
-/// ([`Gatherer::coarse_direct`] over the emitters computed exactly there), with the key of
-/// those emitters ([`Gatherer::exact_key`]); `None` where the site is buried.
-pub(super) fn coarse_direct_at(
-    gatherer: &Gatherer,
-    site: &Site,
-    visible_fraction: &[f64],
-) -> Option<(u64, Rgb)> {
-    let spot = gatherer.spot(site, visible_fraction)?;
-    let exact = gatherer.exact_emitters(spot.x);
-    Some((
-        gatherer.exact_key(&exact),
-        gatherer.coarse_direct(&spot, &exact),
-    ))
-}
-
-/// Adds to `coarse_at` the [`coarse_direct_at`] estimate of each of `vertices` (display
-/// vertices, at `sites`) it lacks, computed once each, in vertex order, shared among ranks.
-pub(super) fn complete_coarse(
-    gatherer: &Gatherer,
-    sites: &[Site],
-    vertices: impl Iterator<Item = u32>,
-    coarse_at: &mut Coarse,
-    visible_fraction: &[f64],
-) {
-    let mut fresh: Vec<u32> = vertices.filter(|v| !coarse_at.contains_key(v)).collect();
-    fresh.sort_unstable();
-    fresh.dedup();
-    let found = gatherer.comm.map_shared(
-        fresh.len(),
-        |i| coarse_direct_at(gatherer, &sites[fresh[i] as usize], visible_fraction),
-        write_coarse,
-        read_coarse,
-    );
-    coarse_at.extend(fresh.iter().copied().zip(found));
-}
-
-/// Writes a [`coarse_direct_at`] result for another rank ([`read_coarse`] reads it).
-fn write_coarse(c: &Option<(u64, Rgb)>, w: &mut Writer) {
-    w.bytes(&[c.is_some() as u8]);
-    let (k, d) = c.unwrap_or_default();
-    w.u64(k);
-    d.iter().for_each(|&v| w.f64(v));
-}
-
-/// Reads what [`write_coarse`] wrote.
-fn read_coarse(r: &mut Reader) -> Option<(u64, Rgb)> {
-    let ([some], k) = (r.bytes(), r.u64());
-    let d = [r.f64(), r.f64(), r.f64()];
-    (some != 0).then_some((k, d))
 }
 
 /// Normals whose cosine is at least this are the same for [`correlated_departure`]: their

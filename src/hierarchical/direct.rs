@@ -41,7 +41,7 @@
 
 use glam::DVec3;
 
-use super::links::{receiver_rule, unburied_weights, RECEIVER_POINTS};
+use super::rule::{receiver_rule, unburied_weights, RECEIVER_POINTS};
 use super::tree::Tree;
 use crate::color::Rgb;
 use crate::light::emitter::{

@@ -4,15 +4,13 @@
 //! otherwise, visibility from a few rays) and the BF criterion.
 
 use std::f64::consts::PI;
-use std::sync::OnceLock;
 
 use glam::DVec3;
 
+use super::rule::{pick_proportional, receiver_rule, unburied_weights, Burial, RECEIVER_POINTS};
 use super::tree::{Node, Tree, MAX_PARTS};
 use crate::geometry::kernel::{point_to_point, point_to_polygon};
-use crate::sampling::{
-    gauss_rule, permutation, point_above, point_by_solid_angle, triangle_barycentrics, Rng,
-};
+use crate::sampling::{permutation, point_above, point_by_solid_angle, triangle_barycentrics, Rng};
 use crate::visibility::Visibility;
 
 /// A link: `receiver` gathers `f · L(source)` (radiance units) per channel, before its
@@ -71,27 +69,6 @@ impl Link {
 pub struct Estimate {
     pub link: Option<Link>,
     pub rays: u64,
-}
-
-/// Which receiver-rule points of each element are buried (bit k for point k of
-/// [`receiver_rule`]) and each element's visible fraction, both indexed by element; empty
-/// slices (the default) mean nothing is buried.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Burial<'a> {
-    pub buried: &'a [u16],
-    pub visible: &'a [f64],
-}
-
-impl Burial<'_> {
-    /// Element `e`'s buried rule points.
-    pub fn mask(&self, e: usize) -> u16 {
-        self.buried.get(e).copied().unwrap_or(0)
-    }
-
-    /// Element `e`'s visible fraction in [0, 1].
-    pub fn visible(&self, e: usize) -> f64 {
-        self.visible.get(e).copied().unwrap_or(1.0)
-    }
 }
 
 /// A link with a cluster end whose bounding spheres are closer than this times the sum of
@@ -237,33 +214,6 @@ pub fn overlapping_estimate(
         }),
         rays: cast,
     }
-}
-
-/// Points of the rule that element receivers integrate with: the symmetric Gauss rule of
-/// degree 5 (7 points). Its points are also where burial is tested. The 3-point rule (degree
-/// 2) leaves large receivers low against the path-traced surface means (the Cornell box's
-/// floor and ceiling at a fine ε): its interior points underestimate the convex fall-off of
-/// the kernel. Degree 5 takes most of that out; the 12-point rule of degree 6 gives the same
-/// answers for more time.
-pub const RECEIVER_POINTS: usize = 7;
-
-/// The receivers' quadrature rule ([`RECEIVER_POINTS`] points, weights summing to 1).
-pub fn receiver_rule() -> &'static [([f64; 3], f64)] {
-    static RULE: OnceLock<Vec<([f64; 3], f64)>> = OnceLock::new();
-    RULE.get_or_init(|| gauss_rule(RECEIVER_POINTS).expect("a rule of RECEIVER_POINTS exists"))
-}
-
-/// The receiver rule's weights with the points buried in `buried` (bit k for point k) set
-/// to 0: they sum to the element's visible fraction.
-pub fn unburied_weights(buried: u16) -> [f64; RECEIVER_POINTS] {
-    let rule = receiver_rule();
-    std::array::from_fn(|k| {
-        if buried & (1 << k) == 0 {
-            rule[k].1
-        } else {
-            0.0
-        }
-    })
 }
 
 /// What estimating a link sums up.
@@ -634,32 +584,6 @@ fn in_nibbles(shares: [f64; MAX_PARTS]) -> [u8; 4] {
 /// Share `k` of the shares `in_nibbles` packed, in 15ths of the largest.
 pub fn part_share(packed: [u8; 4], k: usize) -> u8 {
     (packed[k / 2] >> (4 * (k % 2))) & 0xF
-}
-
-/// `n` indices drawn with probability ∝ `weights` by systematic sampling (one uniform `u` in
-/// [0, 1) offsets n evenly spaced positions on the cumulative weights); `None` when every
-/// weight is 0.
-pub(super) fn pick_proportional(weights: &[f64], n: usize, u: f64) -> Option<Vec<usize>> {
-    let total: f64 = weights.iter().sum();
-    if total <= 0.0 {
-        return None;
-    }
-    let step = total / n as f64;
-    let mut picks = Vec::with_capacity(n);
-    let (mut k, mut cumulative) = (0, weights[0]);
-    for i in 0..n {
-        let at = (u + i as f64) * step;
-        while at >= cumulative && k + 1 < weights.len() {
-            k += 1;
-            cumulative += weights[k];
-        }
-        // Skip zero weights the rounding of `cumulative` might land on.
-        while weights[k] == 0.0 && k > 0 {
-            k -= 1;
-        }
-        picks.push(k);
-    }
-    Some(picks)
 }
 
 /// [`Link::children`] of element `r` gathering from element `s`: the unoccluded form factor

@@ -14,9 +14,9 @@
 //!    power (judged on an upper estimate of the unoccluded form factor, made apart from the
 //!    link's own samples); if so the larger end is split (elements 1 → 4 down to the minimum
 //!    area, clusters into their children) and the link replaced by links to the children,
-//!    each estimated afresh (the receiver's 7-point rule and a few visibility rays). So links
-//!    stay high in the hierarchies where transfers are weak or far, and O(n) links serve n
-//!    elements at a fixed ε (HSA91 §5).
+//!    each estimated afresh (the receiver's 7-point rule, [`rule`], and a few visibility
+//!    rays). So links stay high in the hierarchies where transfers are weak or far, and O(n)
+//!    links serve n elements at a fixed ε (HSA91 §5).
 //! 3. **Solve** ([`Hierarchy::sweep`]): a Jacobi sweep gathers, at every node, Σ F·L over its
 //!    links (from the previous sweep's radiance, in parallel; a split element source gives
 //!    its children's radiance weighted by how much of F reaches each, a cluster source its
@@ -72,6 +72,7 @@ mod push_pull;
 mod ranks;
 mod refine;
 pub mod regather;
+pub mod rule;
 mod sweep;
 pub mod tree;
 
@@ -105,7 +106,7 @@ pub struct Settings {
     pub min_area: f64,
     /// Visibility rays per link, in 1..=1024 (and the Monte Carlo sample pairs of a link with
     /// a cluster end). Element receivers integrate the unoccluded form factor with a fixed
-    /// 7-point Gauss rule ([`links::RECEIVER_POINTS`]) whatever this is; the rays estimate
+    /// 7-point Gauss rule ([`rule::RECEIVER_POINTS`]) whatever this is; the rays estimate
     /// the visible fraction.
     pub rays: u32,
     /// Refinement passes at most, ≥ 1 (each splits one level; a guard, not a tuning knob):
@@ -583,7 +584,7 @@ pub struct Hierarchy<'a> {
     /// what the oracle bounds a source's radiance by.
     elem_max: Vec<f64>,
     cluster_max: Vec<f64>,
-    /// Per element: bit k set when point k of the receiver rule ([`links::receiver_rule`]) is
+    /// Per element: bit k set when point k of the receiver rule ([`rule::receiver_rule`]) is
     /// buried under contact geometry (its normal ray meets the back of a surface).
     buried: Vec<u16>,
     /// Per element: the rule weight of its unburied points, its visible fraction in [0, 1].
@@ -841,7 +842,7 @@ impl<'a> Hierarchy<'a> {
     pub(super) fn update_new_elements(&mut self) {
         let from = self.buried.len();
         let (tree, roots, vis) = (&self.tree, self.roots, &self.vis);
-        let rule = links::receiver_rule();
+        let rule = rule::receiver_rule();
         let convex = self.convex;
         let new: Vec<u16> = (from..tree.elements.len())
             .into_par_iter()
@@ -867,7 +868,7 @@ impl<'a> Hierarchy<'a> {
         }
         let new = self.owners_values(from, new, |w, &m| w.u32(m as u32), |r| r.u32() as u16);
         for mask in new {
-            let visible = links::unburied_weights(mask).iter().sum();
+            let visible = rule::unburied_weights(mask).iter().sum();
             self.buried.push(mask);
             self.visible.push(visible);
         }
@@ -880,7 +881,7 @@ impl<'a> Hierarchy<'a> {
                 .is_some_and(|s| !s.has_root(tree.elements[e].root as usize));
             match (
                 out,
-                (0..links::RECEIVER_POINTS).find(|k| buried[e] & (1 << k) == 0),
+                (0..rule::RECEIVER_POINTS).find(|k| buried[e] & (1 << k) == 0),
             ) {
                 (true, Some(k)) => !(1u16 << k),
                 _ => buried[e],
@@ -941,8 +942,8 @@ impl<'a> Hierarchy<'a> {
     }
 
     /// Which rule points of each element are buried, and each element's visible fraction.
-    pub(super) fn burial(&self) -> links::Burial<'_> {
-        links::Burial {
+    pub(super) fn burial(&self) -> rule::Burial<'_> {
+        rule::Burial {
             buried: &self.buried,
             visible: &self.visible,
         }

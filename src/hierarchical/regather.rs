@@ -20,14 +20,14 @@
 //! ([`super::direct`]), so the step runs only when every emitter's light is computed that way
 //! (no root's emission travels by link): rays that read a small lamp's emission would be far
 //! noisier than the links. A leaf's points are its receiver rule's unburied points
-//! ([`super::links::receiver_rule`]), each ray at one of them chosen with the rule's weight,
+//! ([`super::rule::receiver_rule`]), each ray at one of them chosen with the rule's weight,
 //! the directions stratified over the hemisphere (Malley's method). Random numbers are keyed
 //! by (seed, leaf): the same result for any thread or rank count.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::links::{receiver_rule, unburied_weights};
+use super::rule::{receiver_rule, unburied_weights};
 use super::tree::{self, Tree};
 use super::Hierarchy;
 use crate::color::Rgb;

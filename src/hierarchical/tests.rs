@@ -207,7 +207,7 @@ fn visibility_rays_aim_above_the_receiving_point_s_horizon() {
             let link = e.link.expect("the emitter is partly in front of the face");
             assert!(e.rays > 0 && link.f > 0.0);
             // The unoccluded value: the rule over the exact point-to-polygon form factor.
-            let rule = links::receiver_rule();
+            let rule = rule::receiver_rule();
             let unoccluded: f64 = rule
                 .iter()
                 .map(|&(b, w)| {
@@ -265,7 +265,7 @@ fn link_visibility_follows_the_kernel_over_a_large_near_source() {
         Node::element(r),
         Node::element(s),
         64,
-        links::Burial::default(),
+        rule::Burial::default(),
         1,
     )
     .link
@@ -276,7 +276,7 @@ fn link_visibility_follows_the_kernel_over_a_large_near_source() {
         DVec3::new(0.5, 99.5, 0.0),
         DVec3::new(0.0, 100.0, 0.0),
     ];
-    let exact: f64 = links::receiver_rule()
+    let exact: f64 = rule::receiver_rule()
         .iter()
         .map(|&(b, w)| {
             let x = h.tree.point(r, b);
@@ -298,7 +298,7 @@ fn link_visibility_follows_the_kernel_over_a_large_near_source() {
                 Node::element(r),
                 Node::element(s),
                 rays,
-                links::Burial::default(),
+                rule::Burial::default(),
                 seed,
             );
             e.link.unwrap().f as f64
@@ -320,7 +320,7 @@ fn element_link(h: &Hierarchy, r: usize, s: usize) -> Link {
         Node::element(r),
         Node::element(s),
         3,
-        links::Burial::default(),
+        rule::Burial::default(),
         1,
     );
     e.link.expect("the elements face each other")
@@ -1369,12 +1369,12 @@ fn cluster_parts_are_weighed_by_their_form_factors() {
     let receiver = (0..roots.len())
         .find(|&r| roots.centroid[r].z > 0.5)
         .unwrap();
-    let xs: Vec<(DVec3, DVec3)> = links::receiver_rule()
+    let xs: Vec<(DVec3, DVec3)> = rule::receiver_rule()
         .iter()
         .map(|&(b, _)| (tree.point(receiver, b), tree.surface_normal(receiver, b)))
         .collect();
     let (buried, visible) = (vec![0u16; roots.len()], vec![1.0; roots.len()]);
-    let burial = links::Burial {
+    let burial = rule::Burial {
         buried: &buried,
         visible: &visible,
     };
@@ -1518,7 +1518,7 @@ fn the_leaves_final_gather_sums_what_each_leaf_sees() {
     let leaves: Vec<usize> = (0..t.elements.len())
         .filter(|&e| t.elements[e].first_child == tree::NO_CHILD)
         .collect();
-    let rule = links::receiver_rule();
+    let rule = rule::receiver_rule();
     let range = h.elem_l.iter().flatten().copied().fold(0.0, f64::max);
     let (mut checked, mut sum_got, mut sum_want) = (0, 0.0, 0.0);
     for &e in leaves.iter().step_by(2) {

@@ -508,7 +508,7 @@ impl Tree {
         &self,
         c: usize,
         n: usize,
-        burial: super::links::Burial,
+        burial: super::rule::Burial,
         rng: &mut Rng,
         out: &mut Vec<(usize, [f64; 3])>,
     ) {
@@ -520,7 +520,7 @@ impl Tree {
             Some(e) => self.elements[e].area * burial.visible(e),
             None => self.clusters[k.as_cluster().unwrap()].seen_area,
         };
-        let rule = super::links::receiver_rule();
+        let rule = super::rule::receiver_rule();
         let mut b = Vec::with_capacity(1);
         for _ in 0..n {
             let mut at = Node::cluster(c);
@@ -544,8 +544,8 @@ impl Tree {
                 stratified_triangle_barycentrics(1, rng, &mut b);
                 out.push((e, b[0]));
             } else {
-                let weights = super::links::unburied_weights(buried);
-                let k = super::links::pick_proportional(&weights, 1, rng.next_f64())
+                let weights = super::rule::unburied_weights(buried);
+                let k = super::rule::pick_proportional(&weights, 1, rng.next_f64())
                     .expect("a root with seen area has an unburied point")[0];
                 out.push((e, rule[k].0));
             }
