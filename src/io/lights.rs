@@ -106,7 +106,7 @@ struct Document {
 /// in the list and its name (values out of range).
 pub fn read(path: &Path) -> Result<LightSources> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    parse(&text, path)
+    parse(&crate::io::without_bom(text), path)
 }
 
 /// [`read`] on text already in memory (`path` names it in errors).
@@ -192,6 +192,14 @@ mod tests {
 
     fn parse_text(text: &str) -> Result<LightSources> {
         parse(text, Path::new("lights.json"))
+    }
+
+    #[test]
+    fn a_file_beginning_with_a_byte_order_mark_reads() {
+        let dir = crate::test_support::TestDir::new("lights-bom");
+        let path = dir.write("l.json", "\u{feff}{ \"sky\": [0.5, 0.5, 0.5] }");
+        let l = read(&path).unwrap();
+        assert_eq!(l.environment(Up::Y).sky, [0.5; 3]);
     }
 
     #[test]

@@ -71,6 +71,16 @@ pub(crate) fn linear_texture(
     crate::scene::Texture::new(source, rw, rh, texels, mean)
 }
 
+/// `text` without the byte-order mark some Windows tools write at the start of a UTF-8 file
+/// (U+FEFF): it is no part of the first statement, which would otherwise read as an unknown
+/// keyword and be passed over (an OBJ's `mtllib`, and with it every material).
+pub(crate) fn without_bom(text: String) -> String {
+    match text.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_string(),
+        None => text,
+    }
+}
+
 /// An [`Error::Parse`]: `message` about line `line` (1-based) of `path`.
 pub(crate) fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
     Error::Parse {

@@ -16,14 +16,15 @@ pub use scene::{companion_files, load};
 use std::io::{self, Write};
 use std::path::Path;
 
-use crate::io::parse_error;
+use crate::io::{parse_error, without_bom};
 use crate::{Error, Result};
 
-/// Reads a text file; bytes that are not UTF-8 (a binary file, or a legacy encoding) are an
-/// [`Error::Parse`] at the line where the first one is.
+/// Reads a text file, less a leading byte-order mark ([`without_bom`]); bytes that are not
+/// UTF-8 (a binary file, or a legacy encoding) are an [`Error::Parse`] at the line where the
+/// first one is.
 pub(super) fn read_text(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    String::from_utf8(bytes).map_err(|e| {
+    String::from_utf8(bytes).map(without_bom).map_err(|e| {
         let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
         let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
         parse_error(

@@ -33,7 +33,9 @@ pub(super) struct Extras {
 /// text for `tobj` and each material's [`Extras`].
 pub(super) fn read_mtl(obj: &Path, line: usize, mtl: &Path) -> Result<(String, Vec<Extras>)> {
     let text = match std::fs::read(mtl) {
-        Ok(bytes) => String::from_utf8(bytes).map_err(|_| "not UTF-8 text".to_string()),
+        Ok(bytes) => String::from_utf8(bytes)
+            .map(crate::io::without_bom)
+            .map_err(|_| "not UTF-8 text".to_string()),
         Err(e) => Err(e.to_string()),
     }
     .map_err(|why| {

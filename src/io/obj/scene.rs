@@ -735,6 +735,24 @@ mod tests {
         assert_eq!(m_of(&s, "red").reflectance, [0.6, 0.1, 0.1]);
     }
 
+    #[test]
+    fn a_byte_order_mark_is_no_part_of_the_first_statement() {
+        // Windows tools may begin a UTF-8 file with U+FEFF. Read as part of the first word,
+        // it made `mtllib` an unknown keyword: no library was read and `usemtl` failed.
+        let obj = format!("\u{feff}mtllib a.mtl\n{TRIANGLE}usemtl lamp\nf 1 2 3\n");
+        let mtl = "\u{feff}newmtl lamp\nKd 0.2\nKe 5 5 5\n";
+        let s = load_text("obj-bom", &obj, &[("a.mtl", mtl)]).unwrap();
+        assert_eq!(m_of(&s, "lamp").emission, [5.0; 3]);
+        assert_eq!(m_of(&s, "lamp").reflectance, [0.2; 3]);
+        // Only a leading mark is dropped: one inside a line is still an error there.
+        let e = load_text(
+            "obj-inner-bom",
+            &format!("{TRIANGLE}f 1 2 \u{feff}3\n"),
+            &[],
+        );
+        assert!(e.is_err(), "{e:?}");
+    }
+
     fn m_of<'a>(s: &'a Scene, name: &str) -> &'a Material {
         s.materials.iter().find(|m| m.name == name).unwrap()
     }
