@@ -400,7 +400,6 @@ fn finish<const C: usize>(
 ///
 /// The Neumann series with a finite bounce count is well defined for any ρ and is not checked.
 pub fn check_not_singular(system: &System) -> Result<()> {
-    const CHANNELS: [&str; 3] = ["red", "green", "blue"];
     let full_rho = |c: usize| system.reflectance.iter().any(|r| r[c] >= 1.0);
     if !(0..3).any(full_rho) {
         return Ok(());
@@ -409,34 +408,58 @@ pub fn check_not_singular(system: &System) -> Result<()> {
     let row_sums = system.form_factors.row_sums();
     let tolerance = system.form_factors.closed_row_tolerance;
     let transpose = system.form_factors.matrix.transpose_view().to_csr();
-    for (c, channel) in CHANNELS.iter().enumerate() {
-        let mut in_s: Vec<bool> = (0..n)
+    for c in 0..3 {
+        let candidates = (0..n)
             .map(|i| system.reflectance[i][c] >= 1.0 && row_sums[i] >= 1.0 - tolerance)
             .collect();
-        let mut queue: Vec<usize> = (0..n).filter(|&j| !in_s[j]).collect();
-        while let Some(j) = queue.pop() {
-            // Row j of Fᵀ lists the patches i that gather from j (F_ij > 0).
-            if let Some(gatherers) = transpose.outer_view(j) {
-                for (i, &f) in gatherers.iter() {
-                    if f > 0.0 && in_s[i] {
-                        in_s[i] = false;
-                        queue.push(i);
-                    }
-                }
+        // Row j of Fᵀ lists the patches i that gather from j (F_ij > 0).
+        let count = closed_full_set(candidates, |j, gatherer| {
+            if let Some(row) = transpose.outer_view(j) {
+                row.iter()
+                    .filter(|(_, &f)| f > 0.0)
+                    .for_each(|(i, _)| gatherer(i));
             }
-        }
-        let count = in_s.iter().filter(|&&x| x).count();
+        });
         if count > 0 {
-            return Err(Error::Numerical(format!(
-                "the system is singular and has no solution: {count} patches with reflectance \
-                 ρ = 1 in the {channel} channel (MTL Kd) form a closed enclosure (their form \
-                 factors sum to 1 and they see only each other), so light bounces among them \
-                 forever without being absorbed. Lower Kd below 1 (real materials reflect at \
-                 most ~0.95) or open the enclosure"
-            )));
+            return Err(singular(count, c, "patches"));
         }
     }
     Ok(())
+}
+
+/// The size of the largest set S of the `candidates` (patches with ρ = 1 in one channel and a
+/// full row) none of which gathers from a patch outside S, given the patches that gather from
+/// each patch j (`gatherers(j, f)` calls `f(i)` for each i with F_ij > 0): by elimination,
+/// starting from every candidate and removing, transitively, every one that gathers from a
+/// patch outside S (a work list, O(nnz)). K restricted to a non-empty S is stochastic: the
+/// system is singular ([`check_not_singular`], and the hierarchical method's own check).
+pub fn closed_full_set(
+    mut in_s: Vec<bool>,
+    gatherers: impl Fn(usize, &mut dyn FnMut(usize)),
+) -> usize {
+    let mut queue: Vec<usize> = (0..in_s.len()).filter(|&j| !in_s[j]).collect();
+    while let Some(j) = queue.pop() {
+        gatherers(j, &mut |i| {
+            if in_s[i] {
+                in_s[i] = false;
+                queue.push(i);
+            }
+        });
+    }
+    in_s.iter().filter(|&&x| x).count()
+}
+
+/// The error of a singular system: `count` `what` (patches, roots) with ρ = 1 in `channel`
+/// (0 red, 1 green, 2 blue) closed among themselves ([`closed_full_set`]).
+pub fn singular(count: usize, channel: usize, what: &str) -> Error {
+    const CHANNELS: [&str; 3] = ["red", "green", "blue"];
+    Error::Numerical(format!(
+        "the system is singular and has no solution: {count} {what} with reflectance ρ = 1 in \
+         the {} channel (MTL Kd) form a closed enclosure (their form factors sum to 1 and they \
+         see only each other), so light bounces among them forever without being absorbed. \
+         Lower Kd below 1 (real materials reflect at most ~0.95) or open the enclosure",
+        CHANNELS[channel]
+    ))
 }
 
 #[cfg(test)]
