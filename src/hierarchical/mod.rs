@@ -309,11 +309,17 @@ pub const ORIENTED_CONE_COS: f64 = 0.8;
 /// 62,500 roots get the full [`CLOSURE_PROBES`] (4·10⁶ rays in all), 10⁶ roots 1.6·10⁷ rays.
 const MIN_CLOSURE_PROBES: usize = 16;
 
-/// Hemisphere rays from each closed root with ρ = 1 in some channel, to find whether such
-/// roots enclose themselves ([`Hierarchy::check_not_singular`]): an absorbing patch that
+/// Hemisphere rays from each closed root with ρ = 1 in some channel, at most, to find whether
+/// such roots enclose themselves ([`Hierarchy::check_not_singular`]): an absorbing patch that
 /// subtends 1 % of the roots' views is missed by all of them with probability 0.99²⁵⁶ ≈ 8 %
 /// from one root, and by every root of a set of ten with probability below 10⁻¹⁰.
-const SINGULAR_PROBES: u32 = 256;
+const SINGULAR_PROBES: usize = 256;
+
+/// Hemisphere rays of the singular check in all, about: past 15,625 suspect roots, each
+/// casts fewer than [`SINGULAR_PROBES`] (down to [`MIN_CLOSURE_PROBES`]), so the check costs
+/// no more than the closure test. A set that large misses an absorbing patch only if every
+/// one of its thousands of roots does.
+const SINGULAR_RAYS: usize = 4_000_000;
 
 /// Sample pairs per link ray of a link estimated where refinement stopped before opening it
 /// ([`Hierarchy::estimate_unopened`]): such links are few and coarse, and their kernel is
@@ -847,7 +853,7 @@ impl<'a> Hierarchy<'a> {
 
     /// The matrix method's [`solve::check_not_singular`] on the roots, before any link: for
     /// each channel, the closed roots ([`Hierarchy::start`]) with ρ = 1 there that gather,
-    /// by [`SINGULAR_PROBES`] hemisphere rays each ([`hemisphere::row`]), only from one
+    /// by [`SINGULAR_PROBES`] hemisphere rays each at most ([`hemisphere::row`]), only from one
     /// another ([`solve::closed_full_set`]). Such an enclosure has no finite solution, and
     /// its radiance, growing with every sweep, would ask the oracle for ever more links. Every
     /// rank computes the same rows for the same roots (the closure verdicts are shared), so
@@ -856,24 +862,25 @@ impl<'a> Hierarchy<'a> {
     /// hundreds of times its emission.
     pub(super) fn check_not_singular(&self) -> Result<()> {
         let full = |i: usize, c: usize| self.roots.reflectance[i][c] >= 1.0;
+        let closed = |i: usize| self.closed_roots.get(i) == Some(&true);
         let n = self.roots.len();
         let suspects: Vec<usize> = (0..n)
-            .filter(|&i| self.closed_roots.get(i) == Some(&true) && (0..3).any(|c| full(i, c)))
+            .filter(|&i| closed(i) && (0..3).any(|c| full(i, c)))
             .collect();
         if suspects.is_empty() {
             return Ok(());
         }
         let (roots, vis, seed) = (self.roots, &self.vis, self.seed);
+        let probes = (SINGULAR_RAYS / suspects.len()).clamp(MIN_CLOSURE_PROBES, SINGULAR_PROBES);
         let rows: Vec<hemisphere::Row> = suspects
             .par_iter()
-            .map(|&i| hemisphere::row(roots, vis, i, SINGULAR_PROBES, seed ^ 0x5146_1A12))
+            .map(|&i| hemisphere::row(roots, vis, i, probes as u32, seed ^ 0x5146_1A12))
             .collect();
-        // The suspects that gather from each root, and the suspects whose rays all met
-        // surfaces' fronts.
+        // The suspects that gather from each root. A suspect's rays that escape are passed
+        // over: the closure verdict forgives a ray that slips through a seam, and so does
+        // this check.
         let mut gatherers: Vec<Vec<u32>> = vec![Vec::new(); n];
-        let mut sealed = vec![false; n];
         for (&i, row) in suspects.iter().zip(&rows) {
-            sealed[i] = row.escaped == 0;
             for &(j, f) in &row.entries {
                 if f > 0.0 {
                     gatherers[j as usize].push(i as u32);
@@ -881,7 +888,7 @@ impl<'a> Hierarchy<'a> {
             }
         }
         for c in 0..3 {
-            let candidates = (0..n).map(|i| sealed[i] && full(i, c)).collect();
+            let candidates = (0..n).map(|i| closed(i) && full(i, c)).collect();
             let count = solve::closed_full_set(candidates, |j, gatherer| {
                 gatherers[j].iter().for_each(|&i| gatherer(i as usize));
             });

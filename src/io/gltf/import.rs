@@ -167,7 +167,9 @@ fn local_transforms(bytes: &[u8]) -> Vec<Option<DMat4>> {
 /// whole (JSON).
 fn glb_extent(bytes: &[u8]) -> std::result::Result<&[u8], String> {
     if !bytes.starts_with(b"glTF") {
-        return Ok(bytes);
+        // A `.gltf`'s JSON, less the UTF-8 byte-order mark some Windows tools write (JSON
+        // parsers refuse it as the first value's first character).
+        return Ok(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes));
     }
     let Some(&[a, b, c, d]) = bytes.get(8..12) else {
         return Err(format!(

@@ -32,13 +32,13 @@ pub(super) struct Extras {
 /// Reads the MTL file `mtl` named by the `mtllib` at `obj:line` and returns its normalised
 /// text for `tobj` and each material's [`Extras`].
 pub(super) fn read_mtl(obj: &Path, line: usize, mtl: &Path) -> Result<(String, Vec<Extras>)> {
-    let text = match std::fs::read(mtl) {
-        Ok(bytes) => String::from_utf8(bytes)
-            .map(crate::io::without_bom)
-            .map_err(|_| "not UTF-8 text".to_string()),
-        Err(e) => Err(e.to_string()),
-    }
-    .map_err(|why| {
+    // A file that cannot be read, or is not UTF-8 text (then with its own line), is an error
+    // at the `mtllib` that names it.
+    let text = super::read_text(mtl).map_err(|e| {
+        let why = match e {
+            Error::Io { source, .. } => source.to_string(),
+            other => other.to_string(),
+        };
         parse_error(
             obj,
             line,
