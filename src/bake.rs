@@ -10,10 +10,14 @@
 //! With [`bake_sites_apart`], patches covered by a face a thin gap in front of them are a
 //! surface of their own too (the light jumps at the covering face's outline).
 //!
-//! The bake of the pipeline groups only patches of one flat facet ([`FACET_DEGREES`]), however
-//! smooth the surface the form factors take the mesh to sample (`--crease`): the displayed
-//! radiance is that of the faceted geometry, as any renderer of the same mesh shows it.
-
+//! The pipeline's bake groups by the crease angle its solve takes the mesh with (`--crease`):
+//! where faces meet at smaller angles they sample one smooth surface, for the form factors'
+//! interpolated normals and for the display alike, so a vertex of a tessellated ball or column
+//! is one output vertex, gathered with the surface's normal there (the area-weighted mean of
+//! its facets'). The faceted geometry's own light differs from facet to facet by their
+//! cosines: inside the integrating sphere of 1,280 facets by up to 14 % at a facet's corner,
+//! where the closed form of the sphere the solve assumes is uniform. With `--crease 0` every
+//! face is flat, in the solve and in the display.
 //!
 //! It also owns the hand-off type [`BakedMesh`] (what the writers in [`crate::io`] and the
 //! rasteriser in [`crate::render`] read) with its [`BakedMesh::validate`], and the exposure
@@ -25,16 +29,6 @@ use crate::color::{self, Rgb};
 use crate::mesh::{groups, Patches, VertexFaces};
 use crate::scene::{Camera, Sky};
 use crate::{Error, Result};
-
-/// Patches whose normals differ by at most this many degrees share output vertices in the
-/// pipeline's bake: the patches of one flat facet (subdivision leaves their normals equal to
-/// rounding), not the facets of a tessellated curved surface. A vertex shared by facets shows
-/// one value where the light differs from facet to facet, by the facets' cosines: on a ball of
-/// 320 facets (neighbours ~15° apart) under a light near one facet's horizon, the five facets
-/// at a vertex range from 0.061 to 0.099 there, and a shared vertex would show 0.080 for all of
-/// them. The point-wise benchmark's living room has such a ball: shared, the probes on it
-/// carry that spread as error; split, they are as close as the rest of the scene.
-pub const FACET_DEGREES: f64 = 1.0;
 
 /// Bake patch radiance into a [`BakedMesh`] (see the module documentation for the rule).
 /// `radiance[i]` is patch i's radiance, W·sr⁻¹·m⁻² per channel.
@@ -341,11 +335,12 @@ mod tests {
     use crate::test_support::sample_mesh;
 
     #[test]
-    fn the_pipeline_shows_each_facet_of_a_curved_surface_on_its_own() {
-        // An 80-facet sphere (42 corners, neighbouring facets ~20° apart, within the default
-        // crease angle, so the form factors take it for one smooth surface), one patch per
-        // facet: the output has a vertex per facet corner, 240, not the 42 the crease angle
-        // would share; and a quad's two coplanar triangles still share their diagonal.
+    fn the_pipeline_shows_a_curved_surface_as_its_solve_takes_it() {
+        // An 80-facet sphere (42 corners, neighbouring facets ~20° apart), one patch per
+        // facet: within the default crease angle the form factors take it for one smooth
+        // surface, and the output shares each of its 42 corners; with a crease angle of 0
+        // every facet is flat in both, a vertex per facet corner, 240. A quad's two coplanar
+        // triangles share their diagonal either way.
         let sphere =
             crate::validation::scenes::integrating_sphere(1.0, 1, 30.0, 0.5, [1.0; 3]).unwrap();
         assert_eq!(sphere.triangles.len(), 80);
@@ -355,17 +350,37 @@ mod tests {
             gather: crate::gather::Gather::None,
             ..crate::pipeline::Settings::default()
         };
+        let faceted = crate::pipeline::Settings {
+            crease_degrees: 0.0,
+            ..settings.clone()
+        };
+        // A corner on the cap's rim is two output vertices (cap and wall are two materials).
+        let materials = |v: u32| {
+            let mut m: Vec<u32> = (sphere.triangles.iter())
+                .filter(|t| t.vertices.contains(&v))
+                .map(|t| t.material)
+                .collect();
+            m.sort_unstable();
+            m.dedup();
+            m.len()
+        };
+        let shared: usize = (0..42).map(materials).sum();
+        assert!(shared > 42, "the rim is counted twice");
         let out = crate::pipeline::solve_scene(&sphere, &settings).unwrap();
         assert_eq!(out.patches.len(), 80);
+        assert_eq!(out.baked.positions.len(), shared);
+        let out = crate::pipeline::solve_scene(&sphere, &faceted).unwrap();
         assert_eq!(out.baked.positions.len(), 240);
         let plates = crate::validation::scenes::parallel_plates(1.0, 1.0, 1.0, 0.5, 1.0).unwrap();
-        let out = crate::pipeline::solve_scene(&plates, &settings).unwrap();
-        assert_eq!(out.patches.len(), 4);
-        assert_eq!(
-            out.baked.positions.len(),
-            8,
-            "two squares, four corners each"
-        );
+        for s in [&settings, &faceted] {
+            let out = crate::pipeline::solve_scene(&plates, s).unwrap();
+            assert_eq!(out.patches.len(), 4);
+            assert_eq!(
+                out.baked.positions.len(),
+                8,
+                "two squares, four corners each"
+            );
+        }
     }
 
     #[test]

@@ -709,11 +709,12 @@ fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> usize {
 pub const DISPLAY_SAMPLE: usize = 20_000;
 
 /// The output vertices of a bake of `patches` before any display refinement: the sites
-/// [`crate::bake::bake_sites`] makes, shared only within a flat facet at the display crease.
+/// [`crate::bake::bake_sites`] makes at the crease angle.
 fn output_vertices(patches: &Patches, crease_degrees: f64) -> usize {
     let dark = vec![[0.0; 3]; patches.len()];
-    let crease = crease_degrees.min(crate::bake::FACET_DEGREES);
-    crate::bake::bake_sites(patches, &dark, crease).1.len()
+    crate::bake::bake_sites(patches, &dark, crease_degrees)
+        .1
+        .len()
 }
 
 /// The share of ordered pairs (i, j ≠ i) of patches that face each other (each centroid in

@@ -548,7 +548,7 @@ fn display_contacts(
     visible_fraction: &[f64],
     settings: &Settings,
 ) -> Option<CutDisplay> {
-    let crease = settings.crease_degrees.min(bake::FACET_DEGREES);
+    let crease = settings.crease_degrees;
     let gathered = |patches: &Patches, radiance: &[crate::Rgb]| {
         let vertices = bake::bake_sites(patches, radiance, crease).1.len();
         gather_mode(scene, settings, vertices) != Gather::None
@@ -606,8 +606,7 @@ fn bake_stage(
     comm: &dyn Exchange,
 ) -> BakedMesh {
     let t = Instant::now();
-    let display_crease = settings.crease_degrees.min(bake::FACET_DEGREES);
-    let (mut baked, mut sites) = bake::bake_sites(patches, radiance, display_crease);
+    let (mut baked, mut sites) = bake::bake_sites(patches, radiance, settings.crease_degrees);
     report.vertices = baked.positions.len();
     report.seconds.bake = t.elapsed().as_secs_f64();
     let mode = gather_mode(scene, settings, sites.len());
@@ -625,7 +624,8 @@ fn bake_stage(
         // side's: their vertices are apart at the outline.
         let covers = gatherer.covers(scene);
         if covers.iter().any(|&g| g > 0.0) {
-            (baked, sites) = bake::bake_sites_apart(patches, radiance, display_crease, &covers);
+            (baked, sites) =
+                bake::bake_sites_apart(patches, radiance, settings.crease_degrees, &covers);
         }
         let gatherer = gatherer
             // The nudge bound needs the display refinement to follow the light beside a contact.

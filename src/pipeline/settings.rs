@@ -93,8 +93,8 @@ pub struct Settings {
     /// Linear solve.
     pub solver: solve::Settings,
     /// Crease angle, degrees, in [0, 180]: where faces meet at smaller angles the mesh samples
-    /// one smooth surface for the form factors (interpolated normals); 0 = every face flat.
-    /// Output vertices are shared only within a flat facet ([`crate::bake::FACET_DEGREES`]).
+    /// one smooth surface, for the form factors (interpolated normals) and the output (shared
+    /// vertices, gathered with the surface's normal); 0 = every face flat.
     pub crease_degrees: f64,
     /// Light from outside the mesh: the sky and the sun ([`crate::light::outside`]); the default
     /// has none.
