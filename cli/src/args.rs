@@ -334,7 +334,8 @@ pub struct SolveArgs {
     /// the patches), `full` (direct exactly and indirect by hemisphere rays at each vertex),
     /// `cache` (direct exactly at each vertex, indirect gathered where nearby surfaces make it
     /// vary and interpolated between: for large outputs) or `auto` (`full` up to 62,500 output
-    /// vertices, `cache` beyond).
+    /// vertices, the hierarchical display's counted before its shadow and contact lines cut
+    /// it; `cache` beyond).
     #[arg(long, value_parser = choice::<Gather>(), default_value_t = pipeline::Settings::default().gather, help_heading = "Final gather")]
     pub gather: Gather,
     /// Hemisphere rays per vertex of `--gather full` [default: 4·10⁶ / vertices, at least 64

@@ -119,7 +119,10 @@ impl Choice for Gather {
 
     fn description(self) -> &'static str {
         match self {
-            Gather::Auto => "full up to 62,500 output vertices, cache beyond",
+            Gather::Auto => {
+                "full up to 62,500 output vertices (the hierarchical display's before its \
+                 shadow and contact lines cut it), cache beyond"
+            }
             Gather::None => "vertex colours are the mean of the patches around each vertex",
             Gather::Direct => {
                 "direct light computed exactly at each vertex, indirect from the patches"

@@ -259,8 +259,10 @@ impl Estimate {
                     }
                     None => None,
                 };
-                let vertices = sides * display_vertices(scene, &s, &root_patches);
-                let gather = s.gather.resolve(vertices, s.gather_rays.is_some());
+                let (uncut, vertices) = display_vertices(scene, &s, &root_patches);
+                let vertices = sides * vertices;
+                // `auto` decides on the display before its lines cut it, as the bake does.
+                let gather = s.gather.resolve(sides * uncut, s.gather_rays.is_some());
                 let gathered_bytes = if gather == Gather::None {
                     0.0
                 } else {
@@ -676,31 +678,31 @@ pub fn links_within(limit: f64) -> u64 {
 /// sun's penumbra lines, [`mesh::sun_lines`]) first where the bake's display will be ([`mesh::split_patches`]; `discontinuities = auto` with a final
 /// gather), which on detailed interiors (brushes meeting walls and floors) makes 1.2–2.3×
 /// the roots' vertices. The leaves add more where the solve splits roots; they are not known
-/// before it.
-fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> usize {
+/// before it. Returns the vertices before the cut and after it.
+fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, usize) {
     let plain = output_vertices(patches, s.crease_degrees);
     let lit = scene.has_emitters() || s.environment.is_lit();
     let gathered = s.gather.resolve(plain, s.gather_rays.is_some()) != Gather::None;
     if s.discontinuities != mesh::Discontinuities::Auto || !lit || !gathered {
-        return plain;
+        return (plain, plain);
     }
-    // The contact lines of a sample of the triangles, and the sun lines their edges cast:
+    // The contact lines of a sample of the triangles, and the lamp and sun lines their edges cast:
     // the vertices their cuts add, scaled up (at 10⁶ triangles all of them take as long as
     // the rest of the estimate).
     let p = (DISPLAY_SAMPLE as f64 / scene.triangles.len().max(1) as f64).min(1.0);
     let seed = s.form_factors.seed;
     let on = |t: usize| p >= 1.0 || Rng::new(&[seed, t as u64, 0xC0_7AC7]).next_f64() < p;
     let lines = mesh::display_lines_on(scene, super::sun_disc(&s.environment), &on);
-    let cut = lines.and_then(|(lines, _)| {
+    let cut = lines.and_then(|lines| {
         let (lo, hi) = scene.bounds();
-        mesh::split_patches(&lines, patches, (hi - lo).length())
+        mesh::split_patches(&lines.lines, patches, (hi - lo).length())
     });
     match cut {
         Some((cut, _, _)) => {
             let added = output_vertices(&cut, s.crease_degrees).saturating_sub(plain);
-            plain + (added as f64 / p).round() as usize
+            (plain, plain + (added as f64 / p).round() as usize)
         }
-        None => plain,
+        None => (plain, plain),
     }
 }
 

@@ -417,6 +417,7 @@ pub fn solve_prepared_on(
         &solution.radiance,
         &form_factors.visible_fraction,
         settings,
+        None,
         &mut report,
         comm,
     );
@@ -493,6 +494,7 @@ fn hierarchical_scene(
     let baked = match display {
         Some(cut) => {
             report.display_contacts = Some(cut.stats);
+            report.lamp_lines = cut.lamp_lines;
             report.sun_lines = cut.sun_lines;
             bake_stage(
                 scene,
@@ -500,6 +502,7 @@ fn hierarchical_scene(
                 &cut.radiance,
                 &cut.visible_fraction,
                 settings,
+                Some(cut.uncut_vertices),
                 &mut report,
                 comm,
             )
@@ -510,6 +513,7 @@ fn hierarchical_scene(
             &h.radiance,
             &h.visible_fraction,
             settings,
+            None,
             &mut report,
             comm,
         ),
@@ -539,7 +543,8 @@ fn gather_mode(scene: &Scene, settings: &Settings, vertices: usize) -> Gather {
 }
 
 /// The hierarchical solution's output patches cut along the scene's contact lines
-/// ([`mesh::split_patches`]) and the sun's penumbra lines ([`mesh::sun_lines`]); `None` unless `discontinuities = auto`, the scene has such lines and a
+/// ([`mesh::split_patches`]) and the lamps' and the sun's penumbra lines
+/// ([`mesh::display_lines_on`]); `None` unless `discontinuities = auto`, the scene has such lines and a
 /// gather runs on the cut output (its pieces would otherwise only show their leaves' values).
 fn display_contacts(
     scene: &Scene,
@@ -549,28 +554,28 @@ fn display_contacts(
     settings: &Settings,
 ) -> Option<CutDisplay> {
     let crease = settings.crease_degrees;
-    let gathered = |patches: &Patches, radiance: &[crate::Rgb]| {
-        let vertices = bake::bake_sites(patches, radiance, crease).1.len();
-        gather_mode(scene, settings, vertices) != Gather::None
-    };
-    if settings.discontinuities != mesh::Discontinuities::Auto || !gathered(patches, radiance) {
+    let uncut_vertices = bake::bake_sites(patches, radiance, crease).1.len();
+    if settings.discontinuities != mesh::Discontinuities::Auto
+        || gather_mode(scene, settings, uncut_vertices) == Gather::None
+    {
         return None;
     }
-    let (lines, sun_count) =
-        mesh::display_lines_on(scene, sun_disc(&settings.environment), &|_| true)?;
+    let lines = mesh::display_lines_on(scene, sun_disc(&settings.environment), &|_| true)?;
     let (lo, hi) = scene.bounds();
-    let (cut, parent, stats) = mesh::split_patches(&lines, patches, (hi - lo).length())?;
+    let (cut, parent, stats) = mesh::split_patches(&lines.lines, patches, (hi - lo).length())?;
     let cut_radiance: Vec<crate::Rgb> = parent.iter().map(|&i| radiance[i as usize]).collect();
     let cut_visible = parent
         .iter()
         .map(|&i| visible_fraction[i as usize])
         .collect();
-    gathered(&cut, &cut_radiance).then_some(CutDisplay {
+    Some(CutDisplay {
         patches: cut,
         radiance: cut_radiance,
         visible_fraction: cut_visible,
         stats,
-        sun_lines: sun_count,
+        uncut_vertices,
+        lamp_lines: lines.lamp,
+        sun_lines: lines.sun,
     })
 }
 
@@ -584,24 +589,32 @@ fn sun_disc(environment: &crate::scene::Environment) -> Option<(DVec3, f64)> {
 
 /// The hierarchical display cut along its discontinuity lines ([`display_contacts`]): the
 /// pieces, each with its leaf's radiance (W·sr⁻¹·m⁻²) and visible fraction, what the cut did,
-/// and the sun's lines it took.
+/// and the lamps' and the sun's lines it took.
 struct CutDisplay {
     patches: Patches,
     radiance: Vec<crate::Rgb>,
     visible_fraction: Vec<f64>,
     stats: mesh::ContactStats,
+    /// The output's vertices before the cut: what `gather = auto` decides on.
+    uncut_vertices: usize,
+    lamp_lines: usize,
     sun_lines: usize,
 }
 
 /// Bake: patch radiance → the output mesh's vertices (→ final gather at them, unless
 /// `gather = none`), with the scene's camera and the environment's sky (for pictures); fills the
-/// report's vertex count and bake and gather seconds.
+/// report's vertex count and bake and gather seconds. The gather is chosen for
+/// `mode_vertices` output vertices where given (the hierarchical display's before its
+/// discontinuity lines cut it: the lines add vertices along shadows, not a finer display whose
+/// cost `auto` bounds), else for the output's own.
+#[allow(clippy::too_many_arguments)]
 fn bake_stage(
     scene: &Scene,
     patches: &Patches,
     radiance: &[crate::Rgb],
     visible_fraction: &[f64],
     settings: &Settings,
+    mode_vertices: Option<usize>,
     report: &mut Report,
     comm: &dyn Exchange,
 ) -> BakedMesh {
@@ -609,7 +622,7 @@ fn bake_stage(
     let (mut baked, mut sites) = bake::bake_sites(patches, radiance, settings.crease_degrees);
     report.vertices = baked.positions.len();
     report.seconds.bake = t.elapsed().as_secs_f64();
-    let mode = gather_mode(scene, settings, sites.len());
+    let mode = gather_mode(scene, settings, mode_vertices.unwrap_or(sites.len()));
     report.gather = mode;
     if mode != Gather::None {
         let t = Instant::now();

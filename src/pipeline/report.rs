@@ -60,6 +60,10 @@ pub struct Report {
     /// method with `discontinuities = auto` and a final gather, [`crate::mesh::split_patches`]):
     /// `triangles` counts the display's faces after the cut.
     pub display_contacts: Option<crate::mesh::ContactStats>,
+    /// The lamps' penumbra lines cut into the display with the contact lines
+    /// ([`crate::mesh::discontinuity::lamp`]), before they are clipped to the faces: two per
+    /// run of an edge's shadow of one lamp on one plane.
+    pub lamp_lines: usize,
     /// The sun's penumbra lines cut into the display with the contact lines
     /// ([`crate::mesh::sun_lines`]), before they are clipped to the faces: two per run of
     /// an edge's shadow on one plane.
@@ -174,6 +178,7 @@ impl Report {
             orientation: None,
             contacts: None,
             display_contacts: None,
+            lamp_lines: 0,
             sun_lines: 0,
             max_edge: 0.0,
             patches: 0,

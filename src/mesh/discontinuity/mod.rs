@@ -2,8 +2,8 @@
 //! one face touches or crosses another face's plane or is mounted on it (a block standing on
 //! the floor, a leg under a table top, a light mounted just below the ceiling: [`contact`]),
 //! and the outlines of near shadows ([`near_shadow`]). The line becomes an edge of the face it
-//! lies on. Under a sun, the edges of its penumbrae cut the hierarchical display as well
-//! ([`sun`]).
+//! lies on. The borders of the lamps' near penumbrae ([`lamp`]) and, under a sun, of its
+//! penumbrae ([`sun`]) cut the hierarchical display as well.
 //! Then no patch spans both the part a viewer sees and the part the other object hides, so no
 //! vertex carries lit light into a hidden region or hidden darkness into a lit one (Lischinski,
 //! Tampieri & Greenberg, "Discontinuity meshing for accurate radiosity", IEEE CG&A 1992: these
@@ -47,6 +47,7 @@ use near_shadow::silhouettes;
 pub mod contact;
 pub mod display;
 mod face;
+pub mod lamp;
 pub mod near_shadow;
 pub mod sun;
 
@@ -65,7 +66,8 @@ pub enum Discontinuities {
     /// hall's floor under hundreds of table legs) leave long thin triangles between them that
     /// would cost the generated hall more than twice its links and its time, while the gather
     /// at the display's vertices needs only the display's faces to stop at the contacts.
-    /// Under a sun the display is cut along its penumbrae's lines too ([`sun_lines`]).
+    /// The display is cut along the lamps' near penumbrae ([`lamp`]) and, under a sun, its
+    /// penumbrae ([`sun_lines`]) too.
     Auto,
     /// None: patches follow the input triangles only.
     None,
@@ -93,7 +95,7 @@ impl crate::choice::Choice for Discontinuities {
         match self {
             Discontinuities::Auto => {
                 "contacts for the matrix method; for the hierarchical, contact lines (and the \
-                 sun's shadow edges) cut the display's faces only"
+                 lamps' near shadows' and the sun's shadow edges) cut the display's faces only"
             }
             Discontinuities::None => "patches follow the input triangles only",
             Discontinuities::Contacts => {
@@ -138,24 +140,46 @@ pub fn contact_lines(scene: &Scene) -> Option<Vec<Vec<[DVec3; 2]>>> {
     contact_lines_on(scene, &|_| true)
 }
 
-/// The lines that cut the hierarchical display ([`split_patches`]): the contact lines and,
+/// The lines that cut the hierarchical display ([`split_patches`]), on each scene triangle,
+/// and how many of them are the lamps' and the sun's ([`display_lines_on`]).
+pub struct DisplayLines {
+    /// The segments on each scene triangle (scene coordinates, on its plane).
+    pub lines: Vec<Vec<[DVec3; 2]>>,
+    /// Of them, the lamps' penumbra lines ([`lamp::lamp_lines_on`]).
+    pub lamp: usize,
+    /// Of them, the sun's penumbra lines ([`sun_lines`]).
+    pub sun: usize,
+}
+
+/// The lines that cut the hierarchical display ([`split_patches`]): the contact lines, the
+/// lamps' penumbra lines of edges near the surfaces they shade ([`lamp::lamp_lines_on`]) and,
 /// under a sun (its unit direction, toward it, and its angular radius in radians) its
 /// penumbra lines ([`sun_lines`]); of the triangles `on` picks alone, and their edges
-/// ([`contact_lines_on`], [`sun::sun_lines_on`]). `None` when there are none; else the lines
-/// on each triangle and how many are the sun's.
+/// ([`contact_lines_on`], [`sun::sun_lines_on`]). `None` when there are none.
 pub fn display_lines_on(
     scene: &Scene,
     sun: Option<(DVec3, f64)>,
     on: &(dyn Fn(usize) -> bool + Sync),
-) -> Option<(Vec<Vec<[DVec3; 2]>>, usize)> {
-    let contacts = contact_lines_on(scene, on);
-    let Some(sun) = sun.and_then(|(sun, radius)| sun::sun_lines_on(scene, sun, radius, on)) else {
-        return contacts.map(|c| (c, 0));
+) -> Option<DisplayLines> {
+    let mut out = DisplayLines {
+        lines: contact_lines_on(scene, on)
+            .unwrap_or_else(|| vec![Vec::new(); scene.triangles.len()]),
+        lamp: 0,
+        sun: 0,
     };
-    let count = sun.iter().map(Vec::len).sum();
-    let mut lines = contacts.unwrap_or_else(|| vec![Vec::new(); sun.len()]);
-    lines.iter_mut().zip(sun).for_each(|(l, s)| l.extend(s));
-    Some((lines, count))
+    let mut add = |found: Option<Vec<Vec<[DVec3; 2]>>>| {
+        let found = found?;
+        let count = found.iter().map(Vec::len).sum();
+        out.lines
+            .iter_mut()
+            .zip(found)
+            .for_each(|(l, s)| l.extend(s));
+        Some(count)
+    };
+    out.lamp = add(lamp::lamp_lines_on(scene, on)).unwrap_or(0);
+    out.sun =
+        add(sun.and_then(|(sun, radius)| sun::sun_lines_on(scene, sun, radius, on))).unwrap_or(0);
+    out.lines.iter().any(|l| !l.is_empty()).then_some(out)
 }
 
 /// [`contact_lines`] on the triangles `on` picks alone (the others get none): the segments of

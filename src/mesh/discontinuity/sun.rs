@@ -97,10 +97,22 @@ pub fn sun_lines_on(
         .par_iter()
         .map(|e| edge_lines(scene, vis, &normals, e, sun, half_angle, extent))
         .collect();
-    let mut lines = vec![Vec::new(); n];
+    on_receivers(scene, vis, &normals, found, extent)
+}
+
+/// The lines `found` (each edge's) on each scene triangle of their planes they may cross
+/// ([`receivers`]); `None` when there are none.
+pub(super) fn on_receivers(
+    scene: &Scene,
+    vis: &Visibility,
+    normals: &[DVec3],
+    found: Vec<Vec<Line>>,
+    extent: f64,
+) -> Option<Vec<Vec<[DVec3; 2]>>> {
+    let mut lines = vec![Vec::new(); scene.triangles.len()];
     let mut any = false;
     for line in found.into_iter().flatten() {
-        for t in receivers(scene, vis, &normals, &line, extent) {
+        for t in receivers(scene, vis, normals, &line, extent) {
             for seg in line.segments {
                 lines[t as usize].push(seg);
             }
@@ -111,21 +123,21 @@ pub fn sun_lines_on(
 }
 
 /// An edge of the scene: its two vertex indices (the lower first) and the triangles that have it.
-struct Edge {
-    vertices: [u32; 2],
-    triangles: Vec<u32>,
+pub(super) struct Edge {
+    pub(super) vertices: [u32; 2],
+    pub(super) triangles: Vec<u32>,
 }
 
 /// A penumbra's two lines on one receiver plane: the plane (a point on it, its unit normal)
 /// and the two segments.
-struct Line {
-    point: DVec3,
-    normal: DVec3,
-    segments: [[DVec3; 2]; 2],
+pub(super) struct Line {
+    pub(super) point: DVec3,
+    pub(super) normal: DVec3,
+    pub(super) segments: [[DVec3; 2]; 2],
 }
 
 /// The unit front normal of triangle `t` (counter-clockwise winding).
-fn unit_normal(scene: &Scene, t: usize) -> DVec3 {
+pub(super) fn unit_normal(scene: &Scene, t: usize) -> DVec3 {
     let [a, b, c] = scene.triangles[t]
         .vertices
         .map(|v| scene.positions[v as usize]);
@@ -136,6 +148,22 @@ fn unit_normal(scene: &Scene, t: usize) -> DVec3 {
 /// all but those shared by exactly two surfaces (a twin pair counting once) that face the sun
 /// alike and pass it alike (a pane beside a wall does not).
 fn candidate_edges(scene: &Scene, normals: &[DVec3], sun: DVec3) -> Vec<Edge> {
+    let mut edges = edges(scene);
+    edges.retain(|e| {
+        let [t0, t1] = e.triangles[..] else {
+            return true;
+        };
+        let (f0, f1) = (normals[t0 as usize].dot(sun), normals[t1 as usize].dot(sun));
+        let t =
+            |t: u32| scene.materials[scene.triangles[t as usize].material as usize].transmittance;
+        (f0 > FACING) != (f1 > FACING) || t(t0) != t(t1)
+    });
+    edges
+}
+
+/// The scene's edges in the order of their vertex indices, each with the triangles that have
+/// it (a twin pair counting once, by its earlier triangle).
+pub(super) fn edges(scene: &Scene) -> Vec<Edge> {
     let mut all: Vec<(u32, u32, u32)> = Vec::with_capacity(3 * scene.triangles.len());
     for (t, tri) in scene.triangles.iter().enumerate() {
         // A twin pair is one surface: its earlier triangle stands for it.
@@ -156,15 +184,6 @@ fn candidate_edges(scene: &Scene, normals: &[DVec3], sun: DVec3) -> Vec<Edge> {
     let mut edges = Vec::new();
     for group in all.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
         let triangles: Vec<u32> = group.iter().map(|g| g.2).collect();
-        if let [t0, t1] = triangles[..] {
-            let (f0, f1) = (normals[t0 as usize].dot(sun), normals[t1 as usize].dot(sun));
-            let t = |t: u32| {
-                scene.materials[scene.triangles[t as usize].material as usize].transmittance
-            };
-            if (f0 > FACING) == (f1 > FACING) && t(t0) == t(t1) {
-                continue;
-            }
-        }
         edges.push(Edge {
             vertices: [group[0].0, group[0].1],
             triangles,
@@ -175,11 +194,62 @@ fn candidate_edges(scene: &Scene, normals: &[DVec3], sun: DVec3) -> Vec<Edge> {
 
 /// One traced point of an edge: its parameter along the edge, the receiver triangle and the
 /// point its shadow falls on, and how far that is.
-struct Sample {
-    t: f64,
-    receiver: u32,
-    at: DVec3,
-    distance: f64,
+pub(super) struct Sample {
+    pub(super) t: f64,
+    pub(super) receiver: u32,
+    pub(super) at: DVec3,
+    pub(super) distance: f64,
+}
+
+/// A run of an edge's traced points whose shadows fall on one plane: the plane (through its
+/// first receiver's corner, not the traced hit, whose f32 rounding it would inherit), the
+/// part of the edge the run covers (parameters, half a sample's spacing past its ends), and
+/// the mean distance of its ends' shadows.
+pub(super) struct Run {
+    pub(super) origin: DVec3,
+    pub(super) normal: DVec3,
+    pub(super) t: [f64; 2],
+    pub(super) distance: f64,
+}
+
+/// The runs of `samples` (an edge's traced points, in order along it; `None` where a point
+/// casts no line) whose shadows fall on one plane.
+pub(super) fn plane_runs(
+    scene: &Scene,
+    normals: &[DVec3],
+    samples: &[Option<Sample>],
+    extent: f64,
+) -> Vec<Run> {
+    let k = samples.len();
+    let half = 0.5 / k as f64;
+    let mut runs = Vec::new();
+    let mut i = 0;
+    while i < k {
+        let Some(first) = &samples[i] else {
+            i += 1;
+            continue;
+        };
+        let plane = |s: &Sample| {
+            let n = normals[s.receiver as usize];
+            s.receiver == first.receiver
+                || (n.dot(normals[first.receiver as usize]) > 1.0 - 1e-6
+                    && n.dot(s.at - first.at).abs() < 1e-5 * extent)
+        };
+        let mut j = i;
+        while j + 1 < k && samples[j + 1].as_ref().is_some_and(plane) {
+            j += 1;
+        }
+        let last = samples[j].as_ref().unwrap_or(first);
+        let receiver = &scene.triangles[first.receiver as usize];
+        runs.push(Run {
+            origin: scene.positions[receiver.vertices[0] as usize],
+            normal: normals[first.receiver as usize],
+            t: [(first.t - half).max(0.0), (last.t + half).min(1.0)],
+            distance: 0.5 * (first.distance + last.distance),
+        });
+        i = j + 1;
+    }
+    runs
 }
 
 /// The penumbra lines cast by edge `e` (see the module documentation), one per run of its
@@ -243,51 +313,28 @@ fn edge_lines(
     // The two tangent planes' directions nearest the sun (module documentation).
     let u = across / sin_beta;
     let v = dir.cross(u);
-    let half = 0.5 / k as f64;
-    let mut lines = Vec::new();
-    let mut i = 0;
-    while i < k {
-        let Some(first) = &samples[i] else {
-            i += 1;
-            continue;
-        };
-        let plane = |s: &Sample| {
-            let n = normals[s.receiver as usize];
-            s.receiver == first.receiver
-                || (n.dot(normals[first.receiver as usize]) > 1.0 - 1e-6
-                    && n.dot(s.at - first.at).abs() < 1e-5 * extent)
-        };
-        let mut j = i;
-        while j + 1 < k && samples[j + 1].as_ref().is_some_and(plane) {
-            j += 1;
-        }
-        let last = samples[j].as_ref().unwrap_or(first);
-        let distance = 0.5 * (first.distance + last.distance);
-        // The penumbra's half-width at this distance, at least MIN_HALF_WIDTH.
-        let spread = half_angle.max(MIN_HALF_WIDTH * extent / distance);
-        let sin_psi = (spread.sin() / sin_beta).min(1.0);
-        let cos_psi = (1.0 - sin_psi * sin_psi).sqrt();
-        let n = normals[first.receiver as usize];
-        // The receiver's plane through its own corner, not the traced hit (f32 rounding).
-        let origin = scene.positions[scene.triangles[first.receiver as usize].vertices[0] as usize];
-        let (p, q) = (
-            a + (b - a) * (first.t - half).max(0.0),
-            a + (b - a) * (last.t + half).min(1.0),
-        );
-        let segments = [1.0, -1.0].map(|sign| {
-            let np = cos_psi * v + sign * sin_psi * u;
-            let d = (sun - sun.dot(np) * np).normalize();
-            let onto = |x: DVec3| x - d * ((x - origin).dot(n) / d.dot(n));
-            [onto(p), onto(q)]
-        });
-        lines.push(Line {
-            point: origin,
-            normal: n,
-            segments,
-        });
-        i = j + 1;
-    }
-    lines
+    plane_runs(scene, normals, &samples, extent)
+        .into_iter()
+        .map(|run| {
+            // The penumbra's half-width at this distance, at least MIN_HALF_WIDTH.
+            let spread = half_angle.max(MIN_HALF_WIDTH * extent / run.distance);
+            let sin_psi = (spread.sin() / sin_beta).min(1.0);
+            let cos_psi = (1.0 - sin_psi * sin_psi).sqrt();
+            let (origin, n) = (run.origin, run.normal);
+            let [p, q] = run.t.map(|t| a + (b - a) * t);
+            let segments = [1.0, -1.0].map(|sign| {
+                let np = cos_psi * v + sign * sin_psi * u;
+                let d = (sun - sun.dot(np) * np).normalize();
+                let onto = |x: DVec3| x - d * ((x - origin).dot(n) / d.dot(n));
+                [onto(p), onto(q)]
+            });
+            Line {
+                point: origin,
+                normal: n,
+                segments,
+            }
+        })
+        .collect()
 }
 
 /// The triangles of `line`'s plane whose boxes meet its segments' box, and their twins: the

@@ -549,6 +549,21 @@ fn sun_lines_follow_each_penumbra_where_its_edge_is_seen() {
     }
 }
 
+/// The luminance a bake's display shows on the floor (z = 0, facing up) at (x, y),
+/// interpolated from its vertex colours as a viewer sees it.
+fn floor_shown(out: &pipeline::Outcome, x: f64, y: f64) -> f64 {
+    let probe = crate::validation::pointwise::Probe {
+        triangle: 0,
+        position: DVec3::new(x, y, 0.0),
+        normal: DVec3::Z,
+        radiance: [0.0; 3],
+        std_error: 0.0,
+        paths: 0,
+    };
+    let display = crate::validation::pointwise::Display::from_baked(&out.baked);
+    crate::color::luminance(display.at(&[probe])[0].expect("on the floor").interpolated)
+}
+
 /// The hierarchical display of a plate's sun shadow on a floor, with no display refinement
 /// (`gather_tolerance = 0`), so that only the sun lines put vertices at the shadow's edge.
 /// 3 cm on the lit side of the penumbra (it is about 1 cm wide here: 1.41 × 2 tan 0.265° /
@@ -561,7 +576,6 @@ fn sun_lines_follow_each_penumbra_where_its_edge_is_seen() {
 #[test]
 fn the_hierarchical_display_follows_the_suns_shadow_edge() {
     use crate::scene::{Environment, Sun, Up};
-    use crate::validation::pointwise::Display;
     let (mut b, white, _) = floor();
     let z = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
     b.quad(
@@ -592,18 +606,7 @@ fn the_hierarchical_display_follows_the_suns_shadow_edge() {
         ..Settings::default()
     };
     // The lower plate's far edge x = 2.5 casts the shadow's edge at x = 1.5 on the floor.
-    let shown = |out: &pipeline::Outcome, x: f64, y: f64| {
-        let probe = crate::validation::pointwise::Probe {
-            triangle: 0,
-            position: z(x, y, 0.0),
-            normal: DVec3::Z,
-            radiance: [0.0; 3],
-            std_error: 0.0,
-            paths: 0,
-        };
-        let s = Display::from_baked(&out.baked).at(&[probe])[0].expect("on the floor");
-        crate::color::luminance(s.interpolated)
-    };
+    let shown = floor_shown;
     let out = pipeline::solve_scene(&scene, &settings(Discontinuities::Auto)).unwrap();
     assert!(out.report.sun_lines > 0, "{}", out.report.sun_lines);
     for y in [1.7, 2.0, 2.3] {
@@ -719,4 +722,123 @@ fn a_contact_line_across_a_shared_edge_leaves_no_sliver() {
         let height = (b - a).cross(c - a).length() / longest;
         assert!(height > touch, "{a} {b} {c}: {height} thin");
     }
+}
+
+/// The 4 × 4 floor with a 0.5 × 0.5 plate (facing up) at `height` over x ∈ [2.25, 2.75],
+/// y ∈ [1.75, 2.25], and a 0.5 × 0.5 lamp facing down 3 above the floor, centred at (2, 2)
+/// beside the plate. Triangles 0, 1: the floor; 2, 3: the plate; 4, 5: the lamp.
+fn plate_under_lamp(height: f64) -> Scene {
+    let (mut b, white, light) = floor();
+    let z = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    b.quad(
+        [
+            z(2.25, 1.75, height),
+            z(2.75, 1.75, height),
+            z(2.75, 2.25, height),
+            z(2.25, 2.25, height),
+        ],
+        white,
+    );
+    // Clockwise seen from above: the lamp faces down.
+    b.quad(
+        [
+            z(1.75, 1.75, 3.),
+            z(1.75, 2.25, 3.),
+            z(2.25, 2.25, 3.),
+            z(2.25, 1.75, 3.),
+        ],
+        light,
+    );
+    b.build().unwrap()
+}
+
+/// The lamps' penumbra lines of a 0.5 × 0.5 plate 0.25 above the floor, under a 0.5 × 0.5
+/// lamp 3 above the floor beside it. The plate's edges are parallel to the floor, so each one's
+/// projection from a point L of the lamp onto the floor is the line through
+/// L + (edge − L)·3/2.75: an edge at x_e (along y) falls at x_L + (x_e − x_L)·12/11, and the
+/// penumbra's borders are the projections from the lamp's sides x_L = 1.75 and 2.25 (and
+/// alike for the edges along x). Lifted to 1.5 above the floor, the plate's penumbrae are
+/// wider than [`lamp::MAX_HALF_WIDTH`] allows, and no line is drawn.
+#[test]
+fn lamp_lines_follow_a_near_plates_penumbrae() {
+    let lines = lamp::lamp_lines_on(&plate_under_lamp(0.25), &|_| true).expect("lines");
+    // Triangles 0, 1: the floor; 2, 3: the plate; 4, 5: the lamp.
+    assert!(lines[2..].iter().all(Vec::is_empty), "{:?}", &lines[2..]);
+    assert_eq!(lines[0], lines[1], "a line goes to every face of its plane");
+    let project = |e: f64, l: f64| l + (e - l) * 12.0 / 11.0;
+    let borders = |e: f64| {
+        let mut v = [project(e, 1.75), project(e, 2.25)];
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    for [p, q] in &lines[0] {
+        assert!(
+            p.z.abs() < 1e-12 && q.z.abs() < 1e-12,
+            "on the floor: {p} {q}"
+        );
+    }
+    // Where each segment lies: x of a segment along y, y of one along x.
+    let at = |along_y: bool| -> Vec<f64> {
+        let mut v: Vec<f64> = lines[0]
+            .iter()
+            .filter(|[p, q]| ((p.x - q.x).abs() < 1e-12) == along_y)
+            .map(|[p, _]| if along_y { p.x } else { p.y })
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    let mut want = [borders(1.75), borders(2.25)].concat();
+    want.sort_by(f64::total_cmp);
+    let close = |got: &[f64], want: &[f64]| {
+        assert_eq!(got.len(), want.len(), "{got:?} against {want:?}");
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-9, "{got:?} against {want:?}");
+        }
+    };
+    close(&at(false), &want);
+    let mut want = [borders(2.25), borders(2.75)].concat();
+    want.sort_by(f64::total_cmp);
+    close(&at(true), &want);
+    assert!(lamp::lamp_lines_on(&plate_under_lamp(1.5), &|_| true).is_none());
+}
+
+/// The hierarchical display of the plate's shadow in
+/// [`lamp_lines_follow_a_near_plates_penumbrae`], with no display refinement
+/// (`gather_tolerance = 0`), so that only the lamp lines put vertices at the penumbra's
+/// borders. The penumbra of the plate's far edge is x ∈ [2.7955, 2.8409] on the floor: 1 cm
+/// inside its inner border the floor sees none of the lamp (the umbra: only the light the
+/// plate's underside reflects, a few per cent), 1 cm outside its outer border all of it.
+/// With the lines the display shows the umbra under a tenth of the lit floor beside it;
+/// without them the display triangles' corners lie up to a leaf apart on both sides, and
+/// the lit light is interpolated into the umbra.
+#[test]
+fn the_hierarchical_display_follows_a_lamps_near_penumbra() {
+    let scene = plate_under_lamp(0.25);
+    let settings = |discontinuities| Settings {
+        method: pipeline::Method::Hierarchical,
+        discontinuities,
+        gather_tolerance: 0.0,
+        ..Settings::default()
+    };
+    let shown = floor_shown;
+    let ratio = |out: &pipeline::Outcome| {
+        [1.9, 2.0, 2.1]
+            .iter()
+            .map(|&y| shown(out, 2.7855, y) / shown(out, 2.8509, y))
+            .fold(0.0, f64::max)
+    };
+    let out = pipeline::solve_scene(&scene, &settings(Discontinuities::Auto)).unwrap();
+    assert!(out.report.lamp_lines > 0, "{}", out.report.lamp_lines);
+    let with = ratio(&out);
+    let out = pipeline::solve_scene(&scene, &settings(Discontinuities::None)).unwrap();
+    assert_eq!(out.report.lamp_lines, 0);
+    let without = ratio(&out);
+    assert!(
+        with < 0.1,
+        "the umbra against the lit floor: {with} (without the lines {without})"
+    );
+    assert!(
+        without > 0.1,
+        "without the lines the penumbra is blurred: {without}"
+    );
 }
