@@ -1,9 +1,9 @@
 //! The lamps' near shadows as lines of the display ([`lamp_lines_on`]): where an edge close above
 //! a surface hides a lamp from part of it (a partition's top over the desk it stands on, a
 //! seat over the floor, a shelf board over the one below), the lamp's light on that surface
-//! falls from all to none across a penumbra `h·2R/D` wide (h the edge's height over the
-//! surface, R the lamp's radius, D its distance): 15 cm under a partition 45 cm high with a
-//! 1.3 m panel 2.5 m above. The light inside a penumbra bends at its two borders and is
+//! falls from all to none across a penumbra `h·w/D` wide (h the edge's height over the
+//! surface, w the lamp's width across the edge, D its distance from the edge): 15 cm beside a
+//! partition 45 cm high under a panel 0.6 m wide 1.8 m above its top. The light inside a penumbra bends at its two borders and is
 //! nearly linear between; vertex colours interpolated across display triangles wider than the
 //! penumbra show it as a ramp as wide as the triangle, at the wrong place, where a viewer sees
 //! a soft but distinct shadow. These lines put output edges along both borders, so linear
@@ -50,8 +50,8 @@ pub const SIGNIFICANT: f64 = 0.1;
 /// Half the widest penumbra drawn, as a fraction of the scene's extent (44 cm in a 28 m
 /// office, a quarter of [`crate::mesh::default_max_edge`]): a wider one bends the light over
 /// many display triangles, whose refinement follows it. On the office of 10⁵ triangles
-/// (BENCHMARKS.md "Large outputs") half as wide a bound kept two-thirds of the gain in RMS
-/// at a third of the lines.
+/// (BENCHMARKS.md "Large outputs", every significant lamp drawn) half as wide a bound kept
+/// two-thirds of the gain in RMS with two-fifths of the lines.
 pub const MAX_HALF_WIDTH: f64 = 1.0 / 64.0;
 
 /// The lamps whose shadows one edge casts lines for, at most: the [`SIGNIFICANT`] ones that
@@ -256,6 +256,7 @@ fn edge_lines(
     let Some((_, at, _)) = shadow(mid) else {
         return Vec::new();
     };
+    // Half its width, h·w/(2D), bounded by the lamp's radius for w/2 (its widest way across).
     let half_width = lamp.radius * (at - mid).length() / (mid - c).length();
     if half_width > MAX_HALF_WIDTH * extent {
         return Vec::new();
