@@ -86,12 +86,12 @@ pub fn lamp_lines_on(
     let n = scene.triangles.len();
     let (lo, hi) = scene.bounds();
     let extent = (hi - lo).length();
-    let lamps = lamps(scene);
+    let normals: Vec<DVec3> = (0..n).map(|t| unit_normal(scene, t)).collect();
+    let lamps = lamps(scene, &normals);
     if n == 0 || extent <= 0.0 || lamps.is_empty() {
         return None;
     }
     let vis = &scene.visibility();
-    let normals: Vec<DVec3> = (0..n).map(|t| unit_normal(scene, t)).collect();
     let mut edges = edges(scene);
     edges.retain(|e| on(e.triangles[0] as usize));
     let found: Vec<Vec<Line>> = edges
@@ -109,11 +109,12 @@ pub fn lamp_lines_on(
                     0.0
                 }
             };
-            let total: f64 = lamps.iter().map(reach).sum();
-            let mut chosen: Vec<(f64, usize)> = lamps
-                .iter()
+            let reaches: Vec<f64> = lamps.iter().map(reach).collect();
+            let total: f64 = reaches.iter().sum();
+            let mut chosen: Vec<(f64, usize)> = reaches
+                .into_iter()
                 .enumerate()
-                .map(|(k, l)| (reach(l), k))
+                .map(|(k, r)| (r, k))
                 .filter(|&(r, _)| r >= SIGNIFICANT * total && total > 0.0)
                 .collect();
             chosen.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
@@ -127,8 +128,9 @@ pub fn lamp_lines_on(
     on_receivers(scene, vis, &normals, found, extent)
 }
 
-/// The scene's lamps (see the module documentation), in the order of their first triangles.
-fn lamps(scene: &Scene) -> Vec<Lamp> {
+/// The scene's lamps (see the module documentation), in the order of their first triangles;
+/// `normal` is each triangle's unit front normal.
+fn lamps(scene: &Scene, normal: &[DVec3]) -> Vec<Lamp> {
     let n = scene.triangles.len();
     let emits = |t: usize| {
         let back = scene
@@ -138,7 +140,6 @@ fn lamps(scene: &Scene) -> Vec<Lamp> {
         let m = &scene.materials[scene.triangles[t].material as usize];
         !back && m.is_emitter() && luminance(m.emission) > 0.0
     };
-    let normal: Vec<DVec3> = (0..n).map(|t| unit_normal(scene, t)).collect();
     // Union-find over emitting triangles sharing an edge (by its corners' bits, so an
     // unwelded mesh's panels join too), of one material and plane.
     let mut parent: Vec<usize> = (0..n).collect();
