@@ -243,7 +243,7 @@ fn obj_content_errors_give_file_line_and_reason() {
         (
             "huge",
             format!("{tri}v 0 0 1e39\nf 1 2 3\n"),
-            &[":4:", "non-finite coordinate"],
+            &[":4:", "'1e39' is beyond single precision's range"],
         ),
         (
             "range",

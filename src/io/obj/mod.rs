@@ -35,13 +35,26 @@ pub(super) fn read_text(path: &Path) -> Result<String> {
     })
 }
 
-/// Parses a number as f32 to check its range: a value past single precision's (|x| > 3.4e38;
-/// `tobj` reads it in double precision, but every position and material value must fit the
-/// outputs' and the visibility's f32) is caught as non-finite by the caller; a malformed one
-/// is an error at `line`.
+/// Parses a number as f32 to check its range: a finite value past single precision's
+/// (|x| > 3.4e38; `tobj` reads it in double precision, but every position and material value
+/// must fit the outputs' and the visibility's f32) is an error at `line` that says so, as is a
+/// malformed one; `inf` and `nan` as written are left to the caller's non-finite checks.
 pub(super) fn parse_number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
-    s.parse::<f32>()
-        .map_err(|_| parse_error(path, line, format!("{what}: malformed number '{s}'")))
+    let x = s
+        .parse::<f32>()
+        .map_err(|_| parse_error(path, line, format!("{what}: malformed number '{s}'")))?;
+    if x.is_infinite() && s.parse::<f64>().is_ok_and(f64::is_finite) {
+        return Err(parse_error(
+            path,
+            line,
+            format!(
+                "{what}: '{s}' is beyond single precision's range (|x| ≤ {:.1e}), which \
+                 positions and material values must fit",
+                f32::MAX
+            ),
+        ));
+    }
+    Ok(x)
 }
 
 /// Materials of an OBJ's triangles: each triangle's index into the names.

@@ -1176,11 +1176,16 @@ mod tests {
 
     #[test]
     fn obj_syntax_errors_give_the_line() {
-        let cases: [(&str, usize, &str); 9] = [
+        let cases: [(&str, usize, &str); 10] = [
             ("v 0 0 0\nv 1 abc 0\n", 2, "malformed number 'abc'"),
             ("v 0 0\n", 1, "3 coordinates"),
             ("v 0 0 0\nv nan 0 0\n", 2, "non-finite"),
-            ("# big\nv 1e39 0 0\n", 2, "non-finite"),
+            (
+                "# big\nv 1e39 0 0\n",
+                2,
+                "'1e39' is beyond single precision",
+            ),
+            ("v 0 0 0\nv inf 0 0\n", 2, "non-finite"),
             ("v 0 0 0 0\n", 1, "w = 0"),
             (
                 "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n",
@@ -1256,7 +1261,13 @@ mod tests {
             ),
             ("newmtl neg\nKd 0.5 0.5 0.5\nKe 1 -2 3\n", 3, "neg", "≥ 0"),
             ("newmtl n\nKd NaN 0.5 0.5\n", 2, "n", "[0, 1]"),
-            ("newmtl big\nKe 1e39 0 0\n", 2, "big", "finite"),
+            (
+                "newmtl big\nKe 1e39 0 0\n",
+                2,
+                "big",
+                "'1e39' is beyond single precision",
+            ),
+            ("newmtl inf\nKe inf 0 0\n", 2, "inf", "finite"),
             ("newmtl two\nKd 0.5 0.5\n", 2, "two", "expected 3 numbers"),
             ("newmtl sp\nKd spectral file.rfl\n", 2, "sp", "spectral"),
             (
