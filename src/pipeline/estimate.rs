@@ -675,8 +675,9 @@ pub fn links_within(limit: f64) -> u64 {
 
 /// The output vertices of a hierarchical bake before any display refinement, counted on its
 /// root `patches` as the bake shares them out: cut along the scene's contact lines (and the
-/// lamps' and the sun's penumbra lines, [`mesh::display_lines_on`]) first where the bake's display will be ([`mesh::split_patches`]; `discontinuities = auto` with a final
-/// gather), which on detailed interiors (brushes meeting walls and floors) makes 1.2–2.3×
+/// lamps' and the sun's penumbra lines, [`mesh::display_lines_on`]) first where the bake's
+/// display will be ([`mesh::split_patches`]; `discontinuities = auto` with a final gather),
+/// which on detailed interiors (brushes meeting walls and floors) makes 1.2–2.3×
 /// the roots' vertices. The leaves add more where the solve splits roots; they are not known
 /// before it. Returns the vertices before the cut and after it.
 fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, usize) {

@@ -3,8 +3,8 @@
 //! seat over the floor, a shelf board over the one below), the lamp's light on that surface
 //! falls from all to none across a penumbra `h·w/D` wide (h the edge's height over the
 //! surface, w the lamp's width across the edge, D its distance from the edge): 15 cm beside a
-//! partition 45 cm high under a panel 0.6 m wide 1.8 m above its top. The light inside a penumbra bends at its two borders and is
-//! nearly linear between; vertex colours interpolated across display triangles wider than the
+//! partition 45 cm high under a panel 0.6 m wide 1.8 m above its top. The light inside a
+//! penumbra bends at its two borders and is nearly linear between; vertex colours interpolated across display triangles wider than the
 //! penumbra show it as a ramp as wide as the triangle, at the wrong place, where a viewer sees
 //! a soft but distinct shadow. These lines put output edges along both borders, so linear
 //! interpolation between them follows the penumbra (discontinuity meshing of an area source:
@@ -86,11 +86,11 @@ pub fn lamp_lines_on(
     let n = scene.triangles.len();
     let (lo, hi) = scene.bounds();
     let extent = (hi - lo).length();
-    let normals: Vec<DVec3> = (0..n).map(|t| unit_normal(scene, t)).collect();
-    let lamps = lamps(scene, &normals);
+    let lamps = lamps(scene);
     if n == 0 || extent <= 0.0 || lamps.is_empty() {
         return None;
     }
+    let normals: Vec<DVec3> = (0..n).map(|t| unit_normal(scene, t)).collect();
     let vis = &scene.visibility();
     let mut edges = edges(scene);
     edges.retain(|e| on(e.triangles[0] as usize));
@@ -128,9 +128,11 @@ pub fn lamp_lines_on(
     on_receivers(scene, vis, &normals, found, extent)
 }
 
-/// The scene's lamps (see the module documentation), in the order of their first triangles;
-/// `normal` is each triangle's unit front normal.
-fn lamps(scene: &Scene, normal: &[DVec3]) -> Vec<Lamp> {
+/// The scene's lamps (see the module documentation), in the order of their first triangles.
+/// Only the emitting triangles' normals are computed: a scene without lamps pays one pass
+/// over its materials.
+fn lamps(scene: &Scene) -> Vec<Lamp> {
+    let normal = |t: usize| unit_normal(scene, t);
     let n = scene.triangles.len();
     let emits = |t: usize| {
         let back = scene
@@ -161,7 +163,7 @@ fn lamps(scene: &Scene, normal: &[DVec3]) -> Vec<Lamp> {
             match by_edge.get(&edge) {
                 Some(&u)
                     if scene.triangles[u].material == scene.triangles[t].material
-                        && normal[u].dot(normal[t]) > 1.0 - 1e-9 =>
+                        && normal(u).dot(normal(t)) > 1.0 - 1e-9 =>
                 {
                     let (ru, rt) = (root(&mut parent, u), root(&mut parent, t));
                     let (lo, hi) = (ru.min(rt), ru.max(rt));
@@ -208,7 +210,7 @@ fn lamps(scene: &Scene, normal: &[DVec3]) -> Vec<Lamp> {
             Some(Lamp {
                 corners,
                 centre,
-                normal: normal[tris[0]],
+                normal: normal(tris[0]),
                 radius,
                 power: area * luminance(le),
             })
