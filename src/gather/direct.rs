@@ -433,7 +433,7 @@ impl Gatherer<'_> {
     /// Whether the others' shadow rays at `x` may go to the emitter `e`: it is sampled there
     /// ([`Gatherer::sampled`]) and `x` lies in front of it.
     fn sampled_toward(&self, e: &Emitter, x: DVec3) -> bool {
-        self.sampled(e, x) && (x - e.corners[0]).dot(e.normal) > 0.0
+        self.sampled(e, x) && e.in_front(x)
     }
 
     /// Σ_{e ∉ exact, sampled} Le_e F(x → e) V̄(x, e) estimated by `count` shadow rays:

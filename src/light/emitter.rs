@@ -121,6 +121,12 @@ pub struct Emitter {
     pub area: f64,
 }
 
+/// A point nearer an emitter's plane than this share of the emitter's radius lies on the plane
+/// ([`Emitter::in_front`]): rounding leaves a point computed on it (a corner, an edge's
+/// midpoint) within about 1e-16 of the scene's coordinates off it, far below this; a point
+/// meant to be in front lies further out by many orders.
+pub const ON_PLANE: f64 = 1e-9;
+
 /// [`Emitter::form_factor_weight`] takes the differential form beyond this many radii of the
 /// emitter's bounding sphere: there it is within about (1/this)² of the exact F.
 pub const FAR_RADII: f64 = 8.0;
@@ -174,8 +180,7 @@ impl Emitter {
     pub fn form_factor_weight(&self, x: DVec3, n: DVec3) -> f64 {
         let d = self.centre - x;
         let d2 = d.length_squared();
-        let in_front = (x - self.corners[0]).dot(self.normal) > 0.0;
-        if in_front
+        if self.in_front(x)
             && d2 > (FAR_RADII * self.radius).powi(2)
             && self.corners.iter().all(|&c| (c - x).dot(n) > 0.0)
         {
@@ -189,11 +194,26 @@ impl Emitter {
     /// emitter, or `None` where the emitter sends nothing toward `x`: `x` behind its plane,
     /// or the emitter wholly below `x`'s horizon.
     pub fn form_factor(&self, x: DVec3, n: DVec3) -> Option<f64> {
-        if (x - self.corners[0]).dot(self.normal) <= 0.0 {
-            return None; // behind the emitter: it sends no light this way
+        if !self.in_front(x) {
+            return None; // behind the emitter or on its plane: it sends no light this way
         }
         let f = point_to_polygon(x, n, &self.corners);
         (f > 0.0).then_some(f)
+    }
+
+    /// Whether the point `x` lies in front of the emitter: off its plane, on its front side,
+    /// by more than [`ON_PLANE`] of its radius. A point on the plane (a corner or an edge of
+    /// the emitter, as the vertices of an emitting mesh are of their neighbours, or a vertex
+    /// of a face that meets it flush) sees it edge-on: F = 0. Lambert's contour sum there has
+    /// every corner vector in the plane, and its magnitude (the sign that tells which side
+    /// faces `x` is lost to rounding) is the share of the plane's angles the emitter spans
+    /// around `x`: the corner's wedge (1/6 at a vertex of six equilateral facets), as if `x`
+    /// faced the emitter from against it. On a tessellated sphere's emitting cap that gave
+    /// every vertex of the cap, and every wall vertex on its rim, the light of its
+    /// neighbouring facets at about that share (the cap's vertices 10 % RMS of L off the
+    /// closed form, up to 47 %).
+    pub fn in_front(&self, x: DVec3) -> bool {
+        (x - self.corners[0]).dot(self.normal) > ON_PLANE * self.radius
     }
 
     /// Casts `rays` shadow rays from `x` (unit normal `n`) to stratified points y of the
@@ -314,6 +334,32 @@ mod tests {
             .form_factor(DVec3::new(0.0, 0.0, 2.0), -DVec3::Z)
             .is_none());
         assert!(e.form_factor(x, -DVec3::Z).is_none());
+    }
+
+    #[test]
+    fn a_point_on_the_emitters_plane_sees_it_edge_on() {
+        // A corner, an edge's midpoint and a point beside the triangle, on its plane, with
+        // the emitter's own normal (a neighbouring facet of the same surface): F = 0. The
+        // contour sum's magnitude there is the plane's angle the triangle spans around the
+        // point, at the corner its 45° wedge: 1/8, what a point just in front of the corner
+        // facing the emitter gets.
+        let e = emitter();
+        let corner = e.corners[0];
+        let wedge = point_to_polygon(corner, e.normal, &e.corners);
+        assert!((wedge - 0.125).abs() < 1e-12, "{wedge}");
+        let edge = 0.5 * (e.corners[0] + e.corners[1]);
+        for x in [corner, edge, DVec3::new(2.0, 0.0, 1.0)] {
+            assert!(!e.in_front(x), "{x}");
+            assert!(e.form_factor(x, e.normal).is_none(), "{x}");
+            assert!(e.form_factor(x, -e.normal).is_none(), "{x}");
+        }
+        // A millionth of the emitter's size in front of the corner: in front, and facing
+        // the emitter it sees the wedge.
+        let x = corner + 1e-6 * e.normal;
+        assert!(e.in_front(x));
+        let f = e.form_factor(x, -e.normal).unwrap();
+        assert!((f - 0.125).abs() < 1e-4, "{f}");
+        assert!(e.form_factor(x, e.normal).is_none());
     }
 
     #[test]
