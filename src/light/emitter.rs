@@ -174,9 +174,9 @@ impl Emitter {
     /// Wallace, *Radiosity and Realistic Image Synthesis* §4.9: exact to O((r/d)²) there), else
     /// the exact F ([`point_to_polygon`], a contour integral). Positive wherever F is (all
     /// corners above the horizon, `x` in front), so a draw by it, whose estimate divides the
-    /// exact F by the draw's probability, stays unbiased; 0 behind the emitter's plane. What
-    /// the gather's other emitters ([`crate::gather`]) and the hierarchical elements' shared
-    /// shadow rays ([`crate::hierarchical::direct`]) are drawn by.
+    /// exact F by the draw's probability, stays unbiased; 0 behind the emitter's plane or on
+    /// it. What the gather's other emitters ([`crate::gather`]) and the hierarchical elements'
+    /// shared shadow rays ([`crate::hierarchical::direct`]) are drawn by.
     pub fn form_factor_weight(&self, x: DVec3, n: DVec3) -> f64 {
         let d = self.centre - x;
         let d2 = d.length_squared();
@@ -191,8 +191,8 @@ impl Emitter {
     }
 
     /// F(x → e), the unoccluded form factor from the point `x` (unit normal `n`) to the
-    /// emitter, or `None` where the emitter sends nothing toward `x`: `x` behind its plane,
-    /// or the emitter wholly below `x`'s horizon.
+    /// emitter, or `None` where the emitter sends nothing toward `x`: `x` behind its plane or
+    /// on it ([`Emitter::in_front`]), or the emitter wholly below `x`'s horizon.
     pub fn form_factor(&self, x: DVec3, n: DVec3) -> Option<f64> {
         if !self.in_front(x) {
             return None; // behind the emitter or on its plane: it sends no light this way
