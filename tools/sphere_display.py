@@ -4,7 +4,8 @@
 A sphere seen from inside, uniform reflectance rho, an emitting cap (the materials whose `Ke`
 is not zero, Le = the first channel): every wall point's radiance is rho/(1-rho)*mean(Le) and
 every cap point's Le plus that (mean(Le) over the sphere's area). Measured on the baked PLY
-(`radiosity bake SPHERE.obj -o out.ply`, binary, as the bake writes it), leaving out the
+(`radiosity bake SPHERE.obj -o out.ply`, binary, as the bake writes it; a grey sphere, whose
+luminance is its radiance), leaving out the
 points within 5 degrees of the cap's rim, where the light jumps:
 
 - at the vertices: the walls' (and those on the sphere, the input's corners), the cap's;
@@ -24,6 +25,8 @@ import math
 import sys
 
 import numpy as np
+
+from display_split import read_ply  # the bake's binary PLY: positions, luminance, faces
 
 
 def read_obj(path):
@@ -56,25 +59,6 @@ def read_obj(path):
                     le[name] = float(s[1])
     e = np.array([le.get(m, 0.0) for m in emission])
     return np.array(positions), np.array(triangles), e
-
-
-def read_ply(path):
-    """Vertex positions and radiance, and faces, of the bake's binary PLY."""
-    with open(path, "rb") as f:
-        nv = nf = 0
-        while True:
-            line = f.readline().decode().strip()
-            if line.startswith("element vertex"):
-                nv = int(line.split()[2])
-            if line.startswith("element face"):
-                nf = int(line.split()[2])
-            if line == "end_header":
-                break
-        vt = np.dtype([("p", "<f4", 3), ("c", "u1", 3), ("r", "<f4", 3)])
-        v = np.frombuffer(f.read(nv * vt.itemsize), dtype=vt)
-        ft = np.dtype([("n", "u1"), ("i", "<u4", 3), ("fr", "<f4", 3)])
-        faces = np.frombuffer(f.read(nf * ft.itemsize), dtype=ft)
-    return v["p"].astype(float), v["r"][:, 0].astype(float), faces["i"].astype(int)
 
 
 def uv_sphere(nu, nv, radius, rho, cap, out):

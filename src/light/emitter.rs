@@ -439,7 +439,7 @@ mod tests {
             let x = e.centre + r * dir;
             let exact = point_to_polygon(x, n, &e.corners);
             let w = e.form_factor_weight(x, n);
-            if (x - e.corners[0]).dot(e.normal) <= 0.0 {
+            if !e.in_front(x) {
                 assert_eq!(w, 0.0, "{x} {n}");
                 continue;
             }
