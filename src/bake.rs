@@ -93,22 +93,28 @@ pub fn bake_sites(
     radiance: &[Rgb],
     crease_degrees: f64,
 ) -> (BakedMesh, Vec<Site>) {
-    bake_sites_apart(patches, radiance, crease_degrees, &[])
+    bake_sites_apart(patches, radiance, crease_degrees, &[], &[])
 }
 
 /// [`bake_sites`], where moreover a patch covered by a face a thin gap in front of it
 /// (`covers[p]` > 0, that gap in scene units, [`crate::gather::Gatherer::covers`]; empty:
 /// none) shares no output vertex with one that is not: the covering face's outline is a jump
 /// of the light at the display's scale, and each side shows its own. Both sides' vertices
-/// on the outline carry the gap ([`Site::gap`]).
+/// on the outline carry the gap ([`Site::gap`]). Likewise a buried patch (`buried[p]`,
+/// [`crate::gather::Gatherer::buried_patches`]; empty: none), flush under another surface
+/// (a screen's strip behind the desk top that abuts it, the floor under a leg), shares no
+/// output vertex with a seen one: at the contact line the seen side's light would otherwise
+/// be averaged, fitted and interpolated with a value nobody sees.
 pub fn bake_sites_apart(
     patches: &Patches,
     radiance: &[Rgb],
     crease_degrees: f64,
     covers: &[f64],
+    buried: &[bool],
 ) -> (BakedMesh, Vec<Site>) {
     let gap = |p: usize| covers.get(p).copied().unwrap_or(0.0);
     let is_covered = |p: usize| gap(p) > 0.0;
+    let is_buried = |p: usize| buried.get(p).copied().unwrap_or(false);
     let mut sites = Vec::new();
     let cos_crease = crease_degrees.to_radians().cos();
     let nv = patches.positions.len();
@@ -134,6 +140,7 @@ pub fn bake_sites_apart(
             patches.material[pa] == patches.material[pb]
                 && patches.normal[pa].dot(patches.normal[pb]) >= cos_crease
                 && is_covered(pa) == is_covered(pb)
+                && is_buried(pa) == is_buried(pb)
         });
         // One output vertex per group, in order of the group's first patch (deterministic).
         let first_out = mesh.positions.len();

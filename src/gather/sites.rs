@@ -57,6 +57,11 @@ pub const NUDGE_MAX: f64 = 3e-5;
 /// gather resolves.
 const TOUCH_REACH: f64 = 1e-5;
 
+/// How far a patch's corners are moved toward its centroid before [`Gatherer::buried_patches`]
+/// tests them: off the corner, where the neighbouring surface's edge passes, by a share the
+/// contact lines' cuts leave wholly on one side.
+const BURIED_INSET: f64 = 0.05;
+
 /// Where the gather evaluates at a site: the point, its normal and the patch it lies on
 /// (whose rays ignore), or `None` when the point is buried.
 pub(crate) struct Spot {
@@ -153,6 +158,28 @@ impl Gatherer<'_> {
                 } else {
                     0.0
                 }
+            })
+            .collect()
+    }
+
+    /// Whether each patch is buried all over: its centroid and its corners (each moved
+    /// [`BURIED_INSET`] of the way to the centroid, off the patch's own edges) are all
+    /// [`Gatherer::buried`] along the patch's normal. A strip of a screen behind the desk top
+    /// that abuts it, the floor under a leg's foot: the contact lines cut such pieces out of
+    /// the seen faces, and nobody sees them. A patch buried only in part is seen.
+    pub fn buried_patches(&self) -> Vec<bool> {
+        let p = self.patches;
+        (0..p.len())
+            .into_par_iter()
+            .map(|q| {
+                let (c, n) = (p.centroid[q], p.normal[q]);
+                let corner = |k: usize| {
+                    let v = p.positions[p.triangles[q][k] as usize];
+                    v + BURIED_INSET * (c - v)
+                };
+                [c, corner(0), corner(1), corner(2)]
+                    .into_iter()
+                    .all(|x| self.buried(x, n, q as u32))
             })
             .collect()
     }

@@ -635,11 +635,19 @@ fn bake_stage(
         );
         // Patches under a face close in front of them show their own light, not the open
         // side's: their vertices are apart at the outline.
+        // Likewise the buried patches, flush under another surface, and the seen ones.
         let covers = gatherer.covers(scene);
-        if covers.iter().any(|&g| g > 0.0) {
-            (baked, sites) =
-                bake::bake_sites_apart(patches, radiance, settings.crease_degrees, &covers);
+        let buried = gatherer.buried_patches();
+        if covers.iter().any(|&g| g > 0.0) || buried.iter().any(|&b| b) {
+            (baked, sites) = bake::bake_sites_apart(
+                patches,
+                radiance,
+                settings.crease_degrees,
+                &covers,
+                &buried,
+            );
         }
+
         let gatherer = gatherer
             // The nudge bound needs the display refinement to follow the light beside a contact.
             .with_contact_edges(report.contacts.is_some() && settings.gather_tolerance > 0.0)
