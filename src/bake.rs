@@ -8,7 +8,8 @@
 //! group becomes its own output vertex, with the area-weighted mean radiance of its patches,
 //! L_v = Σ A_p L_p / Σ A_p. So the red wall does not bleed into the floor's corner vertices.
 //! With [`bake_sites_apart`], patches covered by a face a thin gap in front of them are a
-//! surface of their own too (the light jumps at the covering face's outline).
+//! surface of their own too (the light jumps at the covering face's outline), and so are
+//! buried ones, flush under another surface (nobody sees their value).
 //!
 //! The pipeline's bake groups by the crease angle its solve takes the mesh with (`--crease`):
 //! where faces meet at smaller angles they sample one smooth surface, for the form factors'

@@ -76,7 +76,7 @@ pub use indirect::{
     SLOT_HIT,
 };
 pub use refine::{refine, Plan, Refined};
-pub use sites::{NUDGE, NUDGE_MAX};
+pub use sites::{buried_patches, NUDGE, NUDGE_MAX};
 
 /// What the final gather recomputes at the output vertices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

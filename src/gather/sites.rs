@@ -22,9 +22,11 @@ use glam::DVec3;
 
 use rayon::prelude::*;
 
+use super::trace::Surfaces;
 use super::{Gatherer, LIFT};
 use crate::bake::Site;
 use crate::mesh::discontinuity::mounted_gap;
+use crate::mesh::Patches;
 use crate::scene::Scene;
 
 /// Where surfaces meet at a vertex, the gather point is moved this fraction of the way to the
@@ -57,10 +59,41 @@ pub const NUDGE_MAX: f64 = 3e-5;
 /// gather resolves.
 const TOUCH_REACH: f64 = 1e-5;
 
-/// How far a patch's corners are moved toward its centroid before [`Gatherer::buried_patches`]
+/// How far a patch's corners are moved toward its centroid before [`buried_patches`]
 /// tests them: off the corner, where the neighbouring surface's edge passes, by a share the
 /// contact lines' cuts leave wholly on one side.
 const BURIED_INSET: f64 = 0.05;
+
+/// Whether each of `patches` (of `scene`) is buried all over: its centroid and its corners
+/// (each moved [`BURIED_INSET`] of the way to the centroid, off the patch's own edges) are all
+/// buried along the patch's normal ([`Gatherer::buried`]'s test). A strip of a screen behind
+/// the desk top that abuts it, the floor under a leg's foot: the contact lines cut such pieces
+/// out of the seen faces, and nobody sees them. A patch buried only in part is seen. What
+/// [`crate::bake::bake_sites_apart`] keeps apart (and the estimate counts).
+pub fn buried_patches(scene: &Scene, patches: &Patches) -> Vec<bool> {
+    let (lo, hi) = scene.bounds();
+    buried_in(&Surfaces::new(patches), patches, LIFT * (hi - lo).length())
+}
+
+/// [`buried_patches`] with the patches' traced `surfaces` and the rays' `lift` (scene units).
+fn buried_in(surfaces: &Surfaces, p: &Patches, lift: f64) -> Vec<bool> {
+    (0..p.len())
+        .into_par_iter()
+        .map(|q| {
+            let (c, n) = (p.centroid[q], p.normal[q]);
+            let corner = |k: usize| {
+                let v = p.positions[p.triangles[q][k] as usize];
+                v + BURIED_INSET * (c - v)
+            };
+            [c, corner(0), corner(1), corner(2)].into_iter().all(|x| {
+                surfaces
+                    .vis()
+                    .first_hit_from_behind(x + lift * n, n, surfaces.traced(q as u32))
+                    .unwrap_or(false)
+            })
+        })
+        .collect()
+}
 
 /// Where the gather evaluates at a site: the point, its normal and the patch it lies on
 /// (whose rays ignore), or `None` when the point is buried.
@@ -162,26 +195,9 @@ impl Gatherer<'_> {
             .collect()
     }
 
-    /// Whether each patch is buried all over: its centroid and its corners (each moved
-    /// [`BURIED_INSET`] of the way to the centroid, off the patch's own edges) are all
-    /// [`Gatherer::buried`] along the patch's normal. A strip of a screen behind the desk top
-    /// that abuts it, the floor under a leg's foot: the contact lines cut such pieces out of
-    /// the seen faces, and nobody sees them. A patch buried only in part is seen.
+    /// [`buried_patches`] of this gatherer's patches.
     pub fn buried_patches(&self) -> Vec<bool> {
-        let p = self.patches;
-        (0..p.len())
-            .into_par_iter()
-            .map(|q| {
-                let (c, n) = (p.centroid[q], p.normal[q]);
-                let corner = |k: usize| {
-                    let v = p.positions[p.triangles[q][k] as usize];
-                    v + BURIED_INSET * (c - v)
-                };
-                [c, corner(0), corner(1), corner(2)]
-                    .into_iter()
-                    .all(|x| self.buried(x, n, q as u32))
-            })
-            .collect()
+        buried_in(&self.surfaces, self.patches, self.lift)
     }
 
     /// Gather covered vertices inside their cover ([`Gatherer::covers`]; `cover` indexed by

@@ -678,7 +678,8 @@ pub fn links_within(limit: f64) -> u64 {
 /// lamps' and the sun's penumbra lines, [`mesh::display_lines_on`]) first where the bake's
 /// display will be ([`mesh::split_patches`]; `discontinuities = auto` with a final gather),
 /// which on detailed interiors (brushes meeting walls and floors) makes 1.2–2.3×
-/// the roots' vertices. The leaves add more where the solve splits roots; they are not known
+/// the roots' vertices, the pieces buried under another surface apart from the seen ones
+/// ([`crate::gather::buried_patches`]). The leaves add more where the solve splits roots; they are not known
 /// before it. Returns the vertices before the cut and after it.
 fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, usize) {
     let plain = output_vertices(patches, s.crease_degrees);
@@ -700,7 +701,12 @@ fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, u
     });
     match cut {
         Some((cut, _, _)) => {
-            let added = output_vertices(&cut, s.crease_degrees).saturating_sub(plain);
+            // The cut's buried pieces have their own vertices at its lines, as in the bake.
+            let buried = crate::gather::buried_patches(scene, &cut);
+            let dark = vec![[0.0; 3]; cut.len()];
+            let (_, sites) =
+                crate::bake::bake_sites_apart(&cut, &dark, s.crease_degrees, &[], &buried);
+            let added = sites.len().saturating_sub(plain);
             (plain, plain + (added as f64 / p).round() as usize)
         }
         None => (plain, plain),
