@@ -65,8 +65,8 @@ const TOUCH_REACH: f64 = 1e-5;
 const BURIED_INSET: f64 = 0.05;
 
 /// Whether each of `patches` (of `scene`) is buried all over: its centroid and its corners
-/// (each moved [`BURIED_INSET`] of the way to the centroid, off the patch's own edges) are all
-/// buried along the patch's normal ([`Gatherer::buried`]'s test). A strip of a screen behind
+/// (each moved 5 % of the way to the centroid, off the patch's own edges) are all buried
+/// along the patch's normal: the first surface there is seen from behind. A strip of a screen behind
 /// the desk top that abuts it, the floor under a leg's foot: the contact lines cut such pieces
 /// out of the seen faces, and nobody sees them. A patch buried only in part is seen. What
 /// [`crate::bake::bake_sites_apart`] keeps apart (and the estimate counts).
