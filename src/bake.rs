@@ -104,8 +104,9 @@ pub fn bake_sites(
 /// on the outline carry the gap ([`Site::gap`]). Likewise a buried patch (`buried[p]`,
 /// [`crate::gather::Gatherer::buried_patches`]; empty: none), flush under another surface
 /// (a screen's strip behind the desk top that abuts it, the floor under a leg), shares no
-/// output vertex with a seen one: at the contact line the seen side's light would otherwise
-/// be averaged, fitted and interpolated with a value nobody sees.
+/// output vertex with a seen one: the seen side's vertices on the contact line are its own,
+/// refined, flipped and fitted with the seen faces alone, and the buried side keeps the
+/// solve's values where nobody sees them.
 pub fn bake_sites_apart(
     patches: &Patches,
     radiance: &[Rgb],

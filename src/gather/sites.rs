@@ -64,11 +64,11 @@ const TOUCH_REACH: f64 = 1e-5;
 /// contact lines' cuts leave wholly on one side.
 const BURIED_INSET: f64 = 0.05;
 
-/// Whether each of `patches` (of `scene`) is buried all over: its centroid and its corners
-/// (each moved 5 % of the way to the centroid, off the patch's own edges) are all buried
-/// along the patch's normal: the first surface there is seen from behind. A strip of a screen behind
-/// the desk top that abuts it, the floor under a leg's foot: the contact lines cut such pieces
-/// out of the seen faces, and nobody sees them. A patch buried only in part is seen. What
+/// Whether each of `patches` (of `scene`) is buried all over: at its centroid and its
+/// corners (each moved 5 % of the way to the centroid, off the patch's own edges), the first
+/// surface along the patch's normal is seen from behind. A strip of a screen behind the desk
+/// top that abuts it, the floor under a leg's foot: the contact lines cut such pieces out of
+/// the seen faces, and nobody sees them. A patch buried only in part counts as seen. What
 /// [`crate::bake::bake_sites_apart`] keeps apart (and the estimate counts).
 pub fn buried_patches(scene: &Scene, patches: &Patches) -> Vec<bool> {
     let (lo, hi) = scene.bounds();
