@@ -85,14 +85,19 @@ fn buried_in(surfaces: &Surfaces, p: &Patches, lift: f64) -> Vec<bool> {
                 let v = p.positions[p.triangles[q][k] as usize];
                 v + BURIED_INSET * (c - v)
             };
-            [c, corner(0), corner(1), corner(2)].into_iter().all(|x| {
-                surfaces
-                    .vis()
-                    .first_hit_from_behind(x + lift * n, n, surfaces.traced(q as u32))
-                    .unwrap_or(false)
-            })
+            [c, corner(0), corner(1), corner(2)]
+                .into_iter()
+                .all(|x| buried_at(surfaces, lift, x, n, q as u32))
         })
         .collect()
+}
+
+/// [`Gatherer::buried`]'s test with the traced `surfaces` and the rays' `lift`.
+fn buried_at(surfaces: &Surfaces, lift: f64, x: DVec3, n: DVec3, ignore: u32) -> bool {
+    surfaces
+        .vis()
+        .first_hit_from_behind(x + lift * n, n, surfaces.traced(ignore))
+        .unwrap_or(false)
 }
 
 /// Where the gather evaluates at a site: the point, its normal and the patch it lies on
@@ -342,9 +347,6 @@ impl Gatherer<'_> {
     /// vertices). Contact geometry buries a point by far more than
     /// the lift (the floor under a block is covered wherever it is buried).
     pub(super) fn buried(&self, x: DVec3, n: DVec3, ignore: u32) -> bool {
-        self.surfaces
-            .vis()
-            .first_hit_from_behind(x + self.lift * n, n, self.surfaces.traced(ignore))
-            .unwrap_or(false)
+        buried_at(&self.surfaces, self.lift, x, n, ignore)
     }
 }

@@ -353,7 +353,7 @@ impl Estimate {
                     n
                 };
                 let facing = facing_fraction(&patches);
-                let first = sides * output_vertices(&patches, s.crease_degrees);
+                let first = sides * output_vertices(&patches, s.crease_degrees, &[]);
                 let vertices =
                     (first as f64 * max_patches as f64 / n.max(1) as f64).round() as usize;
                 let m = max_patches as f64;
@@ -679,10 +679,10 @@ pub fn links_within(limit: f64) -> u64 {
 /// display will be ([`mesh::split_patches`]; `discontinuities = auto` with a final gather),
 /// which on detailed interiors (brushes meeting walls and floors) makes 1.2–2.3×
 /// the roots' vertices, the pieces buried under another surface apart from the seen ones
-/// ([`crate::gather::buried_patches`]). The leaves add more where the solve splits roots; they are not known
-/// before it. Returns the vertices before the cut and after it.
+/// ([`crate::gather::buried_patches`]). The leaves add more where the solve splits roots; they
+/// are not known before it. Returns the vertices before the cut and after it.
 fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, usize) {
-    let plain = output_vertices(patches, s.crease_degrees);
+    let plain = output_vertices(patches, s.crease_degrees, &[]);
     let lit = scene.has_emitters() || s.environment.is_lit();
     let gathered = s.gather.resolve(plain, s.gather_rays.is_some()) != Gather::None;
     if s.discontinuities != mesh::Discontinuities::Auto || !lit || !gathered {
@@ -703,10 +703,7 @@ fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, u
         Some((cut, _, _)) => {
             // The cut's buried pieces have their own vertices at its lines, as in the bake.
             let buried = crate::gather::buried_patches(scene, &cut);
-            let dark = vec![[0.0; 3]; cut.len()];
-            let (_, sites) =
-                crate::bake::bake_sites_apart(&cut, &dark, s.crease_degrees, &[], &buried);
-            let added = sites.len().saturating_sub(plain);
+            let added = output_vertices(&cut, s.crease_degrees, &buried).saturating_sub(plain);
             (plain, plain + (added as f64 / p).round() as usize)
         }
         None => (plain, plain),
@@ -718,10 +715,11 @@ fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, u
 pub const DISPLAY_SAMPLE: usize = 20_000;
 
 /// The output vertices of a bake of `patches` before any display refinement: the sites
-/// [`crate::bake::bake_sites`] makes at the crease angle.
-fn output_vertices(patches: &Patches, crease_degrees: f64) -> usize {
+/// [`crate::bake::bake_sites_apart`] makes at the crease angle, the `buried` patches (empty:
+/// none) apart.
+fn output_vertices(patches: &Patches, crease_degrees: f64, buried: &[bool]) -> usize {
     let dark = vec![[0.0; 3]; patches.len()];
-    crate::bake::bake_sites(patches, &dark, crease_degrees)
+    crate::bake::bake_sites_apart(patches, &dark, crease_degrees, &[], buried)
         .1
         .len()
 }

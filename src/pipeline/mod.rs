@@ -634,8 +634,8 @@ fn bake_stage(
             settings.form_factors.seed,
         );
         // Patches under a face close in front of them show their own light, not the open
-        // side's: their vertices are apart at the outline.
-        // Likewise the buried patches, flush under another surface, and the seen ones.
+        // side's, and buried ones (flush under another surface) nobody sees: the vertices of
+        // both are apart from the seen ones' at the outline.
         let covers = gatherer.covers(scene);
         let buried = gatherer.buried_patches();
         if covers.iter().any(|&g| g > 0.0) || buried.iter().any(|&b| b) {
@@ -647,7 +647,6 @@ fn bake_stage(
                 &buried,
             );
         }
-
         let gatherer = gatherer
             // The nudge bound needs the display refinement to follow the light beside a contact.
             .with_contact_edges(report.contacts.is_some() && settings.gather_tolerance > 0.0)
