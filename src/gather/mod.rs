@@ -61,6 +61,7 @@ pub mod flip;
 mod indirect;
 pub mod local_fit;
 mod openings;
+pub mod pieces;
 pub mod refine;
 mod sites;
 mod trace;

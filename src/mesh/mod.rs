@@ -25,7 +25,7 @@ mod subdivide;
 pub(crate) use adjacency::{groups, VertexFaces};
 pub use discontinuity::{
     contact_lines, contact_lines_on, display_lines_on, split_contacts, split_patches, sun_lines,
-    ContactStats, Discontinuities,
+    ContactStats, Discontinuities, Split,
 };
 pub use normals::corner_normals;
 pub(crate) use subdivide::barycentric;

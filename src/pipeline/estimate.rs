@@ -188,6 +188,9 @@ pub struct Estimate {
     pub vertices: usize,
     /// The final gather `auto` will run.
     pub gather: Gather,
+    /// Hierarchical: the regions of the display's cut leaves that gather their share of the
+    /// leaf's light before the vertices gather ([`crate::gather::pieces`]); 0 otherwise.
+    pub shared_regions: usize,
     /// Peak memory, bytes (matrix: an upper bound; hierarchical: an estimate, see the module).
     pub memory_bytes: f64,
     /// Wall-clock seconds on `threads` threads (scaled from 2 cores; see the module).
@@ -259,7 +262,7 @@ impl Estimate {
                     }
                     None => None,
                 };
-                let (uncut, vertices) = display_vertices(scene, &s, &root_patches);
+                let (uncut, vertices, shared_regions) = display_vertices(scene, &s, &root_patches);
                 let vertices = sides * vertices;
                 // `auto` decides on the display before its lines cut it, as the bake does.
                 let gather = s.gather.resolve(sides * uncut, s.gather_rays.is_some());
@@ -327,6 +330,7 @@ impl Estimate {
                     max_patches: leaves,
                     finer,
                     epsilon: Some(s.hierarchical.epsilon),
+                    shared_regions: sides * shared_regions,
                     facing_fraction: None,
                     max_entries: None,
                     vertices,
@@ -373,6 +377,7 @@ impl Estimate {
                     max_patches,
                     finer,
                     epsilon: None,
+                    shared_regions: 0,
                     facing_fraction: Some(facing),
                     max_entries: Some(entries),
                     vertices,
@@ -393,6 +398,9 @@ impl Estimate {
         let before_gather = e.seconds;
         if e.gather != Gather::None {
             let vertices = e.vertices;
+            // The cut leaves' regions: hemisphere and shadow rays each.
+            let rays = gather::pieces::PIECE_RAYS + gather::pieces::PIECE_LIGHT_SAMPLES;
+            e.seconds += e.shared_regions as f64 * rays as f64 * GATHER_SECONDS_PER_RAY * per_core;
             if e.gather == Gather::Cache {
                 // The refinement's part grows with its budget (--display-budget).
                 let share = if s.gather_tolerance > 0.0 {
@@ -680,13 +688,14 @@ pub fn links_within(limit: f64) -> u64 {
 /// which on detailed interiors (brushes meeting walls and floors) makes 1.2–2.3×
 /// the roots' vertices, the pieces buried under another surface apart from the seen ones
 /// ([`crate::gather::buried_patches`]). The leaves add more where the solve splits roots; they
-/// are not known before it. Returns the vertices before the cut and after it.
-fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, usize) {
+/// are not known before it. Returns the vertices before the cut and after it, and the
+/// regions of the leaves the cut crosses ([`crate::gather::pieces`]).
+fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, usize, usize) {
     let plain = output_vertices(patches, s.crease_degrees, &[]);
     let lit = scene.has_emitters() || s.environment.is_lit();
     let gathered = s.gather.resolve(plain, s.gather_rays.is_some()) != Gather::None;
     if s.discontinuities != mesh::Discontinuities::Auto || !lit || !gathered {
-        return (plain, plain);
+        return (plain, plain, 0);
     }
     // The contact lines of a sample of the triangles, and the lamp and sun lines their edges cast:
     // the vertices their cuts add, scaled up (at 10⁶ triangles all of them take as long as
@@ -700,13 +709,21 @@ fn display_vertices(scene: &Scene, s: &Settings, patches: &Patches) -> (usize, u
         mesh::split_patches(&lines.lines, patches, (hi - lo).length())
     });
     match cut {
-        Some((cut, _, _)) => {
+        Some(split) => {
             // The cut's buried pieces have their own vertices at its lines, as in the bake.
-            let buried = crate::gather::buried_patches(scene, &cut);
-            let added = output_vertices(&cut, s.crease_degrees, &buried).saturating_sub(plain);
-            (plain, plain + (added as f64 / p).round() as usize)
+            let buried = crate::gather::buried_patches(scene, &split.patches);
+            let added =
+                output_vertices(&split.patches, s.crease_degrees, &buried).saturating_sub(plain);
+            let shared = crate::gather::pieces::shared_regions(
+                &split.parent,
+                &split.region,
+                &split.patches.area,
+                &buried,
+            );
+            let scale = |n: usize| (n as f64 / p).round() as usize;
+            (plain, plain + scale(added), scale(shared.len()))
         }
-        None => (plain, plain),
+        None => (plain, plain, 0),
     }
 }
 

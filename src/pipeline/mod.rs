@@ -562,8 +562,22 @@ fn display_contacts(
     }
     let lines = mesh::display_lines_on(scene, sun_disc(&settings.environment), &|_| true)?;
     let (lo, hi) = scene.bounds();
-    let (cut, parent, stats) = mesh::split_patches(&lines.lines, patches, (hi - lo).length())?;
+    let mesh::Split {
+        patches: cut,
+        parent,
+        region,
+        stats,
+    } = mesh::split_patches(&lines.lines, patches, (hi - lo).length())?;
     let cut_radiance: Vec<crate::Rgb> = parent.iter().map(|&i| radiance[i as usize]).collect();
+    // Each piece of a cut leaf takes its own share of the leaf's reflected light.
+    let cut_radiance = gather::Gatherer::new(
+        scene,
+        &cut,
+        &cut_radiance,
+        &settings.environment,
+        settings.form_factors.seed,
+    )
+    .piece_shares(&parent, &region, gather::pieces::PIECE_RAYS);
     let cut_visible = parent
         .iter()
         .map(|&i| visible_fraction[i as usize])

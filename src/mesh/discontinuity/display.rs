@@ -24,12 +24,74 @@ use crate::scene::{NO_TWIN, ZERO_AREA_RELATIVE};
 /// piece came from, and what was done (`segments`: the clipped pieces inserted).
 /// A twin is cut as its front (its lower-numbered partner) is, each piece reversed and
 /// placed right after the front's: pairs stay pairs.
-pub fn split_patches(
-    lines: &[Vec<[DVec3; 2]>],
-    patches: &Patches,
-    extent: f64,
-) -> Option<(Patches, Vec<u32>, ContactStats)> {
+pub fn split_patches(lines: &[Vec<[DVec3; 2]>], patches: &Patches, extent: f64) -> Option<Split> {
     split_patches_binned(lines, patches, extent, GRID_MIN_SEGMENTS)
+}
+
+/// The display's faces cut along lines ([`split_patches`]).
+#[derive(Debug, Clone)]
+pub struct Split {
+    /// The pieces.
+    pub patches: Patches,
+    /// The patch each piece came from.
+    pub parent: Vec<u32>,
+    /// Each piece's region: the first piece (index) of the pieces of its patch that no line
+    /// separates from it (joined across edges that lie on no segment). A patch the lines cross
+    /// has two or more regions; one only touched at its edges by a neighbour's segment, one.
+    pub region: Vec<u32>,
+    /// What the cut did.
+    pub stats: ContactStats,
+}
+
+/// Whether the piece edge `a`–`b` lies along one of `segs` (within `touch`, scene units): a
+/// constrained edge of the cut, which separates regions.
+fn on_segment(a: DVec3, b: DVec3, segs: &[[DVec3; 2]], touch: f64) -> bool {
+    segs.iter().any(|&[p, q]| {
+        let d = q - p;
+        let len2 = d.length_squared();
+        if len2 == 0.0 {
+            return false;
+        }
+        let near = |x: DVec3| {
+            let t = (x - p).dot(d) / len2;
+            let slack = touch / len2.sqrt();
+            (-slack..=1.0 + slack).contains(&t) && (x - (p + t * d)).length() <= touch
+        };
+        near(a) && near(b)
+    })
+}
+
+/// The regions of one face's `pieces` (see [`Split::region`]): for each piece, the index in
+/// `pieces` of its region's first piece.
+fn regions(pieces: &[[DVec3; 3]], segs: &[[DVec3; 2]], touch: f64) -> Vec<usize> {
+    let mut root: Vec<usize> = (0..pieces.len()).collect();
+    fn find(root: &mut [usize], mut i: usize) -> usize {
+        while root[i] != i {
+            root[i] = root[root[i]];
+            i = root[i];
+        }
+        i
+    }
+    let mut edges: HashMap<([u64; 3], [u64; 3]), usize> = HashMap::new();
+    for (k, t) in pieces.iter().enumerate() {
+        for e in 0..3 {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            let key = if bits(a) < bits(b) {
+                (bits(a), bits(b))
+            } else {
+                (bits(b), bits(a))
+            };
+            if let Some(&other) = edges.get(&key) {
+                if !on_segment(a, b, segs, touch) {
+                    let (x, y) = (find(&mut root, k), find(&mut root, other));
+                    root[x.max(y)] = x.min(y);
+                }
+            } else {
+                edges.insert(key, k);
+            }
+        }
+    }
+    (0..pieces.len()).map(|k| find(&mut root, k)).collect()
 }
 
 /// [`split_patches`], binning the segments of triangles with more than `grid_from` of them
@@ -39,7 +101,7 @@ pub(super) fn split_patches_binned(
     patches: &Patches,
     extent: f64,
     grid_from: usize,
-) -> Option<(Patches, Vec<u32>, ContactStats)> {
+) -> Option<Split> {
     let touch = TOUCH * extent;
     let n = patches.len();
     // Each patch's part of its source triangle's segments: of a triangle with many (a floor
@@ -97,6 +159,7 @@ pub(super) fn split_patches_binned(
     let mut out = Patches::with_capacity(patches.positions.clone(), n);
     out.material_transmittance = patches.material_transmittance.clone();
     let mut parent = Vec::with_capacity(n);
+    let mut region: Vec<u32> = Vec::with_capacity(n);
     let mut index: HashMap<[u64; 3], u32> = HashMap::new();
     let min_area = ZERO_AREA_RELATIVE * extent * extent;
     // A twin is cut as its front is, its pieces reversed right after the front's.
@@ -127,14 +190,25 @@ pub(super) fn split_patches_binned(
             face.triangulate(&segs, &edge_points, true)
         };
         let Some(pieces) = pieces else {
+            let first = out.len() as u32;
             push(&mut out, &mut parent, i, v);
+            region.extend(first..out.len() as u32);
             continue;
         };
         stats.faces_split += 1;
         stats.segments += segs.len();
-        for [p, q, r] in pieces {
-            if 0.5 * (q - p).cross(r - p).length() <= min_area {
-                continue;
+        let pieces: Vec<[DVec3; 3]> = (pieces.into_iter())
+            .filter(|&[p, q, r]| 0.5 * (q - p).cross(r - p).length() > min_area)
+            .collect();
+        let of = regions(&pieces, &segs, touch);
+        // Each piece pushes one patch, or two with its twin's: the k-th piece's first patch.
+        let stride = if back(i).is_some() { 2 } else { 1 };
+        let first = out.len();
+        for (k, [p, q, r]) in pieces.into_iter().enumerate() {
+            let at = (first + stride * of[k]) as u32;
+            region.push(at);
+            if stride == 2 {
+                region.push(at + 1);
             }
             let mut id = |x: DVec3| {
                 if let Some(k) = face.corners.iter().position(|&c| c == x) {
@@ -150,7 +224,12 @@ pub(super) fn split_patches_binned(
         }
     }
     stats.triangles = out.len();
-    Some((out, parent, stats))
+    Some(Split {
+        patches: out,
+        parent,
+        region,
+        stats,
+    })
 }
 
 /// Segments of one source triangle from which [`split_patches`] bins them ([`SegmentGrid`]).

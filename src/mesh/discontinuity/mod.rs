@@ -52,7 +52,7 @@ pub mod near_shadow;
 pub mod sun;
 
 pub use contact::{MOUNTED, NEAR, TOUCH};
-pub use display::split_patches;
+pub use display::{split_patches, Split};
 pub use near_shadow::NEAR_SHADOW;
 pub use sun::{sun_lines, sun_lines_on};
 
