@@ -12,11 +12,11 @@
 //!
 //! Here the pieces of each leaf are grouped into regions, the pieces no line separates
 //! ([`crate::mesh::Split::region`]); each region of a leaf with two or more seen regions is
-//! gathered once, at its largest piece's centroid (the direct light by [`PIECE_LIGHT_SAMPLES`]
-//! shadow rays, the indirect by [`PIECE_RAYS`] rays reading the leaves), and the leaf's
-//! reflected radiance R (its radiance less its emission, per channel) is shared among its
-//! regions in proportion to what they gathered: R_p = R · r_p / r̄, r̄ = Σ_k A_k r_k / Σ_k A_k over the leaf's seen
-//! pieces k. The leaf's area-weighted mean stays the solve's (the energy the links balanced);
+//! gathered once, at its largest piece's centroid (the `full` gather: the direct light as at a
+//! vertex, the indirect by [`PIECE_RAYS`] rays reading the leaves), and the leaf's reflected
+//! radiance R (its radiance less its emission, per channel) is shared among its regions in
+//! proportion to what they gathered: R_p = R · r_p / r̄, r̄ = Σ_k A_k r_k / Σ_k A_k over the
+//! leaf's seen pieces k. The leaf's area-weighted mean stays the solve's (the energy the links balanced);
 //! only its distribution within the leaf follows the gather. This is a final gather's step
 //! (Lischinski, Tampieri & Greenberg 1993, §5) on the pieces of a discontinuity mesh the
 //! solve did not resolve. Buried pieces (flush under another surface,
@@ -30,20 +30,15 @@ use rustc_hash::FxHashMap as HashMap;
 use super::sites::Spot;
 use super::Gatherer;
 use crate::color::Rgb;
-use crate::light::emitter::GATHER_SHADOW_RAYS;
 use crate::sampling::Rng;
 
 /// Hemisphere rays of a region's gather. A region's share is a ratio of gathers over the same
 /// leaf, read by the vertices' own rays from many regions, so a few per cent of noise in one
-/// share averages out at the vertices.
+/// share averages out at the vertices. The direct light is a vertex's (the emitters of the
+/// largest bounds exact): where regions differ most (a compartment lit through its opening,
+/// a penumbra's sides) shadow rays drawn among all the emitters were noisy enough to show
+/// (the lamp-lit office's 90th percentile 3.34 → 3.55 % at 256 of them, BENCHMARKS.md).
 pub const PIECE_RAYS: usize = 64;
-
-/// Shadow rays of a region's direct light from the mesh's emitters, drawn among them all by
-/// their unoccluded light ([`Gatherer::direct_from`] with no emitter computed exactly; the
-/// sun and the point lights as at a vertex). The exact visible pieces a vertex computes cost
-/// about four times as much here, for the same shares within their noise (the lamp-lit
-/// office: 2.62 against 2.67 % RMS, BENCHMARKS.md).
-pub const PIECE_LIGHT_SAMPLES: usize = 256;
 
 impl Gatherer<'_> {
     /// The radiance of every patch (W·sr⁻¹·m⁻², per channel) after the regions of each cut
@@ -69,12 +64,8 @@ impl Gatherer<'_> {
                     patch: b as u32,
                 };
                 let mut rng = Rng::new(&[self.seed, u64::from(r), 0x9_1ECE]);
-                let shadow = (GATHER_SHADOW_RAYS, GATHER_SHADOW_RAYS, PIECE_LIGHT_SAMPLES);
-                let (direct, _) =
-                    self.direct_from(spot.x, spot.n, spot.patch, &[], shadow, false, &mut rng);
-                let rho = p.reflectance[b];
-                let (indirect, _, _) = self.reflected_indirect(&spot, &[], rays, &mut rng);
-                std::array::from_fn(|c| rho[c] * direct[c] + indirect[c])
+                let g = self.full(&spot, rays, &mut rng);
+                std::array::from_fn(|c| g.direct[c] + g.indirect[c])
             })
             .collect();
         let of_region: HashMap<u32, Rgb> = shared.iter().map(|&(r, _)| r).zip(gathered).collect();

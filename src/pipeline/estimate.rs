@@ -398,9 +398,11 @@ impl Estimate {
         let before_gather = e.seconds;
         if e.gather != Gather::None {
             let vertices = e.vertices;
-            // The cut leaves' regions: hemisphere and shadow rays each.
-            let rays = gather::pieces::PIECE_RAYS + gather::pieces::PIECE_LIGHT_SAMPLES;
-            e.seconds += e.shared_regions as f64 * rays as f64 * GATHER_SECONDS_PER_RAY * per_core;
+            // The cut leaves' regions: a `full` gather each at the shares' rays.
+            e.seconds += e.shared_regions as f64
+                * (GATHER_SECONDS_PER_RAY * gather::pieces::PIECE_RAYS as f64
+                    + GATHER_SECONDS_PER_DIRECT * gather_direct_cost(scene))
+                * per_core;
             if e.gather == Gather::Cache {
                 // The refinement's part grows with its budget (--display-budget).
                 let share = if s.gather_tolerance > 0.0 {
