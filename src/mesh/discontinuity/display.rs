@@ -21,7 +21,8 @@ use crate::scene::{NO_TWIN, ZERO_AREA_RELATIVE};
 /// constrained edge, and the points where segments end on a patch's edge go into the patch across
 /// it too, so the display stays conforming. The pieces keep their patch's material, normal and
 /// source triangle; corner normals are interpolated in it. Returns the new patches, the patch each
-/// piece came from, and what was done (`segments`: the clipped pieces inserted).
+/// piece came from, its region, and what was done (`segments`: the clipped pieces inserted): a
+/// [`Split`].
 /// A twin is cut as its front (its lower-numbered partner) is, each piece reversed and
 /// placed right after the front's: pairs stay pairs.
 pub fn split_patches(lines: &[Vec<[DVec3; 2]>], patches: &Patches, extent: f64) -> Option<Split> {
