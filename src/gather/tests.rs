@@ -2035,33 +2035,16 @@ fn a_cut_leaf_shares_its_light_by_what_its_pieces_gather() {
     b.quad(square(0.0, 0.0, 2.0, 0.0, true), floor);
     let v = DVec3::new;
     // The partition, both sides, standing on the floor.
-    b.quad(
-        [
-            v(1.0, 0.0, 0.0),
-            v(1.0, 2.0, 0.0),
-            v(1.0, 2.0, 1.0),
-            v(1.0, 0.0, 1.0),
-        ],
-        wall,
-    );
-    b.quad(
-        [
-            v(1.0, 0.0, 0.0),
-            v(1.0, 0.0, 1.0),
-            v(1.0, 2.0, 1.0),
-            v(1.0, 2.0, 0.0),
-        ],
-        wall,
-    );
-    b.quad(
-        [
-            v(0.2, 0.7, 1.0),
-            v(0.2, 1.3, 1.0),
-            v(0.8, 1.3, 1.0),
-            v(0.8, 0.7, 1.0),
-        ],
-        lamp,
-    );
+    let mut partition = [
+        v(1.0, 0.0, 0.0),
+        v(1.0, 2.0, 0.0),
+        v(1.0, 2.0, 1.0),
+        v(1.0, 0.0, 1.0),
+    ];
+    b.quad(partition, wall);
+    partition.reverse();
+    b.quad(partition, wall);
+    b.quad(square(0.2, 0.7, 0.6, 1.0, false), lamp);
     let scene = b.build().unwrap();
     let leaves = crate::mesh::subdivide(&scene, 10.0, 0.0).unwrap();
     let lines = crate::mesh::contact_lines(&scene).expect("the partition stands on the floor");
