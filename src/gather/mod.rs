@@ -515,6 +515,13 @@ impl Gatherer<'_> {
         Some(self.full(&spot, rays, &mut rng))
     }
 
+    /// The patch under the surface point `x` (unit normal `n`, on the side it faces), as
+    /// [`Gatherer::at_point`] finds it: whose solved radiance a probe there is compared with
+    /// (the tools' `gather_at_probes`). `None` where there is none, or it does not face `n`.
+    pub fn patch_at(&self, x: DVec3, n: DVec3) -> Option<u32> {
+        self.spot_at(x, n).map(|s| s.patch)
+    }
+
     /// The surface point `x` (unit normal `n`, on the side it faces) as a gathering spot, on
     /// the patch [`Gatherer::at_point`] describes.
     pub(crate) fn spot_at(&self, x: DVec3, n: DVec3) -> Option<Spot> {

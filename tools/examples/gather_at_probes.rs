@@ -9,8 +9,13 @@
 //! `--max-edge` and `--method`, the two methods' solutions compared at the same probes;
 //! `EPSILON=E` for its `--epsilon`; `SKY=L`, `SUN=AZIMUTH,ELEVATION,E` and `UP=x|y|z` for a
 //! grey `--sky`, the `--sun` and `--up`, as the `probes` example takes them).
-//! With `GATHER_DUMP=FILE`, each probe's reference, gathered luminance, its direct and
-//! indirect parts at both seeds go to FILE as CSV.
+//! The first row is the solution itself, before any gather: the radiance of the patch under
+//! each probe (`Gatherer::patch_at`), the patch's mean where a vertex would gather. Where it
+//! is far off, the solve is (a leaf spanning a shadow's edge, a contact); where it is right
+//! and the gather is not, the gather; where both are and the baked mesh (`score`) is not,
+//! the display.
+//! With `GATHER_DUMP=FILE`, each probe's reference, its patch's solved luminance, the
+//! gathered luminance and its direct and indirect parts at both seeds go to FILE as CSV.
 
 use std::path::Path;
 
@@ -107,15 +112,36 @@ fn main() -> Result<()> {
             .collect()
     };
     let (first, second) = (at(seed), at(seed + 1));
+    // The solution at each probe: its patch's radiance, no gather.
+    let solved: Vec<Option<radiosity::Rgb>> = probes
+        .iter()
+        .map(|p| {
+            gatherer
+                .patch_at(p.position, p.normal)
+                .map(|q| out.solution.radiance[q as usize])
+        })
+        .collect();
     println!(
         "{} probes, {:?} solve, {rays} rays a probe, seeds {seed} and {}",
         probes.len(),
         out.report.method,
         seed + 1
     );
-    println!("| gathered at the probes | scored | RMS | median | 90th pct | bias |\n|---|---|---|---|---|---|");
-    for (name, values) in [("seed", &first), ("next seed", &second)] {
-        let shown: Vec<_> = values.iter().map(|g| g.map(|g| g.radiance)).collect();
+    println!(
+        "| at the probes | scored | RMS | median | 90th pct | bias |\n|---|---|---|---|---|---|"
+    );
+    let rows = [
+        ("the solve's patch (no gather)", solved.clone()),
+        (
+            "seed",
+            first.iter().map(|g| g.map(|g| g.radiance)).collect(),
+        ),
+        (
+            "next seed",
+            second.iter().map(|g| g.map(|g| g.radiance)).collect(),
+        ),
+    ];
+    for (name, shown) in rows {
         let s = pointwise::score(&probes, &shown);
         println!(
             "| {name} | {} | {:.2} % | {:.2} % | {:.2} % | {:+.2} % |",
@@ -146,9 +172,9 @@ fn main() -> Result<()> {
     );
     if let Some(dump) = std::env::var_os("GATHER_DUMP") {
         let mut csv = String::from(
-            "triangle,reference,gathered,direct,indirect,gathered2,direct2,indirect2\n",
+            "triangle,reference,solved,gathered,direct,indirect,gathered2,direct2,indirect2\n",
         );
-        for ((p, a), b) in probes.iter().zip(&first).zip(&second) {
+        for (((p, a), b), l) in probes.iter().zip(&first).zip(&second).zip(&solved) {
             let y = |g: &Option<radiosity::gather::Gathered>| {
                 g.map_or([f64::NAN; 3], |g| {
                     [
@@ -160,9 +186,10 @@ fn main() -> Result<()> {
             };
             let (a, b) = (y(a), y(b));
             csv.push_str(&format!(
-                "{},{},{},{},{},{},{},{}\n",
+                "{},{},{},{},{},{},{},{},{}\n",
                 p.triangle,
                 luminance(p.radiance),
+                l.map_or(f64::NAN, luminance),
                 a[0],
                 a[1],
                 a[2],
