@@ -7,8 +7,10 @@
 //! PROBES.csv SCENE [RAYS] [SEED]` (defaults 4096 rays, seed 1; the scene's own lights, the
 //! bake's default settings, or `MAX_EDGE=X` and `METHOD=matrix|hierarchical` for the bake's
 //! `--max-edge` and `--method`, the two methods' solutions compared at the same probes;
-//! `EPSILON=E` for its `--epsilon`; `SKY=L`, `SUN=AZIMUTH,ELEVATION,E` and `UP=x|y|z` for a
-//! grey `--sky`, the `--sun` and `--up`, as the `probes` example takes them).
+//! `EPSILON=E` for its `--epsilon`; `CONTACTS=1` for the hierarchical roots cut along the
+//! contact lines (`--discontinuities contacts`); `SKY=L`, `SUN=AZIMUTH,ELEVATION,E` and
+//! `UP=x|y|z` for a grey `--sky`, the `--sun` and `--up`, as the `probes` example takes
+//! them).
 //! The first row is the solution itself, before any gather: the radiance of the patch under
 //! each probe (`Gatherer::patch_at`), the patch's mean where a vertex would gather. Where it
 //! is far off, the solve is (a leaf spanning a shadow's edge, a contact); where it is right
@@ -81,9 +83,13 @@ fn main() -> Result<()> {
         settings.environment.up = up;
     }
     settings.environment.validate()?;
+
     // The gatherer reads the scene the solve's patches came from: where the matrix method
-    // splits the contact lines into the scene (the default), split them here and solve that.
-    let scene = if settings.resolved(&scene)?.method == Method::Matrix {
+    // splits the contact lines into the scene (the default), or CONTACTS asks the hierarchy
+    // to, split them here and solve that.
+    let scene = if std::env::var_os("CONTACTS").is_some()
+        || settings.resolved(&scene)?.method == Method::Matrix
+    {
         settings.discontinuities = Discontinuities::None;
         mesh::split_contacts(&scene).0
     } else {
