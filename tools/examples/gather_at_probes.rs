@@ -136,19 +136,15 @@ fn main() -> Result<()> {
     println!(
         "| at the probes | scored | RMS | median | 90th pct | bias |\n|---|---|---|---|---|---|"
     );
-    let rows = [
-        ("the solve's patch (no gather)", solved.clone()),
-        (
-            "seed",
-            first.iter().map(|g| g.map(|g| g.radiance)).collect(),
-        ),
-        (
-            "next seed",
-            second.iter().map(|g| g.map(|g| g.radiance)).collect(),
-        ),
-    ];
-    for (name, shown) in rows {
-        let s = pointwise::score(&probes, &shown);
+    let radiance = |values: &[Option<radiosity::gather::Gathered>]| -> Vec<_> {
+        values.iter().map(|g| g.map(|g| g.radiance)).collect()
+    };
+    for (name, shown) in [
+        ("the solve's patch (no gather)", &solved),
+        ("seed", &radiance(&first)),
+        ("next seed", &radiance(&second)),
+    ] {
+        let s = pointwise::score(&probes, shown);
         println!(
             "| {name} | {} | {:.2} % | {:.2} % | {:.2} % | {:+.2} % |",
             s.scored,
